@@ -1,0 +1,45 @@
+#pragma once
+// Reading and writing rigs: OBJ (one mesh, or a folder of OBJ blendshapes) and GLB (glTF 2.0 with
+// morph targets). All writers are atomic: a failure leaves no partial file.
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "facecast/anim/rig.hpp"
+
+namespace facecast::anim {
+
+/// Reads one OBJ as a rig without shapes. Keeps vertex order exactly as in the file, triangulates
+/// polygons as fans, keeps groups ("g") and materials ("usemtl", with Kd colours from "mtllib").
+/// Per-vertex UVs and normals take the first value a face assigns to each vertex.
+Rig read_obj(const std::filesystem::path& path);
+/// Parses OBJ text; `name` is used in error messages. Materials come from usemtl names only.
+Rig parse_obj(std::string_view text, std::string_view name);
+
+/// Reads only the "v" records of an OBJ (fast path for blendshape files).
+Positions read_obj_positions(const std::filesystem::path& path);
+
+/// The ICT FaceKit layout: `neutral` plus every other *.obj in `shapes_dir` with the same vertex
+/// count, each a shape named by its file stem, in name order. Files that are not blendshapes of
+/// this neutral (identity modes, say) can be skipped with `exclude_prefixes`. A shape whose vertex
+/// count differs is an error naming the file.
+Rig read_obj_shapes(const std::filesystem::path& neutral, const std::filesystem::path& shapes_dir,
+                    const std::vector<std::string>& exclude_prefixes = {});
+
+/// Writes the neutral (or `positions` in its place) with the rig's triangles, UVs and materials.
+void write_obj(const std::filesystem::path& path, const Rig& rig);
+void write_obj(const std::filesystem::path& path, const Rig& rig, const Positions& positions);
+/// Writes neutral.obj and <shape>.obj for every shape into `dir`.
+void write_obj_folder(const std::filesystem::path& dir, const Rig& rig);
+
+/// GLB: one mesh, one primitive per material sharing the vertex attributes, morph targets as
+/// deltas with min/max, names in mesh.extras.targetNames, default weights 0.
+std::string glb_bytes(const Rig& rig);
+void write_glb(const std::filesystem::path& path, const Rig& rig);
+Rig parse_glb(std::string_view bytes, std::string_view name);
+Rig read_glb(const std::filesystem::path& path);
+
+/// Reads a rig by extension: .glb or .obj.
+Rig load_rig(const std::filesystem::path& path);
+
+}  // namespace facecast::anim

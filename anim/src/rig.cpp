@@ -1,0 +1,143 @@
+#include "facecast/anim/rig.hpp"
+
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Geometry>
+
+#include "facecast/core/error.hpp"
+
+namespace facecast::anim {
+
+Blendshape Blendshape::from_dense(std::string name, const Positions& dense, float tolerance) {
+  Blendshape s;
+  s.name = std::move(name);
+  for (Eigen::Index v = 0; v < dense.rows(); ++v) {
+    if (dense.row(v).cwiseAbs().maxCoeff() > tolerance) s.vertices.push_back(static_cast<int>(v));
+  }
+  s.deltas.resize(static_cast<Eigen::Index>(s.vertices.size()), 3);
+  for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+    s.deltas.row(static_cast<Eigen::Index>(k)) = dense.row(s.vertices[k]);
+  }
+  return s;
+}
+
+Positions Blendshape::dense(int vertex_count) const {
+  Positions d = Positions::Zero(vertex_count, 3);
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    d.row(vertices[k]) = deltas.row(static_cast<Eigen::Index>(k));
+  }
+  return d;
+}
+
+float Blendshape::max_displacement() const {
+  return deltas.rows() ? deltas.rowwise().norm().maxCoeff() : 0.0f;
+}
+
+int Rig::find_shape(std::string_view name) const {
+  for (std::size_t i = 0; i < shapes.size(); ++i) {
+    if (shapes[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::vector<std::string> Rig::shape_names() const {
+  std::vector<std::string> names;
+  names.reserve(shapes.size());
+  for (const auto& s : shapes) names.push_back(s.name);
+  return names;
+}
+
+void Rig::validate(std::string_view what) const {
+  const std::string w(what);
+  const int nv = vertex_count();
+  if (nv == 0) throw Error(w + ": mesh has no vertices");
+  if (triangle_count() == 0) throw Error(w + ": mesh has no triangles");
+  if (!positions.allFinite()) throw Error(w + ": non-finite vertex coordinate");
+  if (normals.rows() != nv) throw Error(w + ": normal count differs from vertex count");
+  if (uvs.rows() != 0 && uvs.rows() != nv) throw Error(w + ": UV count differs from vertex count");
+  if (triangles.minCoeff() < 0 || triangles.maxCoeff() >= nv) {
+    throw Error(w + ": triangle index out of range");
+  }
+  if (static_cast<int>(triangle_material.size()) != triangle_count()) {
+    throw Error(w + ": per-triangle material count differs from triangle count");
+  }
+  if (materials.empty()) throw Error(w + ": no materials");
+  for (int m : triangle_material) {
+    if (m < 0 || m >= static_cast<int>(materials.size()))
+      throw Error(w + ": material out of range");
+  }
+  for (const auto& s : shapes) {
+    if (static_cast<Eigen::Index>(s.vertices.size()) != s.deltas.rows()) {
+      throw Error(w + ": shape '" + s.name + "' has mismatched delta rows");
+    }
+    for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+      if (s.vertices[k] < 0 || s.vertices[k] >= nv || (k && s.vertices[k] <= s.vertices[k - 1])) {
+        throw Error(w + ": shape '" + s.name + "' vertex list out of range or unsorted");
+      }
+    }
+    if (!s.deltas.allFinite()) throw Error(w + ": shape '" + s.name + "' has a non-finite delta");
+  }
+  for (const auto& l : landmarks) {
+    if (l.vertex < 0 || l.vertex >= nv) {
+      throw Error(w + ": landmark '" + l.name + "' vertex " + std::to_string(l.vertex) +
+                  " out of range");
+    }
+  }
+}
+
+Components connected_components(int vertex_count, const Triangles& triangles) {
+  std::vector<int> parent(static_cast<std::size_t>(vertex_count));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::vector<char> used(static_cast<std::size_t>(vertex_count), 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const int a = find(triangles(f, 0));
+    used[triangles(f, 0)] = used[triangles(f, 1)] = used[triangles(f, 2)] = 1;
+    for (int c = 1; c < 3; ++c) {
+      const int b = find(triangles(f, c));
+      if (a != b) parent[b] = a;
+    }
+  }
+  Components out;
+  out.label.assign(static_cast<std::size_t>(vertex_count), -1);
+  std::vector<int> root_label(static_cast<std::size_t>(vertex_count), -1);
+  for (int v = 0; v < vertex_count; ++v) {
+    if (!used[v]) continue;
+    int& l = root_label[find(v)];
+    if (l < 0) l = out.count++;
+    out.label[v] = l;
+  }
+  return out;
+}
+
+void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals) {
+  normals.setZero(positions.rows(), 3);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const int a = triangles(f, 0), b = triangles(f, 1), c = triangles(f, 2);
+    const Eigen::Vector3f n =
+        (positions.row(b) - positions.row(a)).cross(positions.row(c) - positions.row(a));
+    normals.row(a) += n;  // |n| = 2 * area: area weighting for free
+    normals.row(b) += n;
+    normals.row(c) += n;
+  }
+  for (Eigen::Index v = 0; v < normals.rows(); ++v) {
+    const float len = normals.row(v).norm();
+    if (len > 1e-20f && std::isfinite(len)) {
+      normals.row(v) /= len;
+    } else {
+      normals.row(v) = Eigen::RowVector3f(0, 0, 1);
+    }
+  }
+}
+
+Positions vertex_normals(const Positions& positions, const Triangles& triangles) {
+  Positions n;
+  vertex_normals(positions, triangles, n);
+  return n;
+}
+
+}  // namespace facecast::anim

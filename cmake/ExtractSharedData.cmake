@@ -1,0 +1,18 @@
+# Extracts ../shared/data/ict-facekit.tar.xz into DST (once). Run by the extract_shared_data test.
+set(tarball ${SRC}/ict-facekit.tar.xz)
+if(NOT EXISTS ${tarball})
+  if("$ENV{CI}" STREQUAL "true")
+    message(FATAL_ERROR "shared data missing: ${tarball} (CI=true requires ../shared/data)")
+  endif()
+  message(WARNING "shared data missing: ${tarball}; tests that need it will warn and pass")
+  return()
+endif()
+if(EXISTS ${DST}/ict-facekit/FaceXModel/generic_neutral_mesh.obj)
+  return()
+endif()
+file(MAKE_DIRECTORY ${DST})
+execute_process(COMMAND ${CMAKE_COMMAND} -E tar xJf ${tarball} WORKING_DIRECTORY ${DST}
+                RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "cannot extract ${tarball}")
+endif()

@@ -1,0 +1,32 @@
+# Warnings, sanitizers and the `facecast_library` helper shared by every module.
+
+add_library(facecast_options INTERFACE)
+target_compile_options(facecast_options INTERFACE -Wall -Wextra -Wpedantic -Wshadow
+                       -Wnon-virtual-dtor -Wcast-align -Wunused -Woverloaded-virtual)
+if(FACECAST_WERROR)
+  target_compile_options(facecast_options INTERFACE -Werror)
+endif()
+
+if(FACECAST_SANITIZE AND FACECAST_TSAN)
+  message(FATAL_ERROR "FACECAST_SANITIZE and FACECAST_TSAN cannot be combined")
+endif()
+if(FACECAST_SANITIZE)
+  # Applied globally so third-party headers instantiated in our code agree on the ABI.
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+if(FACECAST_TSAN)
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+endif()
+
+# facecast_library(<module> SOURCES ... [DEPS ...] [PRIVATE_DEPS ...])
+# One library per top-level folder: public headers in <module>/include, private code in <module>/src.
+function(facecast_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(facecast_${name} ${ARG_SOURCES})
+  add_library(facecast::${name} ALIAS facecast_${name})
+  target_include_directories(facecast_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+                             PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(facecast_${name} PUBLIC ${ARG_DEPS} PRIVATE facecast_options ${ARG_PRIVATE_DEPS})
+endfunction()

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs everything Facecast needs on Debian 12 (run as root). Idempotent: apt and npm skip what is there.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libboost1.81-dev libeigen3-dev libopenmesh-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
+  libnanoflann-dev libsuitesparse-dev catch2
+  libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp
+  libopenimageio-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  nodejs chromium
+)
+# Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
+command -v npm >/dev/null 2>&1 || packages+=(npm)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'ok installed' || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "install-deps: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# Node tools for the web client and its tests (versions pinned in package-lock.json).
+if [ -f package-lock.json ]; then
+  if [ ! -d node_modules ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then
+    npm ci --no-audit --no-fund --loglevel=error
+  fi
+fi

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# One command from a fresh Debian 12 machine (as root) to a passing test suite:
+# installs dependencies, builds (Release), runs every test through ctest, then builds again with
+# AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there.
+# Options: --fast  skip tests labelled slow (CI runs everything)
+#          --no-sanitize  skip the sanitizer pass
+set -euo pipefail
+cd "$(dirname "$0")/.."
+fast=0 sanitize=1
+for a in "$@"; do
+  case $a in
+    --fast) fast=1 ;;
+    --no-sanitize) sanitize=0 ;;
+    *) echo "usage: scripts/test.sh [--fast] [--no-sanitize]" >&2; exit 2 ;;
+  esac
+done
+scripts/install-deps.sh
+scripts/build.sh build
+labels=()
+((fast)) && labels=(-LE slow)
+(cd build && ctest --output-on-failure -j2 "${labels[@]}")
+if ((sanitize)); then
+  scripts/build.sh build-asan -DFACECAST_SANITIZE=ON -DFACECAST_BUILD_BENCH=OFF
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  (cd build-asan && ctest --output-on-failure -j2 -LE slow)
+fi

@@ -1,0 +1,110 @@
+// facecast rig pack | unpack | info
+#include <cstdio>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/error.hpp"
+
+namespace facecast::cli {
+namespace {
+
+struct PackArgs {
+  std::string neutral, shapes, out;
+  std::vector<std::string> exclude{"identity*"};
+};
+
+struct InfoArgs {
+  std::string rig;
+  bool json = false;
+};
+
+struct UnpackArgs {
+  std::string rig, out;
+};
+
+void print_info(const anim::Rig& rig, bool as_json) {
+  const auto comps = anim::connected_components(rig.vertex_count(), rig.triangles);
+  if (as_json) {
+    nlohmann::json j;
+    j["vertices"] = rig.vertex_count();
+    j["triangles"] = rig.triangle_count();
+    j["components"] = comps.count;
+    for (const auto& m : rig.materials) j["materials"].push_back(m.name);
+    j["shapes"] = nlohmann::json::array();
+    for (const auto& s : rig.shapes) {
+      j["shapes"].push_back({{"name", s.name},
+                             {"max_displacement", s.max_displacement()},
+                             {"vertices_moved", s.vertices.size()}});
+    }
+    for (const auto& l : rig.landmarks)
+      j["landmarks"].push_back({{"name", l.name}, {"vertex", l.vertex}});
+    std::cout << j.dump(2) << '\n';
+    return;
+  }
+  std::cout << "vertices    " << rig.vertex_count() << '\n'
+            << "triangles   " << rig.triangle_count() << '\n'
+            << "components  " << comps.count << '\n'
+            << "materials   " << rig.materials.size() << ":";
+  for (const auto& m : rig.materials) std::cout << ' ' << m.name;
+  std::cout << "\nlandmarks   " << rig.landmarks.size() << "\nshapes      " << rig.shapes.size()
+            << "\n  " << std::left << std::setw(24) << "name" << std::right << std::setw(16)
+            << "max displacement" << std::setw(10) << "moved" << '\n';
+  for (const auto& s : rig.shapes) {
+    std::cout << "  " << std::left << std::setw(24) << s.name << std::right << std::setw(16)
+              << std::setprecision(5) << s.max_displacement() << std::setw(10) << s.vertices.size()
+              << '\n';
+  }
+}
+
+}  // namespace
+
+void add_rig_commands(CLI::App& app) {
+  auto* rig =
+      app.add_subcommand("rig", "Pack, unpack and inspect rigs (neutral mesh + blendshapes)");
+  rig->require_subcommand(1);
+
+  auto pack = std::make_shared<PackArgs>();
+  auto* p = rig->add_subcommand("pack", "Pack a neutral OBJ and a folder of shape OBJs into a GLB");
+  p->add_option("--neutral", pack->neutral, "Neutral mesh (OBJ)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  p->add_option(
+       "--shapes", pack->shapes,
+       "Folder of shape OBJs with the neutral's vertex count; each is named by its file stem")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  p->add_option("--out", pack->out, "Output GLB")->required();
+  p->add_option("--exclude", pack->exclude,
+                "File-stem patterns to skip (default: identity*, the ICT FaceKit identity modes)")
+      ->capture_default_str();
+  p->callback([pack] {
+    std::cerr << "reading " << pack->neutral << " and shapes in " << pack->shapes << "...\n";
+    const anim::Rig r = anim::read_obj_shapes(pack->neutral, pack->shapes, pack->exclude);
+    anim::write_glb(pack->out, r);
+    std::cerr << "wrote " << pack->out << ": " << r.vertex_count() << " vertices, "
+              << r.triangle_count() << " triangles, " << r.shapes.size() << " shapes\n";
+  });
+
+  auto unpack = std::make_shared<UnpackArgs>();
+  auto* u = rig->add_subcommand("unpack", "Write a GLB rig as neutral.obj plus one OBJ per shape");
+  u->add_option("rig", unpack->rig, "Rig (GLB)")->required()->check(CLI::ExistingFile);
+  u->add_option("--out", unpack->out, "Output folder")->required();
+  u->callback([unpack] {
+    const anim::Rig r = anim::load_rig(unpack->rig);
+    anim::write_obj_folder(unpack->out, r);
+    std::cerr << "wrote neutral.obj and " << r.shapes.size() << " shapes to " << unpack->out
+              << '\n';
+  });
+
+  auto info = std::make_shared<InfoArgs>();
+  auto* i =
+      rig->add_subcommand("info", "Print vertices, triangles, components, materials and shapes");
+  i->add_option("rig", info->rig, "Rig (GLB or OBJ)")->required()->check(CLI::ExistingFile);
+  i->add_flag("--json", info->json, "Print JSON");
+  i->callback([info] { print_info(anim::load_rig(info->rig), info->json); });
+}
+
+}  // namespace facecast::cli
