@@ -1,0 +1,74 @@
+#pragma once
+// Building a user's rig: the template's blendshapes transferred onto the user's neutral head.
+//
+//   template rig + target neutral (+ markers for another topology)
+//     -> correspondence (identity, or registration + triangle map; see correspondence.hpp)
+//     -> anchoring: vertices that move in no template shape and --fixed vertices stay put; every
+//        separate component is placed: a component that the template moves rigidly (teeth,
+//        eyeballs) gets the template's rigid motion about its own pivot; other separate components
+//        (lashes, tongue) are transferred with one anchor vertex that follows the same rigid fit
+//     -> virtual edges on the target neutral
+//     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
+//     -> deltas, with every vertex the template shape leaves still set exactly still.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "facecast/anim/rig.hpp"
+#include "facecast/core/progress.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/transfer.hpp"
+#include "facecast/rigbuild/virtual_edges.hpp"
+
+namespace facecast::rigbuild {
+
+enum class VirtualEdgeMode { kAuto, kOff, kFile };
+
+struct BuildOptions {
+  VirtualEdgeMode virtual_edges = VirtualEdgeMode::kAuto;
+  std::filesystem::path virtual_edges_file;  // with kFile: JSON written by write_virtual_edges_json
+  VirtualEdgeOptions ve;
+  double lambda = 4.0;            // weight of the virtual-edge term
+  std::vector<int> fixed;         // extra target vertices that never move
+  double still_tolerance = 1e-4;  // "does not move": |template delta| < this * bbox diagonal
+  double rigid_tolerance = 0.01;  // a component is rigid if its rigid-fit RMS residual is below
+                                  // this * the component's size in every shape
+  SolverKind solver = SolverKind::kCholmod;
+  // Other topology (see correspondence.hpp).
+  std::filesystem::path markers;         // marker pairs JSON; required when topologies differ
+  std::filesystem::path correspondence;  // reuse a saved correspondence if it exists, else save it
+  RegistrationOptions registration;
+};
+
+struct ComponentInfo {
+  int vertices = 0;
+  std::string placement;  // "fixed", "rigid", "anchored", "free"
+};
+
+struct BuildTimings {
+  double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, total = 0;
+};
+
+struct BuildResult {
+  anim::Rig rig;  // the target with the template's shapes (same names and order)
+  std::vector<VirtualEdge> virtual_edges;
+  VirtualEdgeStats ve_stats;
+  std::vector<ComponentInfo> components;
+  int fixed_vertices = 0;
+  long factor_nonzeros = 0;
+  BuildTimings timings;
+};
+
+/// Throws facecast::Error for unusable input (vertex counts, markers, zero-area triangles, NaN).
+BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
+                      const BuildOptions& options, const ProgressFn& progress = {});
+
+/// Virtual edges as JSON ({"d":..,"edges":[[a,b],...]}) and as OBJ line elements over the mesh.
+void write_virtual_edges_json(const std::filesystem::path& path,
+                              const std::vector<VirtualEdge>& edges, const VirtualEdgeStats& stats);
+std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& path,
+                                                 int vertex_count);
+void write_virtual_edges_obj(const std::filesystem::path& path, const anim::Positions& positions,
+                             const std::vector<VirtualEdge>& edges);
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,87 @@
+#pragma once
+// Deformation transfer (Sumner & Popovic 2004) with virtual-edge constraints (seed paper 000).
+//
+// Source side: every template triangle's deformation gradient S = V~ V^-1, with the fourth vertex
+// v4 = v1 + (v2-v1)x(v3-v1)/sqrt(|(v2-v1)x(v3-v1)|) (source_gradients()).
+// Target side: the unknowns are the target's vertex positions; a target triangle's gradient is the
+// linear map E~ E^+ of its edges (E = rest edges, E^+ their pseudo-inverse), so the energy
+//     sum_t w_t ||G_t x - S_t P_t||^2  +  lambda * sum_i ||x_a - x_b - e_i'||^2
+// (P_t projects onto the rest triangle's plane; e_i' = S_i e_i is the virtual edge's deformed
+// vector, given by the caller from the source deformation at the edge) is quadratic in x. Its
+// normal matrix depends only on the target neutral, the correspondence and the virtual edges, so
+// Transfer factors it ONCE; every shape is a back-substitution with three right-hand sides (x, y,
+// z), and many shapes are solved as one block of right-hand sides.
+//
+// Anchoring: translation is free per connected component, so some vertices are Dirichlet
+// (prescribed) vertices: their positions go to the right-hand side, the matrix does not change.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <memory>
+#include <vector>
+
+namespace facecast::rigbuild {
+
+using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;  // #V by 3
+using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;      // #F by 3
+using Gradients = std::vector<Eigen::Matrix3d>;                            // one per triangle
+
+/// The inverse rest frames V^-1 of a mesh's triangles (with the fourth vertex). Throws Error naming
+/// the first triangle whose area is zero.
+std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Faces& faces,
+                                                 const char* what);
+
+/// Per-triangle deformation gradients S_t = V~ V^-1 of `deformed` against the rest frames.
+void source_gradients(const std::vector<Eigen::Matrix3d>& rest_inverse, const Points& deformed,
+                      const Faces& faces, Gradients& out);
+
+/// A virtual edge between two target vertices.
+struct VirtualEdge {
+  int a = 0, b = 0;
+};
+
+/// Which source triangles drive each target triangle. Same topology: {t} for every t. Otherwise
+/// the pairs of the correspondence; a target triangle with no pair keeps its rest shape (S = I).
+struct TriangleMap {
+  std::vector<std::vector<int>> sources;  // per target triangle
+  static TriangleMap identity(int triangle_count);
+};
+
+enum class SolverKind { kCholmod, kEigenLDLT };
+
+struct TransferSetup {
+  Points target_rest;  // the target neutral
+  Faces target_faces;
+  TriangleMap map;
+  std::vector<VirtualEdge> virtual_edges;
+  double lambda = 1.0;         // weight of the virtual-edge term
+  std::vector<int> dirichlet;  // prescribed vertices (ascending, unique)
+  SolverKind solver = SolverKind::kCholmod;
+};
+
+class Transfer {
+ public:
+  /// Builds and factors the system. Throws Error if the target has a zero-area triangle or the
+  /// system is singular (a component without a prescribed vertex).
+  explicit Transfer(TransferSetup setup);
+  ~Transfer();
+  Transfer(Transfer&&) noexcept;
+
+  /// Solves for several shapes at once. `source[k]` holds the source triangles' gradients of shape
+  /// k; `prescribed[k]` the positions of the Dirichlet vertices (in setup order), #D by 3;
+  /// `edge_targets[k]` the deformed vectors x_a - x_b of the virtual edges, #E by 3 (may be empty
+  /// without virtual edges). Returns the target positions of every shape, #V by 3 each.
+  std::vector<Points> solve(const std::vector<const Gradients*>& source,
+                            const std::vector<Points>& prescribed,
+                            const std::vector<Points>& edge_targets) const;
+
+  int free_count() const;
+  long factor_nonzeros() const;
+  double factor_seconds() const { return factor_seconds_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  double factor_seconds_ = 0;
+};
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,406 @@
+#include "facecast/rigbuild/build.hpp"
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <thread>
+
+#include "facecast/core/config.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+
+namespace facecast::rigbuild {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+Points to_points(const anim::Positions& p) {
+  return p.cast<double>();
+}
+Faces to_faces(const anim::Triangles& t) {
+  return t;
+}
+
+// Runs fn(k) for k in [0, n) on all cores.
+template <typename Fn>
+void parallel_for(std::size_t n, Fn&& fn) {
+  const unsigned workers = std::max(
+      1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(n)));
+  std::vector<std::thread> pool;
+  std::vector<std::exception_ptr> errors(workers);
+  for (unsigned w = 0; w < workers; ++w) {
+    pool.emplace_back([&, w] {
+      try {
+        for (std::size_t k = w; k < n; k += workers) fn(k);
+      } catch (...) {
+        errors[w] = std::current_exception();
+      }
+    });
+  }
+  for (auto& t : pool) t.join();
+  for (auto& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+}
+
+// Rigid motion x -> R x + t that best maps `from` onto `to` (Kabsch), and its RMS residual.
+struct Rigid {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  double rms = 0;
+};
+Rigid fit_rigid(const Points& from, const Points& to) {
+  const Eigen::RowVector3d cf = from.colwise().mean(), ct = to.colwise().mean();
+  const Eigen::Matrix3d H = (from.rowwise() - cf).transpose() * (to.rowwise() - ct);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+  Rigid r;
+  r.R = svd.matrixV() * D * svd.matrixU().transpose();
+  r.t = ct.transpose() - r.R * cf.transpose();
+  const Points moved = (from * r.R.transpose()).rowwise() + r.t.transpose();
+  r.rms = std::sqrt((moved - to).rowwise().squaredNorm().mean());
+  return r;
+}
+
+double diagonal(const Points& p) {
+  return p.rows() ? (p.colwise().maxCoeff() - p.colwise().minCoeff()).norm() : 0.0;
+}
+
+Eigen::RowVector3d at(const Points& p, const SurfacePoint& s) {
+  return s.w[0] * p.row(s.v[0]) + s.w[1] * p.row(s.v[1]) + s.w[2] * p.row(s.v[2]);
+}
+
+}  // namespace
+
+BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options,
+                      const ProgressFn& progress) {
+  const auto t_start = Clock::now();
+  tmpl.validate("template");
+  target.validate("target");
+  if (tmpl.shapes.empty()) throw Error("template: rig has no blendshapes");
+  if (options.lambda < 0) throw Error("--lambda must not be negative");
+
+  BuildResult result;
+  const Points src_rest = to_points(tmpl.positions);
+  const Faces src_faces = to_faces(tmpl.triangles);
+  const Points tgt_rest = to_points(target.positions);
+  const Faces tgt_faces = to_faces(target.triangles);
+  const int nv = target.vertex_count();
+  for (int v : options.fixed) {
+    if (v < 0 || v >= nv) {
+      throw Error("--fixed: vertex " + std::to_string(v) + " out of range (" + std::to_string(nv) +
+                  " vertices)");
+    }
+  }
+
+  // 1. Correspondence.
+  report(progress, "correspondence", 0.0);
+  auto t0 = Clock::now();
+  const bool same_topology =
+      options.markers.empty() && tmpl.vertex_count() == nv && tmpl.triangles == target.triangles;
+  Correspondence corr;
+  if (same_topology) {
+    corr = identity_correspondence(nv, tgt_faces);
+  } else {
+    if (options.markers.empty()) {
+      throw Error("target: topology differs from the template (" + std::to_string(nv) + " vs " +
+                  std::to_string(tmpl.vertex_count()) + " vertices); give --markers");
+    }
+    const auto markers = read_markers(options.markers, tmpl.vertex_count(), nv);
+    if (!options.correspondence.empty() && std::filesystem::exists(options.correspondence)) {
+      corr = load_correspondence(options.correspondence, tmpl.vertex_count(), tmpl.triangle_count(),
+                                 nv, target.triangle_count());
+    } else {
+      corr = compute_correspondence(src_rest, src_faces, tgt_rest, tgt_faces, markers,
+                                    options.registration, progress);
+      if (!options.correspondence.empty()) save_correspondence(options.correspondence, corr);
+    }
+  }
+  result.timings.correspondence = seconds_since(t0);
+
+  // 2. Source gradients of every template shape (independent: all cores).
+  report(progress, "gradients", 0.0);
+  t0 = Clock::now();
+  const auto rest_inv = rest_frames_inverse(src_rest, src_faces, "template");
+  const std::size_t n_shapes = tmpl.shapes.size();
+  std::vector<Points> src_shape(n_shapes);
+  std::vector<Gradients> grads(n_shapes);
+  parallel_for(n_shapes, [&](std::size_t k) {
+    src_shape[k] = src_rest;
+    const auto& s = tmpl.shapes[k];
+    for (std::size_t i = 0; i < s.vertices.size(); ++i) {
+      src_shape[k].row(s.vertices[i]) += s.deltas.row(static_cast<Eigen::Index>(i)).cast<double>();
+    }
+    source_gradients(rest_inv, src_shape[k], src_faces, grads[k]);
+  });
+  result.timings.gradients = seconds_since(t0);
+
+  // 3. Which target vertices the template moves, per shape, through the vertex map.
+  const double still = options.still_tolerance * diagonal(src_rest);
+  std::vector<std::vector<char>> moves(n_shapes,
+                                       std::vector<char>(static_cast<std::size_t>(nv), 0));
+  std::vector<char> ever_moves(static_cast<std::size_t>(nv), 0);
+  parallel_for(n_shapes, [&](std::size_t k) {
+    for (int v = 0; v < nv; ++v) {
+      const SurfacePoint& sp = corr.vertex_map[static_cast<std::size_t>(v)];
+      const double d = (at(src_shape[k], sp) - at(src_rest, sp)).norm();
+      moves[k][static_cast<std::size_t>(v)] = d >= still;
+    }
+  });
+  for (std::size_t k = 0; k < n_shapes; ++k) {
+    for (int v = 0; v < nv; ++v)
+      ever_moves[static_cast<std::size_t>(v)] |= moves[k][static_cast<std::size_t>(v)];
+  }
+
+  // 4. Anchoring, component by component.
+  const anim::Components comps = anim::connected_components(nv, target.triangles);
+  std::vector<char> is_fixed(static_cast<std::size_t>(nv), 0);
+  for (int v = 0; v < nv; ++v)
+    is_fixed[static_cast<std::size_t>(v)] =
+        !ever_moves[static_cast<std::size_t>(v)] || comps.label[static_cast<std::size_t>(v)] < 0;
+  for (int v : options.fixed) is_fixed[static_cast<std::size_t>(v)] = 1;
+  std::vector<std::vector<int>> members(static_cast<std::size_t>(comps.count));
+  for (int v = 0; v < nv; ++v) {
+    if (comps.label[static_cast<std::size_t>(v)] >= 0)
+      members[static_cast<std::size_t>(comps.label[static_cast<std::size_t>(v)])].push_back(v);
+  }
+  const double scale = diagonal(tgt_rest) / diagonal(src_rest);
+  struct Floating {
+    int component;
+    bool rigid;
+    int anchor;
+    Eigen::RowVector3d pivot;
+    std::vector<Rigid> motion;  // per shape, in template coordinates about the template pivot
+    Eigen::RowVector3d src_pivot;
+  };
+  std::vector<Floating> floating;
+  result.components.resize(static_cast<std::size_t>(comps.count));
+  for (int c = 0; c < comps.count; ++c) {
+    const auto& mem = members[static_cast<std::size_t>(c)];
+    auto& info = result.components[static_cast<std::size_t>(c)];
+    info.vertices = static_cast<int>(mem.size());
+    const bool anchored = std::any_of(mem.begin(), mem.end(),
+                                      [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
+    if (anchored) {
+      const bool all = std::all_of(mem.begin(), mem.end(),
+                                   [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
+      info.placement = all ? "fixed" : "anchored";
+      continue;
+    }
+    Floating fl;
+    fl.component = c;
+    Points from(static_cast<Eigen::Index>(mem.size()), 3),
+        tgt(static_cast<Eigen::Index>(mem.size()), 3);
+    for (std::size_t i = 0; i < mem.size(); ++i) {
+      from.row(static_cast<Eigen::Index>(i)) =
+          at(src_rest, corr.vertex_map[static_cast<std::size_t>(mem[i])]);
+      tgt.row(static_cast<Eigen::Index>(i)) = tgt_rest.row(mem[i]);
+    }
+    fl.src_pivot = from.colwise().mean();
+    fl.pivot = tgt.colwise().mean();
+    const double size = std::max(diagonal(from), 1e-12);
+    fl.rigid = true;
+    Points to(from.rows(), 3);
+    for (std::size_t k = 0; k < n_shapes; ++k) {
+      for (std::size_t i = 0; i < mem.size(); ++i) {
+        to.row(static_cast<Eigen::Index>(i)) =
+            at(src_shape[k], corr.vertex_map[static_cast<std::size_t>(mem[i])]);
+      }
+      fl.motion.push_back(fit_rigid(from, to));
+      if (fl.motion.back().rms > options.rigid_tolerance * size) fl.rigid = false;
+    }
+    // The anchor: the member closest to the pivot.
+    fl.anchor = mem[0];
+    double best = std::numeric_limits<double>::max();
+    for (int v : mem) {
+      const double d = (tgt_rest.row(v) - fl.pivot).squaredNorm();
+      if (d < best) {
+        best = d;
+        fl.anchor = v;
+      }
+    }
+    info.placement = fl.rigid ? "rigid" : "free";
+    floating.push_back(std::move(fl));
+  }
+
+  std::vector<int> dirichlet;
+  std::vector<int> owner(static_cast<std::size_t>(nv),
+                         -1);  // floating index for rigid/anchor vertices
+  for (std::size_t f = 0; f < floating.size(); ++f) {
+    const auto& fl = floating[f];
+    if (fl.rigid) {
+      for (int v : members[static_cast<std::size_t>(fl.component)])
+        owner[static_cast<std::size_t>(v)] = static_cast<int>(f);
+    } else {
+      owner[static_cast<std::size_t>(fl.anchor)] = static_cast<int>(f);
+      result.components[static_cast<std::size_t>(fl.component)].placement = "anchored";
+    }
+  }
+  for (int v = 0; v < nv; ++v) {
+    if (is_fixed[static_cast<std::size_t>(v)] || owner[static_cast<std::size_t>(v)] >= 0)
+      dirichlet.push_back(v);
+  }
+  result.fixed_vertices = static_cast<int>(std::count(is_fixed.begin(), is_fixed.end(), 1));
+
+  // 5. Virtual edges on the target neutral.
+  report(progress, "virtual edges", 0.0);
+  t0 = Clock::now();
+  switch (options.virtual_edges) {
+    case VirtualEdgeMode::kAuto:
+      result.virtual_edges =
+          detect_virtual_edges(tgt_rest, tgt_faces, options.ve, &result.ve_stats);
+      break;
+    case VirtualEdgeMode::kFile:
+      result.virtual_edges = read_virtual_edges_json(options.virtual_edges_file, nv);
+      break;
+    case VirtualEdgeMode::kOff:
+      break;
+  }
+  result.timings.detect = seconds_since(t0);
+
+  // 6. Factor once.
+  report(progress, "factor", 0.0);
+  TransferSetup setup;
+  setup.target_rest = tgt_rest;
+  setup.target_faces = tgt_faces;
+  setup.map = corr.map;
+  setup.virtual_edges = result.virtual_edges;
+  setup.lambda = options.lambda;
+  setup.dirichlet = dirichlet;
+  setup.solver = options.solver;
+  const Transfer transfer(std::move(setup));
+  result.timings.factor = transfer.factor_seconds();
+  result.factor_nonzeros = transfer.factor_nonzeros();
+
+  // 7. Solve every shape: prescribed positions, then one block solve.
+  report(progress, "solve", 0.0);
+  t0 = Clock::now();
+  // Each virtual edge follows the source deformation of the template segment it maps to: the
+  // template gap vector r changes by r' - r, scaled to the target gap, e' = e + |e|/|r| (r' - r).
+  const std::size_t ne = result.virtual_edges.size();
+  std::vector<Points> edge_targets(ne ? n_shapes : 0);
+  for (std::size_t k = 0; k < edge_targets.size(); ++k) {
+    Points& E = edge_targets[k];
+    E.resize(static_cast<Eigen::Index>(ne), 3);
+    for (std::size_t i = 0; i < ne; ++i) {
+      const auto& ve = result.virtual_edges[i];
+      const auto& ma = corr.vertex_map[static_cast<std::size_t>(ve.a)];
+      const auto& mb = corr.vertex_map[static_cast<std::size_t>(ve.b)];
+      const Eigen::RowVector3d r = at(src_rest, ma) - at(src_rest, mb);
+      const Eigen::RowVector3d r2 = at(src_shape[k], ma) - at(src_shape[k], mb);
+      const Eigen::RowVector3d e = tgt_rest.row(ve.a) - tgt_rest.row(ve.b);
+      const double s = r.norm() > 1e-12 ? std::clamp(e.norm() / r.norm(), 0.5, 2.0) : 1.0;
+      E.row(static_cast<Eigen::Index>(i)) = e + s * (r2 - r);
+    }
+  }
+  std::vector<Points> prescribed(n_shapes);
+  std::vector<const Gradients*> src_ptrs(n_shapes);
+  for (std::size_t k = 0; k < n_shapes; ++k) {
+    src_ptrs[k] = &grads[k];
+    Points& P = prescribed[k];
+    P.resize(static_cast<Eigen::Index>(dirichlet.size()), 3);
+    for (std::size_t i = 0; i < dirichlet.size(); ++i) {
+      const int v = dirichlet[i];
+      const int f = owner[static_cast<std::size_t>(v)];
+      if (f < 0) {
+        P.row(static_cast<Eigen::Index>(i)) = tgt_rest.row(v);
+        continue;
+      }
+      // The template component's rigid motion, applied about the target component's own pivot.
+      const Floating& fl = floating[static_cast<std::size_t>(f)];
+      const Rigid& m = fl.motion[k];
+      const Eigen::RowVector3d pivot_shift =
+          (m.R * fl.src_pivot.transpose() + m.t).transpose() - fl.src_pivot;
+      P.row(static_cast<Eigen::Index>(i)) =
+          (tgt_rest.row(v) - fl.pivot) * m.R.transpose() + fl.pivot + scale * pivot_shift;
+    }
+  }
+  // Solve in blocks so the right-hand sides stay small; report progress per block.
+  std::vector<Points> solved(n_shapes);
+  const std::size_t block = 20;
+  for (std::size_t b = 0; b < n_shapes; b += block) {
+    const std::size_t e = std::min(n_shapes, b + block);
+    std::vector<const Gradients*> s(src_ptrs.begin() + static_cast<long>(b),
+                                    src_ptrs.begin() + static_cast<long>(e));
+    std::vector<Points> p(prescribed.begin() + static_cast<long>(b),
+                          prescribed.begin() + static_cast<long>(e));
+    std::vector<Points> et;
+    if (ne)
+      et.assign(edge_targets.begin() + static_cast<long>(b),
+                edge_targets.begin() + static_cast<long>(e));
+    auto out = transfer.solve(s, p, et);
+    for (std::size_t k = b; k < e; ++k) solved[k] = std::move(out[k - b]);
+    report(progress, "solve", static_cast<double>(e) / static_cast<double>(n_shapes));
+  }
+  result.timings.solve = seconds_since(t0);
+
+  // 8. Deltas; vertices the template shape leaves still stay exactly still.
+  result.rig = target;
+  result.rig.shapes.clear();
+  const float keep = static_cast<float>(1e-7 * diagonal(tgt_rest));
+  for (std::size_t k = 0; k < n_shapes; ++k) {
+    anim::Positions d = (solved[k] - tgt_rest).cast<float>();
+    for (int v = 0; v < nv; ++v) {
+      if (!moves[k][static_cast<std::size_t>(v)]) d.row(v).setZero();
+    }
+    result.rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
+  }
+  result.timings.total = seconds_since(t_start);
+  report(progress, "done", 1.0);
+  return result;
+}
+
+void write_virtual_edges_json(const std::filesystem::path& path,
+                              const std::vector<VirtualEdge>& edges,
+                              const VirtualEdgeStats& stats) {
+  nlohmann::json j;
+  j["d"] = stats.d;
+  j["spacing"] = stats.spacing;
+  j["edges"] = nlohmann::json::array();
+  for (const auto& e : edges) j["edges"].push_back({e.a, e.b});
+  write_file_atomic(path, j.dump() + "\n");
+}
+
+std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& path,
+                                                 int vertex_count) {
+  const nlohmann::json j = load_json(path);
+  if (!j.contains("edges") || !j["edges"].is_array())
+    throw Error(path.string() + ": no \"edges\" array");
+  std::vector<VirtualEdge> out;
+  for (std::size_t i = 0; i < j["edges"].size(); ++i) {
+    const auto& e = j["edges"][i];
+    if (!e.is_array() || e.size() != 2 || !e[0].is_number_integer() || !e[1].is_number_integer()) {
+      throw Error(path.string() + ": edges[" + std::to_string(i) +
+                  "] is not a pair of vertex indices");
+    }
+    const int a = e[0].get<int>(), b = e[1].get<int>();
+    if (a < 0 || b < 0 || a >= vertex_count || b >= vertex_count || a == b) {
+      throw Error(path.string() + ": edges[" + std::to_string(i) + "] vertex out of range (" +
+                  std::to_string(vertex_count) + " vertices)");
+    }
+    out.push_back({a, b});
+  }
+  return out;
+}
+
+void write_virtual_edges_obj(const std::filesystem::path& path, const anim::Positions& positions,
+                             const std::vector<VirtualEdge>& edges) {
+  std::string s = "# facecast virtual edges: the target neutral's vertices, one 'l' per edge\n";
+  char buf[96];
+  for (Eigen::Index v = 0; v < positions.rows(); ++v) {
+    std::snprintf(buf, sizeof buf, "v %.7g %.7g %.7g\n", positions(v, 0), positions(v, 1),
+                  positions(v, 2));
+    s += buf;
+  }
+  for (const auto& e : edges)
+    s += "l " + std::to_string(e.a + 1) + " " + std::to_string(e.b + 1) + "\n";
+  write_file_atomic(path, s);
+}
+
+}  // namespace facecast::rigbuild

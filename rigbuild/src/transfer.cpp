@@ -1,0 +1,266 @@
+#include "facecast/rigbuild/transfer.hpp"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "facecast/core/error.hpp"
+
+namespace facecast::rigbuild {
+
+namespace {
+using SpMat = Eigen::SparseMatrix<double>;
+using Dense = Eigen::MatrixXd;
+
+// CHOLMOD's supernodal Cholesky, with the factor's size (m_cholmodFactor is protected).
+class Cholmod : public Eigen::CholmodSupernodalLLT<SpMat> {
+ public:
+  long factor_nonzeros() const {
+    return m_cholmodFactor ? static_cast<long>(m_cholmodFactor->xsize) : 0;
+  }
+};
+
+Eigen::Matrix3d frame(const Eigen::Vector3d& v1, const Eigen::Vector3d& v2,
+                      const Eigen::Vector3d& v3) {
+  const Eigen::Vector3d e1 = v2 - v1, e2 = v3 - v1;
+  const Eigen::Vector3d n = e1.cross(e2);
+  const double len = n.norm();
+  Eigen::Matrix3d V;
+  V.col(0) = e1;
+  V.col(1) = e2;
+  V.col(2) = len > 0 ? Eigen::Vector3d(n / std::sqrt(len)) : Eigen::Vector3d::Zero();
+  return V;
+}
+}  // namespace
+
+std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Faces& faces,
+                                                 const char* what) {
+  std::vector<Eigen::Matrix3d> out(static_cast<std::size_t>(faces.rows()));
+  for (Eigen::Index t = 0; t < faces.rows(); ++t) {
+    const Eigen::Matrix3d V =
+        frame(rest.row(faces(t, 0)).transpose(), rest.row(faces(t, 1)).transpose(),
+              rest.row(faces(t, 2)).transpose());
+    const double det = V.determinant();
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) {
+      throw Error(std::string(what) + ": triangle " + std::to_string(t) + " (vertices " +
+                  std::to_string(faces(t, 0)) + ", " + std::to_string(faces(t, 1)) + ", " +
+                  std::to_string(faces(t, 2)) + ") has zero area");
+    }
+    out[static_cast<std::size_t>(t)] = V.inverse();
+  }
+  return out;
+}
+
+void source_gradients(const std::vector<Eigen::Matrix3d>& rest_inverse, const Points& deformed,
+                      const Faces& faces, Gradients& out) {
+  out.resize(rest_inverse.size());
+  for (Eigen::Index t = 0; t < faces.rows(); ++t) {
+    const Eigen::Matrix3d Vt =
+        frame(deformed.row(faces(t, 0)).transpose(), deformed.row(faces(t, 1)).transpose(),
+              deformed.row(faces(t, 2)).transpose());
+    out[static_cast<std::size_t>(t)] = Vt * rest_inverse[static_cast<std::size_t>(t)];
+  }
+}
+
+TriangleMap TriangleMap::identity(int triangle_count) {
+  TriangleMap m;
+  m.sources.resize(static_cast<std::size_t>(triangle_count));
+  for (int t = 0; t < triangle_count; ++t) m.sources[static_cast<std::size_t>(t)] = {t};
+  return m;
+}
+
+struct Transfer::Impl {
+  TransferSetup setup;
+  int n = 0, nf = 0, free_n = 0;
+  std::vector<int> free_index;             // per vertex: index among free vertices, or -1
+  std::vector<int> dirichlet_index;        // per vertex: index among Dirichlet vertices, or -1
+  std::vector<Eigen::Matrix3d> projector;  // P_t = E E^+ per target triangle
+  std::vector<double> sqrt_w;              // per target triangle
+  SpMat At_free;                           // free columns of A, transposed: #free by #rows
+  SpMat A_dir;                             // Dirichlet columns of A: #rows by #D
+  Cholmod cholmod;
+  Eigen::SimplicialLDLT<SpMat> ldlt;
+
+  Dense solve(const Dense& rhs) const {
+    if (setup.solver == SolverKind::kCholmod) {
+      // CHOLMOD solves all right-hand sides in one supernodal (BLAS-3) sweep.
+      return const_cast<Cholmod&>(cholmod).solve(rhs);
+    }
+    // Eigen's solve is const and thread-safe: split the columns over the cores.
+    Dense out(rhs.rows(), rhs.cols());
+    const unsigned workers = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(),
+                                                             static_cast<unsigned>(rhs.cols())));
+    std::vector<std::thread> pool;
+    for (unsigned w = 0; w < workers; ++w) {
+      pool.emplace_back([&, w] {
+        for (Eigen::Index c = w; c < rhs.cols(); c += workers) out.col(c) = ldlt.solve(rhs.col(c));
+      });
+    }
+    for (auto& t : pool) t.join();
+    return out;
+  }
+};
+
+Transfer::Transfer(TransferSetup setup) : impl_(std::make_unique<Impl>()) {
+  Impl& I = *impl_;
+  I.setup = std::move(setup);
+  const TransferSetup& S = I.setup;
+  I.n = static_cast<int>(S.target_rest.rows());
+  I.nf = static_cast<int>(S.target_faces.rows());
+  if (static_cast<int>(S.map.sources.size()) != I.nf) {
+    throw Error("transfer: triangle map size differs from the target's triangle count");
+  }
+  I.free_index.assign(static_cast<std::size_t>(I.n), -1);
+  I.dirichlet_index.assign(static_cast<std::size_t>(I.n), -1);
+  for (std::size_t k = 0; k < S.dirichlet.size(); ++k)
+    I.dirichlet_index[S.dirichlet[k]] = static_cast<int>(k);
+  for (int v = 0; v < I.n; ++v) {
+    if (I.dirichlet_index[v] < 0) I.free_index[v] = I.free_n++;
+  }
+
+  // Rows of A: 3 per target triangle (its gradient), 1 per virtual edge.
+  const int rows = 3 * I.nf + static_cast<int>(S.virtual_edges.size());
+  std::vector<Eigen::Triplet<double>> free_t, dir_t;
+  free_t.reserve(static_cast<std::size_t>(9 * I.nf));
+  auto put = [&](int row, int v, double value) {
+    if (I.free_index[v] >= 0) {
+      free_t.emplace_back(I.free_index[v], row, value);
+    } else {
+      dir_t.emplace_back(row, I.dirichlet_index[v], value);
+    }
+  };
+  I.projector.resize(static_cast<std::size_t>(I.nf));
+  I.sqrt_w.resize(static_cast<std::size_t>(I.nf));
+  for (int t = 0; t < I.nf; ++t) {
+    const int a = S.target_faces(t, 0), b = S.target_faces(t, 1), c = S.target_faces(t, 2);
+    Eigen::Matrix<double, 3, 2> E;
+    E.col(0) = (S.target_rest.row(b) - S.target_rest.row(a)).transpose();
+    E.col(1) = (S.target_rest.row(c) - S.target_rest.row(a)).transpose();
+    const Eigen::Matrix2d EtE = E.transpose() * E;
+    const double area2 = EtE.determinant();  // (2 * area)^2
+    if (!(area2 > 1e-24 * EtE.trace() * EtE.trace()) || !std::isfinite(area2)) {
+      throw Error("target: triangle " + std::to_string(t) + " (vertices " + std::to_string(a) +
+                  ", " + std::to_string(b) + ", " + std::to_string(c) +
+                  ") has zero area and makes the system singular");
+    }
+    const Eigen::Matrix<double, 2, 3> Ep = EtE.inverse() * E.transpose();
+    I.projector[static_cast<std::size_t>(t)] = E * Ep;
+    const double count =
+        std::max<std::size_t>(1, S.map.sources[static_cast<std::size_t>(t)].size());
+    const double w = std::sqrt(0.5 * std::sqrt(area2) * count);
+    I.sqrt_w[static_cast<std::size_t>(t)] = w;
+    for (int r = 0; r < 3; ++r) {
+      put(3 * t + r, a, -w * (Ep(0, r) + Ep(1, r)));
+      put(3 * t + r, b, w * Ep(0, r));
+      put(3 * t + r, c, w * Ep(1, r));
+    }
+  }
+  const double sl = std::sqrt(S.lambda);
+  for (std::size_t i = 0; i < S.virtual_edges.size(); ++i) {
+    const int row = 3 * I.nf + static_cast<int>(i);
+    put(row, S.virtual_edges[i].a, sl);
+    put(row, S.virtual_edges[i].b, -sl);
+  }
+  I.At_free.resize(I.free_n, rows);
+  I.At_free.setFromTriplets(free_t.begin(), free_t.end());
+  I.A_dir.resize(rows, static_cast<Eigen::Index>(S.dirichlet.size()));
+  I.A_dir.setFromTriplets(dir_t.begin(), dir_t.end());
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const SpMat M = SpMat(I.At_free * I.At_free.transpose());
+  bool ok;
+  if (S.solver == SolverKind::kCholmod) {
+    I.cholmod.compute(M);
+    ok = I.cholmod.info() == Eigen::Success;
+  } else {
+    I.ldlt.compute(M);
+    ok = I.ldlt.info() == Eigen::Success && (I.ldlt.vectorD().array() > 0).all();
+  }
+  if (!ok) {
+    throw Error("transfer: the system is singular (a connected component without a fixed vertex?)");
+  }
+  factor_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Transfer::~Transfer() = default;
+Transfer::Transfer(Transfer&&) noexcept = default;
+
+int Transfer::free_count() const {
+  return impl_->free_n;
+}
+
+long Transfer::factor_nonzeros() const {
+  if (impl_->setup.solver == SolverKind::kCholmod) {
+    return impl_->cholmod.factor_nonzeros();
+  }
+  return static_cast<long>(impl_->ldlt.matrixL().nestedExpression().nonZeros());
+}
+
+std::vector<Points> Transfer::solve(const std::vector<const Gradients*>& source,
+                                    const std::vector<Points>& prescribed,
+                                    const std::vector<Points>& edge_targets) const {
+  const Impl& I = *impl_;
+  const TransferSetup& S = I.setup;
+  const std::size_t shapes = source.size();
+  if (prescribed.size() != shapes) throw Error("transfer: one prescribed set per shape expected");
+  if (!S.virtual_edges.empty() && edge_targets.size() != shapes) {
+    throw Error("transfer: one set of virtual-edge targets per shape expected");
+  }
+  const Eigen::Index rows = I.At_free.cols();
+  Dense rhs(I.free_n, static_cast<Eigen::Index>(3 * shapes));
+
+  // Right-hand sides, shape by shape (independent: use the cores).
+  auto build_rhs = [&](std::size_t k) {
+    const Gradients& src = *source[k];
+    Dense C(rows, 3);
+    for (int t = 0; t < I.nf; ++t) {
+      const auto& from = S.map.sources[static_cast<std::size_t>(t)];
+      Eigen::Matrix3d G = Eigen::Matrix3d::Identity();
+      if (!from.empty()) {
+        G.setZero();
+        for (int s : from) G += src[static_cast<std::size_t>(s)];
+        G /= static_cast<double>(from.size());
+      }
+      const Eigen::Matrix3d SP = G * I.projector[static_cast<std::size_t>(t)];
+      for (int r = 0; r < 3; ++r)
+        C.row(3 * t + r) = I.sqrt_w[static_cast<std::size_t>(t)] * SP.col(r).transpose();
+    }
+    if (!S.virtual_edges.empty()) {
+      C.bottomRows(static_cast<Eigen::Index>(S.virtual_edges.size())) =
+          std::sqrt(S.lambda) * edge_targets[k];
+    }
+    if (I.A_dir.cols() > 0) C -= I.A_dir * Eigen::MatrixXd(prescribed[k]);
+    rhs.middleCols(static_cast<Eigen::Index>(3 * k), 3) = I.At_free * C;
+  };
+  {
+    const unsigned workers = std::max(
+        1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(shapes)));
+    std::vector<std::thread> pool;
+    for (unsigned w = 0; w < workers; ++w) {
+      pool.emplace_back([&, w] {
+        for (std::size_t k = w; k < shapes; k += workers) build_rhs(k);
+      });
+    }
+    for (auto& t : pool) t.join();
+  }
+
+  const Dense x = I.solve(rhs);
+  std::vector<Points> out(shapes);
+  for (std::size_t k = 0; k < shapes; ++k) {
+    Points& P = out[k];
+    P.resize(I.n, 3);
+    for (int v = 0; v < I.n; ++v) {
+      if (I.free_index[v] >= 0) {
+        P.row(v) = x.block(I.free_index[v], static_cast<Eigen::Index>(3 * k), 1, 3);
+      } else {
+        P.row(v) = prescribed[k].row(I.dirichlet_index[v]);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,195 @@
+#include "facecast/rigbuild/virtual_edges.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <queue>
+#include <thread>
+
+#include "facecast/core/error.hpp"
+#include "geometry.hpp"
+#include "mesh_graph.hpp"
+
+namespace facecast::rigbuild {
+
+double estimate_ve_distance(const Points& points, const Faces& faces) {
+  const MeshGraph g(points, faces);
+  const double median = g.median_edge_length();
+  const double diag = (points.colwise().maxCoeff() - points.colwise().minCoeff()).norm();
+  return std::min(4.0 * median, 0.03 * diag);
+}
+
+double ve_distance_from_pair(const Points& points, int i, int j) {
+  if (i < 0 || j < 0 || i >= points.rows() || j >= points.rows()) {
+    throw Error("--ve-pair: vertex index out of range (" + std::to_string(points.rows()) +
+                " vertices)");
+  }
+  return 1.05 * (points.row(i) - points.row(j)).norm();
+}
+
+namespace {
+
+struct Candidate {
+  int j;
+  double dist;
+};
+
+// Bounded Dijkstra from one source; reusable buffers per thread.
+class LocalGeodesic {
+ public:
+  explicit LocalGeodesic(const MeshGraph& g)
+      : g_(g),
+        dist_(static_cast<std::size_t>(g.vertex_count()), kInf),
+        slot_(static_cast<std::size_t>(g.vertex_count()), -1) {}
+
+  // Keeps the candidates whose geodesic distance exceeds f times their Euclidean distance.
+  // `cands` must be sorted by Euclidean distance, ascending.
+  void qualify(int src, const std::vector<Candidate>& cands, double f,
+               std::vector<Candidate>& out) {
+    out.clear();
+    settled_.assign(cands.size(), 0);
+    for (std::size_t k = 0; k < cands.size(); ++k) slot_[cands[k].j] = static_cast<int>(k);
+    std::size_t remaining = cands.size();
+    std::size_t largest = cands.size();  // one past the largest unsettled candidate
+    using Item = std::pair<double, int>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<>> heap;
+    dist_[src] = 0;
+    touched_.push_back(src);
+    heap.emplace(0.0, src);
+    while (!heap.empty() && remaining > 0) {
+      const auto [d, v] = heap.top();
+      heap.pop();
+      if (d > dist_[v]) continue;
+      if (d > f * cands[largest - 1].dist) break;  // nothing unsettled can fail the test any more
+      if (const int s = slot_[v]; s >= 0 && !settled_[s]) {
+        settled_[s] = 1;
+        --remaining;
+        while (largest > 0 && settled_[largest - 1]) --largest;
+        if (d > f * cands[s].dist) out.push_back(cands[s]);
+        if (remaining == 0) break;
+      }
+      for (auto [u, w] : g_.neighbours(v)) {
+        const double nd = d + w;
+        if (nd < dist_[u]) {
+          if (dist_[u] == kInf) touched_.push_back(u);
+          dist_[u] = nd;
+          heap.emplace(nd, u);
+        }
+      }
+    }
+    for (std::size_t k = 0; k < cands.size(); ++k) {
+      if (!settled_[k]) out.push_back(cands[k]);  // beyond reach: geodesic > f * Euclidean
+      slot_[cands[k].j] = -1;
+    }
+    for (int v : touched_) dist_[v] = kInf;
+    touched_.clear();
+    std::sort(out.begin(), out.end(),
+              [](const Candidate& a, const Candidate& b) { return a.dist < b.dist; });
+  }
+
+ private:
+  static constexpr double kInf = std::numeric_limits<double>::infinity();
+  const MeshGraph& g_;
+  std::vector<double> dist_;
+  std::vector<int> slot_;
+  std::vector<char> settled_;
+  std::vector<int> touched_;
+};
+
+}  // namespace
+
+std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces& faces,
+                                              const VirtualEdgeOptions& options,
+                                              VirtualEdgeStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (options.f < 2.0)
+    throw Error("--ve-f must be at least 2 (got " + std::to_string(options.f) + ")");
+  if (options.per_vertex < 1) throw Error("--ve-per-vertex must be at least 1");
+  const MeshGraph graph(points, faces);
+  const double d =
+      options.d > 0
+          ? options.d
+          : std::min(4.0 * graph.median_edge_length(),
+                     0.03 * (points.colwise().maxCoeff() - points.colwise().minCoeff()).norm());
+  const double spacing = options.spacing > 0 ? options.spacing : 1.5 * d;
+  const int n = static_cast<int>(points.rows());
+
+  const PointIndex tree(points);
+
+  // Per vertex: its `per_vertex` shortest qualifying partners.
+  std::vector<std::vector<Candidate>> best(static_cast<std::size_t>(n));
+  const unsigned workers = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<long> cand_count(workers, 0), qual_count(workers, 0);
+  std::vector<std::thread> pool;
+  for (unsigned w = 0; w < workers; ++w) {
+    pool.emplace_back([&, w] {
+      LocalGeodesic geo(graph);
+      std::vector<std::pair<std::uint32_t, double>> hits;
+      std::vector<Candidate> cands, good;
+      for (int i = static_cast<int>(w); i < n; i += static_cast<int>(workers)) {
+        if (graph.degree(i) == 0) continue;  // a vertex in no triangle
+        tree.within(points.row(i).data(), d, hits, true);
+        cands.clear();
+        for (const auto& h : hits) {
+          const int j = static_cast<int>(h.first);
+          if (j == i || graph.degree(j) == 0) continue;
+          cands.push_back({j, std::sqrt(h.second)});
+        }
+        if (cands.empty()) continue;
+        cand_count[w] += static_cast<long>(cands.size());
+        geo.qualify(i, cands, options.f, good);
+        qual_count[w] += static_cast<long>(good.size());
+        if (static_cast<int>(good.size()) > options.per_vertex)
+          good.resize(static_cast<std::size_t>(options.per_vertex));
+        best[static_cast<std::size_t>(i)] = good;
+      }
+    });
+  }
+  for (auto& t : pool) t.join();
+
+  // Density control: shortest sources first; a placed source blocks its surroundings and its
+  // partners' surroundings as future sources.
+  std::vector<int> order;
+  for (int i = 0; i < n; ++i) {
+    if (!best[static_cast<std::size_t>(i)].empty()) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return best[static_cast<std::size_t>(a)][0].dist < best[static_cast<std::size_t>(b)][0].dist;
+  });
+  std::vector<char> blocked(static_cast<std::size_t>(n), 0);
+  std::vector<VirtualEdge> edges;
+  std::vector<std::pair<std::uint32_t, double>> hits;
+  auto block_around = [&](int v) {
+    tree.within(points.row(v).data(), spacing, hits, false);
+    for (const auto& h : hits) blocked[h.first] = 1;
+  };
+  for (int i : order) {
+    if (blocked[static_cast<std::size_t>(i)]) continue;
+    for (const auto& c : best[static_cast<std::size_t>(i)])
+      edges.push_back({std::min(i, c.j), std::max(i, c.j)});
+    block_around(i);
+    for (const auto& c : best[static_cast<std::size_t>(i)]) block_around(c.j);
+  }
+  std::sort(edges.begin(), edges.end(), [](const VirtualEdge& a, const VirtualEdge& b) {
+    return a.a != b.a ? a.a < b.a : a.b < b.b;
+  });
+  edges.erase(std::unique(edges.begin(), edges.end(),
+                          [](const VirtualEdge& a, const VirtualEdge& b) {
+                            return a.a == b.a && a.b == b.b;
+                          }),
+              edges.end());
+  if (stats) {
+    stats->d = d;
+    stats->spacing = spacing;
+    stats->candidate_pairs = 0;
+    stats->qualifying_pairs = 0;
+    for (unsigned w = 0; w < workers; ++w) {
+      stats->candidate_pairs += cand_count[w];
+      stats->qualifying_pairs += qual_count[w];
+    }
+    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return edges;
+}
+
+}  // namespace facecast::rigbuild
