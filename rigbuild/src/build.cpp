@@ -253,15 +253,15 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   t0 = Clock::now();
   switch (options.virtual_edges) {
     case VirtualEdgeMode::kAuto:
+    case VirtualEdgeMode::kOff:  // still detected: the report measures the gaps they span
       result.virtual_edges =
           detect_virtual_edges(tgt_rest, tgt_faces, options.ve, &result.ve_stats);
       break;
     case VirtualEdgeMode::kFile:
       result.virtual_edges = read_virtual_edges_json(options.virtual_edges_file, nv);
       break;
-    case VirtualEdgeMode::kOff:
-      break;
   }
+  const bool use_edges = options.virtual_edges != VirtualEdgeMode::kOff;
   result.timings.detect = seconds_since(t0);
 
   // 6. Factor once.
@@ -270,7 +270,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   setup.target_rest = tgt_rest;
   setup.target_faces = tgt_faces;
   setup.map = corr.map;
-  setup.virtual_edges = result.virtual_edges;
+  if (use_edges) setup.virtual_edges = result.virtual_edges;
   setup.lambda = options.lambda;
   setup.dirichlet = dirichlet;
   setup.solver = options.solver;
@@ -350,6 +350,24 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       if (!moves[k][static_cast<std::size_t>(v)]) d.row(v).setZero();
     }
     result.rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
+    ShapeQuality q;
+    q.shape = tmpl.shapes[k].name;
+    q.max_displacement = result.rig.shapes.back().max_displacement();
+    q.min_gap = ne ? std::numeric_limits<double>::max() : 0.0;
+    for (std::size_t i = 0; i < ne; ++i) {
+      const auto& ve = result.virtual_edges[i];
+      const double rest = (tgt_rest.row(ve.a) - tgt_rest.row(ve.b)).norm();
+      const Eigen::RowVector3f got = result.rig.positions.row(ve.a) + d.row(ve.a) -
+                                     result.rig.positions.row(ve.b) - d.row(ve.b);
+      const double built = 10.0 * got.cast<double>().norm() / rest;
+      const double wanted = 10.0 * edge_targets[k].row(static_cast<Eigen::Index>(i)).norm() / rest;
+      q.gap_change += std::abs(built - wanted) / static_cast<double>(ne);
+      // A gap that flips direction has crossed: count it as closed.
+      const double sign =
+          got.cast<double>().dot(tgt_rest.row(ve.a) - tgt_rest.row(ve.b)) < 0 ? 0.0 : 1.0;
+      q.min_gap = std::min(q.min_gap, sign * built);
+    }
+    result.quality.push_back(q);
   }
   result.timings.total = seconds_since(t_start);
   report(progress, "done", 1.0);

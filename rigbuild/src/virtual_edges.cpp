@@ -6,17 +6,22 @@
 #include <queue>
 #include <thread>
 
+#include "facecast/anim/rig.hpp"
 #include "facecast/core/error.hpp"
 #include "geometry.hpp"
 #include "mesh_graph.hpp"
 
 namespace facecast::rigbuild {
 
-double estimate_ve_distance(const Points& points, const Faces& faces) {
-  const MeshGraph g(points, faces);
-  const double median = g.median_edge_length();
+namespace {
+double estimate_from(const MeshGraph& g, const Points& points) {
   const double diag = (points.colwise().maxCoeff() - points.colwise().minCoeff()).norm();
-  return std::min(4.0 * median, 0.03 * diag);
+  return std::min(3.0 * g.median_edge_length(), 0.03 * diag);
+}
+}  // namespace
+
+double estimate_ve_distance(const Points& points, const Faces& faces) {
+  return estimate_from(MeshGraph(points, faces), points);
 }
 
 double ve_distance_from_pair(const Points& points, int i, int j) {
@@ -106,15 +111,12 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
     throw Error("--ve-f must be at least 2 (got " + std::to_string(options.f) + ")");
   if (options.per_vertex < 1) throw Error("--ve-per-vertex must be at least 1");
   const MeshGraph graph(points, faces);
-  const double d =
-      options.d > 0
-          ? options.d
-          : std::min(4.0 * graph.median_edge_length(),
-                     0.03 * (points.colwise().maxCoeff() - points.colwise().minCoeff()).norm());
-  const double spacing = options.spacing > 0 ? options.spacing : 1.5 * d;
   const int n = static_cast<int>(points.rows());
+  const double d = options.d > 0 ? options.d : estimate_from(graph, points);
+  const double spacing = options.spacing > 0 ? options.spacing : d;
 
   const PointIndex tree(points);
+  const anim::Components comps = anim::connected_components(n, faces);
 
   // Per vertex: its `per_vertex` shortest qualifying partners.
   std::vector<std::vector<Candidate>> best(static_cast<std::size_t>(n));
@@ -125,19 +127,33 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
     pool.emplace_back([&, w] {
       LocalGeodesic geo(graph);
       std::vector<std::pair<std::uint32_t, double>> hits;
-      std::vector<Candidate> cands, good;
+      std::vector<Candidate> cands, other, good;
       for (int i = static_cast<int>(w); i < n; i += static_cast<int>(workers)) {
         if (graph.degree(i) == 0) continue;  // a vertex in no triangle
         tree.within(points.row(i).data(), d, hits, true);
         cands.clear();
+        other.clear();
         for (const auto& h : hits) {
           const int j = static_cast<int>(h.first);
           if (j == i || graph.degree(j) == 0) continue;
-          cands.push_back({j, std::sqrt(h.second)});
+          // Another component is unreachable along the surface: it qualifies without a search.
+          (comps.label[j] == comps.label[i] ? cands : other).push_back({j, std::sqrt(h.second)});
         }
-        if (cands.empty()) continue;
-        cand_count[w] += static_cast<long>(cands.size());
-        geo.qualify(i, cands, options.f, good);
+        cand_count[w] += static_cast<long>(cands.size() + other.size());
+        // Only the `per_vertex` shortest qualifying pairs are kept, and every pair into another
+        // component qualifies: same-component candidates beyond the k-th of those need no search.
+        const std::size_t k = static_cast<std::size_t>(options.per_vertex);
+        if (other.size() >= k) {
+          const double limit = other[k - 1].dist;
+          while (!cands.empty() && cands.back().dist > limit) cands.pop_back();
+        }
+        good.clear();
+        if (!cands.empty()) geo.qualify(i, cands, options.f, good);
+        if (!other.empty()) {
+          good.insert(good.end(), other.begin(), other.end());
+          std::sort(good.begin(), good.end(),
+                    [](const Candidate& a, const Candidate& b) { return a.dist < b.dist; });
+        }
         qual_count[w] += static_cast<long>(good.size());
         if (static_cast<int>(good.size()) > options.per_vertex)
           good.resize(static_cast<std::size_t>(options.per_vertex));

@@ -105,6 +105,8 @@ void add_rig_commands(CLI::App& app) {
   i->add_option("rig", info->rig, "Rig (GLB or OBJ)")->required()->check(CLI::ExistingFile);
   i->add_flag("--json", info->json, "Print JSON");
   i->callback([info] { print_info(anim::load_rig(info->rig), info->json); });
+
+  add_rig_build_commands(*rig);
 }
 
 }  // namespace facecast::cli

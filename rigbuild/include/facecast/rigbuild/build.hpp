@@ -49,9 +49,20 @@ struct BuildTimings {
   double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, total = 0;
 };
 
+/// Per shape: how well the gaps that virtual edges span keep the template's behaviour. For each
+/// virtual edge the gap is normalised so the neutral gap is 10 (the seed paper's measure); the
+/// change is the mean |built gap - the gap the template shape asks for| over the edges.
+struct ShapeQuality {
+  std::string shape;
+  double max_displacement = 0;
+  double gap_change = 0;
+  double min_gap = 0;  // smallest normalised gap (0 = the two sides meet or cross)
+};
+
 struct BuildResult {
   anim::Rig rig;  // the target with the template's shapes (same names and order)
-  std::vector<VirtualEdge> virtual_edges;
+  std::vector<VirtualEdge> virtual_edges;  // detected on the target (used unless mode is kOff)
+  std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
   std::vector<ComponentInfo> components;
   int fixed_vertices = 0;

@@ -20,7 +20,7 @@ struct VirtualEdgeOptions {
   double d = 0.0;        // Euclidean threshold; <= 0: estimate_ve_distance()
   double f = 3.0;        // geodesic / Euclidean ratio threshold, >= 2
   int per_vertex = 4;    // edges kept per source vertex (the paper: 3 to 5)
-  double spacing = 0.0;  // density-control radius; <= 0: 1.5 * d
+  double spacing = 0.0;  // density-control radius; <= 0: d
 };
 
 struct VirtualEdgeStats {

@@ -1,0 +1,23 @@
+#pragma once
+// Pictures of a rig for people: the mesh shaded in grey with virtual edges drawn over it, front and
+// side views of the face, rasterized on the CPU (no GL needed) and written as PNG.
+#include <filesystem>
+#include <vector>
+
+#include "facecast/anim/rig.hpp"
+#include "facecast/rigbuild/transfer.hpp"
+
+namespace facecast::rigbuild {
+
+struct PictureOptions {
+  int size = 768;           // height of each view in pixels
+  bool see_through = true;  // draw every edge, also those hidden behind the surface (dimmer)
+};
+
+/// Two views (front, right side) of `positions` with `edges` in red, side by side.
+void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Rig& rig,
+                                const anim::Positions& positions,
+                                const std::vector<VirtualEdge>& edges,
+                                const PictureOptions& options = {});
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,239 @@
+// facecast rig build | check
+#include <charconv>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/picture.hpp"
+#include "facecast/rigbuild/quality.hpp"
+#include "progress.hpp"
+
+namespace facecast::cli {
+namespace {
+
+struct BuildArgs {
+  std::string tmpl, tmpl_neutral, tmpl_shapes, target, markers, out, obj_out, report, fixed;
+  std::string correspondence, ve_mode = "auto", ve_pair, ve_out, ve_png, solver = "cholmod";
+  rigbuild::BuildOptions opt;
+};
+
+std::vector<int> read_fixed(const std::filesystem::path& path) {
+  // JSON array of vertex indices, or whitespace-separated indices.
+  const std::string text = read_file(path);
+  std::vector<int> out;
+  if (!text.empty() && text.find('[') != std::string::npos) {
+    const auto j = load_json(path);
+    for (const auto& v : j) {
+      if (!v.is_number_integer())
+        throw Error(path.string() + ": expected an array of vertex indices");
+      out.push_back(v.get<int>());
+    }
+    return out;
+  }
+  const char* p = text.data();
+  const char* end = p + text.size();
+  int line = 1;
+  while (p < end) {
+    if (*p == '\n') ++line;
+    if (std::isspace(static_cast<unsigned char>(*p)) || *p == ',') {
+      ++p;
+      continue;
+    }
+    int v = 0;
+    auto [q, ec] = std::from_chars(p, end, v);
+    if (ec != std::errc())
+      throw Error(path.string() + ":" + std::to_string(line) + ": bad vertex index");
+    out.push_back(v);
+    p = q;
+  }
+  return out;
+}
+
+nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
+                           const std::vector<rigbuild::ShapeError>* errors) {
+  nlohmann::json j;
+  j["target"] = a.target;
+  j["vertices"] = r.rig.vertex_count();
+  j["virtual_edges"] = {{"mode", a.ve_mode},
+                        {"count", r.virtual_edges.size()},
+                        {"d", r.ve_stats.d},
+                        {"spacing", r.ve_stats.spacing},
+                        {"candidate_pairs", r.ve_stats.candidate_pairs},
+                        {"qualifying_pairs", r.ve_stats.qualifying_pairs},
+                        {"lambda", a.opt.lambda}};
+  j["timings_s"] = {{"correspondence", r.timings.correspondence},
+                    {"gradients", r.timings.gradients},
+                    {"virtual_edges", r.timings.detect},
+                    {"factor", r.timings.factor},
+                    {"solve", r.timings.solve},
+                    {"total", r.timings.total}};
+  j["factor_nonzeros"] = r.factor_nonzeros;
+  j["fixed_vertices"] = r.fixed_vertices;
+  for (const auto& c : r.components)
+    j["components"].push_back({{"vertices", c.vertices}, {"placement", c.placement}});
+  for (std::size_t k = 0; k < r.quality.size(); ++k) {
+    const auto& q = r.quality[k];
+    nlohmann::json s = {{"name", q.shape},
+                        {"max_displacement", q.max_displacement},
+                        {"gap_change", q.gap_change},
+                        {"min_gap", q.min_gap}};
+    if (errors && k < errors->size()) {
+      const auto& e = (*errors)[k];
+      s["error"] = {{"mean", e.mean},
+                    {"p99", e.p99},
+                    {"max", e.max},
+                    {"p99_percent_of_diagonal", e.p99_percent}};
+    }
+    j["shapes"].push_back(s);
+  }
+  return j;
+}
+
+void run_build(BuildArgs& a) {
+  if (a.tmpl.empty() == (a.tmpl_neutral.empty() || a.tmpl_shapes.empty())) {
+    throw Error("give --template rig.glb, or --template-neutral N.obj with --template-shapes DIR");
+  }
+  auto& opt = a.opt;
+  opt.solver =
+      a.solver == "eigen" ? rigbuild::SolverKind::kEigenLDLT : rigbuild::SolverKind::kCholmod;
+  if (a.ve_mode == "auto") {
+    opt.virtual_edges = rigbuild::VirtualEdgeMode::kAuto;
+  } else if (a.ve_mode == "off") {
+    opt.virtual_edges = rigbuild::VirtualEdgeMode::kOff;
+  } else {
+    opt.virtual_edges = rigbuild::VirtualEdgeMode::kFile;
+    opt.virtual_edges_file = a.ve_mode;
+  }
+  opt.markers = a.markers;
+  if (!a.fixed.empty()) opt.fixed = read_fixed(a.fixed);
+  if (!a.markers.empty()) {
+    opt.correspondence = a.correspondence.empty()
+                             ? std::filesystem::path(a.out).replace_extension(".correspondence")
+                             : std::filesystem::path(a.correspondence);
+  }
+
+  std::cerr << "reading template and target...\n";
+  const anim::Rig tmpl = a.tmpl.empty()
+                             ? anim::read_obj_shapes(a.tmpl_neutral, a.tmpl_shapes, {"identity*"})
+                             : anim::load_rig(a.tmpl);
+  const anim::Rig target = anim::load_rig(a.target);
+  if (!a.ve_pair.empty()) {
+    int i = -1, j = -1;
+    if (std::sscanf(a.ve_pair.c_str(), "%d,%d", &i, &j) != 2)
+      throw Error("--ve-pair: expected I,J");
+    opt.ve.d = rigbuild::ve_distance_from_pair(target.positions.cast<double>(), i, j);
+  }
+  const auto r = rigbuild::build_rig(tmpl, target, opt, terminal_progress());
+
+  anim::write_glb(a.out, r.rig);
+  if (!a.obj_out.empty()) anim::write_obj_folder(a.obj_out, r.rig);
+  if (!a.ve_out.empty()) {
+    const std::filesystem::path obj(a.ve_out);
+    rigbuild::write_virtual_edges_obj(obj, r.rig.positions, r.virtual_edges);
+    rigbuild::write_virtual_edges_json(std::filesystem::path(obj).replace_extension(".json"),
+                                       r.virtual_edges, r.ve_stats);
+  }
+  if (!a.ve_png.empty())
+    rigbuild::write_virtual_edge_picture(a.ve_png, r.rig, r.rig.positions, r.virtual_edges);
+  if (!a.report.empty()) write_file_atomic(a.report, report_json(r, a, nullptr).dump(2) + "\n");
+  std::fprintf(
+      stderr,
+      "wrote %s: %d vertices, %zu shapes, %zu virtual edges (%s); %.2f s (correspondence %.2f, "
+      "virtual edges %.2f, factor %.2f, solve %.2f)\n",
+      a.out.c_str(), r.rig.vertex_count(), r.rig.shapes.size(), r.virtual_edges.size(),
+      a.ve_mode.c_str(), r.timings.total, r.timings.correspondence, r.timings.detect,
+      r.timings.factor, r.timings.solve);
+}
+
+struct CheckArgs {
+  std::string rig, truth;
+};
+
+void run_check(const CheckArgs& a) {
+  const anim::Rig rig = anim::load_rig(a.rig);
+  nlohmann::json j;
+  j["rig"] = a.rig;
+  std::vector<anim::Positions> truth;
+  if (!a.truth.empty()) {
+    for (const auto& s : rig.shapes)
+      truth.push_back(anim::read_obj_positions(std::filesystem::path(a.truth) / (s.name + ".obj")));
+  }
+  const auto errors =
+      truth.empty() ? std::vector<rigbuild::ShapeError>{} : rigbuild::truth_errors(rig, truth);
+  for (std::size_t k = 0; k < rig.shapes.size(); ++k) {
+    nlohmann::json s = {{"name", rig.shapes[k].name},
+                        {"max_displacement", rig.shapes[k].max_displacement()}};
+    if (k < errors.size()) {
+      s["error"] = {{"mean", errors[k].mean},
+                    {"p99", errors[k].p99},
+                    {"max", errors[k].max},
+                    {"p99_percent_of_diagonal", errors[k].p99_percent}};
+    }
+    j["shapes"].push_back(s);
+  }
+  std::cout << j.dump(2) << '\n';
+}
+
+}  // namespace
+
+void add_rig_build_commands(CLI::App& rig) {
+  auto a = std::make_shared<BuildArgs>();
+  auto* b = rig.add_subcommand(
+      "build", "Generate a user's blendshapes from a template rig by deformation transfer");
+  b->add_option("--template", a->tmpl, "Template rig (GLB)")->check(CLI::ExistingFile);
+  b->add_option("--template-neutral", a->tmpl_neutral, "Template neutral OBJ")
+      ->check(CLI::ExistingFile);
+  b->add_option("--template-shapes", a->tmpl_shapes, "Folder of template shape OBJs")
+      ->check(CLI::ExistingDirectory);
+  b->add_option("--target", a->target, "The user's neutral head (OBJ or GLB)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  b->add_option("--markers", a->markers, "Marker pairs JSON (needed when the topology differs)")
+      ->check(CLI::ExistingFile);
+  b->add_option("--correspondence", a->correspondence,
+                "Correspondence cache (default: next to --out)");
+  b->add_option("--out", a->out, "Output rig (GLB)")->required();
+  b->add_option("--obj-out", a->obj_out, "Also write neutral.obj and one OBJ per shape here");
+  b->add_option("--report", a->report, "Quality report (JSON)");
+  b->add_option("--fixed", a->fixed,
+                "Vertices that never move (JSON array or whitespace-separated)")
+      ->check(CLI::ExistingFile);
+  b->add_option("--virtual-edges", a->ve_mode, "auto | off | FILE (JSON from --ve-out)")
+      ->capture_default_str();
+  b->add_option("--lambda", a->opt.lambda, "Weight of the virtual-edge term")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  b->add_option("--ve-d", a->opt.ve.d, "Euclidean threshold d (0 = estimate from the mesh)")
+      ->capture_default_str();
+  b->add_option("--ve-f", a->opt.ve.f, "Geodesic / Euclidean ratio threshold f (>= 2)")
+      ->capture_default_str();
+  b->add_option("--ve-per-vertex", a->opt.ve.per_vertex, "Edges kept per source vertex")
+      ->capture_default_str();
+  b->add_option("--ve-spacing", a->opt.ve.spacing, "Density-control radius (0 = d)")
+      ->capture_default_str();
+  b->add_option("--ve-pair", a->ve_pair,
+                "I,J: take d from this target vertex pair across a region");
+  b->add_option("--ve-out", a->ve_out,
+                "Write the virtual edges as OBJ lines (and .json beside it)");
+  b->add_option("--ve-png", a->ve_png, "Write a picture of the virtual edges over the mesh");
+  b->add_option("--solver", a->solver, "cholmod | eigen")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cholmod", "eigen"}));
+  b->callback([a] { run_build(*a); });
+
+  auto c = std::make_shared<CheckArgs>();
+  auto* ck = rig.add_subcommand(
+      "check", "Report per-shape measures of a rig, and errors against ground truth");
+  ck->add_option("rig", c->rig, "Rig (GLB)")->required()->check(CLI::ExistingFile);
+  ck->add_option("--truth", c->truth, "Folder of ground-truth OBJs named like the shapes")
+      ->check(CLI::ExistingDirectory);
+  ck->callback([c] { run_check(*c); });
+}
+
+}  // namespace facecast::cli
