@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.fallthrough(false);
   facecast::cli::add_rig_commands(app);
+  facecast::cli::add_viseme_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

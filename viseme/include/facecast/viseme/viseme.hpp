@@ -1,0 +1,9 @@
+#pragma once
+// facecast::viseme — text and timestamps to timed visemes and expressions. One include for all.
+#include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/import.hpp"
+#include "facecast/viseme/options.hpp"
+#include "facecast/viseme/pinyin.hpp"
+#include "facecast/viseme/text.hpp"
+#include "facecast/viseme/utterance.hpp"
+#include "facecast/viseme/wav.hpp"
