@@ -4,6 +4,7 @@
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <thread>
 
@@ -76,6 +77,31 @@ Eigen::RowVector3d at(const Points& p, const SurfacePoint& s) {
   return s.w[0] * p.row(s.v[0]) + s.w[1] * p.row(s.v[1]) + s.w[2] * p.row(s.v[2]);
 }
 
+// Template parts for the correspondence: each connected component labelled by its most common
+// material, so that, say, all 32 teeth of the ICT FaceKit form one part. One material: components.
+std::vector<int> template_parts(const anim::Rig& tmpl) {
+  if (tmpl.materials.size() < 2) return {};
+  const anim::Components comps = anim::connected_components(tmpl.vertex_count(), tmpl.triangles);
+  std::vector<std::map<int, int>> count(static_cast<std::size_t>(comps.count));
+  for (int t = 0; t < tmpl.triangle_count(); ++t) {
+    ++count[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])][tmpl.triangle_material[t]];
+  }
+  std::vector<int> part_of(static_cast<std::size_t>(comps.count));
+  for (int c = 0; c < comps.count; ++c) {
+    const auto& m = count[static_cast<std::size_t>(c)];
+    part_of[static_cast<std::size_t>(c)] =
+        std::max_element(m.begin(), m.end(), [](auto& a, auto& b) {
+          return a.second < b.second;
+        })->first;
+  }
+  std::vector<int> parts(static_cast<std::size_t>(tmpl.triangle_count()));
+  for (int t = 0; t < tmpl.triangle_count(); ++t) {
+    parts[static_cast<std::size_t>(t)] =
+        part_of[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])];
+  }
+  return parts;
+}
+
 }  // namespace
 
 BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options,
@@ -117,8 +143,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       corr = load_correspondence(options.correspondence, tmpl.vertex_count(), tmpl.triangle_count(),
                                  nv, target.triangle_count());
     } else {
-      corr = compute_correspondence(src_rest, src_faces, tgt_rest, tgt_faces, markers,
-                                    options.registration, progress);
+      corr = compute_correspondence(src_rest, src_faces, template_parts(tmpl), tgt_rest, tgt_faces,
+                                    markers, options.registration, progress);
       if (!options.correspondence.empty()) save_correspondence(options.correspondence, corr);
     }
   }
@@ -171,6 +197,12 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       members[static_cast<std::size_t>(comps.label[static_cast<std::size_t>(v)])].push_back(v);
   }
   const double scale = diagonal(tgt_rest) / diagonal(src_rest);
+  int largest = 0;
+  for (int c = 1; c < comps.count; ++c) {
+    if (members[static_cast<std::size_t>(c)].size() >
+        members[static_cast<std::size_t>(largest)].size())
+      largest = c;
+  }
   struct Floating {
     int component;
     bool rigid;
@@ -185,14 +217,21 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     const auto& mem = members[static_cast<std::size_t>(c)];
     auto& info = result.components[static_cast<std::size_t>(c)];
     info.vertices = static_cast<int>(mem.size());
-    const bool anchored = std::any_of(mem.begin(), mem.end(),
-                                      [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
+    // Same topology: a component with still vertices is held by them. Another topology maps the
+    // small parts (teeth, eyes, lashes) less exactly, and a few still vertices would tear them:
+    // only the largest component is held that way; the others float unless all of them are still.
+    const bool any_still = std::any_of(
+        mem.begin(), mem.end(), [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
+    const bool all_still = std::all_of(
+        mem.begin(), mem.end(), [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
+    const bool anchored = all_still || (any_still && (same_topology || c == largest));
     if (anchored) {
       const bool all = std::all_of(mem.begin(), mem.end(),
                                    [&](int v) { return is_fixed[static_cast<std::size_t>(v)]; });
       info.placement = all ? "fixed" : "anchored";
       continue;
     }
+    for (int v : mem) is_fixed[static_cast<std::size_t>(v)] = 0;
     Floating fl;
     fl.component = c;
     Points from(static_cast<Eigen::Index>(mem.size()), 3),
@@ -225,10 +264,16 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
         fl.anchor = v;
       }
     }
-    info.placement = fl.rigid ? "rigid" : "free";
+    info.placement = fl.rigid ? "rigid" : "floating";
     floating.push_back(std::move(fl));
   }
 
+  // Vertices of floating components move with their component, still or not.
+  std::vector<char> floats(static_cast<std::size_t>(nv), 0);
+  for (const auto& fl : floating) {
+    for (int v : members[static_cast<std::size_t>(fl.component)])
+      floats[static_cast<std::size_t>(v)] = !same_topology;
+  }
   std::vector<int> dirichlet;
   std::vector<int> owner(static_cast<std::size_t>(nv),
                          -1);  // floating index for rigid/anchor vertices
@@ -239,7 +284,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
         owner[static_cast<std::size_t>(v)] = static_cast<int>(f);
     } else {
       owner[static_cast<std::size_t>(fl.anchor)] = static_cast<int>(f);
-      result.components[static_cast<std::size_t>(fl.component)].placement = "anchored";
+      result.components[static_cast<std::size_t>(fl.component)].placement = "floating";
     }
   }
   for (int v = 0; v < nv; ++v) {
@@ -347,7 +392,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   for (std::size_t k = 0; k < n_shapes; ++k) {
     anim::Positions d = (solved[k] - tgt_rest).cast<float>();
     for (int v = 0; v < nv; ++v) {
-      if (!moves[k][static_cast<std::size_t>(v)]) d.row(v).setZero();
+      if (!moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)])
+        d.row(v).setZero();
     }
     result.rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
     ShapeQuality q;

@@ -4,6 +4,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -11,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "facecast/anim/rig.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -172,24 +175,33 @@ class SurfaceQuery {
     bool on_boundary = false;
   };
 
-  // The closest point among the k nearest-centroid triangles whose normal agrees with `normal`
-  // (dot > min_dot); a zero normal accepts every triangle.
+  // The closest point among the k nearest-centroid triangles that `accept` allows and whose normal
+  // agrees with `normal` (dot > min_dot; a zero normal accepts every direction). When no triangle
+  // qualifies, the search widens (4k, 16k, ...) before it gives up.
+  template <typename Accept>
   Hit closest(const Eigen::Vector3d& q, const Eigen::Vector3d& normal, double min_dot,
-              std::size_t k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const {
-    cent_.nearest(q.data(), k, idx, d2);
+              std::size_t k, std::vector<std::uint32_t>& idx, std::vector<double>& d2,
+              const Accept& accept) const {
     Hit best;
-    for (std::uint32_t t : idx) {
-      if (normal.squaredNorm() > 0 && normals_.row(t).dot(normal.transpose()) <= min_dot) continue;
-      const Eigen::Vector3d a = p_.row(f_(t, 0)), b = p_.row(f_(t, 1)), c = p_.row(f_(t, 2));
-      const Eigen::Vector3d w = closest_on_triangle(q, a, b, c);
-      const Eigen::Vector3d x = w[0] * a + w[1] * b + w[2] * c;
-      const double d = (x - q).norm();
-      if (d < best.dist) {
-        best.triangle = static_cast<int>(t);
-        best.bary = w;
-        best.point = x;
-        best.dist = d;
+    const std::size_t all = static_cast<std::size_t>(f_.rows());
+    for (; best.triangle < 0; k *= 4) {
+      cent_.nearest(q.data(), std::min(k, all), idx, d2);
+      for (std::uint32_t t : idx) {
+        if (!accept(static_cast<int>(t))) continue;
+        if (normal.squaredNorm() > 0 && normals_.row(t).dot(normal.transpose()) <= min_dot)
+          continue;
+        const Eigen::Vector3d a = p_.row(f_(t, 0)), b = p_.row(f_(t, 1)), c = p_.row(f_(t, 2));
+        const Eigen::Vector3d w = closest_on_triangle(q, a, b, c);
+        const Eigen::Vector3d x = w[0] * a + w[1] * b + w[2] * c;
+        const double d = (x - q).norm();
+        if (d < best.dist) {
+          best.triangle = static_cast<int>(t);
+          best.bary = w;
+          best.point = x;
+          best.dist = d;
+        }
       }
+      if (k >= all) break;
     }
     if (best.triangle >= 0) {
       for (int k2 = 0; k2 < 3; ++k2) {
@@ -200,6 +212,10 @@ class SurfaceQuery {
       }
     }
     return best;
+  }
+  Hit closest(const Eigen::Vector3d& q, const Eigen::Vector3d& normal, double min_dot,
+              std::size_t k, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const {
+    return closest(q, normal, min_dot, k, idx, d2, [](int) { return true; });
   }
 
   const Points& normals() const { return normals_; }
@@ -228,6 +244,7 @@ void parallel_for(int n, Fn&& fn) {
 }  // namespace
 
 Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+                                      const std::vector<int>& template_parts,
                                       const Points& target_rest, const Faces& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
@@ -369,20 +386,86 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
     merr += (y.row(markers[i].template_vertex) - mt.row(static_cast<Eigen::Index>(i))).norm();
   c.mean_marker_error = merr / static_cast<double>(markers.size());
 
-  // 3. Triangle correspondence in both directions, and where each target vertex sits.
+  // 3. Component relations: each target component corresponds to the template parts that at least
+  // 10% of its vertices land on (skin to skin, teeth to teeth, eyes to eyes), so a lid is never
+  // paired with the eyeball under it nor a tooth with the lip in front of it.
   report(progress, "triangle correspondence", 0.0);
   const SurfaceQuery reg_surface(y, template_faces);
+  anim::Components scomp = anim::connected_components(ns, template_faces);
+  if (!template_parts.empty()) {  // parts instead of components: label each vertex by its part
+    if (template_parts.size() != static_cast<std::size_t>(template_faces.rows())) {
+      throw Error("correspondence: one template part per triangle expected");
+    }
+    scomp.count = *std::max_element(template_parts.begin(), template_parts.end()) + 1;
+    for (Eigen::Index t = 0; t < template_faces.rows(); ++t) {
+      for (int k = 0; k < 3; ++k)
+        scomp.label[template_faces(t, k)] = template_parts[static_cast<std::size_t>(t)];
+    }
+  }
+  const anim::Components tcomp = anim::connected_components(nt, target_faces);
+  const Points tgt_vn = vertex_normals_of(target_rest, target_faces);
+  std::vector<int> vote(static_cast<std::size_t>(nt), -1);
+  parallel_for(nt, [&](int v) {
+    if (tcomp.label[static_cast<std::size_t>(v)] < 0) return;
+    thread_local std::vector<std::uint32_t> idx;
+    thread_local std::vector<double> d2;
+    const auto hit = reg_surface.closest(target_rest.row(v).transpose(), tgt_vn.row(v).transpose(),
+                                         0.0, 16, idx, d2);
+    if (hit.triangle >= 0)
+      vote[static_cast<std::size_t>(v)] = scomp.label[template_faces(hit.triangle, 0)];
+  });
+  std::vector<std::map<int, int>> votes(static_cast<std::size_t>(tcomp.count));
+  std::vector<int> total(static_cast<std::size_t>(tcomp.count), 0);
+  for (int v = 0; v < nt; ++v) {
+    if (vote[static_cast<std::size_t>(v)] < 0) continue;
+    const int tc = tcomp.label[static_cast<std::size_t>(v)];
+    ++votes[static_cast<std::size_t>(tc)][vote[static_cast<std::size_t>(v)]];
+    ++total[static_cast<std::size_t>(tc)];
+  }
+  // allowed[tc * scomp.count + sc]: template component sc may pair with target component tc.
+  std::vector<char> allowed(
+      static_cast<std::size_t>(tcomp.count) * static_cast<std::size_t>(scomp.count), 0);
+  for (int tc = 0; tc < tcomp.count; ++tc) {
+    for (const auto& [sc, n] : votes[static_cast<std::size_t>(tc)]) {
+      if (n >= 0.1 * total[static_cast<std::size_t>(tc)])
+        allowed[static_cast<std::size_t>(tc * scomp.count + sc)] = 1;
+    }
+  }
+  if (std::getenv("FACECAST_DEBUG_CORRESPONDENCE")) {
+    for (int tc = 0; tc < tcomp.count; ++tc) {
+      std::fprintf(stderr, "target component %d (%d votes):", tc,
+                   total[static_cast<std::size_t>(tc)]);
+      for (const auto& [sc, n] : votes[static_cast<std::size_t>(tc)])
+        std::fprintf(stderr, " %d:%d", sc, n);
+      std::fprintf(stderr, "\n");
+    }
+  }
+  std::vector<char> template_paired(static_cast<std::size_t>(scomp.count), 0);
+  for (int tc = 0; tc < tcomp.count; ++tc) {
+    for (int sc = 0; sc < scomp.count; ++sc) {
+      if (allowed[static_cast<std::size_t>(tc * scomp.count + sc)])
+        template_paired[static_cast<std::size_t>(sc)] = 1;
+    }
+  }
+  auto pairs_with = [&](int tc, int sc) {
+    return tc >= 0 && sc >= 0 && allowed[static_cast<std::size_t>(tc * scomp.count + sc)];
+  };
+
+  // 4. Triangle correspondence in both directions, and where each target vertex sits.
   const Points tgt_cent = centroids(target_rest, target_faces);
   const Points tgt_norm = face_normals(target_rest, target_faces);
   c.map.sources.assign(static_cast<std::size_t>(target_faces.rows()), {});
   parallel_for(static_cast<int>(target_faces.rows()), [&](int t) {
     thread_local std::vector<std::uint32_t> idx;
     thread_local std::vector<double> d2;
+    const int tc = tcomp.label[target_faces(t, 0)];
+    auto accept = [&](int s) { return pairs_with(tc, scomp.label[template_faces(s, 0)]); };
     auto hit = reg_surface.closest(tgt_cent.row(t).transpose(), tgt_norm.row(t).transpose(), 0.0,
-                                   16, idx, d2);
-    if (hit.triangle < 0)
+                                   16, idx, d2, accept);
+    if (hit.triangle < 0) {
       hit = reg_surface.closest(tgt_cent.row(t).transpose(), Eigen::Vector3d::Zero(), 0.0, 16, idx,
-                                d2);
+                                d2, accept);
+    }
     if (hit.triangle >= 0) c.map.sources[static_cast<std::size_t>(t)].push_back(hit.triangle);
   });
   const double pair_dist = 0.02 * diag;
@@ -393,8 +476,11 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
   parallel_for(static_cast<int>(template_faces.rows()), [&](int s) {
     thread_local std::vector<std::uint32_t> idx;
     thread_local std::vector<double> d2;
+    const int sc = scomp.label[template_faces(s, 0)];
+    if (!template_paired[static_cast<std::size_t>(sc)]) return;  // nothing on the target for it
+    auto accept = [&](int t) { return pairs_with(tcomp.label[target_faces(t, 0)], sc); };
     const auto hit = target_surface.closest(reg_cent.row(s).transpose(),
-                                            reg_norm.row(s).transpose(), 0.0, 16, idx, d2);
+                                            reg_norm.row(s).transpose(), 0.0, 16, idx, d2, accept);
     if (hit.triangle >= 0 && hit.dist < pair_dist) {
       std::lock_guard lock(back_mutex);
       back_pairs.emplace_back(hit.triangle, s);
@@ -406,15 +492,17 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
     if (std::find(v.begin(), v.end(), s) == v.end()) v.push_back(s);
   }
   c.vertex_map.resize(static_cast<std::size_t>(nt));
-  const Points tgt_vn = vertex_normals_of(target_rest, target_faces);
   parallel_for(nt, [&](int v) {
     thread_local std::vector<std::uint32_t> idx;
     thread_local std::vector<double> d2;
+    const int tc = tcomp.label[static_cast<std::size_t>(v)];
+    auto accept = [&](int s) { return pairs_with(tc, scomp.label[template_faces(s, 0)]); };
     auto hit = reg_surface.closest(target_rest.row(v).transpose(), tgt_vn.row(v).transpose(), 0.0,
-                                   16, idx, d2);
-    if (hit.triangle < 0)
+                                   16, idx, d2, accept);
+    if (hit.triangle < 0) {
       hit = reg_surface.closest(target_rest.row(v).transpose(), Eigen::Vector3d::Zero(), 0.0, 16,
-                                idx, d2);
+                                idx, d2, accept);
+    }
     SurfacePoint& sp = c.vertex_map[static_cast<std::size_t>(v)];
     if (hit.triangle >= 0) {
       sp.v = {template_faces(hit.triangle, 0), template_faces(hit.triangle, 1),

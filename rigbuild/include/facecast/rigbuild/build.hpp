@@ -42,7 +42,9 @@ struct BuildOptions {
 
 struct ComponentInfo {
   int vertices = 0;
-  std::string placement;  // "fixed", "rigid", "anchored", "free"
+  // "fixed" (never moves), "anchored" (held by its still vertices), "rigid" (the template part's
+  // rigid motion), "floating" (transferred, one vertex follows the template part's rigid motion)
+  std::string placement;
 };
 
 struct BuildTimings {

@@ -64,7 +64,10 @@ struct Correspondence {
 /// Same topology: triangle t <-> t, vertex v <-> v.
 Correspondence identity_correspondence(int vertex_count, const Faces& faces);
 
+/// `template_parts` (per template triangle, may be empty) groups the template into parts that a
+/// target component may correspond to, e.g. materials (all teeth are one part); empty: components.
 Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+                                      const std::vector<int>& template_parts,
                                       const Points& target_rest, const Faces& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
