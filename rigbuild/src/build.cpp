@@ -388,7 +388,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   // 8. Deltas; vertices the template shape leaves still stay exactly still.
   result.rig = target;
   result.rig.shapes.clear();
-  const float keep = static_cast<float>(1e-7 * diagonal(tgt_rest));
+  const double tgt_diag = diagonal(tgt_rest);
+  const float keep = static_cast<float>(1e-7 * tgt_diag);
   for (std::size_t k = 0; k < n_shapes; ++k) {
     anim::Positions d = (solved[k] - tgt_rest).cast<float>();
     for (int v = 0; v < nv; ++v) {
@@ -403,6 +404,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     for (std::size_t i = 0; i < ne; ++i) {
       const auto& ve = result.virtual_edges[i];
       const double rest = (tgt_rest.row(ve.a) - tgt_rest.row(ve.b)).norm();
+      if (rest < 1e-9 * tgt_diag) continue;  // coincident vertices: no gap to measure
       const Eigen::RowVector3f got = result.rig.positions.row(ve.a) + d.row(ve.a) -
                                      result.rig.positions.row(ve.b) - d.row(ve.b);
       const double built = 10.0 * got.cast<double>().norm() / rest;

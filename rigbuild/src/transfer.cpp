@@ -171,8 +171,10 @@ Transfer::Transfer(TransferSetup setup) : impl_(std::make_unique<Impl>()) {
 
   const auto t0 = std::chrono::steady_clock::now();
   const SpMat M = SpMat(I.At_free * I.At_free.transpose());
-  bool ok;
-  if (S.solver == SolverKind::kCholmod) {
+  bool ok = true;
+  if (I.free_n == 0) {
+    // Every vertex is prescribed: nothing to factor.
+  } else if (S.solver == SolverKind::kCholmod) {
     I.cholmod.compute(M);
     ok = I.cholmod.info() == Eigen::Success;
   } else {
@@ -247,7 +249,7 @@ std::vector<Points> Transfer::solve(const std::vector<const Gradients*>& source,
     for (auto& t : pool) t.join();
   }
 
-  const Dense x = I.solve(rhs);
+  const Dense x = I.free_n ? I.solve(rhs) : Dense(0, rhs.cols());
   std::vector<Points> out(shapes);
   for (std::size_t k = 0; k < shapes; ++k) {
     Points& P = out[k];

@@ -1,0 +1,100 @@
+// Rig building on the real ICT FaceKit (../shared/data): same topology against the identity ground
+// truth, and another topology (MakeHuman head) through its marker file.
+#include <catch2/catch.hpp>
+#include <fstream>
+
+#include "facecast/core/error.hpp"
+
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/quality.hpp"
+#include "ict_truth.hpp"
+#include "test_data.hpp"
+
+using namespace facecast;
+using namespace facecast::rigbuild;
+
+TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts follow",
+          "[rigbuild][ict][slow]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const auto truth = test::make_ict_truth(dir, 20261122);
+  BuildOptions opt;
+  const auto on = build_rig(truth.template_rig, truth.target, opt);
+  REQUIRE(on.rig.shapes.size() == 57);
+  CHECK(on.virtual_edges.size() > 300);
+  CHECK(on.virtual_edges.size() < 3000);
+  const auto errors = truth_errors(on.rig, truth.target.positions, truth.template_rig, 0, 14062);
+  REQUIRE(errors.size() == 57);
+  for (const auto& e : errors) {
+    INFO(e.shape << " mean " << e.mean << " p99% " << e.p99_percent);
+    CHECK(e.mean <= 0.07);
+    CHECK(e.p99_percent <= 1.0);
+  }
+  // Teeth (17039-21450), eyes (21451-24590) and lashes (25351-26718) follow the truth too.
+  for (auto [first, last] :
+       {std::pair{17039, 21451}, std::pair{21451, 24591}, std::pair{25351, 26719}}) {
+    for (const auto& e :
+         truth_errors(on.rig, truth.target.positions, truth.template_rig, first, last)) {
+      INFO(e.shape << " part " << first << " mean " << e.mean);
+      CHECK(e.mean <= 0.1);
+    }
+  }
+  const int jaw = on.rig.find_shape("jawOpen");
+  REQUIRE(jaw >= 0);
+  // The lower teeth move with jawOpen.
+  const anim::Positions d =
+      on.rig.shapes[static_cast<std::size_t>(jaw)].dense(on.rig.vertex_count());
+  CHECK(d.middleRows(19247, 2204).rowwise().norm().maxCoeff() > 0.5f);
+
+  // Without virtual edges the gaps they span follow the template less well.
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto off = build_rig(truth.template_rig, truth.target, opt);
+  double gap_on = 0, gap_off = 0;
+  for (std::size_t k = 0; k < 57; ++k) {
+    gap_on += on.quality[k].gap_change;
+    gap_off += off.quality[k].gap_change;
+  }
+  CHECK(gap_on < gap_off);
+}
+
+TEST_CASE("MakeHuman head builds from its marker file; jawOpen opens, eyeBlink moves the lids",
+          "[rigbuild][makehuman][slow]") {
+  const auto dir = test::ict_dir();
+  const auto mh = test::shared_data() / "makehuman/head.obj";
+  const auto markers = test::shared_data() / "markers/makehuman_head_to_ict.json";
+  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh)) return;
+  const anim::Rig tmpl =
+      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const anim::Rig target = anim::read_obj(mh);
+  BuildOptions opt;
+  opt.markers = markers;
+  opt.correspondence = test::scratch_dir() / "mh.correspondence";
+  const auto r = build_rig(tmpl, target, opt);
+  CHECK(r.timings.correspondence <= 10.0);
+  REQUIRE(r.rig.shapes.size() == 57);
+  REQUIRE(std::filesystem::exists(opt.correspondence));
+  // The cached correspondence is reused.
+  const auto again = build_rig(tmpl, target, opt);
+  CHECK(again.timings.correspondence < 0.5);
+  auto max_move = [&](const char* name) {
+    return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
+  };
+  CHECK(max_move("jawOpen") > 0.3f);  // decimetres: the chin drops
+  CHECK(max_move("eyeBlink_L") > 0.1f);
+}
+
+TEST_CASE("markers out of range are rejected naming the pair", "[rigbuild][errors]") {
+  const auto path = test::scratch_dir() / "bad_markers.json";
+  std::ofstream(path)
+      << R"({"index_base": 0, "pairs": [{"name": "nose_tip", "template": 4857, "target": 99999}]})";
+  try {
+    read_markers(path, 26719, 5067);
+    FAIL("accepted");
+  } catch (const Error& e) {
+    CHECK(std::string(e.what()).find(
+              "pairs[0] (nose_tip): target vertex 99999 out of range (5067 vertices)") !=
+          std::string::npos);
+  }
+}

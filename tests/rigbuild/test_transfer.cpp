@@ -1,0 +1,167 @@
+// Deformation transfer and virtual edges on small synthetic meshes (no shared data needed).
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "facecast/core/error.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/virtual_edges.hpp"
+
+using namespace facecast;
+using namespace facecast::rigbuild;
+
+namespace {
+
+// A closed box-like surface: two parallel n x n grids (a "double layer" like lips) joined at
+// their rims, so the layers are close in space (gap) but far apart along the surface.
+anim::Rig double_layer(int n, float gap) {
+  anim::Rig r;
+  const int per = n * n;
+  r.positions.resize(2 * per, 3);
+  for (int layer = 0; layer < 2; ++layer) {
+    for (int y = 0; y < n; ++y) {
+      for (int x = 0; x < n; ++x) {
+        r.positions.row(layer * per + y * n + x) << float(x), float(y), layer ? -gap : 0.0f;
+      }
+    }
+  }
+  std::vector<Eigen::Vector3i> tris;
+  for (int layer = 0; layer < 2; ++layer) {
+    for (int y = 0; y + 1 < n; ++y) {
+      for (int x = 0; x + 1 < n; ++x) {
+        const int a = layer * per + y * n + x;
+        if (layer == 0) {
+          tris.emplace_back(a, a + 1, a + n + 1);
+          tris.emplace_back(a, a + n + 1, a + n);
+        } else {
+          tris.emplace_back(a, a + n + 1, a + 1);
+          tris.emplace_back(a, a + n, a + n + 1);
+        }
+      }
+    }
+  }
+  // Join the rims of the two layers with a strip along the left edge (x = 0) only, so the layers
+  // form one component whose far sides are a long way apart along the surface.
+  for (int y = 0; y + 1 < n; ++y) {
+    const int a = y * n, b = (y + 1) * n, c = per + y * n, d = per + (y + 1) * n;
+    tris.emplace_back(a, c, d);
+    tris.emplace_back(a, d, b);
+  }
+  r.triangles.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (std::size_t i = 0; i < tris.size(); ++i)
+    r.triangles.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
+  r.triangle_material.assign(tris.size(), 0);
+  r.materials.push_back({"skin", {1, 1, 1, 1}});
+  r.normals = anim::vertex_normals(r.positions, r.triangles);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("identity deformation gives back the target", "[rigbuild][transfer]") {
+  anim::Rig tmpl = double_layer(8, 0.5f);
+  // One shape that moves nothing but a corner slightly, so the build has work; its gradients are
+  // the identity almost everywhere.
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  d(63, 2) = 0.3f;
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("corner", d));
+  anim::Rig target = tmpl;
+  target.shapes.clear();
+  target.positions *= 1.3f;  // another size, same topology
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto r = build_rig(tmpl, target, opt);
+  REQUIRE(r.rig.shapes.size() == 1);
+  const anim::Positions got = r.rig.shapes[0].dense(target.vertex_count());
+  // Vertices the template shape leaves still are exactly still.
+  for (int v = 0; v < target.vertex_count(); ++v) {
+    if (v != 63) CHECK(got.row(v).norm() < 0.05f);
+  }
+  CHECK(got(63, 2) > 0.2f);
+}
+
+TEST_CASE("a pure translation of a separate part moves it rigidly", "[rigbuild][transfer]") {
+  anim::Rig tmpl = double_layer(6, 0.5f);
+  // Add a separate triangle pair (a "tooth") that the template shape lifts by 0.25.
+  const int base = tmpl.vertex_count();
+  tmpl.positions.conservativeResize(base + 4, 3);
+  tmpl.positions.bottomRows(4) << 2, 2, 3, 3, 2, 3, 3, 3, 3, 2, 3, 3;
+  tmpl.triangles.conservativeResize(tmpl.triangle_count() + 2, 3);
+  tmpl.triangles.bottomRows(2) << base, base + 1, base + 2, base, base + 2, base + 3;
+  tmpl.triangle_material.push_back(0);
+  tmpl.triangle_material.push_back(0);
+  tmpl.normals = anim::vertex_normals(tmpl.positions, tmpl.triangles);
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  for (int k = 0; k < 4; ++k) d(base + k, 1) = 0.25f;
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("lift", d));
+  anim::Rig target = tmpl;
+  target.shapes.clear();
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto r = build_rig(tmpl, target, opt);
+  const anim::Positions got = r.rig.shapes[0].dense(target.vertex_count());
+  for (int k = 0; k < 4; ++k) CHECK(std::abs(got(base + k, 1) - 0.25f) < 1e-4f);
+  CHECK(got.topRows(base).norm() == 0.0f);
+  REQUIRE(r.components.size() == 2);
+  CHECK(r.components[1].placement == "rigid");
+}
+
+TEST_CASE("virtual edges span the gap of a double layer and nothing else",
+          "[rigbuild][virtual_edges]") {
+  const anim::Rig r = double_layer(12, 0.4f);
+  const Points p = r.positions.cast<double>();
+  VirtualEdgeOptions opt;
+  opt.d = 0.6;
+  opt.f = 3.0;
+  VirtualEdgeStats stats;
+  const auto edges = detect_virtual_edges(p, r.triangles, opt, &stats);
+  REQUIRE(!edges.empty());
+  CHECK(stats.qualifying_pairs > 0);
+  for (const auto& e : edges) {
+    // Every edge crosses from one layer to the other, away from the joined rim at x = 0.
+    CHECK((e.a < 144) != (e.b < 144));
+    CHECK((p.row(e.a) - p.row(e.b)).norm() < 0.6);
+    CHECK(p(e.a, 0) >= 1.0);
+  }
+  // Density control: a larger spacing places fewer edges.
+  opt.spacing = 3.0;
+  CHECK(detect_virtual_edges(p, r.triangles, opt).size() < edges.size());
+  // f must be at least 2.
+  opt.f = 1.5;
+  CHECK_THROWS_AS(detect_virtual_edges(p, r.triangles, opt), Error);
+}
+
+TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild][errors]") {
+  anim::Rig tmpl = double_layer(5, 0.5f);
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  d(0, 2) = 0.1f;
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("s", d));
+  anim::Rig target = tmpl;
+  target.shapes.clear();
+  auto message = [&](const anim::Rig& t, const BuildOptions& o) {
+    try {
+      build_rig(tmpl, t, o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  BuildOptions opt;
+  anim::Rig nan_target = target;
+  nan_target.positions(3, 0) = std::nanf("");
+  CHECK(message(nan_target, opt) == "target: non-finite vertex coordinate");
+
+  anim::Rig flat = target;
+  flat.positions.row(flat.triangles(0, 1)) = flat.positions.row(flat.triangles(0, 0));
+  CHECK(message(flat, opt).find("has zero area") != std::string::npos);
+
+  anim::Rig other = double_layer(6, 0.5f);
+  CHECK(message(other, opt).find("give --markers") != std::string::npos);
+
+  anim::Rig empty = target;
+  empty.triangles.resize(0, 3);
+  empty.triangle_material.clear();
+  CHECK(message(empty, opt) == "target: mesh has no triangles");
+
+  opt.fixed = {999};
+  CHECK(message(target, opt).find("--fixed: vertex 999 out of range") != std::string::npos);
+}
