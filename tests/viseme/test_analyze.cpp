@@ -153,7 +153,7 @@ TEST_CASE("espeak-ng timing gives audio and phones that fit it", "[viseme][timin
 }
 
 // The duration model is exact; espeak-ng timings vary by a few milliseconds with the synthesizer's
-// history (its intonation state), so TTS results are compared by content and times within 20 ms.
+// history (its intonation state), so TTS results are compared by content and times within 50 ms.
 TEST_CASE("concurrent utterances give the same results as one at a time", "[viseme][threads]") {
   const std::vector<std::string> texts = {"银行行长来了。", "Hello world, this is Facecast.",
                                           "(joy,10,0.1)我们用iPhone打电话。",
@@ -178,9 +178,9 @@ TEST_CASE("concurrent utterances give the same results as one at a time", "[vise
     REQUIRE(speech.visemes.size() == s.visemes.size());
     for (std::size_t k = 0; k < s.visemes.size(); ++k) {
       CHECK(speech.visemes[k].viseme == s.visemes[k].viseme);
-      CHECK(speech.visemes[k].start == Approx(s.visemes[k].start).margin(0.02));
+      CHECK(speech.visemes[k].start == Approx(s.visemes[k].start).margin(0.05));
     }
-    CHECK(speech.duration == Approx(s.duration).margin(0.02));
+    CHECK(speech.duration == Approx(s.duration).margin(0.05));
   }
 }
 

@@ -25,6 +25,12 @@ struct Token {
   Lang lang = Lang::kZh;
 };
 
+bool contains_han(std::string_view text) {
+  for (std::size_t pos = 0; pos < text.size();)
+    if (is_han(next_code_point(text, pos))) return true;
+  return false;
+}
+
 bool is_currency(char32_t c) {
   return c == '$' || c == U'¥' || c == U'￥' || c == U'€' || c == U'£';
 }
@@ -313,13 +319,7 @@ Plan make_plan(std::string_view text, const Options& options) {
     throw Error("rate must be between 0.1 and 100 syllables per second");
   const std::vector<TextPiece> pieces = parse_text(text);
   const bool has_han = std::any_of(pieces.begin(), pieces.end(), [](const TextPiece& p) {
-    return p.kind == TextPiece::Kind::kText &&
-           std::any_of(p.text.begin(), p.text.end(), [](char c) { return (c & 0x80) != 0; }) &&
-           [&] {
-             for (char32_t c : to_u32(p.text))
-               if (is_han(c)) return true;
-             return false;
-           }();
+    return p.kind == TextPiece::Kind::kText && contains_han(p.text);
   });
   Plan plan;
   Builder b(plan, options);
