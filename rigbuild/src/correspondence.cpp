@@ -307,11 +307,15 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
   Points bI(row_i, 3);
   for (int r = 0; r < row_i; ++r) bI.row(r) = rest_edge[static_cast<std::size_t>(r)];
   const Points bS = AS * x0;  // Laplacian of the rest shape: the displacement's Laplacian is 0
+  // A weak pull towards the aligned template keeps parts with no counterpart on the target (the
+  // eyeballs and teeth of the template over a face mask) where the similarity put them.
+  SpMat eye(ns, ns);
+  eye.setIdentity();
   const SpMat Q = (options.identity * SpMat(AI.transpose() * AI) +
-                   options.smoothness * SpMat(AS.transpose() * AS))
+                   options.smoothness * SpMat(AS.transpose() * AS) + options.rest_pull * eye)
                       .eval();
-  const Points q_rhs =
-      options.identity * (AI.transpose() * bI) + options.smoothness * (AS.transpose() * bS);
+  const Points q_rhs = options.identity * (AI.transpose() * bI) +
+                       options.smoothness * (AS.transpose() * bS) + options.rest_pull * x0;
 
   // Split into free / marker columns once.
   std::vector<Eigen::Triplet<double>> qff, qfd;

@@ -43,6 +43,7 @@ struct RegistrationOptions {
   int iterations_per_step = 3;
   double smoothness = 1.0;    // w_S
   double identity = 0.01;     // w_I
+  double rest_pull = 1e-4;    // pull towards the similarity-aligned template (keeps it regular)
   double max_distance = 0.1;  // closest points farther than this * target diagonal are invalid
 };
 
