@@ -1,0 +1,146 @@
+// Images through OpenImageIO, encoded in memory (IOVecOutput) so that files are written atomically
+// and JPEG frames can be streamed.
+#include "facecast/render/image.hpp"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+
+namespace facecast::render {
+namespace {
+
+namespace OIIO = OIIO_NAMESPACE;
+
+void check_image(const Image& image, std::string_view what) {
+  if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
+      image.pixels.size() != static_cast<std::size_t>(image.width) * image.height * image.channels)
+    throw Error(std::string(what) + ": image has inconsistent size");
+}
+
+// Encodes with the OpenImageIO writer for `format_name` (a file name whose extension selects it).
+std::string encode(const Image& image, const std::string& format_name, int quality,
+                   bool linear_half) {
+  check_image(image, format_name);
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create(format_name);
+  if (!out)
+    throw Error("no image writer for " + format_name + ": " + OIIO::geterror(),
+                ErrorCode::kUnsupported);
+  if (!out->supports("ioproxy"))
+    throw Error("the " + std::string(out->format_name()) + " writer cannot write to memory",
+                ErrorCode::kUnsupported);
+  OIIO::ImageSpec spec(image.width, image.height, image.channels,
+                       linear_half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
+  if (quality > 0)
+    spec.attribute("Compression", "jpeg:" + std::to_string(std::clamp(quality, 1, 100)));
+  if (!out->set_ioproxy(&proxy) || !out->open(format_name, spec))
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  bool ok = false;
+  if (linear_half) {
+    std::vector<float> lin(image.pixels.size());
+    for (std::size_t i = 0; i < lin.size(); ++i) {
+      const float c = image.pixels[i] / 255.0f;
+      lin[i] = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+    }
+    ok = out->write_image(OIIO::TypeDesc::FLOAT, lin.data());
+  } else {
+    ok = out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data());
+  }
+  if (!ok || !out->close())
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+}  // namespace
+
+std::string encode_jpeg(const Image& image, int quality) {
+  if (image.channels == 4) {  // JPEG has no alpha
+    Image rgb{image.width, image.height, 3, {}};
+    rgb.pixels.reserve(static_cast<std::size_t>(image.width) * image.height * 3);
+    for (std::size_t i = 0; i < image.pixels.size(); i += 4)
+      rgb.pixels.insert(rgb.pixels.end(), image.pixels.begin() + static_cast<std::ptrdiff_t>(i),
+                        image.pixels.begin() + static_cast<std::ptrdiff_t>(i + 3));
+    return encode(rgb, "frame.jpg", quality, false);
+  }
+  return encode(image, "frame.jpg", quality, false);
+}
+
+std::string encode_png(const Image& image) {
+  return encode(image, "frame.png", 0, false);
+}
+
+void write_image(const std::filesystem::path& path, const Image& image, int jpeg_quality) {
+  const std::string ext = lower_extension(path);
+  std::string bytes;
+  if (ext == ".png") {
+    bytes = encode_png(image);
+  } else if (ext == ".jpg" || ext == ".jpeg") {
+    bytes = encode_jpeg(image, jpeg_quality);
+  } else if (ext == ".exr") {
+    bytes = encode(image, "frame.exr", 0, true);
+  } else {
+    throw Error(
+        path.string() + ": unsupported image extension '" + ext + "' (use .png, .jpg or .exr)",
+        ErrorCode::kUnsupported);
+  }
+  write_file_atomic(path, bytes);
+}
+
+Image read_image(const std::filesystem::path& path) {
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in)
+    throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
+  const OIIO::ImageSpec& spec = in->spec();
+  std::vector<std::uint8_t> raw(static_cast<std::size_t>(spec.width) * spec.height *
+                                spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data()))
+    throw Error(path.string() + ": " + in->geterror());
+  Image img{spec.width, spec.height, 3, {}};
+  img.pixels.resize(static_cast<std::size_t>(spec.width) * spec.height * 3);
+  for (std::size_t p = 0; p < static_cast<std::size_t>(spec.width) * spec.height; ++p)
+    for (int c = 0; c < 3; ++c)
+      img.pixels[p * 3 + c] = raw[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  return img;
+}
+
+ImageDifference compare_images(const Image& a, const Image& b, int threshold) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+    throw Error("compare_images: sizes differ (" + std::to_string(a.width) + "x" +
+                std::to_string(a.height) + " vs " + std::to_string(b.width) + "x" +
+                std::to_string(b.height) + ")");
+  ImageDifference d;
+  std::size_t over = 0;
+  double sum = 0;
+  const std::size_t n = static_cast<std::size_t>(a.width) * a.height;
+  for (std::size_t p = 0; p < n; ++p) {
+    int worst = 0;
+    for (int c = 0; c < a.channels; ++c) {
+      const int diff =
+          std::abs(int(a.pixels[p * a.channels + c]) - int(b.pixels[p * a.channels + c]));
+      sum += diff;
+      worst = std::max(worst, diff);
+    }
+    d.max_abs = std::max(d.max_abs, worst);
+    if (worst > threshold) ++over;
+  }
+  d.mean_abs = sum / static_cast<double>(n * a.channels);
+  d.fraction_over = static_cast<double>(over) / static_cast<double>(n);
+  return d;
+}
+
+}  // namespace facecast::render

@@ -1,0 +1,579 @@
+// The renderer: rig data packed once on the CPU, uploaded once per pooled GL context, blended in
+// the vertex shader from the per-frame weights.
+#include "facecast/render/renderer.hpp"
+
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <mutex>
+#include <numeric>
+#include <sstream>
+
+#include "egl.hpp"
+#include "facecast/core/error.hpp"
+
+namespace facecast::render {
+namespace {
+
+constexpr int kMaxShapes = 256;
+constexpr int kDeltaWidth =
+    4096;  // texels per row of the delta texture (even: pairs stay on a row)
+
+const char* kVertexShader = R"(#version 330 core
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec3 a_nrm;
+layout(location = 2) in ivec2 a_morph;  // first entry, entry count
+uniform sampler2D u_deltas;             // 2 texels per entry: (dpos, shape), (dnrm, 0)
+uniform float u_weights[256];
+uniform mat4 u_mvp;
+out vec3 v_pos;
+out vec3 v_nrm;
+void main() {
+  vec3 p = a_pos;
+  vec3 n = a_nrm;
+  for (int i = 0; i < a_morph.y; ++i) {
+    int e = (a_morph.x + i) * 2;
+    ivec2 at = ivec2(e % 4096, e / 4096);
+    vec4 d = texelFetch(u_deltas, at, 0);
+    float w = u_weights[int(d.w)];
+    if (w != 0.0) {
+      p += w * d.xyz;
+      n += w * texelFetch(u_deltas, at + ivec2(1, 0), 0).xyz;
+    }
+  }
+  v_pos = p;
+  v_nrm = n;
+  gl_Position = u_mvp * vec4(p, 1.0);
+}
+)";
+
+const char* kFragmentShader = R"(#version 330 core
+in vec3 v_pos;
+in vec3 v_nrm;
+uniform vec3 u_color;  // linear
+uniform vec3 u_eye;
+out vec4 frag;
+vec3 to_srgb(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
+void main() {
+  vec3 n = normalize(v_nrm);
+  vec3 v = normalize(u_eye - v_pos);
+  if (dot(n, v) < 0.0) n = -n;  // two-sided: open sheets and inner surfaces
+  vec3 key = normalize(vec3(-0.45, 0.55, 0.75));
+  vec3 fill = normalize(vec3(0.6, 0.1, 0.8));
+  vec3 rim = normalize(vec3(0.0, 0.4, -1.0));
+  float wrap = 0.25;  // soft wrap lighting, kinder to skin
+  float kd = max((dot(n, key) + wrap) / (1.0 + wrap), 0.0);
+  float fd = max(dot(n, fill), 0.0);
+  float rd = pow(max(dot(n, rim), 0.0), 2.0);
+  vec3 h = normalize(key + v);
+  float spec = pow(max(dot(n, h), 0.0), 40.0) * 0.12;
+  float hemi = 0.5 + 0.5 * n.y;
+  vec3 c = u_color * (0.22 + 0.1 * hemi + 0.78 * kd + 0.25 * fd + 0.2 * rd) + vec3(spec);
+  frag = vec4(to_srgb(c), 1.0);
+}
+)";
+
+void check_gl(const char* call) {
+  const GLenum e = glGetError();
+  if (e != GL_NO_ERROR) {
+    std::ostringstream s;
+    s << call << " failed: GL error 0x" << std::hex << e;
+    throw Error(s.str(), ErrorCode::kInternal);
+  }
+}
+
+GLuint compile(GLenum type, const char* source, const char* what) {
+  const GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &source, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048] = {};
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    for (char& c : log) c = c == '\n' ? ' ' : c;
+    throw Error(std::string("glCompileShader (") + what + ") failed: " + log, ErrorCode::kInternal);
+  }
+  return s;
+}
+
+Eigen::Matrix4f perspective(float fov_y_rad, float aspect, float n, float f) {
+  const float t = 1.0f / std::tan(0.5f * fov_y_rad);
+  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
+  m(0, 0) = t / aspect;
+  m(1, 1) = t;
+  m(2, 2) = (f + n) / (n - f);
+  m(2, 3) = 2 * f * n / (n - f);
+  m(3, 2) = -1;
+  return m;
+}
+
+Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target,
+                        const Eigen::Vector3f& up) {
+  const Eigen::Vector3f f = (target - eye).normalized();
+  const Eigen::Vector3f s = f.cross(up).normalized();
+  const Eigen::Vector3f u = s.cross(f);
+  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
+  m.block<1, 3>(0, 0) = s.transpose();
+  m.block<1, 3>(1, 0) = u.transpose();
+  m.block<1, 3>(2, 0) = -f.transpose();
+  m(0, 3) = -s.dot(eye);
+  m(1, 3) = -u.dot(eye);
+  m(2, 3) = f.dot(eye);
+  return m;
+}
+
+// The rig packed for the GPU, shared read-only by every context.
+struct Packed {
+  std::vector<float> positions, normals;  // #V * 3
+  std::vector<GLint> morph;               // #V * 2: first entry, count
+  std::vector<float> deltas;              // kDeltaWidth * rows * 4
+  int delta_rows = 0;
+  std::vector<GLuint> indices;  // triangles sorted by material
+  struct Range {
+    std::size_t first = 0, count = 0;
+    Eigen::Vector3f color;
+  };
+  std::vector<Range> ranges;
+  int shape_count = 0;
+};
+
+Packed pack(const anim::Rig& rig) {
+  rig.validate("render rig");
+  if (rig.shapes.size() > static_cast<std::size_t>(kMaxShapes))
+    throw Error("renderer: " + std::to_string(rig.shapes.size()) + " shapes, at most " +
+                    std::to_string(kMaxShapes) + " are supported",
+                ErrorCode::kUnsupported);
+  Packed p;
+  const int nv = rig.vertex_count();
+  p.shape_count = static_cast<int>(rig.shapes.size());
+  p.positions.assign(rig.positions.data(), rig.positions.data() + rig.positions.size());
+  p.normals.assign(rig.normals.data(), rig.normals.data() + rig.normals.size());
+
+  // Per shape: position deltas and normal deltas (shape normals minus neutral normals) wherever
+  // either is non-zero; then bucketed by vertex.
+  struct Entry {
+    int shape;
+    Eigen::Vector3f dp, dn;
+  };
+  std::vector<std::vector<Entry>> per_vertex(static_cast<std::size_t>(nv));
+  const anim::Positions base_n = anim::vertex_normals(rig.positions, rig.triangles);
+  anim::Positions moved, moved_n;
+  for (int s = 0; s < p.shape_count; ++s) {
+    const auto& sh = rig.shapes[static_cast<std::size_t>(s)];
+    moved = rig.positions;
+    for (std::size_t i = 0; i < sh.vertices.size(); ++i)
+      moved.row(sh.vertices[i]) += sh.deltas.row(static_cast<Eigen::Index>(i));
+    anim::vertex_normals(moved, rig.triangles, moved_n);
+    std::vector<char> touched(static_cast<std::size_t>(nv), 0);
+    for (int v : sh.vertices) touched[static_cast<std::size_t>(v)] = 1;
+    std::size_t k = 0;
+    for (int v = 0; v < nv; ++v) {
+      const Eigen::Vector3f dn = (moved_n.row(v) - base_n.row(v)).transpose();
+      const bool moves = touched[static_cast<std::size_t>(v)] != 0;
+      if (!moves && dn.squaredNorm() < 1e-8f) continue;
+      Eigen::Vector3f dp = Eigen::Vector3f::Zero();
+      if (moves) {
+        while (sh.vertices[k] != v) ++k;
+        dp = sh.deltas.row(static_cast<Eigen::Index>(k)).transpose();
+      }
+      per_vertex[static_cast<std::size_t>(v)].push_back({s, dp, dn});
+    }
+  }
+  p.morph.resize(static_cast<std::size_t>(nv) * 2);
+  std::size_t entries = 0;
+  for (int v = 0; v < nv; ++v) {
+    p.morph[2 * v] = static_cast<GLint>(entries);
+    p.morph[2 * v + 1] = static_cast<GLint>(per_vertex[static_cast<std::size_t>(v)].size());
+    entries += per_vertex[static_cast<std::size_t>(v)].size();
+  }
+  p.delta_rows = std::max<int>(1, static_cast<int>((entries * 2 + kDeltaWidth - 1) / kDeltaWidth));
+  p.deltas.assign(static_cast<std::size_t>(kDeltaWidth) * p.delta_rows * 4, 0.0f);
+  std::size_t e = 0;
+  for (const auto& list : per_vertex)
+    for (const auto& en : list) {
+      float* t = &p.deltas[e * 8];
+      t[0] = en.dp.x(), t[1] = en.dp.y(), t[2] = en.dp.z(), t[3] = static_cast<float>(en.shape);
+      t[4] = en.dn.x(), t[5] = en.dn.y(), t[6] = en.dn.z(), t[7] = 0;
+      ++e;
+    }
+
+  std::vector<int> order(static_cast<std::size_t>(rig.triangle_count()));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return rig.triangle_material[static_cast<std::size_t>(a)] <
+           rig.triangle_material[static_cast<std::size_t>(b)];
+  });
+  for (std::size_t i = 0; i < order.size();) {
+    const int m = rig.triangle_material[static_cast<std::size_t>(order[i])];
+    Packed::Range r;
+    r.first = p.indices.size();
+    r.color = rig.materials[static_cast<std::size_t>(m)].base_color.head<3>();
+    for (; i < order.size() && rig.triangle_material[static_cast<std::size_t>(order[i])] == m; ++i)
+      for (int c = 0; c < 3; ++c)
+        p.indices.push_back(static_cast<GLuint>(rig.triangles(order[i], c)));
+    r.count = p.indices.size() - r.first;
+    p.ranges.push_back(r);
+  }
+  return p;
+}
+
+// One pooled GL context with its own copy of the rig and its framebuffers.
+struct Slot {
+  detail::Context context;
+  GLuint program = 0, vao = 0, buffers[4] = {}, delta_tex = 0;
+  GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
+  GLint u_weights = -1, u_mvp = -1, u_color = -1, u_eye = -1, u_deltas = -1;
+  int width = 0, height = 0, samples = 0;
+  std::string renderer_name;
+
+  Slot(const Packed& p, const RenderOptions& o) {
+    context.make_current();
+    try {
+      init(p, o);
+    } catch (...) {
+      context.release();
+      throw;
+    }
+    context.release();
+  }
+
+  void init(const Packed& p, const RenderOptions& o) {
+    glGetError();
+    renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, "vertex");
+    const GLuint fs = compile(GL_FRAGMENT_SHADER, kFragmentShader, "fragment");
+    program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = 0;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) throw Error("glLinkProgram failed", ErrorCode::kInternal);
+    u_weights = glGetUniformLocation(program, "u_weights");
+    u_mvp = glGetUniformLocation(program, "u_mvp");
+    u_color = glGetUniformLocation(program, "u_color");
+    u_eye = glGetUniformLocation(program, "u_eye");
+    u_deltas = glGetUniformLocation(program, "u_deltas");
+    check_gl("glLinkProgram");
+
+    glGenVertexArrays(1, &vao);
+    glBindVertexArray(vao);
+    glGenBuffers(4, buffers);
+    const auto upload = [](GLenum target, GLuint buf, const void* data, std::size_t bytes) {
+      glBindBuffer(target, buf);
+      glBufferData(target, static_cast<GLsizeiptr>(bytes), data, GL_STATIC_DRAW);
+    };
+    upload(GL_ARRAY_BUFFER, buffers[0], p.positions.data(), p.positions.size() * sizeof(float));
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(0);
+    upload(GL_ARRAY_BUFFER, buffers[1], p.normals.data(), p.normals.size() * sizeof(float));
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(1);
+    upload(GL_ARRAY_BUFFER, buffers[2], p.morph.data(), p.morph.size() * sizeof(GLint));
+    glVertexAttribIPointer(2, 2, GL_INT, 0, nullptr);
+    glEnableVertexAttribArray(2);
+    upload(GL_ELEMENT_ARRAY_BUFFER, buffers[3], p.indices.data(),
+           p.indices.size() * sizeof(GLuint));
+    check_gl("glBufferData (mesh)");
+
+    glGenTextures(1, &delta_tex);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, delta_tex);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kDeltaWidth, p.delta_rows, 0, GL_RGBA, GL_FLOAT,
+                 p.deltas.data());
+    check_gl("glTexImage2D (morph deltas)");
+
+    width = o.width;
+    height = o.height;
+    samples = o.msaa > 1 ? o.msaa : 0;
+    GLint max_samples = 0;
+    glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    samples = std::min(samples, static_cast<int>(max_samples));
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glGenRenderbuffers(1, &color_rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, color_rb);
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_rb);
+    glGenRenderbuffers(1, &depth_rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, depth_rb);
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_DEPTH_COMPONENT24, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_rb);
+    check_gl("glRenderbufferStorageMultisample");
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error("glCheckFramebufferStatus: framebuffer incomplete", ErrorCode::kInternal);
+    if (samples) {
+      glGenFramebuffers(1, &resolve_fbo);
+      glBindFramebuffer(GL_FRAMEBUFFER, resolve_fbo);
+      glGenRenderbuffers(1, &resolve_rb);
+      glBindRenderbuffer(GL_RENDERBUFFER, resolve_rb);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, resolve_rb);
+      if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        throw Error("glCheckFramebufferStatus: resolve framebuffer incomplete",
+                    ErrorCode::kInternal);
+    }
+    check_gl("framebuffer setup");
+  }
+
+  void draw(const Packed& p, const RenderOptions& o, const Camera& cam,
+            std::span<const float> weights, Image& out) {
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glViewport(0, 0, width, height);
+    const auto lin = [](float c) {
+      return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+    };
+    (void)lin;
+    glClearColor(o.background.x(), o.background.y(), o.background.z(), 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glUseProgram(program);
+    glUniform1i(u_deltas, 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, delta_tex);
+    float w[kMaxShapes] = {};
+    std::copy(weights.begin(), weights.end(), w);
+    glUniform1fv(u_weights, kMaxShapes, w);
+    const float aspect = static_cast<float>(width) / static_cast<float>(height);
+    const Eigen::Matrix4f mvp =
+        perspective(cam.fov_y_deg * 3.14159265f / 180.0f, aspect, cam.near_plane, cam.far_plane) *
+        look_at(cam.eye, cam.target, cam.up);
+    glUniformMatrix4fv(u_mvp, 1, GL_FALSE, mvp.data());
+    glUniform3fv(u_eye, 1, cam.eye.data());
+    glBindVertexArray(vao);
+    for (const auto& r : p.ranges) {
+      glUniform3fv(u_color, 1, r.color.data());
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(r.count), GL_UNSIGNED_INT,
+                     reinterpret_cast<const void*>(r.first * sizeof(GLuint)));
+    }
+    check_gl("glDrawElements");
+    if (samples) {
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+      glBindFramebuffer(GL_DRAW_FRAMEBUFFER, resolve_fbo);
+      glBlitFramebuffer(0, 0, width, height, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, resolve_fbo);
+      check_gl("glBlitFramebuffer (MSAA resolve)");
+    }
+    out.width = width;
+    out.height = height;
+    out.channels = 3;
+    out.pixels.resize(static_cast<std::size_t>(width) * height * 3);
+    std::vector<std::uint8_t> flipped(out.pixels.size());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, flipped.data());
+    check_gl("glReadPixels");
+    const std::size_t row = static_cast<std::size_t>(width) * 3;
+    for (int y = 0; y < height; ++y)
+      std::memcpy(&out.pixels[static_cast<std::size_t>(y) * row],
+                  &flipped[static_cast<std::size_t>(height - 1 - y) * row], row);
+  }
+
+  ~Slot() {
+    try {
+      context.make_current();
+      glDeleteTextures(1, &delta_tex);
+      glDeleteBuffers(4, buffers);
+      glDeleteVertexArrays(1, &vao);
+      glDeleteRenderbuffers(1, &color_rb);
+      glDeleteRenderbuffers(1, &depth_rb);
+      glDeleteFramebuffers(1, &fbo);
+      if (resolve_fbo) {
+        glDeleteRenderbuffers(1, &resolve_rb);
+        glDeleteFramebuffers(1, &resolve_fbo);
+      }
+      glDeleteProgram(program);
+      context.release();
+    } catch (...) {
+    }
+  }
+};
+
+}  // namespace
+
+Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& options) {
+  const auto comps = anim::connected_components(rig.vertex_count(), rig.triangles);
+  std::vector<int> size(static_cast<std::size_t>(std::max(comps.count, 1)), 0);
+  for (int l : comps.label)
+    if (l >= 0) ++size[static_cast<std::size_t>(l)];
+  const int skin = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+  for (int v = 0; v < rig.vertex_count(); ++v) {
+    if (comps.label[static_cast<std::size_t>(v)] != skin) continue;
+    lo = lo.cwiseMin(rig.positions.row(v).transpose());
+    hi = hi.cwiseMax(rig.positions.row(v).transpose());
+  }
+  // The front half of the skin.
+  const float mid_z = 0.5f * (lo.z() + hi.z());
+  Eigen::Vector3f flo = Eigen::Vector3f::Constant(1e30f), fhi = -flo;
+  for (int v = 0; v < rig.vertex_count(); ++v) {
+    if (comps.label[static_cast<std::size_t>(v)] != skin || rig.positions(v, 2) < mid_z) continue;
+    flo = flo.cwiseMin(rig.positions.row(v).transpose());
+    fhi = fhi.cwiseMax(rig.positions.row(v).transpose());
+  }
+  Camera c;
+  c.fov_y_deg = options.fov_y_deg;
+  const Eigen::Vector3f centre = 0.5f * (flo + fhi);
+  const float t = std::tan(0.5f * options.fov_y_deg * 3.14159265f / 180.0f);
+  const float h = (fhi.y() - flo.y()) * options.margin, w = (fhi.x() - flo.x()) * options.margin;
+  const float dist = std::max(0.5f * h / t, 0.5f * w / (t * aspect));
+  c.target = centre;
+  c.eye = Eigen::Vector3f(centre.x(), centre.y(), fhi.z() + dist);
+  const float depth = hi.z() - lo.z();
+  c.near_plane = std::max(0.01f, 0.2f * dist);
+  c.far_plane = fhi.z() + dist - lo.z() + depth;
+  return c;
+}
+
+struct Renderer::Impl {
+  RenderOptions options;
+  Packed packed;
+  Camera camera;
+  mutable std::mutex mutex;
+  mutable std::condition_variable freed;
+  mutable std::vector<std::unique_ptr<Slot>> slots;
+  mutable std::vector<Slot*> idle;
+
+  Slot* acquire() const {
+    std::unique_lock lock(mutex);
+    for (;;) {
+      if (!idle.empty()) {
+        Slot* s = idle.back();
+        idle.pop_back();
+        return s;
+      }
+      if (static_cast<int>(slots.size()) < std::max(1, options.contexts)) {
+        slots.push_back(nullptr);  // reserve the place while creating outside the lock
+        const std::size_t at = slots.size() - 1;
+        lock.unlock();
+        std::unique_ptr<Slot> made;
+        try {
+          made = std::make_unique<Slot>(packed, options);
+        } catch (...) {
+          lock.lock();
+          slots.erase(slots.begin() + static_cast<std::ptrdiff_t>(at));
+          freed.notify_one();
+          throw;
+        }
+        lock.lock();
+        slots[at] = std::move(made);
+        return slots[at].get();
+      }
+      freed.wait(lock);
+    }
+  }
+  void release(Slot* s) const {
+    std::lock_guard lock(mutex);
+    idle.push_back(s);
+    freed.notify_one();
+  }
+};
+
+Renderer::Renderer(const anim::Rig& rig, RenderOptions options) : impl_(std::make_unique<Impl>()) {
+  if (options.width < 1 || options.height < 1 || options.width > 8192 || options.height > 8192)
+    throw Error("renderer: image size " + std::to_string(options.width) + "x" +
+                std::to_string(options.height) + " is out of range (1..8192)");
+  impl_->options = options;
+  impl_->packed = pack(rig);
+  impl_->camera = frame_face(
+      rig, static_cast<float>(options.width) / static_cast<float>(options.height), options);
+}
+
+Renderer::~Renderer() = default;
+
+const RenderOptions& Renderer::options() const {
+  return impl_->options;
+}
+const Camera& Renderer::camera() const {
+  return impl_->camera;
+}
+void Renderer::set_camera(const Camera& camera) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->camera = camera;
+}
+
+Image Renderer::render(std::span<const float> weights) const {
+  if (static_cast<int>(weights.size()) != impl_->packed.shape_count)
+    throw Error("render: " + std::to_string(weights.size()) + " weights for a rig with " +
+                std::to_string(impl_->packed.shape_count) + " shapes");
+  Camera cam;
+  {
+    std::lock_guard lock(impl_->mutex);
+    cam = impl_->camera;
+  }
+  Slot* slot = impl_->acquire();
+  Image image;
+  try {
+    slot->context.make_current();
+    slot->draw(impl_->packed, impl_->options, cam, weights, image);
+    slot->context.release();
+  } catch (...) {
+    slot->context.release();
+    impl_->release(slot);
+    throw;
+  }
+  impl_->release(slot);
+  return image;
+}
+
+std::string Renderer::backend() const {
+  Slot* slot = impl_->acquire();
+  const std::string name = slot->renderer_name;
+  impl_->release(slot);
+  return "EGL " + detail::display().platform + " platform, " + name;
+}
+
+std::vector<std::pair<std::string, float>> parse_weight_list(std::string_view text) {
+  std::vector<std::pair<std::string, float>> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', pos), text.size());
+    std::string item(text.substr(pos, comma - pos));
+    pos = comma + 1;
+    const auto trim = [](std::string s) {
+      const auto b = s.find_first_not_of(" \t"), e = s.find_last_not_of(" \t");
+      return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+    };
+    item = trim(item);
+    if (item.empty()) {
+      if (comma == text.size()) break;
+      continue;
+    }
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos) throw Error("weights: '" + item + "' is not name=value");
+    const std::string name = trim(item.substr(0, eq)), value = trim(item.substr(eq + 1));
+    char* end = nullptr;
+    const float v = std::strtof(value.c_str(), &end);
+    if (name.empty() || value.empty() || *end != '\0' || !std::isfinite(v))
+      throw Error("weights: '" + item + "' is not name=value with a number");
+    out.emplace_back(name, v);
+  }
+  return out;
+}
+
+std::vector<float> weights_for(const anim::Rig& rig,
+                               const std::vector<std::pair<std::string, float>>& named) {
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  for (const auto& [name, value] : named) {
+    const int s = rig.find_shape(name);
+    if (s < 0)
+      throw Error("weights: the rig has no shape named '" + name + "'", ErrorCode::kNotFound);
+    w[static_cast<std::size_t>(s)] = value;
+  }
+  return w;
+}
+
+}  // namespace facecast::render
