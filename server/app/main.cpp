@@ -11,6 +11,8 @@ int main(int argc, char** argv) {
   app.fallthrough(false);
   facecast::cli::add_rig_commands(app);
   facecast::cli::add_viseme_commands(app);
+  facecast::cli::add_avatar_commands(app);
+  facecast::cli::add_render_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
