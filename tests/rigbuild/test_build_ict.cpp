@@ -59,7 +59,7 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
   CHECK(gap_on < gap_off);
 }
 
-TEST_CASE("MakeHuman head builds from its marker file; jawOpen opens, eyeBlink moves the lids",
+TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlink moves the lids",
           "[rigbuild][makehuman][slow]") {
   const auto dir = test::ict_dir();
   const auto mh = test::shared_data() / "makehuman/head.obj";
