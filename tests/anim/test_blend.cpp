@@ -36,7 +36,7 @@ Rig grid_rig(int n) {
 }
 }  // namespace
 
-TEST_CASE("zero weights give the neutral; weight 1 gives the shape", "[anim][blend]") {
+TEST_CASE("zero weights give the neutral and weight 1 gives the shape", "[anim][blend]") {
   const Rig r = grid_rig(6);
   Blender b(r);
   Positions p, n;
