@@ -163,15 +163,11 @@ struct Builder {
     mat.push_back(m);
     group.push_back(g);
   }
-  // Quad a-b-c-d (in order around it), split along the shorter diagonal.
+  // Quad a-b-c-d (in order around it), split along a-c: the split never depends on positions, so
+  // every parameter set gives the same triangles.
   void quad(int a, int b, int c, int d, int m, int g) {
-    if ((pos[a] - pos[c]).squaredNorm() <= (pos[b] - pos[d]).squaredNorm()) {
-      tri(a, b, c, m, g);
-      tri(a, c, d, m, g);
-    } else {
-      tri(a, b, d, m, g);
-      tri(b, c, d, m, g);
-    }
+    tri(a, b, c, m, g);
+    tri(a, c, d, m, g);
   }
   // Quads between consecutive rows; `wrap` closes each row into a loop.
   void grid(const std::vector<std::vector<int>>& rows, bool wrap, int m, int g) {
@@ -315,7 +311,7 @@ struct Generator {
     f.lid_lower_out = R + 0.17f;
     f.lid_upper_in = R + 0.22f;
     f.lid_upper_out = R + 0.30f;
-    f.socket_radius = R + 0.42f;
+    f.socket_radius = R + 0.48f;
     f.upper_margin = deg(25);
     f.lower_margin = deg(20);
     f.corner_angle = deg(44);
@@ -448,7 +444,7 @@ struct Generator {
       for (int i = 0; i < n; ++i) {
         const int v = outer[k][i];
         w[v] = smoothstep(0.45f, 0.75f, b.info[v].mu) *
-               std::max(0.35f, smoothstep(4.0f, 2.5f, (b.pos[v] - nose_mid).norm()));
+               smoothstep(4.0f, 2.5f, (b.pos[v] - nose_mid).norm());
       }
     std::vector<V3> next = b.pos;
     for (int it = 0; it < 40; ++it) {

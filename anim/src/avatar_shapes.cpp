@@ -387,7 +387,7 @@ std::vector<ShapeDef> shape_defs() {
     const float sx = side_sign(s);
     add("browDown" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
-        return V3(-0.18f * sx, -0.42f, 0.06f) *
+        return V3(-0.15f * sx, -0.4f, 0.1f) *
                (cc.gauss(vi.anchor, cc.f.brow[s], 1.6f, 1.0f) * cc.eye_front(vi, s));
       });
       keep_out_of_sockets(c, o);
@@ -400,7 +400,7 @@ std::vector<ShapeDef> shape_defs() {
         const V3 centre(side_sign(s) * 1.3f, cc.f.brow[s].y() - 0.1f, 0);
         w += cc.gauss(vi.anchor, centre, 1.0f, 1.1f) * cc.eye_front(vi, s);
       }
-      return V3(0, 0.55f, 0) * std::min(w, 1.0f);
+      return V3(0, 0.8f, 0) * std::min(w, 1.0f);
     });
     keep_out_of_sockets(c, o);
   });
@@ -410,7 +410,7 @@ std::vector<ShapeDef> shape_defs() {
     add("browOuterUp" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         const V3 centre(cc.f.brow[s].x() + sx * 1.3f, cc.f.brow[s].y(), 0);
-        return V3(0, 0.5f, 0) * (cc.gauss(vi.anchor, centre, 1.1f, 1.0f) * cc.eye_front(vi, s));
+        return V3(0, 0.7f, 0) * (cc.gauss(vi.anchor, centre, 1.1f, 1.0f) * cc.eye_front(vi, s));
       });
       keep_out_of_sockets(c, o);
     });

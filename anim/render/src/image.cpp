@@ -106,13 +106,25 @@ Image read_image(const std::filesystem::path& path) {
   if (!in)
     throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
   const OIIO::ImageSpec& spec = in->spec();
-  std::vector<std::uint8_t> raw(static_cast<std::size_t>(spec.width) * spec.height *
-                                spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data()))
+  const std::size_t count = static_cast<std::size_t>(spec.width) * spec.height;
+  std::vector<std::uint8_t> raw(count * spec.nchannels);
+  if (spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+      spec.format.basetype == OIIO::TypeDesc::HALF) {
+    // Linear floats (EXR): encode to sRGB.
+    std::vector<float> lin(raw.size());
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, lin.data()))
+      throw Error(path.string() + ": " + in->geterror());
+    for (std::size_t i = 0; i < lin.size(); ++i) {
+      const float c = std::clamp(lin[i], 0.0f, 1.0f);
+      const float e = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+      raw[i] = static_cast<std::uint8_t>(std::lround(e * 255.0f));
+    }
+  } else if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data())) {
     throw Error(path.string() + ": " + in->geterror());
+  }
   Image img{spec.width, spec.height, 3, {}};
-  img.pixels.resize(static_cast<std::size_t>(spec.width) * spec.height * 3);
-  for (std::size_t p = 0; p < static_cast<std::size_t>(spec.width) * spec.height; ++p)
+  img.pixels.resize(count * 3);
+  for (std::size_t p = 0; p < count; ++p)
     for (int c = 0; c < 3; ++c)
       img.pixels[p * 3 + c] = raw[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
   return img;
