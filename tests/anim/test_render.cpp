@@ -22,6 +22,7 @@ RenderOptions small() {
   RenderOptions o;
   o.width = 256;
   o.height = 256;
+  o.msaa = 4;  // the golden images are multisampled
   return o;
 }
 
