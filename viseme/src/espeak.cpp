@@ -13,6 +13,7 @@ namespace {
 std::mutex g_mutex;             // guards every espeak-ng call
 Synthesis* g_target = nullptr;  // the synthesis the callback fills (under g_mutex)
 int g_rate = 0;
+std::string g_voice;  // the voice espeak-ng has loaded
 
 int on_synth(short* wav, int samples, espeak_EVENT* events) {
   if (!g_target) return 0;
@@ -49,11 +50,13 @@ void ensure_initialized() {
   espeak_SetSynthCallback(on_synth);
 }
 
-// Call with g_mutex held. Selected on every call: espeak-ng keeps per-voice state from one
-// synthesis to the next, and results only repeat exactly when each call starts from a fresh voice.
+// Call with g_mutex held. espeak-ng 1.51 allocates a voice structure on every voice change that it
+// never frees (found by fuzzing), so the voice is switched only when it differs from the last one.
 void select_voice(const std::string& voice) {
+  if (voice == g_voice) return;
   if (espeak_SetVoiceByName(voice.c_str()) != EE_OK)
     throw Error("espeak-ng: unknown voice '" + voice + "'", ErrorCode::kNotFound);
+  g_voice = voice;
 }
 
 }  // namespace
