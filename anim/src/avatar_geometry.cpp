@@ -19,12 +19,6 @@
 namespace facecast::anim::avatar_detail {
 namespace {
 
-using V3 = Eigen::Vector3f;
-constexpr float kPi = std::numbers::pi_v<float>;
-constexpr float deg(float d) {
-  return d * kPi / 180.0f;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Signed distances
 

@@ -1,4 +1,5 @@
 #pragma once
+#include <numbers>
 // Private: the default avatar's geometry with the per-vertex information its blendshapes need.
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -9,6 +10,12 @@
 #include "facecast/anim/avatar.hpp"
 
 namespace facecast::anim::avatar_detail {
+
+using V3 = Eigen::Vector3f;
+constexpr float kPi = std::numbers::pi_v<float>;
+constexpr float deg(float d) {
+  return d * kPi / 180.0f;
+}
 
 enum class Part : std::uint8_t {
   kSkin,

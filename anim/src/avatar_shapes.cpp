@@ -14,11 +14,6 @@
 namespace facecast::anim::avatar_detail {
 namespace {
 
-using V3 = Eigen::Vector3f;
-constexpr float kPi = std::numbers::pi_v<float>;
-constexpr float deg(float d) {
-  return d * kPi / 180.0f;
-}
 const V3 kX(1, 0, 0), kY(0, 1, 0);
 
 constexpr float kJawOpen = deg(20);

@@ -6,11 +6,11 @@
 #include <cmath>
 #include <map>
 #include <numeric>
-#include <thread>
 
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -25,28 +25,6 @@ Points to_points(const anim::Positions& p) {
 }
 Faces to_faces(const anim::Triangles& t) {
   return t;
-}
-
-// Runs fn(k) for k in [0, n) on all cores.
-template <typename Fn>
-void parallel_for(std::size_t n, Fn&& fn) {
-  const unsigned workers = std::max(
-      1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(n)));
-  std::vector<std::thread> pool;
-  std::vector<std::exception_ptr> errors(workers);
-  for (unsigned w = 0; w < workers; ++w) {
-    pool.emplace_back([&, w] {
-      try {
-        for (std::size_t k = w; k < n; k += workers) fn(k);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    });
-  }
-  for (auto& t : pool) t.join();
-  for (auto& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
 }
 
 // Rigid motion x -> R x + t that best maps `from` onto `to` (Kabsch), and its RMS residual.

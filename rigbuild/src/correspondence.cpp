@@ -4,14 +4,11 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "facecast/anim/rig.hpp"
 #include "facecast/core/config.hpp"
@@ -19,6 +16,7 @@
 #include "facecast/core/files.hpp"
 #include "geometry.hpp"
 #include "mesh_graph.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 
@@ -229,18 +227,6 @@ class SurfaceQuery {
   std::set<std::pair<int, int>> boundary_;
 };
 
-template <typename Fn>
-void parallel_for(int n, Fn&& fn) {
-  const int workers = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  std::vector<std::thread> pool;
-  for (int w = 0; w < workers; ++w) {
-    pool.emplace_back([&, w] {
-      for (int i = w; i < n; i += workers) fn(i);
-    });
-  }
-  for (auto& t : pool) t.join();
-}
-
 }  // namespace
 
 Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
@@ -433,15 +419,6 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
     for (const auto& [sc, n] : votes[static_cast<std::size_t>(tc)]) {
       if (n >= 0.1 * total[static_cast<std::size_t>(tc)])
         allowed[static_cast<std::size_t>(tc * scomp.count + sc)] = 1;
-    }
-  }
-  if (std::getenv("FACECAST_DEBUG_CORRESPONDENCE")) {
-    for (int tc = 0; tc < tcomp.count; ++tc) {
-      std::fprintf(stderr, "target component %d (%d votes):", tc,
-                   total[static_cast<std::size_t>(tc)]);
-      for (const auto& [sc, n] : votes[static_cast<std::size_t>(tc)])
-        std::fprintf(stderr, " %d:%d", sc, n);
-      std::fprintf(stderr, "\n");
     }
   }
   std::vector<char> template_paired(static_cast<std::size_t>(scomp.count), 0);

@@ -5,9 +5,9 @@
 #include <Eigen/SparseCholesky>
 #include <chrono>
 #include <cmath>
-#include <thread>
 
 #include "facecast/core/error.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 
@@ -91,15 +91,7 @@ struct Transfer::Impl {
     }
     // Eigen's solve is const and thread-safe: split the columns over the cores.
     Dense out(rhs.rows(), rhs.cols());
-    const unsigned workers = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(),
-                                                             static_cast<unsigned>(rhs.cols())));
-    std::vector<std::thread> pool;
-    for (unsigned w = 0; w < workers; ++w) {
-      pool.emplace_back([&, w] {
-        for (Eigen::Index c = w; c < rhs.cols(); c += workers) out.col(c) = ldlt.solve(rhs.col(c));
-      });
-    }
-    for (auto& t : pool) t.join();
+    parallel_for(rhs.cols(), [&](Eigen::Index c) { out.col(c) = ldlt.solve(rhs.col(c)); });
     return out;
   }
 };
@@ -237,17 +229,7 @@ std::vector<Points> Transfer::solve(const std::vector<const Gradients*>& source,
     if (I.A_dir.cols() > 0) C -= I.A_dir * Eigen::MatrixXd(prescribed[k]);
     rhs.middleCols(static_cast<Eigen::Index>(3 * k), 3) = I.At_free * C;
   };
-  {
-    const unsigned workers = std::max(
-        1u, std::min<unsigned>(std::thread::hardware_concurrency(), static_cast<unsigned>(shapes)));
-    std::vector<std::thread> pool;
-    for (unsigned w = 0; w < workers; ++w) {
-      pool.emplace_back([&, w] {
-        for (std::size_t k = w; k < shapes; k += workers) build_rhs(k);
-      });
-    }
-    for (auto& t : pool) t.join();
-  }
+  parallel_for(shapes, build_rhs);  // right-hand sides are independent per shape
 
   const Dense x = I.free_n ? I.solve(rhs) : Dense(0, rhs.cols());
   std::vector<Points> out(shapes);

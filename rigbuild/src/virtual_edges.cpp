@@ -4,12 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <queue>
-#include <thread>
 
 #include "facecast/anim/rig.hpp"
 #include "facecast/core/error.hpp"
 #include "geometry.hpp"
 #include "mesh_graph.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 
@@ -120,48 +120,44 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
 
   // Per vertex: its `per_vertex` shortest qualifying partners.
   std::vector<std::vector<Candidate>> best(static_cast<std::size_t>(n));
-  const unsigned workers = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned workers = worker_count(static_cast<std::size_t>(n));
   std::vector<long> cand_count(workers, 0), qual_count(workers, 0);
-  std::vector<std::thread> pool;
-  for (unsigned w = 0; w < workers; ++w) {
-    pool.emplace_back([&, w] {
-      LocalGeodesic geo(graph);
-      std::vector<std::pair<std::uint32_t, double>> hits;
-      std::vector<Candidate> cands, other, good;
-      for (int i = static_cast<int>(w); i < n; i += static_cast<int>(workers)) {
-        if (graph.degree(i) == 0) continue;  // a vertex in no triangle
-        tree.within(points.row(i).data(), d, hits, true);
-        cands.clear();
-        other.clear();
-        for (const auto& h : hits) {
-          const int j = static_cast<int>(h.first);
-          if (j == i || graph.degree(j) == 0) continue;
-          // Another component is unreachable along the surface: it qualifies without a search.
-          (comps.label[j] == comps.label[i] ? cands : other).push_back({j, std::sqrt(h.second)});
-        }
-        cand_count[w] += static_cast<long>(cands.size() + other.size());
-        // Only the `per_vertex` shortest qualifying pairs are kept, and every pair into another
-        // component qualifies: same-component candidates beyond the k-th of those need no search.
-        const std::size_t k = static_cast<std::size_t>(options.per_vertex);
-        if (other.size() >= k) {
-          const double limit = other[k - 1].dist;
-          while (!cands.empty() && cands.back().dist > limit) cands.pop_back();
-        }
-        good.clear();
-        if (!cands.empty()) geo.qualify(i, cands, options.f, good);
-        if (!other.empty()) {
-          good.insert(good.end(), other.begin(), other.end());
-          std::sort(good.begin(), good.end(),
-                    [](const Candidate& a, const Candidate& b) { return a.dist < b.dist; });
-        }
-        qual_count[w] += static_cast<long>(good.size());
-        if (static_cast<int>(good.size()) > options.per_vertex)
-          good.resize(static_cast<std::size_t>(options.per_vertex));
-        best[static_cast<std::size_t>(i)] = good;
+  parallel_workers(workers, [&](unsigned w) {
+    LocalGeodesic geo(graph);
+    std::vector<std::pair<std::uint32_t, double>> hits;
+    std::vector<Candidate> cands, other, good;
+    for (int i = static_cast<int>(w); i < n; i += static_cast<int>(workers)) {
+      if (graph.degree(i) == 0) continue;  // a vertex in no triangle
+      tree.within(points.row(i).data(), d, hits, true);
+      cands.clear();
+      other.clear();
+      for (const auto& h : hits) {
+        const int j = static_cast<int>(h.first);
+        if (j == i || graph.degree(j) == 0) continue;
+        // Another component is unreachable along the surface: it qualifies without a search.
+        (comps.label[j] == comps.label[i] ? cands : other).push_back({j, std::sqrt(h.second)});
       }
-    });
-  }
-  for (auto& t : pool) t.join();
+      cand_count[w] += static_cast<long>(cands.size() + other.size());
+      // Only the `per_vertex` shortest qualifying pairs are kept, and every pair into another
+      // component qualifies: same-component candidates beyond the k-th of those need no search.
+      const std::size_t k = static_cast<std::size_t>(options.per_vertex);
+      if (other.size() >= k) {
+        const double limit = other[k - 1].dist;
+        while (!cands.empty() && cands.back().dist > limit) cands.pop_back();
+      }
+      good.clear();
+      if (!cands.empty()) geo.qualify(i, cands, options.f, good);
+      if (!other.empty()) {
+        good.insert(good.end(), other.begin(), other.end());
+        std::sort(good.begin(), good.end(),
+                  [](const Candidate& a, const Candidate& b) { return a.dist < b.dist; });
+      }
+      qual_count[w] += static_cast<long>(good.size());
+      if (static_cast<int>(good.size()) > options.per_vertex)
+        good.resize(static_cast<std::size_t>(options.per_vertex));
+      best[static_cast<std::size_t>(i)] = good;
+    }
+  });
 
   // Density control: shortest sources first; a placed source blocks its surroundings and its
   // partners' surroundings as future sources.
