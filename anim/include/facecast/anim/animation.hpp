@@ -1,0 +1,182 @@
+#pragma once
+// From timed viseme and expression events to blendshape weights per frame.
+//
+// The chain (each step a pure function of its inputs):
+//   1. Visemes -> keys. Every viseme event becomes a key at its centre whose value is a vector over
+//      the viseme channels, blended from the neighbouring events by Cohen-Massaro dominance
+//      D_j(t) = alpha_j exp(-theta |t - c_j|) (normalized), so neighbours colour each other
+//      (coarticulation). Closure visemes (bpm/f, PP/FF) have a high alpha and their own channel at
+//      full value: the lips do close on /p/ and /f/. Long pauses get rest keys so the face is still.
+//   2. Between keys the value follows the seed's Hermite curve with zero end tangents.
+//   3. Expressions: one curve per expression name with the seed's three start cases (from 0, from
+//      the previous target, or from the interrupted value and tangent), ramping over the tag's T.
+//   4. Idle life (optional): blinks at random intervals and small eye and head motion, seeded so a
+//      run is reproducible.
+//   5. Mixing: viseme channels and expressions map to the rig's blendshapes through the tables in
+//      configs/anim/ (ARKit names incl. the ICT _L/_R variant, Oculus viseme morphs); the two
+//      contributions mix per shape by the seed's max rule, except that mouth closure damps the
+//      expression's mouth-opening shapes (a smile must not keep the lips apart on /p/); clamp [0,1].
+//
+// Cost: building a Performance is O(events); sample() is O(#channels + #mapped shape entries)
+// after an O(log keys) search, about a microsecond, so a server can sample each frame on demand.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facecast/viseme/utterance.hpp"
+
+namespace facecast::anim {
+
+/// Defaults mirrored in configs/anim/animation.json.
+struct AnimOptions {
+  // Coarticulation
+  double theta_anticipation = 20.0;  // 1/s, dominance decay before a viseme's centre
+  double theta_carryover = 14.0;     // 1/s, after it
+  double closure_alpha = 6.0;        // dominance of closure visemes (others 1)
+  double articulation = 1.0;         // scales every viseme key (0.8 = lazier speech)
+  double rest_pause = 0.25;          // pauses (sil) at least this long get rest keys (s)
+  double rest_ramp = 0.12;           // time to reach and leave rest in such a pause (s)
+  double tail = 0.3;                 // after the utterance, time to settle to neutral (s)
+  // Idle life
+  bool idle = true;
+  double blink_interval_min = 2.0;  // s
+  double blink_interval_max = 5.5;  // s
+  double blink_close = 0.07;        // s to close
+  double blink_hold = 0.03;         // s closed
+  double blink_open = 0.16;         // s to open
+  double eye_motion = 0.12;         // peak eyeLook* weight of small saccades
+  double head_motion = 0.035;       // peak head rotation (radians)
+  uint32_t seed = 1;                // idle randomness
+};
+
+/// Reads configs/anim/animation.json; throws Error naming the field when invalid.
+AnimOptions load_anim_options();
+
+/// Small head rotation of idle life, radians, applied about the neck (yaw about +Y, pitch about
+/// +X, roll about +Z, in that order).
+struct HeadPose {
+  float yaw = 0, pitch = 0, roll = 0;
+};
+
+/// How viseme channels and expressions drive a rig's blendshapes.
+/// for_rig() picks the table by the rig's shape names: Oculus viseme morphs (viseme_aa ...) ->
+/// configs/anim/visemes_oculus.json; otherwise ARKit names -> configs/anim/visemes_arkit.json, with
+/// Left/Right mapped to _L/_R where the rig uses those (ICT FaceKit). Expressions come from
+/// configs/anim/expressions_arkit.json (or the table's own expressions section). Table entries
+/// whose shape the rig lacks are dropped; throws Error when nothing at all maps (not a face rig).
+class Mapping {
+ public:
+  static Mapping for_rig(const std::vector<std::string>& shape_names);
+
+  const std::vector<std::string>& shape_names() const { return shapes_; }
+  /// Which table was chosen ("arkit" | "oculus"), for logs.
+  const std::string& table() const { return table_; }
+
+  struct Entry {
+    int shape;
+    float weight;
+  };
+  /// One row per viseme of a set (index = position in the set's list, as in
+  /// configs/viseme/viseme_sets.json; "sil" maps to nothing).
+  const std::vector<std::vector<Entry>>& visemes(viseme::VisemeSet set) const;
+  const std::vector<std::string>& viseme_names(viseme::VisemeSet set) const;
+  /// Expression rows by name; nullptr for an unknown name.
+  const std::vector<Entry>* expression(const std::string& name) const;
+  /// Shapes that mouth closure damps in the expression contribution, and the closure channels.
+  const std::vector<int>& closure_damped() const { return closure_damped_; }
+  /// Blink and eye-look shapes for idle life (-1 when absent).
+  int blink_left = -1, blink_right = -1;
+  int look_up[2] = {-1, -1}, look_down[2] = {-1, -1}, look_in[2] = {-1, -1},
+      look_out[2] = {-1, -1};
+
+ private:
+  std::vector<std::string> shapes_;
+  std::string table_;
+  std::vector<std::vector<Entry>> sets_[3];
+  std::vector<std::string> set_names_[3];
+  std::vector<std::pair<std::string, std::vector<Entry>>> expressions_;
+  std::vector<int> closure_damped_;
+};
+
+/// One utterance compiled into curves, ready to sample at any time. A value type (it keeps its own
+/// copy of the mapping rows it uses), so a stream can own one.
+class Performance {
+ public:
+  Performance(const viseme::Utterance& utterance, const Mapping& mapping,
+              const AnimOptions& options = {});
+
+  /// Seconds from the start of the audio to when the face is back at rest (utterance + tail).
+  double duration() const { return duration_; }
+  /// Length of the speech itself (the audio length when there is audio).
+  double speech_duration() const { return speech_duration_; }
+  /// Frames at `fps` covering [0, duration()): ceil(duration * fps).
+  int frame_count(double fps) const;
+
+  /// Weights at time `t` (seconds from the start of the audio), one per rig shape in the mapping's
+  /// order; `weights.size()` must equal the shape count (throws Error otherwise). `head` (optional)
+  /// receives the idle head pose. Thread-safe (const).
+  void sample(double t, std::span<float> weights, HeadPose* head = nullptr) const;
+
+  /// The viseme channel values at `t` (for tests and the timeline), one per viseme of the set.
+  std::vector<float> viseme_channels(double t) const;
+  /// The expression intensity (0..1) of `name` at `t`.
+  float expression_value(const std::string& name, double t) const;
+
+ private:
+  struct Key {
+    double t;
+    std::vector<float> value;  // per viseme channel
+  };
+  struct ExprSegment {  // a Hermite ramp from (t0, v0, slope g) to (t0 + T, v1), then hold
+    double t0, T;
+    float v0, v1, g;
+  };
+  struct ExprCurve {
+    std::string name;
+    std::vector<Mapping::Entry> entries;
+    std::vector<ExprSegment> segments;
+  };
+  struct Blink {
+    double t;
+  };
+
+  Mapping mapping_;
+  viseme::VisemeSet set_;
+  AnimOptions options_;
+  double duration_ = 0, speech_duration_ = 0;
+  std::vector<Key> keys_;
+  std::vector<int> closure_channels_;
+  std::vector<ExprCurve> expressions_;
+  std::vector<double> blinks_;
+  std::vector<std::pair<double, std::array<float, 2>>> gazes_;  // saccade targets (t, {x, y})
+  double head_phase_[3] = {0, 0, 0};
+};
+
+/// Weights of a whole performance at a fixed rate: frames x shapes, row-major float32, frame f at
+/// pts f / fps seconds from the start of the audio.
+struct WeightTrack {
+  std::vector<std::string> shapes;
+  double fps = 60;
+  int frames = 0;
+  std::vector<float> weights;  // frames * shapes.size()
+  std::vector<HeadPose> head;  // one per frame
+  std::span<const float> frame(int f) const {
+    return {weights.data() + static_cast<size_t>(f) * shapes.size(), shapes.size()};
+  }
+};
+
+WeightTrack bake(const Performance& performance, double fps);
+
+/// A smooth return to rest from `from` (e.g. the weights when a stream is cancelled): the Hermite
+/// curve with zero end tangent, `t` seconds into a `duration`-long fade. Writes `out`.
+void fade_to_rest(std::span<const float> from, double t, double duration, std::span<float> out);
+
+/// JSON {fps, frames, shapes:[...], weights:[[...], ...], head:[[yaw,pitch,roll], ...]}.
+std::string to_json(const WeightTrack& track);
+/// Binary: "FCWT" magic, u32 version 1, u32 shapes, u32 frames, f64 fps, then each shape name as
+/// u16 length + UTF-8, then frames x shapes float32 little-endian.
+std::string to_binary(const WeightTrack& track);
+
+}  // namespace facecast::anim
