@@ -6,7 +6,8 @@
 //      the viseme channels, blended from the neighbouring events by Cohen-Massaro dominance
 //      D_j(t) = alpha_j exp(-theta |t - c_j|) (normalized), so neighbours colour each other
 //      (coarticulation). Closure visemes (bpm/f, PP/FF) have a high alpha and their own channel at
-//      full value: the lips do close on /p/ and /f/. Long pauses get rest keys so the face is still.
+//      full value: the lips do close on /p/ and /f/. Long pauses get rest keys so the face is
+//      still.
 //   2. Between keys the value follows the seed's Hermite curve with zero end tangents.
 //   3. Expressions: one curve per expression name with the seed's three start cases (from 0, from
 //      the previous target, or from the interrupted value and tangent), ramping over the tag's T.
@@ -15,7 +16,8 @@
 //   5. Mixing: viseme channels and expressions map to the rig's blendshapes through the tables in
 //      configs/anim/ (ARKit names incl. the ICT _L/_R variant, Oculus viseme morphs); the two
 //      contributions mix per shape by the seed's max rule, except that mouth closure damps the
-//      expression's mouth-opening shapes (a smile must not keep the lips apart on /p/); clamp [0,1].
+//      expression's mouth-opening shapes (a smile must not keep the lips apart on /p/); clamp
+//      [0,1].
 //
 // Cost: building a Performance is O(events); sample() is O(#channels + #mapped shape entries)
 // after an O(log keys) search, about a microsecond, so a server can sample each frame on demand.
@@ -88,8 +90,7 @@ class Mapping {
   const std::vector<int>& closure_damped() const { return closure_damped_; }
   /// Blink and eye-look shapes for idle life (-1 when absent).
   int blink_left = -1, blink_right = -1;
-  int look_up[2] = {-1, -1}, look_down[2] = {-1, -1}, look_in[2] = {-1, -1},
-      look_out[2] = {-1, -1};
+  int look_up[2] = {-1, -1}, look_down[2] = {-1, -1}, look_in[2] = {-1, -1}, look_out[2] = {-1, -1};
 
  private:
   std::vector<std::string> shapes_;
@@ -119,6 +120,9 @@ class Performance {
   /// receives the idle head pose. Thread-safe (const).
   void sample(double t, std::span<float> weights, HeadPose* head = nullptr) const;
 
+  /// The rig's shape names, in the order sample() writes them.
+  const std::vector<std::string>& shape_names() const { return mapping_.shape_names(); }
+
   /// The viseme channel values at `t` (for tests and the timeline), one per viseme of the set.
   std::vector<float> viseme_channels(double t) const;
   /// The expression intensity (0..1) of `name` at `t`.
@@ -137,9 +141,6 @@ class Performance {
     std::string name;
     std::vector<Mapping::Entry> entries;
     std::vector<ExprSegment> segments;
-  };
-  struct Blink {
-    double t;
   };
 
   Mapping mapping_;
@@ -167,7 +168,9 @@ struct WeightTrack {
   }
 };
 
-WeightTrack bake(const Performance& performance, double fps);
+/// `until` > 0 bakes ceil(until * fps) frames (a video covering just the audio: speech_duration());
+/// otherwise frame_count(fps).
+WeightTrack bake(const Performance& performance, double fps, double until = 0);
 
 /// A smooth return to rest from `from` (e.g. the weights when a stream is cancelled): the Hermite
 /// curve with zero end tangent, `t` seconds into a `duration`-long fade. Writes `out`.

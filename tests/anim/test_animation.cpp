@@ -1,0 +1,270 @@
+// Tracks and mixing: coarticulation, closure, expression ramps, rest, idle life, mappings.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "facecast/anim/animation.hpp"
+#include "facecast/anim/avatar.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/viseme/analyze.hpp"
+
+using namespace facecast;
+using namespace facecast::anim;
+
+namespace {
+
+const Rig& avatar() {
+  static const Rig rig = default_avatar();
+  return rig;
+}
+
+AnimOptions quiet() {
+  AnimOptions o;
+  o.idle = false;
+  return o;
+}
+
+float weight(const Performance& p, const std::string& shape, double t) {
+  std::vector<float> w(p.shape_names().size());
+  p.sample(t, w);
+  const auto& n = p.shape_names();
+  return w[std::find(n.begin(), n.end(), shape) - n.begin()];
+}
+
+viseme::Utterance zh(const std::string& text) {
+  viseme::Options o;
+  o.timing = viseme::Timing::kModel;
+  return viseme::analyze(text, o);
+}
+
+int channel(const Mapping& m, viseme::VisemeSet set, const std::string& name) {
+  const auto& n = m.viseme_names(set);
+  return static_cast<int>(std::find(n.begin(), n.end(), name) - n.begin());
+}
+
+}  // namespace
+
+TEST_CASE("the options file mirrors AnimOptions", "[anim][animation]") {
+  const AnimOptions file = load_anim_options(), code;
+  CHECK(file.theta_anticipation == code.theta_anticipation);
+  CHECK(file.theta_carryover == code.theta_carryover);
+  CHECK(file.closure_alpha == code.closure_alpha);
+  CHECK(file.rest_pause == code.rest_pause);
+  CHECK(file.tail == code.tail);
+  CHECK(file.idle == code.idle);
+  CHECK(file.blink_interval_max == code.blink_interval_max);
+  CHECK(file.head_motion == code.head_motion);
+  CHECK(file.seed == code.seed);
+}
+
+TEST_CASE("mappings resolve ARKit, ICT _L/_R and Oculus names", "[anim][animation]") {
+  const Mapping arkit = Mapping::for_rig(avatar().shape_names());
+  CHECK(arkit.table() == "arkit");
+  CHECK(arkit.blink_left >= 0);
+  const auto& a_row =
+      arkit.visemes(viseme::VisemeSet::kZh15)[channel(arkit, viseme::VisemeSet::kZh15, "a")];
+  REQUIRE(!a_row.empty());
+
+  // The ICT FaceKit names: Left/Right -> _L/_R; unsided browInnerUp is split over _L and _R.
+  const std::vector<std::string> ict = {"jawOpen",       "mouthLowerDown_L", "mouthLowerDown_R",
+                                        "browInnerUp_L", "browInnerUp_R",    "eyeBlink_L",
+                                        "eyeBlink_R",    "mouthPress_L",     "mouthPress_R",
+                                        "mouthSmile_L",  "mouthSmile_R"};
+  const Mapping m = Mapping::for_rig(ict);
+  CHECK(m.blink_left == 5);
+  CHECK(m.blink_right == 6);
+  const auto* surprise = m.expression("surprise");
+  REQUIRE(surprise != nullptr);
+  int brows = 0;
+  for (const auto& e : *surprise) brows += e.shape == 3 || e.shape == 4;
+  CHECK(brows == 2);
+  const auto& bpm =
+      m.visemes(viseme::VisemeSet::kZh15)[channel(m, viseme::VisemeSet::kZh15, "bpm")];
+  CHECK(bpm.size() == 2);  // mouthPress_L and _R
+
+  std::vector<std::string> oculus;
+  for (const char* v :
+       {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "I", "O", "U"})
+    oculus.push_back(std::string("viseme_") + v);
+  const Mapping o = Mapping::for_rig(oculus);
+  CHECK(o.table() == "oculus");
+  const auto& pp =
+      o.visemes(viseme::VisemeSet::kMpeg4)[channel(o, viseme::VisemeSet::kMpeg4, "pbm")];
+  REQUIRE(pp.size() == 1);
+  CHECK(oculus[pp[0].shape] == "viseme_PP");
+
+  CHECK_THROWS_AS(Mapping::for_rig({"leftArmRaise", "rightArmRaise"}), Error);
+}
+
+TEST_CASE("bilabials and labiodentals reach closure", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  // A smiling, surprised speaker: expressions drive jawOpen and smiles, closure must still win.
+  const auto u = zh("(surprise, 63, 0.2)(joy, 63, 0.2)爸爸买了很多面包，妈妈非常高兴。");
+  const Performance p(u, m, quiet());
+  int checked = 0;
+  for (const auto& v : u.visemes) {
+    if (v.viseme != "bpm" && v.viseme != "f") continue;
+    const double t = 0.5 * (v.start + v.end);
+    const auto ch = p.viseme_channels(t);
+    INFO(v.viseme << " at " << t);
+    CHECK(ch[channel(m, u.set, v.viseme)] >= 0.99f);
+    if (t > 0.3) {  // once the expressions are at full intensity
+      CHECK(weight(p, "jawOpen", t) <= 0.05f);
+      CHECK(weight(p, "mouthSmileLeft", t) <= 0.05f);
+    }
+    ++checked;
+  }
+  CHECK(checked >= 8);
+  // Away from closures the surprise keeps the jaw open (the max rule).
+  const auto vowel = std::find_if(u.visemes.begin(), u.visemes.end(),
+                                  [](auto& v) { return v.start > 0.5 && v.viseme == "a"; });
+  REQUIRE(vowel != u.visemes.end());
+  CHECK(weight(p, "jawOpen", 0.5 * (vowel->start + vowel->end)) > 0.4f);
+}
+
+TEST_CASE("neighbours colour a viseme (coarticulation)", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  // The same /d/ between rounded vowels and between spread ones.
+  viseme::Utterance rounded, spread;
+  rounded.set = spread.set = viseme::VisemeSet::kZh15;
+  rounded.visemes = {{"uv", 0.2, 0.35}, {"dtnl", 0.35, 0.43}, {"uv", 0.43, 0.6}};
+  spread.visemes = {{"i", 0.2, 0.35}, {"dtnl", 0.35, 0.43}, {"i", 0.43, 0.6}};
+  rounded.duration = spread.duration = 0.8;
+  const Performance pr(rounded, m, quiet()), ps(spread, m, quiet());
+  const double t = 0.39;
+  CHECK(weight(pr, "mouthPucker", t) > 0.15f);
+  CHECK(weight(ps, "mouthPucker", t) < 0.01f);
+  CHECK(weight(ps, "mouthStretchLeft", t) > weight(pr, "mouthStretchLeft", t) + 0.05f);
+  // The /d/ itself still dominates its own centre.
+  const auto ch = pr.viseme_channels(t);
+  CHECK(ch[channel(m, rounded.set, "dtnl")] > 0.5f);
+}
+
+TEST_CASE("the face rests in long pauses and after the utterance", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kOculus;
+  u.visemes = {{"sil", 0, 0.2},   {"aa", 0.2, 0.4}, {"PP", 0.4, 0.5},
+               {"sil", 0.5, 1.5}, {"O", 1.5, 1.7},  {"sil", 1.7, 1.9}};
+  u.duration = 1.9;
+  const Performance p(u, m, quiet());
+  CHECK(p.duration() == Approx(1.9 + quiet().tail));
+  std::vector<float> w(p.shape_names().size()), w2(w.size());
+  for (const double t : {0.0, 0.8, 1.0, 1.2, 1.9, 2.19}) {
+    p.sample(t, w);
+    INFO("t = " << t);
+    for (const float v : w) CHECK(v == 0.0f);
+  }
+  p.sample(0.3, w);
+  CHECK(*std::max_element(w.begin(), w.end()) > 0.3f);
+  // Continuity: no jumps between frames at 240 fps.
+  float worst = 0;
+  for (double t = 0; t < p.duration(); t += 1.0 / 240) {
+    p.sample(t, w);
+    p.sample(t + 1.0 / 240, w2);
+    for (size_t s = 0; s < w.size(); ++s) worst = std::max(worst, std::abs(w2[s] - w[s]));
+  }
+  CHECK(worst < 0.12f);
+}
+
+TEST_CASE("expression ramps follow the seed's three cases", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kZh15;
+  u.duration = 6;
+  u.visemes = {{"sil", 0, 6}};
+  u.expressions = {
+      {"joy", 63, 0.5, 1.0},      // first: from 0, reaches 1.0 at 1.5
+      {"joy", 21, 2.0, 1.0},      // previous finished: from 1.0 down to 1/3 by 3.0
+      {"joy", 63, 2.5, 1.0},      // interrupts the second halfway: from its value and tangent
+      {"sadness", 42, 1.0, 0.0},  // T = 0: a step
+  };
+  const Performance p(u, m, quiet());
+  const auto joy = [&](double t) { return p.expression_value("joy", t); };
+  CHECK(joy(0.4) == 0.0f);
+  CHECK(joy(1.0) == Approx(0.5).margin(1e-6));  // Hermite midpoint from 0 to 1
+  CHECK(joy(1.5) == Approx(1.0));
+  CHECK(joy(1.9) == Approx(1.0));
+  CHECK(joy(2.5) == Approx(1.0 + (1.0 / 3 - 1.0) * 0.5).margin(1e-5));  // second's midpoint
+  // C1 at the interruption: value and slope continue.
+  const double h = 1e-4;
+  const double before = (joy(2.5 - h) - joy(2.5 - 2 * h)) / h;
+  const double after = (joy(2.5 + 2 * h) - joy(2.5 + h)) / h;
+  CHECK(after == Approx(before).margin(0.01));
+  CHECK(before < -0.5);  // it was still falling
+  CHECK(joy(3.5) == Approx(1.0));
+  CHECK(p.expression_value("sadness", 0.99) == 0.0f);
+  CHECK(p.expression_value("sadness", 1.0) == Approx(42 / 63.0));
+  // Released over the tail after the speech.
+  CHECK(joy(6.0) == Approx(1.0));
+  CHECK(joy(6.0 + quiet().tail) == 0.0f);
+  // Expressions reach the rig: joy smiles.
+  CHECK(weight(p, "mouthSmileLeft", 3.6) == Approx(0.9).margin(1e-5));
+}
+
+TEST_CASE("idle life blinks, moves the eyes and head, and is reproducible", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kZh15;
+  u.duration = 12;
+  u.visemes = {{"sil", 0, 12}};
+  AnimOptions on;
+  const Performance a(u, m, on), b(u, m, on), off(u, m, quiet());
+  int blinks = 0;
+  float look = 0, head = 0;
+  bool closed = false;
+  std::vector<float> wa(a.shape_names().size()), wb(wa.size()), wo(wa.size());
+  for (double t = 0; t < a.duration(); t += 1.0 / 60) {
+    HeadPose ha, hb;
+    a.sample(t, wa, &ha);
+    b.sample(t, wb, &hb);
+    off.sample(t, wo);
+    REQUIRE(wa == wb);
+    REQUIRE(ha.yaw == hb.yaw);
+    for (const float v : wo) REQUIRE(v == 0.0f);
+    const float blink = wa[m.blink_left];
+    if (blink > 0.95f && !closed) ++blinks;
+    closed = blink > 0.95f;
+    look =
+        std::max({look, wa[m.look_up[0]], wa[m.look_down[0]], wa[m.look_in[0]], wa[m.look_out[0]]});
+    head = std::max(head, std::abs(ha.yaw));
+  }
+  CHECK(blinks >= 2);
+  CHECK(blinks <= 7);
+  CHECK(look > 0.02f);
+  CHECK(look <= on.eye_motion + 1e-6);
+  CHECK(head > 0.005f);
+  CHECK(head <= on.head_motion);
+}
+
+TEST_CASE("bake gives frames at pts f over fps and both output formats", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const auto u = zh("你好");
+  const Performance p(u, m);
+  const WeightTrack t = bake(p, 30);
+  CHECK(t.frames == static_cast<int>(std::ceil(p.duration() * 30 - 1e-9)));
+  CHECK(t.weights.size() == static_cast<size_t>(t.frames) * t.shapes.size());
+  std::vector<float> w(t.shapes.size());
+  p.sample(7 / 30.0, w);
+  CHECK(std::equal(w.begin(), w.end(), t.frame(7).begin()));
+  const WeightTrack v = bake(p, 25, p.speech_duration());
+  CHECK(v.frames == static_cast<int>(std::ceil(p.speech_duration() * 25 - 1e-9)));
+  const std::string bin = to_binary(t);
+  CHECK(bin.substr(0, 4) == "FCWT");
+  CHECK(bin.size() > t.weights.size() * 4);
+  const auto j = nlohmann::json::parse(to_json(t));
+  CHECK(j.at("frames") == t.frames);
+  CHECK(j.at("weights").size() == static_cast<size_t>(t.frames));
+  std::vector<float> three(3);
+  CHECK_THROWS_AS(p.sample(0, three), Error);
+}
+
+TEST_CASE("fade to rest is smooth and ends at zero", "[anim][animation]") {
+  const std::vector<float> from = {1.0f, 0.5f};
+  std::vector<float> out(2);
+  fade_to_rest(from, 0, 0.2, out);
+  CHECK(out == from);
+  fade_to_rest(from, 0.1, 0.2, out);
+  CHECK(out[0] == Approx(0.5));
+  fade_to_rest(from, 0.2, 0.2, out);
+  CHECK(out[0] == 0.0f);
+}
