@@ -1,0 +1,227 @@
+// The 3D avatar: a rig's GLB in three.js, morph target influences set by name, head rotation about
+// the neck, an orbit camera and studio lighting.
+//
+// A facecast GLB has one mesh with one primitive per material; GLTFLoader turns it into a Group
+// with one Mesh per primitive, each with the same morphTargetDictionary. Weights go to all of them.
+
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
+
+export function makeRenderer(canvas) {
+  const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+  renderer.outputColorSpace = THREE.SRGBColorSpace;
+  renderer.toneMapping = THREE.ACESFilmicToneMapping;
+  renderer.toneMappingExposure = 1.05;
+  return renderer;
+}
+
+/** Key, fill and rim lights plus a soft room environment for the standard materials. */
+export function addStudioLights(scene, renderer) {
+  const pmrem = new THREE.PMREMGenerator(renderer);
+  scene.environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
+  scene.environmentIntensity = 0.45;
+  pmrem.dispose();
+  const hemi = new THREE.HemisphereLight(0xdfe8ff, 0x2a2420, 0.6);
+  const key = new THREE.DirectionalLight(0xfff1e0, 2.2);
+  key.position.set(0.6, 0.8, 1.0);
+  const fill = new THREE.DirectionalLight(0xcfe0ff, 0.7);
+  fill.position.set(-1.0, 0.2, 0.6);
+  const rim = new THREE.DirectionalLight(0xffffff, 1.3);
+  rim.position.set(0.0, 0.6, -1.2);
+  scene.add(hemi, key, fill, rim);
+}
+
+/** Loads a GLB (URL or ArrayBuffer) with GLTFLoader. */
+export async function loadGlb(source, headers = {}) {
+  const loader = new GLTFLoader();
+  loader.setRequestHeader(headers);
+  if (source instanceof ArrayBuffer) return loader.parseAsync(source, '');
+  return loader.loadAsync(source);
+}
+
+/** Every mesh under root that has morph targets (one per glTF primitive). */
+export function morphMeshes(root) {
+  const meshes = [];
+  root.traverse((o) => {
+    if (o.isMesh && o.morphTargetInfluences && o.morphTargetDictionary) meshes.push(o);
+  });
+  return meshes;
+}
+
+/** The morph target names of a loaded glTF, in target order (extras.targetNames). */
+export function targetNames(root) {
+  const mesh = morphMeshes(root)[0];
+  if (!mesh) return [];
+  const dict = mesh.morphTargetDictionary;
+  const names = [];
+  for (const [name, i] of Object.entries(dict)) names[i] = name;
+  return names;
+}
+
+export class AvatarView {
+  constructor(canvas, { background = 0x272a33 } = {}) {
+    this.canvas = canvas;
+    this.renderer = makeRenderer(canvas);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(background);
+    this.camera = new THREE.PerspectiveCamera(22, 1, 0.1, 1000);
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.enableDamping = true;
+    this.controls.dampingFactor = 0.12;
+    this.controls.addEventListener('change', () => (this.dirty = true));
+    this.dirty = true; // render only when something changed
+    addStudioLights(this.scene, this.renderer);
+    this.pivot = new THREE.Group(); // the neck: head rotation is applied here
+    this.scene.add(this.pivot);
+    this.model = null;
+    this.meshes = [];
+    this.names = [];
+    this.index = new Map(); // name -> morph index
+    this.weights = new Float32Array(0); // current influences, by morph index
+    this.resize();
+    new ResizeObserver(() => this.resize()).observe(canvas);
+  }
+
+  resize() {
+    const w = Math.max(1, this.canvas.clientWidth);
+    const h = Math.max(1, this.canvas.clientHeight);
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.dirty = true;
+  }
+
+  /** Shows a loaded glTF scene (replacing the previous rig) and frames the camera on it. */
+  setModel(gltf) {
+    if (this.model) {
+      this.pivot.remove(this.model);
+      this.model.traverse((o) => {
+        if (o.isMesh) {
+          o.geometry.dispose();
+          for (const m of [].concat(o.material)) m.dispose();
+        }
+      });
+    }
+    const model = gltf.scene;
+    // Put the neck at the pivot: below the head's centre, a little behind it.
+    const box = new THREE.Box3().setFromObject(model);
+    const size = box.getSize(new THREE.Vector3());
+    const center = box.getCenter(new THREE.Vector3());
+    const neck = new THREE.Vector3(center.x, box.min.y + 0.12 * size.y, center.z - 0.12 * size.z);
+    model.position.sub(neck);
+    this.pivot.position.copy(neck);
+    this.pivot.rotation.set(0, 0, 0);
+    this.pivot.add(model);
+    for (const m of morphMeshes(model)) {
+      for (const mat of [].concat(m.material)) {
+        mat.envMapIntensity = 1;
+        if (/sclera|teeth/i.test(mat.name)) mat.roughness = 0.35;
+        if (/iris|pupil/i.test(mat.name)) mat.roughness = 0.2;
+      }
+    }
+    this.model = model;
+    this.meshes = morphMeshes(model);
+    this.names = targetNames(model);
+    this.index = new Map(this.names.map((n, i) => [n, i]));
+    this.weights = new Float32Array(this.names.length);
+    this._mapNames = null;
+    this.frame(box);
+    this.dirty = true;
+  }
+
+  frame(box) {
+    const size = box.getSize(new THREE.Vector3());
+    const center = box.getCenter(new THREE.Vector3());
+    const radius = 0.5 * Math.max(size.x, size.y * 0.9);
+    const dist = (radius / Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2))) * 1.25;
+    this.camera.near = dist / 50;
+    this.camera.far = dist * 20;
+    this.camera.position.set(center.x + dist * 0.12, center.y + size.y * 0.04, center.z + dist);
+    this.camera.updateProjectionMatrix();
+    this.controls.target.copy(center);
+    this.controls.minDistance = dist * 0.3;
+    this.controls.maxDistance = dist * 4;
+    this.controls.update();
+  }
+
+  /**
+   * Applies weights given for `names` (the stream's order) to the morph targets of the same name.
+   * A map from stream order to morph index is cached per names array.
+   */
+  setWeights(names, values) {
+    if (this._mapNames !== names) {
+      this._mapNames = names;
+      this._map = names.map((n) => (this.index.has(n) ? this.index.get(n) : -1));
+    }
+    const map = this._map;
+    let changed = false;
+    for (let i = 0; i < map.length && i < values.length; i++) {
+      const k = map[i];
+      if (k >= 0 && this.weights[k] !== values[i]) {
+        this.weights[k] = values[i];
+        changed = true;
+      }
+    }
+    if (changed) this.push();
+  }
+
+  /** Sets one shape by name (sliders); returns false when the rig lacks it. */
+  setWeight(name, value) {
+    const k = this.index.get(name);
+    if (k === undefined) return false;
+    this.weights[k] = value;
+    this.push();
+    return true;
+  }
+
+  /** Multiplies every weight by f (a decay to the rest pose). */
+  scaleWeights(f) {
+    let changed = false;
+    for (let i = 0; i < this.weights.length; i++) {
+      if (this.weights[i] === 0) continue;
+      this.weights[i] = Math.abs(this.weights[i]) < 1e-4 ? 0 : this.weights[i] * f;
+      changed = true;
+    }
+    if (changed) this.push();
+  }
+
+  push() {
+    this.dirty = true;
+    for (const m of this.meshes) {
+      const inf = m.morphTargetInfluences;
+      for (let i = 0; i < inf.length && i < this.weights.length; i++) inf[i] = this.weights[i];
+    }
+  }
+
+  /** The influence of a shape on every primitive (for tests): [values...] */
+  influences(name) {
+    return this.meshes.map((m) => {
+      const k = m.morphTargetDictionary[name];
+      return k === undefined ? null : m.morphTargetInfluences[k];
+    });
+  }
+
+  /**
+   * Head rotation in radians about the neck: yaw about +Y, pitch about +X, roll about +Z, applied in
+   * that order (the matrix Rz * Rx * Ry, three's Euler order 'ZXY').
+   */
+  setHead(yaw, pitch, roll) {
+    const r = this.pivot.rotation;
+    if (r.x === pitch && r.y === yaw && r.z === roll) return;
+    r.set(pitch, yaw, roll, 'ZXY');
+    this.dirty = true;
+  }
+
+  /** Renders when anything changed (weights, head, camera, size) or when forced. */
+  render(force = false) {
+    this.controls.update();
+    if (!this.dirty && !force) return false;
+    this.dirty = false;
+    this.renderer.render(this.scene, this.camera);
+    this.renders = (this.renders || 0) + 1;
+    return true;
+  }
+}
