@@ -9,6 +9,7 @@ void add_rig_commands(CLI::App& app);
 void add_viseme_commands(CLI::App& app);
 void add_avatar_commands(CLI::App& app);
 void add_render_commands(CLI::App& app);
+void add_animate_commands(CLI::App& app);
 /// `rig build` and `rig check`, added to the `rig` subcommand by add_rig_commands.
 void add_rig_build_commands(CLI::App& rig);
 

@@ -1,3 +1,4 @@
+// facecast render --text T | --timestamps FILE [--rig rig.glb] --out out.mp4 | frames/%05d.png
 // facecast render --rig rig.glb --weights name=value,... --out face.png   (one pose)
 #include <cstdio>
 #include <iostream>
@@ -6,23 +7,29 @@
 #include "commands.hpp"
 #include "facecast/anim/avatar.hpp"
 #include "facecast/anim/rig_io.hpp"
-#include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/render/video.hpp"
+#include "facecast/viseme/wav.hpp"
+#include "progress.hpp"
+#include "speech_input.hpp"
 
 namespace facecast::cli {
 namespace {
 
 struct RenderArgs {
-  std::string rig, weights, expression, out, size = "640x480";
+  SpeechArgs speech;
+  std::string rig, weights, expression, out, size, audio;
   std::string look_at;
   float zoom = 1.0f;
-  int msaa = 4;
+  int msaa = -1;
   int quality = 90;
+  double fps = 0;
 };
 
-// Blendshape weights of a named expression from configs/anim/expressions_arkit.json, scaled by
-// `intensity`; on rigs with _L/_R names (ICT FaceKit) Left/Right suffixes are mapped.
+// Blendshape weights of a named expression (configs/anim/expressions_arkit.json through the rig's
+// mapping, so _L/_R rigs work), scaled by `intensity` ("joy" or "joy=0.5").
 std::vector<std::pair<std::string, float>> expression_weights(const anim::Rig& rig,
                                                               const std::string& spec) {
   std::string name = spec;
@@ -31,55 +38,96 @@ std::vector<std::pair<std::string, float>> expression_weights(const anim::Rig& r
     name = spec.substr(0, eq);
     intensity = std::stof(spec.substr(eq + 1));
   }
-  const auto table = load_json(config_path("anim/expressions_arkit.json"));
-  const auto& exprs = table.at("expressions");
-  if (!exprs.contains(name))
+  const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
+  const auto* row = mapping.expression(name);
+  if (!row)
     throw Error("expression '" + name + "' is not in anim/expressions_arkit.json",
                 ErrorCode::kNotFound);
   std::vector<std::pair<std::string, float>> out;
-  for (const auto& [shape, w] : exprs.at(name).items()) {
-    std::string target = shape;
-    if (rig.find_shape(target) < 0) {
-      for (const auto& [suffix, short_suffix] :
-           {std::pair{"Left", "_L"}, std::pair{"Right", "_R"}}) {
-        const std::string s = suffix;
-        if (target.size() > s.size() && target.ends_with(s))
-          target = target.substr(0, target.size() - s.size()) + short_suffix;
-      }
-    }
-    if (rig.find_shape(target) >= 0) out.emplace_back(target, intensity * w.get<float>());
-  }
+  for (const auto& e : *row) out.emplace_back(rig.shapes[e.shape].name, intensity * e.weight);
   return out;
+}
+
+// "WxH" -> width, height.
+std::pair<int, int> parse_size(const std::string& size) {
+  std::smatch m;
+  if (!std::regex_match(size, m, std::regex(R"((\d{1,5})x(\d{1,5}))")))
+    throw Error("--size: '" + size + "' is not WxH");
+  return {std::stoi(m[1]), std::stoi(m[2])};
+}
+
+// Text or timestamps -> MP4 (ffmpeg) or a frame sequence + WAV.
+void render_speech(const RenderArgs& a, const anim::Rig& rig, render::RenderOptions opt) {
+  const std::string audio = !a.audio.empty() ? a.audio : !a.speech.text.empty() ? "tts" : "none";
+  const auto u = speech_utterance(a.speech, audio == "tts");
+  std::vector<int16_t> pcm = u.pcm;
+  int rate = u.sample_rate;
+  if (audio == "none") {
+    pcm.clear();
+    rate = 0;
+  } else if (audio != "tts") {
+    auto wav = viseme::decode_wav(read_file(audio), audio);
+    pcm = std::move(wav.samples);
+    rate = wav.sample_rate;
+  }
+  const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
+  const anim::Performance performance(u, mapping, speech_anim_options(a.speech));
+  render::VideoOptions vo = render::load_video_options();
+  if (a.fps > 0) vo.fps = a.fps;
+  opt.contexts = 2;
+  render::Renderer renderer(rig, opt);
+  const auto result =
+      render::write_video(renderer, performance, pcm, rate, a.out, vo, terminal_progress());
+  std::cerr << "wrote " << a.out << ": " << result.frames << " frames at " << vo.fps << " fps ("
+            << result.duration << " s" << (pcm.empty() ? "" : ", with audio") << ") in "
+            << result.render_seconds << " s, " << renderer.backend() << "\n";
 }
 
 }  // namespace
 
 void add_render_commands(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
-  auto* r = app.add_subcommand("render", "Render one pose of a rig to an image (PNG, JPEG or EXR)");
+  auto* r = app.add_subcommand(
+      "render",
+      "Render speech (--text/--timestamps) to a video or frames, or one pose to an image");
+  add_speech_options(r, a->speech);
+  r->add_option("--audio", a->audio,
+                "Speech audio for the video: tts (espeak-ng; default with --text), none (default "
+                "with --timestamps), or a WAV file");
+  r->add_option("--fps", a->fps, "Video frame rate (default from configs/anim/render.json)")
+      ->check(CLI::Range(1.0, 240.0));
   r->add_option("--rig", a->rig, "Rig (GLB or OBJ); default: the built-in avatar")
       ->check(CLI::ExistingFile);
   r->add_option("--weights", a->weights, "Blendshape weights: name=value,name=value,...");
   r->add_option(
       "--expression", a->expression,
       "An expression from configs/anim/expressions_arkit.json, optionally name=intensity");
-  r->add_option("--out", a->out, "Output image (.png, .jpg or .exr)")->required();
-  r->add_option("--size", a->size, "Image size WxH")->capture_default_str();
-  r->add_option("--msaa", a->msaa, "Multisample count (0 = off)")->capture_default_str();
+  r->add_option("--out", a->out,
+                "Speech: out.mp4 or frames/%05d.png (+ audio.wav); a pose: .png, .jpg or .exr")
+      ->required();
+  r->add_option("--size", a->size, "Image size WxH (default 1280x720 for speech, 640x480 a pose)");
+  r->add_option("--msaa", a->msaa,
+                "Multisample count, 0 = off (default: 4 for a pose, render.json for video)");
   r->add_option("--quality", a->quality, "JPEG quality")->capture_default_str();
   r->add_option("--look-at", a->look_at,
                 "Aim the camera at x,y,z (rig units) instead of the face centre");
   r->add_option("--zoom", a->zoom, "Move the camera closer by this factor")->capture_default_str();
   r->callback([a] {
-    std::smatch m;
-    if (!std::regex_match(a->size, m, std::regex(R"((\d{1,5})x(\d{1,5}))")))
-      throw Error("--size: '" + a->size + "' is not WxH");
-    render::RenderOptions opt;
-    opt.width = std::stoi(m[1]);
-    opt.height = std::stoi(m[2]);
-    opt.msaa = a->msaa;
+    render::RenderOptions opt = render::load_render_options();
+    const bool speech = a->speech.given();
+    std::tie(opt.width, opt.height) = parse_size(!a->size.empty() ? a->size
+                                                 : speech         ? "1280x720"
+                                                                  : "640x480");
+    opt.msaa = a->msaa >= 0 ? a->msaa : speech ? opt.msaa : 4;
     opt.contexts = 1;
     const anim::Rig rig = a->rig.empty() ? anim::default_avatar() : anim::load_rig(a->rig);
+    if (speech) {
+      if (!a->weights.empty() || !a->expression.empty())
+        throw Error("--weights/--expression render one pose; they do not combine with --text");
+      return render_speech(*a, rig, opt);
+    }
+    if (!a->audio.empty() || a->fps > 0)
+      throw Error("--audio and --fps need --text or --timestamps");
     auto named = a->expression.empty() ? std::vector<std::pair<std::string, float>>{}
                                        : expression_weights(rig, a->expression);
     for (auto& w : render::parse_weight_list(a->weights)) named.push_back(w);

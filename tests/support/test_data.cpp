@@ -17,6 +17,12 @@ std::filesystem::path ict_dir() {
   return std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit" / "FaceXModel";
 }
 
+std::filesystem::path artifacts_dir(const std::string& name) {
+  const auto dir = std::filesystem::path(FACECAST_TEST_ARTIFACTS_DIR) / name;
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
 namespace {
 struct Scratch {
   std::filesystem::path path;

@@ -221,4 +221,17 @@ TEST_CASE("WAV encoding", "[viseme][wav]") {
   CHECK(wav.substr(0, 4) == "RIFF");
   CHECK(wav.substr(8, 8) == "WAVEfmt ");
   CHECK(wav.substr(36, 4) == "data");
+  // Round trip, then the failures a user can cause.
+  const Pcm back = decode_wav(wav, "a.wav");
+  CHECK(back.sample_rate == 22050);
+  CHECK(back.samples == std::vector<int16_t>{0, 1000, -1000});
+  CHECK_THROWS_WITH(decode_wav("hello", "b.wav"), Catch::Contains("b.wav: not a RIFF/WAVE"));
+  CHECK_THROWS_WITH(decode_wav(wav.substr(0, 36), "c.wav"),
+                    Catch::Contains("c.wav: no data chunk"));
+  std::string eight = wav;
+  eight[34] = 8;  // 8 bits per sample
+  CHECK_THROWS_WITH(decode_wav(eight, "d.wav"), Catch::Contains("unsupported encoding"));
+  std::string stereo = wav;  // two channels: (0, 1000) and a truncated frame are averaged
+  stereo[22] = 2;
+  CHECK(decode_wav(stereo, "e.wav").samples == std::vector<int16_t>{500});
 }

@@ -134,3 +134,24 @@ TEST_CASE("generic JSON phones: pinyin syllables and errors", "[viseme][import]"
   CHECK_THAT(error_of(TimestampFormat::kAzure, "[{\"AudioOffset\": 1000, \"VisemeId\": 99}]"),
              Catch::Contains("unknown Azure viseme '99'"));
 }
+
+TEST_CASE("the timestamp format is detected from the content", "[viseme][import]") {
+  const std::pair<const char*, TimestampFormat> cases[] = {
+      {"azure_visemes.json", TimestampFormat::kAzure},
+      {"elevenlabs_alignment.json", TimestampFormat::kElevenLabs},
+      {"mfa_alignment.json", TimestampFormat::kMfa},
+      {"mfa_long.TextGrid", TimestampFormat::kMfa},
+      {"mfa_short.TextGrid", TimestampFormat::kMfa},
+      {"phones_pinyin.json", TimestampFormat::kJson},
+      {"polly_speechmarks.ndjson", TimestampFormat::kPolly},
+      {"rhubarb.json", TimestampFormat::kRhubarb},
+      {"rhubarb.tsv", TimestampFormat::kRhubarb},
+  };
+  for (const auto& [file, format] : cases) {
+    const std::string path = std::string(FACECAST_VISEME_FIXTURES) + "/" + file;
+    INFO(file);
+    CHECK(detect_timestamp_format(facecast::read_file(path), "x") == format);
+  }
+  CHECK_THROWS_AS(detect_timestamp_format("  \n", "empty.json"), facecast::Error);
+  CHECK_THROWS_AS(detect_timestamp_format("hello", "x.txt"), facecast::Error);
+}

@@ -588,6 +588,28 @@ TimestampFormat parse_timestamp_format(std::string_view name) {
               "' (json, azure, polly, mfa, rhubarb or elevenlabs)");
 }
 
+TimestampFormat detect_timestamp_format(std::string_view content, std::string_view source) {
+  const auto has = [&](std::string_view needle) {
+    return content.find(needle) != std::string_view::npos;
+  };
+  const std::string_view src = source;
+  if (src.ends_with(".TextGrid") || src.ends_with(".textgrid") || has("ooTextFile"))
+    return TimestampFormat::kMfa;
+  const auto first = content.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
+  if (first == std::string_view::npos) throw Error(std::string(source) + ": empty timestamps");
+  if (content[first] != '{' && content[first] != '[') {
+    if (src.ends_with(".tsv") || (content[first] >= '0' && content[first] <= '9'))
+      return TimestampFormat::kRhubarb;
+    throw Error(std::string(source) + ": cannot tell the timestamp format (give it explicitly)");
+  }
+  if (has("\"mouthCues\"")) return TimestampFormat::kRhubarb;
+  if (has("VisemeId") || has("AudioOffset")) return TimestampFormat::kAzure;
+  if (has("\"characters\"")) return TimestampFormat::kElevenLabs;
+  if (has("\"tiers\"")) return TimestampFormat::kMfa;
+  if (has("\"type\"") && has("\"time\"")) return TimestampFormat::kPolly;
+  return TimestampFormat::kJson;
+}
+
 PhoneSet parse_phone_set(std::string_view name) {
   if (name == "auto") return PhoneSet::kAuto;
   if (name == "pinyin") return PhoneSet::kPinyin;

@@ -31,6 +31,7 @@ layout(location = 2) in ivec2 a_morph;  // first entry, entry count
 uniform sampler2D u_deltas;             // 2 texels per entry: (dpos, shape), (dnrm, 0)
 uniform float u_weights[256];
 uniform mat4 u_mvp;
+uniform mat4 u_model;  // head pose (a rotation about the neck)
 out vec3 v_pos;
 out vec3 v_nrm;
 void main() {
@@ -46,9 +47,10 @@ void main() {
       n += w * texelFetch(u_deltas, at + ivec2(1, 0), 0).xyz;
     }
   }
-  v_pos = p;
-  v_nrm = n;
-  gl_Position = u_mvp * vec4(p, 1.0);
+  vec4 world = u_model * vec4(p, 1.0);
+  v_pos = world.xyz;
+  v_nrm = mat3(u_model) * n;
+  gl_Position = u_mvp * world;
 }
 )";
 
@@ -231,7 +233,7 @@ struct Slot {
   detail::Context context;
   GLuint program = 0, vao = 0, buffers[4] = {}, delta_tex = 0;
   GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
-  GLint u_weights = -1, u_mvp = -1, u_color = -1, u_eye = -1, u_deltas = -1;
+  GLint u_weights = -1, u_mvp = -1, u_model = -1, u_color = -1, u_eye = -1, u_deltas = -1;
   int width = 0, height = 0, samples = 0;
   std::string renderer_name;
 
@@ -262,6 +264,7 @@ struct Slot {
     if (!ok) throw Error("glLinkProgram failed", ErrorCode::kInternal);
     u_weights = glGetUniformLocation(program, "u_weights");
     u_mvp = glGetUniformLocation(program, "u_mvp");
+    u_model = glGetUniformLocation(program, "u_model");
     u_color = glGetUniformLocation(program, "u_color");
     u_eye = glGetUniformLocation(program, "u_eye");
     u_deltas = glGetUniformLocation(program, "u_deltas");
@@ -330,7 +333,7 @@ struct Slot {
   }
 
   void draw(const Packed& p, const RenderOptions& o, const Camera& cam,
-            std::span<const float> weights, Image& out) {
+            std::span<const float> weights, const Eigen::Matrix4f& model, Image& out) {
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     glViewport(0, 0, width, height);
     const auto lin = [](float c) {
@@ -353,6 +356,7 @@ struct Slot {
         perspective(cam.fov_y_deg * 3.14159265f / 180.0f, aspect, cam.near_plane, cam.far_plane) *
         look_at(cam.eye, cam.target, cam.up);
     glUniformMatrix4fv(u_mvp, 1, GL_FALSE, mvp.data());
+    glUniformMatrix4fv(u_model, 1, GL_FALSE, model.data());
     glUniform3fv(u_eye, 1, cam.eye.data());
     glBindVertexArray(vao);
     for (const auto& r : p.ranges) {
@@ -402,6 +406,23 @@ struct Slot {
   }
 };
 
+// Yaw about +Y, then pitch about +X, then roll about +Z, about `pivot`.
+Eigen::Matrix4f head_matrix(const anim::HeadPose& head, const Eigen::Vector3f& pivot) {
+  Eigen::Affine3f m =
+      Eigen::Translation3f(pivot) * Eigen::AngleAxisf(head.roll, Eigen::Vector3f::UnitZ()) *
+      Eigen::AngleAxisf(head.pitch, Eigen::Vector3f::UnitX()) *
+      Eigen::AngleAxisf(head.yaw, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-pivot);
+  return m.matrix();
+}
+
+// The neck: the centre of the skin's bounding box in x and z, 10% above its bottom.
+Eigen::Vector3f neck_pivot(const anim::Rig& rig) {
+  if (rig.vertex_count() == 0) return Eigen::Vector3f::Zero();
+  const Eigen::Vector3f lo = rig.positions.colwise().minCoeff().transpose();
+  const Eigen::Vector3f hi = rig.positions.colwise().maxCoeff().transpose();
+  return {0.5f * (lo.x() + hi.x()), lo.y() + 0.1f * (hi.y() - lo.y()), 0.5f * (lo.z() + hi.z())};
+}
+
 }  // namespace
 
 Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& options) {
@@ -442,6 +463,7 @@ struct Renderer::Impl {
   RenderOptions options;
   Packed packed;
   Camera camera;
+  Eigen::Vector3f neck = Eigen::Vector3f::Zero();  // pivot of the head pose
   mutable std::mutex mutex;
   mutable std::condition_variable freed;
   mutable std::vector<std::unique_ptr<Slot>> slots;
@@ -490,6 +512,7 @@ Renderer::Renderer(const anim::Rig& rig, RenderOptions options) : impl_(std::mak
   impl_->packed = pack(rig);
   impl_->camera = frame_face(
       rig, static_cast<float>(options.width) / static_cast<float>(options.height), options);
+  impl_->neck = neck_pivot(rig);
 }
 
 Renderer::~Renderer() = default;
@@ -506,6 +529,10 @@ void Renderer::set_camera(const Camera& camera) {
 }
 
 Image Renderer::render(std::span<const float> weights) const {
+  return render(weights, anim::HeadPose{});
+}
+
+Image Renderer::render(std::span<const float> weights, const anim::HeadPose& head) const {
   if (static_cast<int>(weights.size()) != impl_->packed.shape_count)
     throw Error("render: " + std::to_string(weights.size()) + " weights for a rig with " +
                 std::to_string(impl_->packed.shape_count) + " shapes");
@@ -518,7 +545,7 @@ Image Renderer::render(std::span<const float> weights) const {
   Image image;
   try {
     slot->context.make_current();
-    slot->draw(impl_->packed, impl_->options, cam, weights, image);
+    slot->draw(impl_->packed, impl_->options, cam, weights, head_matrix(head, impl_->neck), image);
     slot->context.release();
   } catch (...) {
     slot->context.release();

@@ -25,6 +25,13 @@ TimestampFormat parse_timestamp_format(
     std::string_view name);                       // json|azure|polly|mfa|rhubarb|elevenlabs
 PhoneSet parse_phone_set(std::string_view name);  // auto|pinyin|arpabet|ipa|espeak
 
+/// Guesses the format from the content (and the file name's extension when given): a TextGrid,
+/// Rhubarb TSV or mouthCues, Polly NDJSON (a "type" field), Azure (VisemeId), ElevenLabs
+/// (characters), MFA JSON (tiers), otherwise the generic JSON list. Throws Error naming `source`
+/// when nothing fits.
+TimestampFormat detect_timestamp_format(std::string_view content,
+                                        std::string_view source = "<input>");
+
 /// Parses `content` (the file's bytes) into timed phones/visemes/words in `options.set` (auto: zh15
 /// for pinyin or Chinese text, oculus otherwise). ElevenLabs runs the text front-end on the
 /// characters and places each syllable's / word's phones inside its characters' span. Errors name

@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "facecast/anim/animation.hpp"
 #include "facecast/anim/rig.hpp"
 #include "facecast/render/image.hpp"
 
@@ -38,6 +39,9 @@ struct RenderOptions {
   Eigen::Vector3f background{0.16f, 0.17f, 0.20f};  // sRGB 0..1
   int contexts = 2;                                 // size of the context pool
 };
+
+/// RenderOptions from configs/anim/render.json; throws Error naming the field when invalid.
+RenderOptions load_render_options();
 
 /// A look-at camera in rig coordinates.
 struct Camera {
@@ -68,6 +72,8 @@ class Renderer {
   /// Renders one frame with one weight per rig shape (in rig order). Thread-safe. Throws
   /// facecast::Error on a size mismatch, or naming the EGL/GL call that failed.
   Image render(std::span<const float> weights) const;
+  /// The same with the head turned by `head` about the neck (idle head motion).
+  Image render(std::span<const float> weights, const anim::HeadPose& head) const;
 
   /// Which EGL platform and GL renderer are in use (creates the first context if needed).
   std::string backend() const;

@@ -1,0 +1,27 @@
+#pragma once
+// The speech input shared by `facecast animate` and `facecast render`: --text or --timestamps
+// with the viseme options, and the animation options (--idle).
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "facecast/anim/animation.hpp"
+#include "facecast/viseme/utterance.hpp"
+
+namespace facecast::cli {
+
+struct SpeechArgs {
+  std::string text, timestamps, timestamps_format = "auto", lang = "auto", timing, voice,
+                                idle = "on";
+  double rate = 0;
+  bool given() const { return !text.empty() || !timestamps.empty(); }
+};
+
+void add_speech_options(CLI::App* cmd, SpeechArgs& a);
+
+/// The utterance of --text (with espeak-ng audio when `tts`) or --timestamps.
+viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts);
+
+/// configs/anim/animation.json with --idle applied.
+anim::AnimOptions speech_anim_options(const SpeechArgs& a);
+
+}  // namespace facecast::cli
