@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# facecast animate and facecast render of speech: JSON and binary weights, timestamps in, a short
+# MP4 and a frame sequence, one-line errors with a non-zero exit and no file left behind.
+# Usage: cli_animate.sh FACECAST SOURCE_DIR
+set -euo pipefail
+facecast=$1 src=$2
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one line naming PATTERN
+  local pattern=$1; shift
+  if "$@" 2>"$tmp/err"; then fail "succeeded: $*"; fi
+  grep -q -- "$pattern" "$tmp/err" || fail "message lacks '$pattern': $(cat "$tmp/err")"
+  [[ $(wc -l <"$tmp/err") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
+}
+
+"$facecast" animate --text "(joy, 40, 0.5)你好，Facecast! Hello." --fps 30 --idle off --out "$tmp/w.json"
+node -e '
+const j = JSON.parse(require("fs").readFileSync(process.argv[1]));
+if (j.fps !== 30 || j.frames !== j.weights.length || j.shapes.length !== 52) throw "shape of the JSON";
+const jaw = j.shapes.indexOf("jawOpen");
+const peak = Math.max(...j.weights.map(r => r[jaw]));
+if (!(peak > 0.2)) throw "the jaw never opens: " + peak;
+if (j.weights[j.frames - 1].some(v => v > 0.02)) throw "not at rest at the end";
+' "$tmp/w.json"
+"$facecast" animate --timestamps "$src/tests/viseme/fixtures/rhubarb.tsv" --out "$tmp/w.bin"
+[[ $(head -c 4 "$tmp/w.bin") == FCWT ]] || fail "binary magic"
+"$facecast" animate --timestamps "$src/tests/viseme/fixtures/azure_visemes.json" --out "$tmp/a.json"
+
+"$facecast" render --text "Hello." --size 160x120 --fps 15 --out "$tmp/hello.mp4" 2>/dev/null
+ffprobe -v error -show_entries stream=codec_name -of csv=p=0 "$tmp/hello.mp4" | tr '\n' ' ' |
+  grep -q "h264 aac" || fail "hello.mp4 streams"
+"$facecast" render --timestamps "$src/tests/viseme/fixtures/rhubarb.json" --size 96x64 --fps 10 \
+  --out "$tmp/frames/%03d.png" 2>/dev/null
+test -s "$tmp/frames/000.png"
+test ! -e "$tmp/frames/audio.wav"  # timestamps bring no audio
+
+expect_error "--out" "$facecast" animate --text hi --out "$tmp/w.txt"
+expect_error "exactly one of --text or --timestamps" "$facecast" animate --out "$tmp/x.json"
+expect_error "character 6" "$facecast" animate --text "(joy, 99, 1)hi" --out "$tmp/x.json"
+expect_error "x.gif" "$facecast" render --text hi --out "$tmp/x.gif"
+expect_error "not a RIFF" "$facecast" render --text hi --audio "$src/README.md" --out "$tmp/x.mp4"
+test ! -e "$tmp/x.json" && test ! -e "$tmp/x.mp4" || fail "a file was left behind"
+echo ok
