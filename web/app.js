@@ -120,6 +120,10 @@ window.__facecast = {
   get utterances() {
     return [...state.utterances.values()].map(({ li, ...u }) => u);
   },
+  get lastUtterance() {
+    const all = window.__facecast.utterances;
+    return all[all.length - 1] || null;
+  },
   get alerts() {
     return alerts.map((a) => ({ level: a.level, code: a.code, message: a.message }));
   },

@@ -42,6 +42,28 @@ export async function loadGlb(source, headers = {}) {
   return loader.loadAsync(source);
 }
 
+/**
+ * The bounding box of the meshes' rest positions in world space. (Box3.setFromObject would include
+ * every morph target's extent: a rig's box grows by its jawOpen and tongueOut.)
+ */
+export function restBox(root) {
+  const box = new THREE.Box3();
+  const p = new THREE.Vector3();
+  root.updateWorldMatrix(true, true);
+  root.traverse((o) => {
+    if (!o.isMesh) return;
+    const pos = o.geometry.attributes.position;
+    const idx = o.geometry.index;
+    // Only the vertices this primitive draws (primitives share one vertex array).
+    const n = idx ? idx.count : pos.count;
+    for (let i = 0; i < n; i++) {
+      p.fromBufferAttribute(pos, idx ? idx.getX(i) : i).applyMatrix4(o.matrixWorld);
+      box.expandByPoint(p);
+    }
+  });
+  return box;
+}
+
 /** Every mesh under root that has morph targets (one per glTF primitive). */
 export function morphMeshes(root) {
   const meshes = [];
@@ -107,7 +129,7 @@ export class AvatarView {
     }
     const model = gltf.scene;
     // Put the neck at the pivot: below the head's centre, a little behind it.
-    const box = new THREE.Box3().setFromObject(model);
+    const box = restBox(model);
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
     const neck = new THREE.Vector3(center.x, box.min.y + 0.12 * size.y, center.z - 0.12 * size.z);
@@ -135,8 +157,8 @@ export class AvatarView {
   frame(box) {
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
-    const radius = 0.5 * Math.max(size.x, size.y * 0.9);
-    const dist = (radius / Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2))) * 1.25;
+    const tan = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const dist = 1.12 * Math.max((0.5 * size.y) / tan, (0.5 * size.x) / (tan * this.camera.aspect)) + 0.5 * size.z;
     this.camera.near = dist / 50;
     this.camera.far = dist * 20;
     this.camera.position.set(center.x + dist * 0.12, center.y + size.y * 0.04, center.z + dist);
@@ -222,6 +244,33 @@ export class AvatarView {
     this.dirty = false;
     this.renderer.render(this.scene, this.camera);
     this.renders = (this.renders || 0) + 1;
+    this.adapt();
     return true;
+  }
+
+  /**
+   * Adaptive resolution: when back-to-back renders come slower than ~20 per second (software
+   * WebGL, a weak GPU), lower the pixel ratio step by step (down to half) so animation stays fluid.
+   */
+  adapt() {
+    const now = performance.now();
+    const gap = now - (this._lastRender || 0);
+    this._lastRender = now;
+    if (gap > 250) {
+      this._slow = 0;
+      this._n = 0;
+      return;
+    }
+    this._n = (this._n || 0) + 1;
+    this._slow = (this._slow || 0) + gap;
+    if (this._n < 30) return;
+    const avg = this._slow / this._n;
+    this._n = 0;
+    this._slow = 0;
+    const pr = this.renderer.getPixelRatio();
+    if (avg > 50 && pr > 0.5) {
+      this.renderer.setPixelRatio(Math.max(0.5, pr * 0.75));
+      this.resize();
+    }
   }
 }

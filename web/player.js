@@ -130,6 +130,9 @@ export class StreamPlayer {
   silence(id) {
     for (const s of this.streams.values()) {
       if (s.id !== id) continue;
+      // The audio that was scheduled ahead no longer keeps the stream alive.
+      const t = s.clock ? this.clockNow(s.clock) - s.t0 : 0;
+      s.audioEnd = Math.min(s.audioEnd, Math.max(0, t));
       for (const src of s.sources) {
         try {
           src.stop();
@@ -257,14 +260,19 @@ export class StreamPlayer {
       });
   }
 
+  /** The utterance time of the last thing a stream has received (frame, image or audio sample). */
+  endOf(s) {
+    const lastFrame = s.frames.length ? s.frames[s.frames.length - 1].t : 0;
+    const lastJpeg = s.jpegs.length ? s.jpegs[s.jpegs.length - 1].t : 0;
+    return Math.max(lastFrame, lastJpeg, s.audioEnd);
+  }
+
   /** True when a stream has ended on the server and everything it sent has been presented. */
   done(s) {
     if (!s.ended) return false;
     if (!s.clock) return true;
     const t = this.clockNow(s.clock) - s.t0;
-    const lastFrame = s.frames.length ? s.frames[s.frames.length - 1].t : 0;
-    const lastJpeg = s.jpegs.length ? s.jpegs[s.jpegs.length - 1].t : 0;
-    return s.pendingJpegs === 0 && t > Math.max(lastFrame, lastJpeg, s.audioEnd) + 0.05;
+    return s.pendingJpegs === 0 && t > this.endOf(s) + 0.05;
   }
 
   /** The utterance time of stream s now, or null before its clock starts. */
@@ -301,7 +309,8 @@ export class StreamPlayer {
     const t = this.timeOf(s);
     const out = { stream: s, t, weights: null, extra: null, jpeg: null, done: this.done(s) };
     if (t === null) return out;
-    s.lastT = t;
+    if (out.done) out.t = Math.min(t, Math.max(s.duration, this.endOf(s)));
+    s.lastT = out.t;
     if (s.frames.length) {
       while (s.cursor + 1 < s.frames.length && s.frames[s.cursor + 1].t <= t) s.cursor++;
       const a = s.frames[s.cursor];

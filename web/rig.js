@@ -6,7 +6,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { makeRenderer, addStudioLights, loadGlb, morphMeshes, targetNames } from './avatar.js';
+import { makeRenderer, addStudioLights, loadGlb, morphMeshes, targetNames, restBox } from './avatar.js';
 import { fetchJson, authHeaders } from './protocol.js';
 import { showAlert } from './alerts.js';
 
@@ -126,14 +126,15 @@ class MeshView {
       }
     });
     this.vertexCount = off;
-    const box = new THREE.Box3().setFromObject(root);
+    const box = restBox(root);
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
     this.radius = 0.5 * size.length();
-    const dist = (0.5 * Math.max(size.x, size.y) * 1.08) / Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const tan = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const dist = 1.15 * Math.max((0.5 * size.y) / tan, (0.5 * size.x) / (tan * this.camera.aspect)) + 0.5 * size.z;
     this.camera.near = dist / 100;
     this.camera.far = dist * 50;
-    this.camera.position.set(center.x, center.y, center.z + Math.max(dist, size.z));
+    this.camera.position.set(center.x, center.y, center.z + dist);
     this.camera.updateProjectionMatrix();
     this.controls.target.copy(center);
     this.controls.update();
