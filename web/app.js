@@ -70,7 +70,7 @@ const state = {
   rigId: null,
   rigLoading: null,
   shownStream: null,
-  restDecay: false,
+  restDecay: true, // no stream drives the face: settle to rest (and blink now and then)
   lastFrameAt: 0,
   log: [],
 };
@@ -256,11 +256,17 @@ function showTextError(message, text) {
   els.textError.appendChild(head);
   if (m && text !== undefined) {
     const chars = [...text];
-    const at = Math.min(Number(m[1]), chars.length);
-    // Mark the whole tag when the offset points into one.
+    let at = Math.min(Number(m[1]), chars.length);
+    // Mark the whole tag when the offset points into one: back to its '(' and on to its ')'.
     let end = at + 1;
-    if (chars[at] === '(' || chars[at] === '（') {
-      while (end < chars.length && chars[end - 1] !== ')' && chars[end - 1] !== '）') end++;
+    for (let i = at; i >= 0 && at - i < 48; i--) {
+      if (chars[i] === ')' || chars[i] === '）') break;
+      if (chars[i] === '(' || chars[i] === '（') {
+        at = i;
+        end = i + 1;
+        while (end < chars.length && end - i < 64 && chars[end - 1] !== ')' && chars[end - 1] !== '）') end++;
+        break;
+      }
     }
     const from = Math.max(0, at - 24);
     const to = Math.min(chars.length, end + 24);
@@ -458,6 +464,8 @@ client.addEventListener('stream_end', (e) => {
 
 client.addEventListener('error', (e) => {
   const m = e.detail;
+  // Stop raced with the end of the utterance: nothing to tell the person.
+  if (m.code === 'not_found' && /^cancel\b/.test(m.message || '')) return;
   const u = m.id ? state.utterances.get(m.id) : null;
   if (u && (u.state === 'sent' || u.state === 'playing')) {
     u.error = m;
@@ -510,7 +518,9 @@ async function loadRig(id) {
   els.loading.textContent = 'Loading the avatar…';
   els.loading.classList.remove('hidden');
   try {
-    const gltf = await loadGlb(`/api/rigs/${encodeURIComponent(id)}.glb`, authHeaders());
+    const gltf = await loadGlb(`/api/rigs/${encodeURIComponent(id)}.glb`, authHeaders(), (e) => {
+      if (e.lengthComputable && e.total) els.loading.textContent = `Loading the avatar… ${Math.round((100 * e.loaded) / e.total)}%`;
+    });
     if (state.rigLoading !== id) return;
     view.setModel(gltf);
     state.rigId = id;
@@ -574,10 +584,29 @@ function tick() {
     const r = view.pivot.rotation;
     const small = (v) => (Math.abs(v * k) < 1e-5 ? 0 : v * k);
     view.setHead(small(r.y), small(r.x), small(r.z));
+    idleBlink(now);
   }
   if (view.model && output() === 'weights') view.render();
   else if (view.model && !els.frames.classList.contains('hidden')) view.controls.update();
   updateButtons();
+}
+
+// Between utterances the avatar still blinks now and then (the server's idle life covers the
+// streams themselves).
+const blink = { next: performance.now() + 2500, start: 0 };
+function idleBlink(now) {
+  if (!els.idle.checked) return;
+  if (!blink.start && now >= blink.next) blink.start = now;
+  if (!blink.start) return;
+  const u = (now - blink.start) / 1000;
+  // 70 ms to close, 30 ms closed, 160 ms to open (as the server's idle blinks).
+  const v = u < 0.07 ? u / 0.07 : u < 0.1 ? 1 : u < 0.26 ? 1 - (u - 0.1) / 0.16 : 0;
+  if (u >= 0.26) {
+    blink.start = 0;
+    blink.next = now + 2000 + Math.random() * 3500;
+  }
+  view.setWeight('eyeBlinkLeft', v);
+  view.setWeight('eyeBlinkRight', v);
 }
 
 function drawJpeg(bitmap) {

@@ -35,11 +35,11 @@ export function addStudioLights(scene, renderer) {
 }
 
 /** Loads a GLB (URL or ArrayBuffer) with GLTFLoader. */
-export async function loadGlb(source, headers = {}) {
+export async function loadGlb(source, headers = {}, onProgress = undefined) {
   const loader = new GLTFLoader();
   loader.setRequestHeader(headers);
   if (source instanceof ArrayBuffer) return loader.parseAsync(source, '');
-  return loader.loadAsync(source);
+  return loader.loadAsync(source, onProgress);
 }
 
 /**

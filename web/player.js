@@ -309,7 +309,7 @@ export class StreamPlayer {
     const t = this.timeOf(s);
     const out = { stream: s, t, weights: null, extra: null, jpeg: null, done: this.done(s) };
     if (t === null) return out;
-    if (out.done) out.t = Math.min(t, Math.max(s.duration, this.endOf(s)));
+    if (out.done) out.t = Math.min(t, this.endOf(s) || s.duration);
     s.lastT = out.t;
     if (s.frames.length) {
       while (s.cursor + 1 < s.frames.length && s.frames[s.cursor + 1].t <= t) s.cursor++;

@@ -28,9 +28,29 @@ function hashHue(s) {
   return h % 360;
 }
 
+// Visemes coloured by articulation, the same colour for a class in every set (zh15 / Oculus).
+const VISEME_COLORS = {
+  a: '#f08c3a', aa: '#f08c3a',
+  o: '#e3b23c', O: '#e3b23c',
+  e: '#d6d04a', E: '#d6d04a',
+  i: '#9ccf4a', I: '#9ccf4a',
+  uv: '#4fc08d', U: '#4fc08d', u: '#4fc08d',
+  bpm: '#e5484d', PP: '#e5484d',
+  f: '#e06fa5', FF: '#e06fa5',
+  dtnl: '#4f8ef7', DD: '#4f8ef7', TH: '#5d9cf0',
+  n: '#6c7cf0', nn: '#6c7cf0',
+  ng: '#8e6cf0',
+  gkh: '#a66cd6', kk: '#a66cd6',
+  jqx: '#22b3c4',
+  zcs: '#2fa39a', SS: '#2fa39a',
+  zhchsh: '#3fb8e0', CH: '#3fb8e0',
+  r: '#c98a5a', RR: '#c98a5a',
+};
+
 export function visemeColor(name) {
-  if (!name || name === 'sil' || name === 'viseme_sil') return '#3a3f4b';
-  return `hsl(${hashHue(name)}, 55%, 52%)`;
+  const n = String(name || '').replace(/^viseme_/, '');
+  if (!n || n === 'sil') return '#3a3f4b';
+  return VISEME_COLORS[n] || `hsl(${hashHue(n)}, 55%, 55%)`;
 }
 
 export function expressionColor(name) {
