@@ -118,13 +118,19 @@ struct Node {
 
 class Bvh {
  public:
-  explicit Bvh(const std::vector<Box>& boxes) : boxes_(boxes) {
-    order_.resize(boxes.size());
-    std::iota(order_.begin(), order_.end(), 0);
+  /// Over the boxes listed in `subset` (all of them when it is empty).
+  explicit Bvh(const std::vector<Box>& boxes, std::vector<int> subset = {})
+      : boxes_(boxes), order_(std::move(subset)) {
+    if (order_.empty()) {
+      order_.resize(boxes.size());
+      std::iota(order_.begin(), order_.end(), 0);
+    }
     centres_.resize(boxes.size());
-    for (std::size_t i = 0; i < boxes.size(); ++i) centres_[i] = 0.5f * (boxes[i].lo + boxes[i].hi);
-    nodes_.reserve(2 * boxes.size() / kLeaf + 2);
-    if (!boxes.empty()) build(0, static_cast<int>(boxes.size()));
+    for (const int i : order_)
+      centres_[static_cast<std::size_t>(i)] =
+          0.5f * (boxes[static_cast<std::size_t>(i)].lo + boxes[static_cast<std::size_t>(i)].hi);
+    nodes_.reserve(2 * order_.size() / kLeaf + 2);
+    if (!order_.empty()) build(0, static_cast<int>(order_.size()));
   }
 
   template <typename Visit>
@@ -235,17 +241,38 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
     b.hi.array() += pad;
     boxes[static_cast<std::size_t>(f)] = b;
   }
-  const Bvh bvh(boxes);
   IntersectionReport report;
   std::vector<int> hits;
+  const bool subset = !options.active.empty();
+  if (subset && options.active.size() != static_cast<std::size_t>(nf))
+    throw Error("find_intersections: 'active' has " + std::to_string(options.active.size()) +
+                " flags for " + std::to_string(nf) + " triangles");
+  // With active triangles, only boxes that meet the active triangles' bounds can take part.
+  std::vector<int> near;
+  if (subset) {
+    Box bounds;
+    bool any = false;
+    for (int f = 0; f < nf; ++f)
+      if (options.active[static_cast<std::size_t>(f)]) {
+        bounds.grow(boxes[static_cast<std::size_t>(f)]);
+        any = true;
+      }
+    if (!any) return report;
+    for (int f = 0; f < nf; ++f)
+      if (boxes[static_cast<std::size_t>(f)].overlaps(bounds)) near.push_back(f);
+  }
+  const Bvh bvh(boxes, std::move(near));
   for (int f = 0; f < nf; ++f) {
+    if (subset && !options.active[static_cast<std::size_t>(f)]) continue;
     const Eigen::Vector3i tf = triangles.row(f).transpose();
     const V3 p0 = positions.row(tf[0]).transpose().cast<double>();
     const V3 p1 = positions.row(tf[1]).transpose().cast<double>();
     const V3 p2 = positions.row(tf[2]).transpose().cast<double>();
     hits.clear();
+    // Each pair once: from its lower triangle, or from its only active one.
     bvh.query(boxes[static_cast<std::size_t>(f)], [&](int g) {
-      if (g > f) hits.push_back(g);
+      if (g > f || (subset && g < f && !options.active[static_cast<std::size_t>(g)]))
+        hits.push_back(g);
     });
     std::sort(hits.begin(), hits.end());
     for (int g : hits) {
@@ -260,10 +287,12 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
                               positions.row(tg[1]).transpose().cast<double>(),
                               positions.row(tg[2]).transpose().cast<double>(), options.epsilon)) {
         ++report.count;
-        if (report.pairs.size() < options.max_listed) report.pairs.emplace_back(f, g);
+        if (report.pairs.size() < options.max_listed)
+          report.pairs.emplace_back(std::min(f, g), std::max(f, g));
       }
     }
   }
+  std::sort(report.pairs.begin(), report.pairs.end());
   return report;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <optional>
 
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
@@ -106,11 +107,14 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   // 1. Correspondence.
   report(progress, "correspondence", 0.0);
   auto t0 = Clock::now();
-  const bool same_topology =
-      options.markers.empty() && tmpl.vertex_count() == nv && tmpl.triangles == target.triangles;
+  std::optional<Correspondence> same =
+      options.markers.empty()
+          ? same_topology_correspondence(tmpl.vertex_count(), src_faces, nv, tgt_faces)
+          : std::nullopt;
+  const bool same_topology = same.has_value();
   Correspondence corr;
-  if (same_topology) {
-    corr = identity_correspondence(nv, tgt_faces);
+  if (same) {
+    corr = std::move(*same);
   } else {
     if (options.markers.empty()) {
       throw Error("target: topology differs from the template (" + std::to_string(nv) + " vs " +
@@ -293,6 +297,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   setup.target_rest = tgt_rest;
   setup.target_faces = tgt_faces;
   setup.map = corr.map;
+  result.triangle_map = corr.map;
   if (use_edges) setup.virtual_edges = result.virtual_edges;
   setup.lambda = options.lambda;
   setup.dirichlet = dirichlet;

@@ -3,12 +3,14 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 #include "facecast/anim/rig.hpp"
 #include "facecast/core/config.hpp"
@@ -95,6 +97,33 @@ Correspondence identity_correspondence(int vertex_count, const Faces& faces) {
   c.map = TriangleMap::identity(static_cast<int>(faces.rows()));
   c.vertex_map.resize(static_cast<std::size_t>(vertex_count));
   for (int v = 0; v < vertex_count; ++v) c.vertex_map[static_cast<std::size_t>(v)].v = {v, v, v};
+  return c;
+}
+
+std::optional<Correspondence> same_topology_correspondence(int template_vertices,
+                                                           const Faces& template_faces,
+                                                           int target_vertices,
+                                                           const Faces& target_faces) {
+  if (template_vertices != target_vertices || template_faces.rows() != target_faces.rows())
+    return std::nullopt;
+  Correspondence c = identity_correspondence(target_vertices, target_faces);
+  if (template_faces == target_faces) return c;
+  // A triangle's key: its corners rotated so the smallest comes first (keeps the orientation).
+  const auto key = [](const Faces& f, Eigen::Index t) {
+    std::array<int, 3> k{f(t, 0), f(t, 1), f(t, 2)};
+    std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
+    return static_cast<std::uint64_t>(k[0]) << 42 | static_cast<std::uint64_t>(k[1]) << 21 |
+           static_cast<std::uint64_t>(k[2]);
+  };
+  std::unordered_map<std::uint64_t, int> index;
+  index.reserve(static_cast<std::size_t>(template_faces.rows()));
+  for (Eigen::Index t = 0; t < template_faces.rows(); ++t)
+    index.emplace(key(template_faces, t), static_cast<int>(t));
+  for (Eigen::Index t = 0; t < target_faces.rows(); ++t) {
+    const auto it = index.find(key(target_faces, t));
+    if (it == index.end()) return std::nullopt;
+    c.map.sources[static_cast<std::size_t>(t)] = {it->second};
+  }
   return c;
 }
 

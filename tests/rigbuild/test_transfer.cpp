@@ -4,6 +4,7 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
 
 using namespace facecast;
@@ -164,4 +165,19 @@ TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild]
 
   opt.fixed = {999};
   CHECK(message(target, opt).find("--fixed: vertex 999 out of range") != std::string::npos);
+}
+
+TEST_CASE("the same triangles in another order are the same topology", "[rigbuild][transfer]") {
+  Faces a(3, 3), b(3, 3), flipped(3, 3);
+  a << 0, 1, 2, 1, 3, 2, 2, 3, 4;
+  b << 3, 4, 2, 0, 1, 2, 3, 2, 1;        // permuted, corners rotated
+  flipped << 0, 2, 1, 1, 3, 2, 2, 3, 4;  // one triangle reversed: another surface
+  const auto same = same_topology_correspondence(5, a, 5, b);
+  REQUIRE(same.has_value());
+  CHECK(same->map.sources[0] == std::vector<int>{2});
+  CHECK(same->map.sources[1] == std::vector<int>{0});
+  CHECK(same->map.sources[2] == std::vector<int>{1});
+  CHECK(!same_topology_correspondence(5, a, 5, flipped).has_value());
+  CHECK(!same_topology_correspondence(5, a, 6, a).has_value());
+  CHECK(same_topology_correspondence(5, a, 5, a)->map.sources[1] == std::vector<int>{1});
 }

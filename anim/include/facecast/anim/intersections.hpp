@@ -23,6 +23,9 @@ struct IntersectionOptions {
   double epsilon = 0.0;
   /// Pairs (a, b) with a < b for which this returns true are skipped (e.g. lips allowed to touch).
   std::function<bool(int a, int b)> ignore;
+  /// When not empty (one flag per triangle), only pairs with at least one active triangle are
+  /// tested: e.g. the triangles a blendshape moves (pairs of still triangles are the neutral's).
+  std::vector<char> active;
   /// At most this many pairs are listed; all are counted.
   std::size_t max_listed = 1000;
 };

@@ -67,6 +67,8 @@ struct BuildResult {
   std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
   std::vector<ComponentInfo> components;
+  TriangleMap
+      triangle_map;  // per target triangle, its template triangles (identity if same topology)
   int fixed_vertices = 0;
   long factor_nonzeros = 0;
   BuildTimings timings;

@@ -13,6 +13,7 @@
 // The result can be saved and reused (--correspondence FILE).
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,14 @@ struct Correspondence {
 
 /// Same topology: triangle t <-> t, vertex v <-> v.
 Correspondence identity_correspondence(int vertex_count, const Faces& faces);
+
+/// Same vertices and the same triangles in another order (a GLB groups triangles by material, so
+/// a user's material split reorders them): vertex v <-> v, each target triangle <-> the template
+/// triangle with the same corners in the same cyclic order. nullopt when the topologies differ.
+std::optional<Correspondence> same_topology_correspondence(int template_vertices,
+                                                           const Faces& template_faces,
+                                                           int target_vertices,
+                                                           const Faces& target_faces);
 
 /// `template_parts` (per template triangle, may be empty) groups the template into parts that a
 /// target component may correspond to, e.g. materials (all teeth are one part); empty: components.

@@ -1,6 +1,7 @@
 #pragma once
 // Measures of a built rig: error against ground-truth shapes, and the seed paper's gap measure.
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "facecast/anim/rig.hpp"
@@ -18,6 +19,40 @@ struct ShapeError {
 /// rig's delta of the same name (the ICT identity ground truth: the template's deltas).
 std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positions& truth_neutral,
                                      const anim::Rig& truth_deltas, int first, int last);
+
+/// Self-intersections a shape brings: intersecting triangle pairs of (neutral + delta) with at
+/// least one triangle the shape moves (pairs of still triangles are the neutral's own, counted once
+/// in `neutral`). With a reference (the template, or a ground truth), each pair is "in the
+/// reference" when the reference's shape of the same name has an intersecting pair at the
+/// corresponding triangles (through `map`, widened by `rings` vertex rings: the same fold seldom
+/// crosses at exactly the same triangles), and "new" otherwise.
+struct ShapeIntersections {
+  std::string shape;
+  std::size_t total = 0, in_reference = 0, fresh = 0;
+  std::vector<std::pair<int, int>> fresh_pairs;  // up to 20, triangle indices of the built rig
+};
+struct IntersectionSummary {
+  std::size_t neutral = 0;            // the built neutral's own intersecting pairs
+  std::size_t reference_neutral = 0;  // the reference neutral's
+  std::vector<ShapeIntersections> shapes;
+  double seconds = 0;
+};
+
+struct IntersectionCheck {
+  /// Triangle groups allowed to touch (e.g. the default avatar's lip bands); skipped when present.
+  std::vector<std::pair<std::string, std::string>> touching_groups;
+  /// Per built triangle; when not empty, only pairs with both triangles in the region count.
+  std::vector<char> region;
+  /// Vertex rings around the corresponding reference triangles that count as "the same place".
+  int rings = 3;
+};
+
+/// `reference` may be null (no split: every pair counts as fresh). `map` gives, per built
+/// triangle, the reference triangles (TriangleMap::identity for the same topology). Shapes run in
+/// parallel; each tests only its moved triangles against their surroundings.
+IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig* reference,
+                                        const TriangleMap& map,
+                                        const IntersectionCheck& check = {});
 
 /// Per shape, the error against a folder of ground-truth OBJs named like the shapes.
 std::vector<ShapeError> truth_errors(const anim::Rig& built,
