@@ -405,6 +405,51 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   return result;
 }
 
+BuildOptions load_build_options() {
+  const auto path = config_path("rigbuild/build.json");
+  const nlohmann::json j = load_json(path);
+  const auto get = [&](const nlohmann::json& obj, const char* key, auto& value,
+                       const std::string& where) {
+    if (!obj.contains(key)) throw Error(path.string() + ": missing field '" + where + key + "'");
+    try {
+      obj.at(key).get_to(value);
+    } catch (const nlohmann::json::exception&) {
+      throw Error(path.string() + ": field '" + where + key + "' has the wrong type");
+    }
+  };
+  BuildOptions o;
+  std::string mode, solver;
+  get(j, "virtual_edges", mode, "");
+  if (mode == "auto")
+    o.virtual_edges = VirtualEdgeMode::kAuto;
+  else if (mode == "off")
+    o.virtual_edges = VirtualEdgeMode::kOff;
+  else
+    throw Error(path.string() + ": field 'virtual_edges' must be auto or off");
+  get(j, "lambda", o.lambda, "");
+  get(j, "still_tolerance", o.still_tolerance, "");
+  get(j, "rigid_tolerance", o.rigid_tolerance, "");
+  get(j, "solver", solver, "");
+  if (solver != "cholmod" && solver != "eigen")
+    throw Error(path.string() + ": field 'solver' must be cholmod or eigen");
+  o.solver = solver == "eigen" ? SolverKind::kEigenLDLT : SolverKind::kCholmod;
+  if (!j.contains("ve") || !j.contains("registration"))
+    throw Error(path.string() + ": needs the 've' and 'registration' sections");
+  const auto& ve = j.at("ve");
+  get(ve, "d", o.ve.d, "ve.");
+  get(ve, "f", o.ve.f, "ve.");
+  get(ve, "per_vertex", o.ve.per_vertex, "ve.");
+  get(ve, "spacing", o.ve.spacing, "ve.");
+  const auto& reg = j.at("registration");
+  get(reg, "closest_weights", o.registration.closest_weights, "registration.");
+  get(reg, "iterations_per_step", o.registration.iterations_per_step, "registration.");
+  get(reg, "smoothness", o.registration.smoothness, "registration.");
+  get(reg, "identity", o.registration.identity, "registration.");
+  get(reg, "rest_pull", o.registration.rest_pull, "registration.");
+  get(reg, "max_distance", o.registration.max_distance, "registration.");
+  return o;
+}
+
 void write_virtual_edges_json(const std::filesystem::path& path,
                               const std::vector<VirtualEdge>& edges,
                               const VirtualEdgeStats& stats) {

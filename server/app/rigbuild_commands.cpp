@@ -283,6 +283,12 @@ void add_rig_build_commands(CLI::App& rig) {
   b->add_option("--solver", a->solver, "cholmod | eigen")
       ->capture_default_str()
       ->check(CLI::IsMember({"cholmod", "eigen"}));
+  // Defaults come from configs/rigbuild/build.json (the struct mirrors it); flags override.
+  b->preparse_callback([a](std::size_t) {
+    a->opt = rigbuild::load_build_options();
+    a->ve_mode = a->opt.virtual_edges == rigbuild::VirtualEdgeMode::kOff ? "off" : "auto";
+    a->solver = a->opt.solver == rigbuild::SolverKind::kEigenLDLT ? "eigen" : "cholmod";
+  });
   b->callback([a] { run_build(*a); });
 
   auto c = std::make_shared<CheckArgs>();

@@ -181,3 +181,22 @@ TEST_CASE("the same triangles in another order are the same topology", "[rigbuil
   CHECK(!same_topology_correspondence(5, a, 6, a).has_value());
   CHECK(same_topology_correspondence(5, a, 5, a)->map.sources[1] == std::vector<int>{1});
 }
+
+TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
+  const BuildOptions file = load_build_options(), code;
+  CHECK(file.virtual_edges == code.virtual_edges);
+  CHECK(file.lambda == code.lambda);
+  CHECK(file.still_tolerance == code.still_tolerance);
+  CHECK(file.rigid_tolerance == code.rigid_tolerance);
+  CHECK(file.solver == code.solver);
+  CHECK(file.ve.d == code.ve.d);
+  CHECK(file.ve.f == code.ve.f);
+  CHECK(file.ve.per_vertex == code.ve.per_vertex);
+  CHECK(file.ve.spacing == code.ve.spacing);
+  CHECK(file.registration.closest_weights == code.registration.closest_weights);
+  CHECK(file.registration.iterations_per_step == code.registration.iterations_per_step);
+  CHECK(file.registration.smoothness == code.registration.smoothness);
+  CHECK(file.registration.identity == code.registration.identity);
+  CHECK(file.registration.rest_pull == code.registration.rest_pull);
+  CHECK(file.registration.max_distance == code.registration.max_distance);
+}

@@ -24,6 +24,8 @@ namespace facecast::rigbuild {
 
 enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
+/// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
+/// that the two agree).
 struct BuildOptions {
   VirtualEdgeMode virtual_edges = VirtualEdgeMode::kAuto;
   std::filesystem::path virtual_edges_file;  // with kFile: JSON written by write_virtual_edges_json
@@ -73,6 +75,9 @@ struct BuildResult {
   long factor_nonzeros = 0;
   BuildTimings timings;
 };
+
+/// BuildOptions from configs/rigbuild/build.json; throws Error naming the field when invalid.
+BuildOptions load_build_options();
 
 /// Throws facecast::Error for unusable input (vertex counts, markers, zero-area triangles, NaN).
 BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
