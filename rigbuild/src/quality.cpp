@@ -123,7 +123,8 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
     };
   const auto ref_ignore =
       reference ? group_filter(*reference, check.touching_groups) : std::function<bool(int, int)>{};
-  out.neutral = shape_pairs(built, -1, built_ignore, 0).count;
+  const auto neutral_pairs = shape_pairs(built, -1, built_ignore, static_cast<std::size_t>(-1));
+  out.neutral = neutral_pairs.count;
   if (reference) out.reference_neutral = shape_pairs(*reference, -1, ref_ignore, 0).count;
 
   // Reference triangles -> the vertices within `rings` rings of them.
@@ -170,6 +171,11 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
         ref_pairs = shape_pairs(*reference, rk, ref_ignore, static_cast<std::size_t>(-1)).pairs;
     }
     for (const auto& [a, b] : got.pairs) {
+      if (std::binary_search(neutral_pairs.pairs.begin(), neutral_pairs.pairs.end(),
+                             std::pair{a, b})) {
+        ++r.in_neutral;
+        continue;
+      }
       bool known = false;
       if (!ref_pairs.empty()) {
         const auto va = verts_of(map.sources[static_cast<std::size_t>(a)]);

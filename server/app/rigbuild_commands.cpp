@@ -69,6 +69,7 @@ nlohmann::json intersections_json(const rigbuild::IntersectionSummary& s) {
     nlohmann::json pairs = nlohmann::json::array();
     for (const auto& [x, y] : r.fresh_pairs) pairs.push_back({x, y});
     j["per_shape"][r.shape] = {{"total", r.total},
+                               {"in_neutral", r.in_neutral},
                                {"in_reference", r.in_reference},
                                {"new", r.fresh},
                                {"new_pairs", pairs}};
@@ -107,6 +108,7 @@ nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
                         {"min_gap", q.min_gap}};
     if (inter && k < inter->shapes.size())
       s["intersections"] = {{"total", inter->shapes[k].total},
+                            {"in_neutral", inter->shapes[k].in_neutral},
                             {"in_template", inter->shapes[k].in_reference},
                             {"new", inter->shapes[k].fresh}};
     if (errors && k < errors->size()) {

@@ -28,7 +28,10 @@ std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positio
 /// crosses at exactly the same triangles), and "new" otherwise.
 struct ShapeIntersections {
   std::string shape;
-  std::size_t total = 0, in_reference = 0, fresh = 0;
+  std::size_t total = 0;
+  std::size_t in_neutral = 0;                    // already intersecting in the built neutral
+  std::size_t in_reference = 0;                  // the reference shape crosses there too
+  std::size_t fresh = 0;                         // new
   std::vector<std::pair<int, int>> fresh_pairs;  // up to 20, triangle indices of the built rig
 };
 struct IntersectionSummary {
