@@ -72,6 +72,7 @@ const state = {
   shownStream: null,
   restDecay: true, // no stream drives the face: settle to rest (and blink now and then)
   lastFrameAt: 0,
+  history: [],
   log: [],
 };
 
@@ -123,6 +124,13 @@ window.__facecast = {
   get lastUtterance() {
     const all = window.__facecast.utterances;
     return all[all.length - 1] || null;
+  },
+  /** [utterance time, mouth opening] for every frame shown of the current stream. */
+  get history() {
+    return state.history.slice();
+  },
+  get renderInfo() {
+    return { renders: view.renders || 0, pixelRatio: view.renderer.getPixelRatio() };
   },
   get alerts() {
     return alerts.map((a) => ({ level: a.level, code: a.code, message: a.message }));
@@ -249,7 +257,7 @@ function clearTextError() {
 
 /** Shows an error about the text; "offset N" in the message marks that character (code points). */
 function showTextError(message, text) {
-  const m = /offset (\d+)/.exec(message);
+  const m = /\b(?:offset|character) (\d+)/.exec(message);
   els.textError.replaceChildren();
   const head = document.createElement('div');
   head.textContent = message;
@@ -481,7 +489,9 @@ client.addEventListener('error', (e) => {
     });
     return;
   }
-  if (u && /^text\b|offset \d+/.test(m.message || '')) {
+  // Errors about the text name the character: "text: offset N: ..." (docs/protocol.md) or
+  // "character N: ..." (the viseme engine's wording).
+  if (u && /^text\b|\b(?:offset|character) \d+/.test(m.message || '')) {
     showTextError(m.message, u.sentText);
   }
   showAlert({ level: 'error', code: m.code || 'error', message: m.message || 'the server reported an error' });
@@ -551,6 +561,7 @@ function tick() {
     const s = r.stream;
     if (state.shownStream !== s) {
       state.shownStream = s;
+      state.history = [];
       timeline.set(s.id, s.utterance, s.duration);
       const u = s.utterance;
       els.tlInfo.textContent = u
@@ -568,6 +579,8 @@ function tick() {
       }
       const jaw = s.names.indexOf('jawOpen');
       timeline.addMouth(r.t, jaw >= 0 ? r.weights[jaw] : window.__facecast.mouth());
+      state.history.push([r.t, window.__facecast.mouth()]);
+      if (state.history.length > 5000) state.history.splice(0, 1000);
       state.restDecay = false;
     }
     if (r.jpeg) drawJpeg(r.jpeg);

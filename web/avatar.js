@@ -13,8 +13,9 @@ export function makeRenderer(canvas) {
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
   renderer.outputColorSpace = THREE.SRGBColorSpace;
-  renderer.toneMapping = THREE.ACESFilmicToneMapping;
-  renderer.toneMappingExposure = 1.05;
+  // Neutral tone mapping keeps the materials' hues (ACES bleaches skin).
+  renderer.toneMapping = THREE.NeutralToneMapping;
+  renderer.toneMappingExposure = 1.0;
   return renderer;
 }
 
@@ -62,6 +63,14 @@ export function restBox(root) {
     }
   });
   return box;
+}
+
+/** True when WebGL runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
+export function isSoftwareRenderer(renderer) {
+  const gl = renderer.getContext();
+  const ext = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
 }
 
 /** Every mesh under root that has morph targets (one per glTF primitive). */
@@ -150,6 +159,7 @@ export class AvatarView {
     this.index = new Map(this.names.map((n, i) => [n, i]));
     this.weights = new Float32Array(this.names.length);
     this._mapNames = null;
+    this.setupCpuMorph();
     this.frame(box);
     this.dirty = true;
   }
@@ -216,6 +226,58 @@ export class AvatarView {
       const inf = m.morphTargetInfluences;
       for (let i = 0; i < inf.length && i < this.weights.length; i++) inf[i] = this.weights[i];
     }
+    if (this.cpu) this.cpu.dirty = true;
+  }
+
+  /**
+   * Software WebGL (SwiftShader, llvmpipe) spends most of a frame looping over every morph target
+   * per vertex. There the morphs are blended on the CPU instead (sparse deltas, only the shapes in
+   * use) into the shared position buffer, and the shaders draw a plain mesh. The influences stay in
+   * morphTargetInfluences either way. `?morph=cpu|gpu` forces a path.
+   */
+  setupCpuMorph() {
+    this.cpu = null;
+    const force = new URLSearchParams(window.location.search).get('morph');
+    if (force === 'gpu' || (force !== 'cpu' && !isSoftwareRenderer(this.renderer))) return;
+    const first = this.meshes[0];
+    const pos = first?.geometry.attributes.position;
+    const deltas = first?.geometry.morphAttributes.position;
+    if (!pos || !deltas?.length || !this.meshes.every((m) => m.geometry.attributes.position === pos)) return;
+    const shapes = deltas.map((attr) => {
+      const a = attr.array;
+      const idx = [];
+      for (let v = 0; v < attr.count; v++) if (a[3 * v] !== 0 || a[3 * v + 1] !== 0 || a[3 * v + 2] !== 0) idx.push(v);
+      const vi = Uint32Array.from(idx);
+      const d = new Float32Array(3 * vi.length);
+      vi.forEach((v, k) => d.set(a.subarray(3 * v, 3 * v + 3), 3 * k));
+      return { vi, d };
+    });
+    for (const m of this.meshes) {
+      m.geometry.morphAttributes = {};
+      m.frustumCulled = false;
+    }
+    pos.setUsage(THREE.DynamicDrawUsage);
+    this.cpu = { pos, base: Float32Array.from(pos.array), shapes, dirty: true };
+  }
+
+  blendOnCpu() {
+    const c = this.cpu;
+    if (!c || !c.dirty) return;
+    c.dirty = false;
+    const out = c.pos.array;
+    out.set(c.base);
+    for (let k = 0; k < c.shapes.length && k < this.weights.length; k++) {
+      const w = this.weights[k];
+      if (w === 0) continue;
+      const { vi, d } = c.shapes[k];
+      for (let j = 0; j < vi.length; j++) {
+        const o = 3 * vi[j];
+        out[o] += w * d[3 * j];
+        out[o + 1] += w * d[3 * j + 1];
+        out[o + 2] += w * d[3 * j + 2];
+      }
+    }
+    c.pos.needsUpdate = true;
   }
 
   /** The influence of a shape on every primitive (for tests): [values...] */
@@ -240,8 +302,12 @@ export class AvatarView {
   /** Renders when anything changed (weights, head, camera, size) or when forced. */
   render(force = false) {
     this.controls.update();
-    if (!this.dirty && !force) return false;
+    if (!this.dirty && !force) {
+      this._streak = 0;
+      return false;
+    }
     this.dirty = false;
+    this.blendOnCpu();
     this.renderer.render(this.scene, this.camera);
     this.renders = (this.renders || 0) + 1;
     this.adapt();
@@ -249,27 +315,29 @@ export class AvatarView {
   }
 
   /**
-   * Adaptive resolution: when back-to-back renders come slower than ~20 per second (software
-   * WebGL, a weak GPU), lower the pixel ratio step by step (down to half) so animation stays fluid.
+   * Adaptive resolution: when renders on consecutive animation frames come slower than ~20 per
+   * second (software WebGL, a weak GPU), lower the pixel ratio step by step (down to 0.4) so the
+   * animation stays fluid.
    */
   adapt() {
     const now = performance.now();
     const gap = now - (this._lastRender || 0);
     this._lastRender = now;
-    if (gap > 250) {
-      this._slow = 0;
+    this._streak = (this._streak || 0) + 1;
+    if (this._streak === 1) {
+      this._sum = 0;
       this._n = 0;
       return;
     }
-    this._n = (this._n || 0) + 1;
-    this._slow = (this._slow || 0) + gap;
-    if (this._n < 30) return;
-    const avg = this._slow / this._n;
+    this._sum += gap;
+    this._n += 1;
+    if (this._n < 8) return;
+    const avg = this._sum / this._n;
+    this._sum = 0;
     this._n = 0;
-    this._slow = 0;
     const pr = this.renderer.getPixelRatio();
-    if (avg > 50 && pr > 0.5) {
-      this.renderer.setPixelRatio(Math.max(0.5, pr * 0.75));
+    if (avg > 50 && pr > 0.4) {
+      this.renderer.setPixelRatio(Math.max(0.4, pr * 0.7));
       this.resize();
     }
   }

@@ -7,7 +7,7 @@
 
 import { KIND } from './protocol.js';
 
-const LEAD = 0.12; // s of local buffer between a stream's first media and its playback
+const LEAD = 0.2; // s of local buffer between a stream's first media and its playback (absorbs a busy main thread)
 const AUDIO_WAIT = 0.4; // s to wait for announced audio before the frames run on their own clock
 
 function perfNow() {
@@ -310,16 +310,19 @@ export class StreamPlayer {
     const out = { stream: s, t, weights: null, extra: null, jpeg: null, done: this.done(s) };
     if (t === null) return out;
     if (out.done) out.t = Math.min(t, this.endOf(s) || s.duration);
+    // The output-timestamp correction can step back a hair; presentation time never does.
+    if (s.lastT > out.t && s.lastT - out.t < 0.05) out.t = s.lastT;
     s.lastT = out.t;
+    const tt = out.t;
     if (s.frames.length) {
-      while (s.cursor + 1 < s.frames.length && s.frames[s.cursor + 1].t <= t) s.cursor++;
+      while (s.cursor + 1 < s.frames.length && s.frames[s.cursor + 1].t <= tt) s.cursor++;
       const a = s.frames[s.cursor];
-      if (a.t <= t) {
+      if (a.t <= tt) {
         const b = s.frames[s.cursor + 1];
         const nshape = s.names.length;
         const w = new Float32Array(s.nch);
         if (b && b.t > a.t && b.t - a.t < 3 / s.fps) {
-          const u = Math.min(1, (t - a.t) / (b.t - a.t));
+          const u = Math.min(1, (tt - a.t) / (b.t - a.t));
           for (let i = 0; i < s.nch; i++) w[i] = a.w[i] + (b.w[i] - a.w[i]) * u;
         } else {
           w.set(a.w);
@@ -335,7 +338,7 @@ export class StreamPlayer {
     }
     if (s.jpegs.length) {
       let i = -1;
-      while (i + 1 < s.jpegs.length && s.jpegs[i + 1].t <= t) i++;
+      while (i + 1 < s.jpegs.length && s.jpegs[i + 1].t <= tt) i++;
       if (i >= 0) {
         const due = s.jpegs[i];
         for (let k = 0; k < i; k++) s.jpegs[k].bitmap.close?.();

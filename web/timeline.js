@@ -258,6 +258,9 @@ export class Timeline {
         g.lineWidth = 1.5;
         g.stroke();
         g.lineWidth = 1;
+      } else if (this.t !== null && this.t > 0.3) {
+        g.fillStyle = '#6b7483';
+        g.fillText('the streamed jawOpen appears here in weights mode', GUTTER + 6, ty + th / 2);
       }
     }
 

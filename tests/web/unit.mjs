@@ -87,7 +87,7 @@ function message(kind, stream, first, count, pts, payload) {
     p.media(parseHeader(message(KIND.WEIGHTS, 3, 0, 3, 0, frames)), message(KIND.WEIGHTS, 3, 0, 3, 0, frames).slice(HEADER_BYTES));
     let r = p.update();
     check('before the lead nothing is shown', r.t < 0 && r.weights === null, `t=${r.t}`);
-    now += 120 + 50; // past the lead, half-way between frame 0 (t=0) and frame 1 (t=0.1)
+    now += 200 + 50; // past the lead, half-way between frame 0 (t=0) and frame 1 (t=0.1)
     r = p.update();
     check('frames interpolate between their pts', r.weights && Math.abs(r.weights[0] - 0.25) < 1e-6, `t=${r.t?.toFixed(3)} jaw=${r.weights?.[0]}`);
     check('extra channels follow the weights', r.extra && Math.abs(r.extra[0] - 0.005) < 1e-6, String(r.extra?.[0]));
