@@ -18,10 +18,15 @@ const $ = (id) => document.getElementById(id);
 export function parseObj(text) {
   const pos = [];
   const idx = [];
+  const groups = []; // {start, count, material} over idx, from usemtl
   const lines = text.split('\n');
   for (let ln = 0; ln < lines.length; ln++) {
     const line = lines[ln].trim();
-    if (line.startsWith('v ') || line.startsWith('v\t')) {
+    if (line.startsWith('usemtl')) {
+      const last = groups[groups.length - 1];
+      if (last) last.count = idx.length - last.start;
+      groups.push({ start: idx.length, count: 0, material: line.slice(6).trim() });
+    } else if (line.startsWith('v ') || line.startsWith('v\t')) {
       const p = line.split(/\s+/);
       const x = Number(p[1]);
       const y = Number(p[2]);
@@ -44,7 +49,33 @@ export function parseObj(text) {
   if (!pos.length) throw new Error('the OBJ has no vertices');
   const n = pos.length / 3;
   if (idx.some((i) => i >= n)) throw new Error('the OBJ has a face with a vertex index past its vertices');
-  return { positions: new Float32Array(pos), indices: n > 65535 ? new Uint32Array(idx) : new Uint16Array(idx), vertexCount: n };
+  const last = groups[groups.length - 1];
+  if (last) last.count = idx.length - last.start;
+  if (groups.length && groups[0].start > 0) groups.unshift({ start: 0, count: groups[0].start, material: '' });
+  return {
+    positions: new Float32Array(pos),
+    indices: n > 65535 ? new Uint32Array(idx) : new Uint16Array(idx),
+    vertexCount: n,
+    groups: groups.filter((g) => g.count > 0),
+  };
+}
+
+// Colours for the material names heads usually have (OBJ uploads carry no .mtl).
+const PART_COLORS = [
+  [/lip/i, 0xd98b84],
+  [/sclera|eye_?white/i, 0xf3f1ec],
+  [/iris/i, 0x4a7fa0],
+  [/pupil/i, 0x111111],
+  [/teeth|tooth/i, 0xf1ede4],
+  [/tongue/i, 0xcc6f6c],
+  [/mouth|interior|cavity/i, 0x5a2a2a],
+  [/brow/i, 0x6b4a32],
+  [/lash/i, 0x2a2220],
+];
+
+function partMaterial(name) {
+  const hit = PART_COLORS.find(([re]) => re.test(name || ''));
+  return new THREE.MeshStandardMaterial({ color: hit ? hit[1] : 0xe8cbb5, roughness: 0.6, side: THREE.DoubleSide, name: name || '' });
 }
 
 function objToObject(parsed) {
@@ -52,7 +83,14 @@ function objToObject(parsed) {
   g.setAttribute('position', new THREE.BufferAttribute(parsed.positions, 3));
   g.setIndex(new THREE.BufferAttribute(parsed.indices, 1));
   g.computeVertexNormals();
-  const mesh = new THREE.Mesh(g, new THREE.MeshStandardMaterial({ color: 0xe8cbb5, roughness: 0.6, side: THREE.DoubleSide }));
+  let material = partMaterial('');
+  if (parsed.groups.length > 1) {
+    material = parsed.groups.map((gr, i) => {
+      g.addGroup(gr.start, gr.count, i);
+      return partMaterial(gr.material);
+    });
+  }
+  const mesh = new THREE.Mesh(g, material);
   mesh.name = 'obj';
   const group = new THREE.Group();
   group.add(mesh);

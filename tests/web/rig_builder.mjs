@@ -108,7 +108,8 @@ async function body(work) {
     await sleep(200);
   }
   const job = await page.evaluate(() => window.__rig.job);
-  must('the build job is done', job?.state === 'done', JSON.stringify(job?.error ?? job?.state));
+  const pageErrors = await page.evaluate(() => window.__rig.errors);
+  must('the build job is done', job?.state === 'done', JSON.stringify(job?.error ?? job?.state ?? pageErrors));
   log(`built in ${((Date.now() - t0) / 1000).toFixed(1)} s; states seen ${[...seen].join(',')}; ${progress.length} progress readings`);
   check('progress was shown while building', progress.length > 0 || seen.has('queued') || seen.has('running'), `${progress.length} readings, last ${progress[progress.length - 1]}`);
   check('the progress bar is full', (await page.getAttribute('#progress-bar', 'style')).includes('100%'));
