@@ -10,6 +10,7 @@ void add_viseme_commands(CLI::App& app);
 void add_avatar_commands(CLI::App& app);
 void add_render_commands(CLI::App& app);
 void add_animate_commands(CLI::App& app);
+void add_serve_commands(CLI::App& app);
 /// `rig build` and `rig check`, added to the `rig` subcommand by add_rig_commands.
 void add_rig_build_commands(CLI::App& rig);
 

@@ -1,0 +1,82 @@
+#pragma once
+// Every setting and limit of `facecast serve`. The defaults here mirror configs/server.json (a
+// test checks that they agree); README.md ("The server") and docs/protocol.md document each one.
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace facecast::server {
+
+struct ServerOptions {
+  // Where to listen. Any host other than a loopback address requires `token`.
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0 picks a free port
+  // Rigs and rendered videos live here (relative: to the working folder).
+  std::filesystem::path data = "data";
+  // Required (header "Authorization: Bearer T" or query "?token=T") on /api/* and /ws when set.
+  std::string token;
+  // Static files: the web client and the pinned three.js package (relative: to the project root,
+  // the folder above configs/).
+  std::filesystem::path web_root = "web";
+  std::filesystem::path three_root = "node_modules/three";
+  // The rig a `speak` without "rig" uses: "default" is the built-in avatar.
+  std::string default_rig = "default";
+
+  // Threads.
+  int io_threads = 2;   // network I/O (one strand per connection)
+  int workers = 2;      // speech analysis and frame rendering
+  int job_workers = 1;  // rig builds and video renders
+
+  // Limits.
+  int max_connections = 2000;         // HTTP + WebSocket connections at once
+  std::size_t max_message = 65536;    // bytes of one WebSocket message (larger: close 1009)
+  std::size_t max_text = 2000;        // characters of speak text
+  std::size_t max_body = 65536;       // bytes of a request body other than uploads
+  std::size_t max_upload = 67108864;  // bytes of a POST /api/rigs or /api/render body
+  double speak_per_minute = 60;       // speak rate per connection (token bucket)...
+  int speak_burst = 10;               // ...with this many at once
+  int max_queued_speaks = 16;         // playing + waiting utterances per connection
+  int max_fps = 120;                  // highest fps a speak may ask for
+  int max_frame_side = 1920;          // largest width/height of frames and videos
+  int max_jobs = 8;                   // rig builds and renders queued or running
+  double max_render_seconds = 120;    // longest video POST /api/render makes
+
+  // Streaming.
+  double lead = 0.1;         // frames are sent this many seconds before their presentation time
+  double min_tick = 0.0;     // at least this long between two sends of one stream (s)
+  double audio_chunk = 0.2;  // seconds of PCM per audio message
+  double cancel_fade = 0.2;  // seconds to fade to rest after cancel
+  int write_queue = 64;      // media messages queued per connection before dropping
+  double slow_client_grace = 2.0;  // a queue not drained for this long closes the socket (1008)
+  double close_timeout = 2.0;      // a close handshake that takes longer ends with a hard close
+  int frames_in_flight = 2;        // frames mode: renders running per stream
+  int jpeg_quality = 80;
+  int render_contexts = 2;  // GL contexts per renderer (rig and size)
+  int max_renderers = 4;    // renderers kept (rig, size), least recently used dropped
+  int send_buffer = 0;      // SO_SNDBUF of accepted sockets in bytes (0: the system's)
+
+  // Timeouts (seconds).
+  double http_timeout = 30;          // reading a request / writing a response
+  double ws_handshake_timeout = 30;  // WebSocket handshake and close
+  double ws_idle_timeout = 60;       // no traffic: ping at half of it, close at it
+  double shutdown_timeout = 3;       // SIGINT/SIGTERM: hard stop after this long
+
+  // WebSocket Origin check: browsers may connect from the server's own origin and from these
+  // ("*" allows any). Clients that send no Origin (not browsers) are allowed.
+  std::vector<std::string> allowed_origins;
+
+  std::string log_level = "info";  // debug | info | warn | error
+};
+
+/// Reads a server config (JSON object, every key optional, unknown keys rejected) over the
+/// defaults; throws Error naming the file and key.
+ServerOptions load_server_options(const std::filesystem::path& path);
+
+/// Checks ranges and the token rule; throws Error naming the setting.
+void validate(const ServerOptions& options);
+
+/// True for 127.0.0.0/8, ::1 and "localhost".
+bool is_loopback_host(const std::string& host);
+
+}  // namespace facecast::server

@@ -1,0 +1,161 @@
+#pragma once
+// The facecast.v1 WebSocket protocol (docs/protocol.md): parsing client messages, building server
+// messages, and the 24-byte little-endian header of binary media messages.
+//
+// Errors: every way a request can fail is a facecast::Error (or a RequestError for the codes that
+// only the server knows); describe() turns any exception into the protocol's {code, message,
+// HTTP status}. It is the one place where exceptions become protocol errors.
+#include <array>
+#include <cstdint>
+#include <exception>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "facecast/core/error.hpp"
+#include "facecast/viseme/import.hpp"
+#include "facecast/viseme/options.hpp"
+
+namespace facecast::server {
+
+inline constexpr std::string_view kSubprotocol = "facecast.v1";
+
+// ---- errors -------------------------------------------------------------------------------------
+
+/// Codes of `error` messages and HTTP error bodies.
+enum class Code {
+  kInvalidInput,  // 400
+  kUnauthorized,  // 401
+  kForbidden,     // 403
+  kNotFound,      // 404
+  kMethod,        // 405 ("method_not_allowed")
+  kLimit,         // 413 (429 for too many jobs, 503 for too many connections)
+  kRateLimited,   // 429
+  kUnsupported,   // 400
+  kUnavailable,   // 503 (shutting down, too many connections)
+  kInternal,      // 500
+};
+std::string_view to_string(Code code) noexcept;
+int http_status(Code code) noexcept;
+
+/// A failure with a server-only code (rate limits, auth) or an explicit HTTP status.
+class RequestError : public Error {
+ public:
+  RequestError(Code code, std::string message, int status = 0)
+      : Error(std::move(message), ErrorCode::kInvalidInput), code_(code), status_(status) {}
+  Code request_code() const noexcept { return code_; }
+  int status() const noexcept { return status_ ? status_ : http_status(code_); }
+
+ private:
+  Code code_;
+  int status_;
+};
+
+struct Problem {
+  Code code = Code::kInternal;
+  std::string message;
+  int status = 500;
+};
+/// The one translation of exceptions into protocol errors: facecast::Error keeps its code and
+/// message, RequestError its code and status, anything else is "internal".
+Problem describe(std::exception_ptr error);
+
+// ---- client -> server -------------------------------------------------------------------------
+
+enum class Output { kWeights, kFrames };
+
+struct SpeakRequest {
+  std::string id;
+  std::optional<std::string> text;
+  struct Timestamps {
+    viseme::TimestampFormat format = viseme::TimestampFormat::kJson;
+    std::string data;  // the file's content (JSON given inline is serialized)
+    viseme::PhoneSet phones = viseme::PhoneSet::kAuto;
+    std::string text;  // shown as the utterance's text
+  };
+  std::optional<Timestamps> timestamps;
+  viseme::LangMode lang = viseme::LangMode::kAuto;
+  std::string rig;  // empty: the server's default rig
+  double fps = 60;
+  Output output = Output::kWeights;
+  bool audio = true;
+  viseme::Timing timing = viseme::Timing::kTts;
+  int width = 640, height = 480;
+  std::string voice = "en-us";
+  double rate = 4.5;
+  bool idle = true;
+};
+
+struct CancelRequest {
+  std::string id;
+};
+
+struct PingRequest {
+  nlohmann::json t;  // echoed (null when absent)
+};
+
+using ClientMessage = std::variant<SpeakRequest, CancelRequest, PingRequest>;
+
+struct ProtocolLimits {
+  std::size_t max_text = 2000;  // characters (code points) of text
+  int max_fps = 120;
+  int max_frame_side = 1920;
+};
+
+/// Parses one text message. Throws facecast::Error naming the field for malformed JSON, unknown
+/// types or fields, wrong types and out-of-range values, and Code::kLimit for text over the limit.
+/// `id` (optional) receives the message's id as soon as it is known, so an error can name it.
+ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& limits,
+                                   std::string* id = nullptr);
+
+/// Throws Error when JSON text nests arrays/objects deeper than `max_depth` (checked before
+/// parsing, so that nothing later recurses deeply).
+void check_json_depth(std::string_view text, int max_depth = 32);
+
+/// Number of Unicode code points of UTF-8 text (invalid bytes count one each).
+std::size_t utf8_length(std::string_view text) noexcept;
+
+// ---- server -> client -------------------------------------------------------------------------
+
+std::string error_message(const std::optional<std::string>& id, const Problem& problem);
+/// {"error": {"code", "message"}} for HTTP bodies.
+std::string error_body(const Problem& problem);
+
+// ---- binary media -----------------------------------------------------------------------------
+
+enum class MediaKind : std::uint8_t { kWeights = 1, kAudio = 2, kJpeg = 3 };
+inline constexpr std::size_t kHeaderSize = 24;
+inline constexpr std::uint8_t kMediaVersion = 1;
+
+struct MediaHeader {
+  MediaKind kind = MediaKind::kWeights;
+  std::uint8_t version = kMediaVersion;
+  std::uint32_t stream = 0;
+  std::uint32_t first = 0;  // first frame (weights, JPEG) or first sample (audio)
+  std::uint32_t count = 0;  // frames or samples
+  double pts = 0;           // seconds from the start of the utterance's audio
+};
+
+/// Writes the 24 header bytes to `out`.
+void write_header(const MediaHeader& header, char* out) noexcept;
+/// Reads a header; throws Error when `bytes` is shorter than 24 or the kind/version is unknown.
+MediaHeader read_header(std::string_view bytes);
+
+/// A whole message: header + float32 (weights) little-endian.
+std::string weights_message(std::uint32_t stream, std::uint32_t first, double fps,
+                            std::uint32_t count, const float* values, std::size_t values_count);
+/// Header + PCM16 little-endian samples.
+std::string audio_message(std::uint32_t stream, std::uint32_t first_sample, int sample_rate,
+                          const std::int16_t* samples, std::size_t count);
+/// Header + JPEG bytes.
+std::string jpeg_message(std::uint32_t stream, std::uint32_t frame, double fps,
+                         std::string_view jpeg);
+
+/// float32 values of a weights message's payload (after the header).
+std::vector<float> read_floats(std::string_view payload);
+
+}  // namespace facecast::server

@@ -1,0 +1,322 @@
+#include "api.hpp"
+
+#include <map>
+#include <random>
+
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
+#include "log.hpp"
+#include "routes.hpp"
+#include "video.hpp"
+
+namespace facecast::server {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json parse_body(const Request& req) {
+  check_json_depth(req.body(), 64);
+  try {
+    return json::parse(req.body());
+  } catch (const json::parse_error& e) {
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw Error("body: malformed JSON: " + what);
+  }
+}
+
+const std::string& str(const json& v, const std::string& field) {
+  if (!v.is_string()) throw Error(field + ": expected a string");
+  return v.get_ref<const std::string&>();
+}
+
+double number(const json& v, const std::string& field, double lo, double hi) {
+  if (!v.is_number()) throw Error(field + ": expected a number");
+  const double x = v.get<double>();
+  if (!(x >= lo && x <= hi)) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "%s: %g is outside [%g, %g]", field.c_str(), x, lo, hi);
+    throw Error(buf);
+  }
+  return x;
+}
+
+// A folder under <data>/tmp removed when the last owner lets go.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const fs::path& data) {
+    thread_local std::mt19937_64 rng{std::random_device{}()};
+    char name[40];
+    std::snprintf(name, sizeof name, "upload-%016llx", static_cast<unsigned long long>(rng()));
+    path = data / "tmp" / name;
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+json build_report(const rigbuild::BuildResult& r, bool virtual_edges_on, double lambda) {
+  json j;
+  j["vertices"] = r.rig.vertex_count();
+  j["virtual_edges"] = {{"mode", virtual_edges_on ? "auto" : "off"},
+                        {"count", virtual_edges_on ? r.virtual_edges.size() : 0},
+                        {"d", r.ve_stats.d},
+                        {"lambda", lambda}};
+  j["timings_s"] = {{"correspondence", r.timings.correspondence},
+                    {"gradients", r.timings.gradients},
+                    {"virtual_edges", r.timings.detect},
+                    {"factor", r.timings.factor},
+                    {"solve", r.timings.solve},
+                    {"total", r.timings.total}};
+  j["fixed_vertices"] = r.fixed_vertices;
+  j["components"] = json::array();
+  for (const auto& c : r.components)
+    j["components"].push_back({{"vertices", c.vertices}, {"placement", c.placement}});
+  j["shapes"] = json::array();
+  for (const auto& q : r.quality) {
+    j["shapes"].push_back({{"name", q.shape},
+                           {"max_displacement", q.max_displacement},
+                           {"gap_change", q.gap_change},
+                           {"min_gap", q.min_gap}});
+  }
+  return j;
+}
+
+}  // namespace
+
+std::string base64_decode(std::string_view text, std::string_view field) {
+  static const auto table = [] {
+    std::array<int, 256> t{};
+    t.fill(-1);
+    const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (int i = 0; i < 64; ++i) t[static_cast<unsigned char>(alphabet[i])] = i;
+    return t;
+  }();
+  std::string out;
+  out.reserve(text.size() / 4 * 3);
+  std::uint32_t acc = 0;
+  int bits = 0;
+  bool padding = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == ' ' || c == '\n' || c == '\r' || c == '\t') continue;
+    if (c == '=') {
+      padding = true;
+      continue;
+    }
+    const int v = table[static_cast<unsigned char>(c)];
+    if (v < 0 || padding)
+      throw Error(std::string(field) + ": not base64 (character " + std::to_string(i) + ")");
+    acc = (acc << 6) | static_cast<std::uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((acc >> bits) & 0xFF);
+    }
+  }
+  if (bits >= 6) throw Error(std::string(field) + ": truncated base64");
+  return out;
+}
+
+bool match_triangle_order(const anim::Rig& tmpl, anim::Rig& target) {
+  if (tmpl.vertex_count() != target.vertex_count() ||
+      tmpl.triangle_count() != target.triangle_count())
+    return false;
+  if (tmpl.triangles == target.triangles) return true;
+  // Key: the triangle rotated so its smallest index comes first (orientation kept).
+  const auto key = [](int a, int b, int c) {
+    if (b < a && b <= c)
+      std::tie(a, b, c) = std::make_tuple(b, c, a);
+    else if (c < a && c < b)
+      std::tie(a, b, c) = std::make_tuple(c, a, b);
+    return std::array<int, 3>{a, b, c};
+  };
+  std::map<std::array<int, 3>, int> index;
+  for (int t = 0; t < tmpl.triangle_count(); ++t)
+    index[key(tmpl.triangles(t, 0), tmpl.triangles(t, 1), tmpl.triangles(t, 2))] = t;
+  std::vector<int> order(static_cast<std::size_t>(target.triangle_count()), -1);
+  for (int t = 0; t < target.triangle_count(); ++t) {
+    const auto it =
+        index.find(key(target.triangles(t, 0), target.triangles(t, 1), target.triangles(t, 2)));
+    if (it == index.end() || order[static_cast<std::size_t>(it->second)] >= 0) return false;
+    order[static_cast<std::size_t>(it->second)] = t;  // template slot -> target triangle
+  }
+  anim::Triangles tris(target.triangle_count(), 3);
+  std::vector<int> mats(order.size(), 0), groups;
+  if (!target.triangle_group.empty()) groups.resize(order.size());
+  for (std::size_t s = 0; s < order.size(); ++s) {
+    const int t = order[s];
+    tris.row(static_cast<Eigen::Index>(s)) = tmpl.triangles.row(static_cast<Eigen::Index>(s));
+    if (!target.triangle_material.empty())
+      mats[s] = target.triangle_material[static_cast<std::size_t>(t)];
+    if (!groups.empty()) groups[s] = target.triangle_group[static_cast<std::size_t>(t)];
+  }
+  target.triangles = std::move(tris);
+  if (!target.triangle_material.empty()) target.triangle_material = std::move(mats);
+  if (!groups.empty()) target.triangle_group = std::move(groups);
+  return true;
+}
+
+http::message_generator post_rig(State& state, const Request& req) {
+  const json body = parse_body(req);
+  if (!body.is_object()) throw Error("body: expected a JSON object");
+  std::string name = "Rig", template_id = state.options.default_rig;
+  const json* mesh = nullptr;
+  const json* markers = nullptr;
+  bool ve_on = true;
+  double lambda = 4.0;
+  for (const auto& [k, v] : body.items()) {
+    if (k == "name") {
+      name = str(v, "name");
+      if (name.empty() || utf8_length(name) > 64) throw Error("name: expected 1 to 64 characters");
+    } else if (k == "template") {
+      template_id = str(v, "template");
+    } else if (k == "mesh") {
+      mesh = &v;
+    } else if (k == "markers") {
+      if (!v.is_null()) markers = &v;
+    } else if (k == "options") {
+      if (!v.is_object()) throw Error("options: expected an object");
+      for (const auto& [ok, ov] : v.items()) {
+        if (ok == "virtual_edges") {
+          const std::string& mode = str(ov, "options.virtual_edges");
+          if (mode != "auto" && mode != "off")
+            throw Error("options.virtual_edges: '" + mode + "' is not auto or off");
+          ve_on = mode == "auto";
+        } else if (ok == "lambda") {
+          lambda = number(ov, "options.lambda", 0, 1e6);
+        } else {
+          throw Error("options: unknown field '" + ok + "'");
+        }
+      }
+    } else {
+      throw Error("body: unknown field '" + k + "'");
+    }
+  }
+  if (!mesh) throw Error("mesh: missing ({\"format\": \"obj\"|\"glb\", \"data\": ...})");
+  if (!mesh->is_object() || !mesh->contains("format") || !mesh->contains("data"))
+    throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
+  const std::string& format = str(mesh->at("format"), "mesh.format");
+  const std::string& data = str(mesh->at("data"), "mesh.data");
+  anim::Rig target;
+  if (format == "obj") {
+    target = anim::parse_obj(data, "mesh");
+  } else if (format == "glb") {
+    target = anim::parse_glb(base64_decode(data, "mesh.data"), "mesh");
+  } else {
+    throw Error("mesh.format: '" + format + "' is not obj or glb");
+  }
+  target.shapes.clear();  // only the neutral is used
+  target.validate("mesh");
+  const auto tmpl = state.rigs.load(template_id);
+
+  rigbuild::BuildOptions opt;
+  opt.virtual_edges = ve_on ? rigbuild::VirtualEdgeMode::kAuto : rigbuild::VirtualEdgeMode::kOff;
+  opt.lambda = lambda;
+  auto tmp = std::make_shared<TempDir>(state.options.data);
+  if (markers) {
+    const fs::path path = tmp->path / "markers.json";
+    write_file_atomic(path, markers->dump());
+    try {
+      (void)rigbuild::read_markers(path, tmpl->rig->vertex_count(), target.vertex_count());
+    } catch (const Error& e) {
+      std::string what = e.what();
+      if (what.starts_with(path.string())) what = "markers" + what.substr(path.string().size());
+      throw Error(what, e.code());
+    }
+    opt.markers = path;
+    opt.correspondence = tmp->path / "correspondence.bin";
+  } else if (!match_triangle_order(*tmpl->rig, target)) {
+    throw Error("mesh: " + std::to_string(target.vertex_count()) + " vertices and " +
+                std::to_string(target.triangle_count()) +
+                " triangles do not match the template's topology (" +
+                std::to_string(tmpl->rig->vertex_count()) + " vertices, " +
+                std::to_string(tmpl->rig->triangle_count()) +
+                " triangles); give markers for another topology");
+  }
+  auto shared_target = std::make_shared<const anim::Rig>(std::move(target));
+  const std::string job = state.jobs.submit(
+      "rig", [&state, shared_target, tmpl, opt, name, ve_on, lambda, tmp](JobContext& ctx) -> json {
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto r = rigbuild::build_rig(*tmpl->rig, *shared_target, opt, ctx.progress_fn());
+        const json report = build_report(r, ve_on, lambda);
+        ctx.progress("storing", 1.0);
+        const std::string id = state.rigs.add(
+            name, tmpl->id, r.rig, report,
+            ve_on ? r.virtual_edges : std::vector<rigbuild::VirtualEdge>{}, r.ve_stats);
+        state.metrics.rig_build_seconds.observe(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
+      });
+  log::info("rig_upload", {{"job", job},
+                           {"name", name},
+                           {"template", tmpl->id},
+                           {"vertices", shared_target->vertex_count()},
+                           {"markers", markers != nullptr}});
+  return json_response(state, req, http::status::accepted,
+                       {{"job", job}, {"url", "/api/jobs/" + job}});
+}
+
+http::message_generator post_render(State& state, const Request& req) {
+  const json body = parse_body(req);
+  if (!body.is_object()) throw Error("body: expected a JSON object");
+  VideoRequest r;
+  r.rig = state.options.default_rig;
+  bool have_text = false;
+  for (const auto& [k, v] : body.items()) {
+    if (k == "text") {
+      r.text = str(v, "text");
+      const std::size_t n = utf8_length(r.text);
+      if (n == 0) throw Error("text: empty");
+      if (n > state.options.max_text)
+        throw RequestError(Code::kLimit, "text: " + std::to_string(n) +
+                                             " characters, the limit is " +
+                                             std::to_string(state.options.max_text));
+      have_text = true;
+    } else if (k == "rig") {
+      r.rig = str(v, "rig");
+    } else if (k == "fps") {
+      r.fps = number(v, "fps", 1, 60);
+    } else if (k == "size") {
+      if (!v.is_array() || v.size() != 2 || !v[0].is_number_integer() || !v[1].is_number_integer())
+        throw Error("size: expected [width, height] in pixels");
+      const double hi = state.options.max_frame_side;
+      r.width = static_cast<int>(number(v[0], "size[0]", 16, hi));
+      r.height = static_cast<int>(number(v[1], "size[1]", 16, hi));
+      if (r.width % 2 || r.height % 2) throw Error("size: width and height must be even (H.264)");
+    } else if (k == "audio") {
+      if (!v.is_boolean()) throw Error("audio: expected true or false");
+      r.audio = v.get<bool>();
+    } else if (k == "lang") {
+      r.lang = viseme::parse_lang_mode(str(v, "lang"));
+    } else if (k == "voice") {
+      r.voice = str(v, "voice");
+    } else if (k == "rate") {
+      r.rate = number(v, "rate", 0.5, 20);
+    } else if (k == "idle") {
+      if (!v.is_boolean()) throw Error("idle: expected true or false");
+      r.idle = v.get<bool>();
+    } else {
+      throw Error("body: unknown field '" + k + "'");
+    }
+  }
+  if (!have_text) throw Error("text: missing");
+  if (!state.rigs.find(r.rig))
+    throw Error("rig '" + r.rig + "' does not exist", ErrorCode::kNotFound);
+  const std::string job = state.jobs.submit(
+      "render", [&state, r](JobContext& ctx) { return render_video(state, r, ctx); });
+  log::info("render_request", {{"job", job},
+                               {"rig", r.rig},
+                               {"fps", r.fps},
+                               {"size", std::to_string(r.width) + "x" + std::to_string(r.height)}});
+  return json_response(state, req, http::status::accepted,
+                       {{"job", job}, {"url", "/api/jobs/" + job}});
+}
+
+}  // namespace facecast::server

@@ -1,0 +1,269 @@
+#include "http_session.hpp"
+
+#include <array>
+
+#include "log.hpp"
+#include "routes.hpp"
+#include "websocket_session.hpp"
+
+namespace facecast::server {
+namespace {
+
+std::chrono::steady_clock::duration from_seconds(double s) {
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(s));
+}
+
+std::string endpoint_string(const tcp::socket& socket) {
+  beast::error_code ec;
+  const auto ep = socket.remote_endpoint(ec);
+  if (ec) return "?";
+  return ep.address().to_string() + ":" + std::to_string(ep.port());
+}
+
+// True when the comma-separated header value lists `token`.
+bool header_lists(std::string_view value, std::string_view token) {
+  while (!value.empty()) {
+    const auto comma = value.find(',');
+    std::string_view item = value.substr(0, comma);
+    while (!item.empty() && (item.front() == ' ' || item.front() == '\t')) item.remove_prefix(1);
+    while (!item.empty() && (item.back() == ' ' || item.back() == '\t')) item.remove_suffix(1);
+    if (item == token) return true;
+    if (comma == std::string_view::npos) break;
+    value.remove_prefix(comma + 1);
+  }
+  return false;
+}
+
+}  // namespace
+
+HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<State> state,
+                         std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, bool over_limit)
+    : stream_(std::move(socket)),
+      state_(std::move(state)),
+      slot_(std::move(slot)),
+      id_(id),
+      conn_("c" + std::to_string(id)),
+      remote_(endpoint_string(stream_.socket())),
+      over_limit_(over_limit) {
+  state_->metrics.http_connections.fetch_add(1);
+}
+
+HttpSession::~HttpSession() {
+  state_->metrics.http_connections.fetch_sub(1);
+  if (!upgraded_) state_->remove_session(id_);
+}
+
+void HttpSession::run() {
+  state_->add_session(id_, weak_from_this());
+  net::dispatch(stream_.get_executor(),
+                beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
+}
+
+void HttpSession::shut_down() {
+  net::post(stream_.get_executor(), [self = shared_from_this()] {
+    beast::error_code ec;
+    self->stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+    self->stream_.close();
+  });
+}
+
+void HttpSession::do_read() {
+  parser_.emplace();
+  parser_->header_limit(16 * 1024);
+  // The limit depends on the route, known once the header is read (on_header sets it).
+  parser_->body_limit(boost::none);
+  stream_.expires_after(from_seconds(state_->options.http_timeout));
+  http::async_read_header(stream_, buffer_, *parser_,
+                          beast::bind_front_handler(&HttpSession::on_header, shared_from_this()));
+}
+
+void HttpSession::on_header(beast::error_code ec, std::size_t) {
+  if (ec == http::error::end_of_stream || ec == net::error::operation_aborted ||
+      ec == beast::error::timeout || ec == net::error::eof) {
+    do_close();
+    return;
+  }
+  if (ec) {
+    // Malformed request line or headers (or headers over the limit): answer and close.
+    const bool too_big = ec == http::error::header_limit || ec == http::error::body_limit;
+    fail(Problem{too_big ? Code::kLimit : Code::kInvalidInput,
+                 std::string("bad request: ") + ec.message(),
+                 ec == http::error::header_limit ? 431
+                 : too_big                       ? 413
+                                                 : 400},
+         false);
+    return;
+  }
+  started_ = std::chrono::steady_clock::now();
+  state_->metrics.http_requests_total.fetch_add(1);
+  auto& req = parser_->get();
+  if (websocket::is_upgrade(req)) {
+    upgrade();
+    return;
+  }
+  const std::size_t limit = body_limit(*state_, req);
+  if (parser_->content_length() || parser_->chunked()) {
+    if (parser_->content_length() && *parser_->content_length() > limit) {
+      fail(Problem{Code::kLimit,
+                   "request body of " + std::to_string(*parser_->content_length()) +
+                       " bytes is over the limit of " + std::to_string(limit),
+                   413},
+           false);
+      return;
+    }
+    parser_->body_limit(limit);
+  }
+  if (parser_->is_done()) {
+    handle();
+    return;
+  }
+  if (beast::iequals(req[http::field::expect], "100-continue")) {
+    auto cont =
+        std::make_shared<http::response<http::empty_body>>(http::status::continue_, req.version());
+    http::async_write(stream_, *cont,
+                      [self = shared_from_this(), cont](beast::error_code wec, std::size_t) {
+                        if (wec) return self->do_close();
+                        http::async_read(self->stream_, self->buffer_, *self->parser_,
+                                         beast::bind_front_handler(&HttpSession::on_body, self));
+                      });
+    return;
+  }
+  http::async_read(stream_, buffer_, *parser_,
+                   beast::bind_front_handler(&HttpSession::on_body, shared_from_this()));
+}
+
+void HttpSession::on_body(beast::error_code ec, std::size_t) {
+  if (ec == http::error::body_limit) {
+    fail(Problem{Code::kLimit,
+                 "request body is over the limit of " +
+                     std::to_string(body_limit(*state_, parser_->get())) + " bytes",
+                 413},
+         false);
+    return;
+  }
+  if (ec) {
+    if (ec != net::error::operation_aborted && ec != beast::error::timeout &&
+        ec != http::error::end_of_stream)
+      log::info("http_read_failed", {{"conn", conn_}, {"error", ec.message()}});
+    do_close();
+    return;
+  }
+  handle();
+}
+
+void HttpSession::upgrade() {
+  auto& req = parser_->get();
+  const Target target = parse_target(req.target());
+  const auto refuse = [&](Code code, std::string message, int status = 0) {
+    fail(Problem{code, std::move(message), status ? status : http_status(code)}, false);
+  };
+  if (target.path != "/ws") return refuse(Code::kNotFound, "WebSocket endpoint is /ws");
+  if (state_->stopping) return refuse(Code::kUnavailable, "the server is shutting down");
+  if (over_limit_) {
+    state_->metrics.connections_refused_total.fetch_add(1);
+    return refuse(Code::kUnavailable, "too many connections (max_connections)");
+  }
+  if (!token_ok(*state_, req, target))
+    return refuse(Code::kUnauthorized, "a token is required (?token= or Authorization: Bearer)");
+  if (!origin_ok(*state_, req))
+    return refuse(Code::kForbidden,
+                  "origin '" + std::string(req[http::field::origin]) + "' is not allowed");
+  bool subprotocol = false;
+  if (req.count(http::field::sec_websocket_protocol)) {
+    subprotocol = header_lists(req[http::field::sec_websocket_protocol], kSubprotocol);
+    if (!subprotocol)
+      return refuse(Code::kInvalidInput, "subprotocol: the server speaks facecast.v1");
+  }
+  if (!parser_->is_done()) return refuse(Code::kInvalidInput, "a WebSocket upgrade has no body");
+  upgraded_ = true;
+  state_->remove_session(id_);
+  auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), state_, std::move(slot_),
+                                               id_, remote_);
+  ws->run(parser_->release(), subprotocol);
+}
+
+void HttpSession::handle() {
+  Request req = parser_->release();
+  const bool keep_alive = req.keep_alive() && !state_->stopping;
+  if (over_limit_) {
+    state_->metrics.connections_refused_total.fetch_add(1);
+    send(error_response(*state_, req.version(), false,
+                        Problem{Code::kUnavailable, "too many connections (max_connections)", 503}),
+         false);
+    return;
+  }
+  log::debug("http_request", {{"conn", conn_},
+                              {"method", std::string(req.method_string())},
+                              {"target", std::string(req.target())}});
+  if (is_heavy(req)) {
+    net::post(state_->workers, [self = shared_from_this(), req = std::move(req),
+                                keep_alive]() mutable {
+      auto res = handle_request(*self->state_, std::move(req));
+      net::post(self->stream_.get_executor(), [self, res = std::move(res), keep_alive]() mutable {
+        self->send(std::move(res), keep_alive);
+      });
+    });
+    return;
+  }
+  send(handle_request(*state_, std::move(req)), keep_alive);
+}
+
+void HttpSession::fail(const Problem& problem, bool keep_alive) {
+  const unsigned version = parser_ && parser_->is_header_done() ? parser_->get().version() : 11;
+  log::info("http_refused",
+            {{"conn", conn_}, {"status", problem.status}, {"message", problem.message}});
+  send(error_response(*state_, version, keep_alive, problem), keep_alive);
+}
+
+void HttpSession::send(http::message_generator message, bool keep_alive) {
+  stream_.expires_after(from_seconds(state_->options.http_timeout));
+  beast::async_write(
+      stream_, std::move(message),
+      beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), keep_alive));
+}
+
+void HttpSession::on_write(bool keep_alive, beast::error_code ec, std::size_t) {
+  if (started_.time_since_epoch().count()) {
+    state_->metrics.http_request_seconds.observe(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count());
+  }
+  if (ec) {
+    log::debug("http_write_failed", {{"conn", conn_}, {"error", ec.message()}});
+    do_close();
+    return;
+  }
+  if (!keep_alive || state_->stopping) {
+    do_close();
+    return;
+  }
+  do_read();
+}
+
+void HttpSession::do_close() {
+  // Lingering close: stop sending, then read (and discard) what the client still sends for a
+  // moment, so that an error answered before the body was read reaches the client instead of
+  // being lost to a reset.
+  beast::error_code ec;
+  stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+  if (ec) {
+    stream_.close();
+    return;
+  }
+  stream_.expires_after(std::chrono::seconds(2));
+  drain(0);
+}
+
+void HttpSession::drain(std::size_t total) {
+  auto buf = std::make_shared<std::array<char, 16384>>();
+  stream_.async_read_some(net::buffer(*buf), [self = shared_from_this(), buf, total](
+                                                 beast::error_code ec, std::size_t n) {
+    if (ec || total + n > (64u << 20)) {
+      self->stream_.close();
+      return;
+    }
+    self->drain(total + n);
+  });
+}
+
+}  // namespace facecast::server

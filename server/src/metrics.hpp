@@ -1,0 +1,69 @@
+#pragma once
+// Counters, gauges and histograms for GET /metrics (Prometheus text format 0.0.4). Lock-free:
+// every value is an atomic that any thread may update.
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace facecast::server {
+
+class Histogram {
+ public:
+  explicit Histogram(std::vector<double> bounds);
+  void observe(double value) noexcept;
+  /// Appends the _bucket/_sum/_count lines of `name` (with optional extra labels "a=\"b\"").
+  void render(std::string& out, const std::string& name, const std::string& labels = {}) const;
+
+ private:
+  std::vector<double> bounds_;
+  std::unique_ptr<std::atomic<std::uint64_t>[]> counts_;  // one per bound, then +Inf
+  std::atomic<std::uint64_t> sum_micros_{0};
+  std::atomic<std::uint64_t> count_{0};
+};
+
+struct Metrics {
+  Metrics();
+
+  // Connections
+  std::atomic<long> http_connections{0};
+  std::atomic<long> ws_connections{0};
+  std::atomic<std::uint64_t> connections_total{0};
+  std::atomic<std::uint64_t> connections_refused_total{0};
+  // Streams
+  std::atomic<long> active_streams{0};
+  std::atomic<long> speak_queue_depth{0};  // waiting utterances, all connections
+  std::atomic<long> write_queue_depth{0};  // queued outgoing messages, all connections
+  std::atomic<std::uint64_t> streams_total{0};
+  std::atomic<std::uint64_t> streams_cancelled_total{0};
+  std::atomic<std::uint64_t> weights_frames_sent_total{0};
+  std::atomic<std::uint64_t> jpeg_frames_sent_total{0};
+  std::atomic<std::uint64_t> weights_frames_dropped_total{0};
+  std::atomic<std::uint64_t> jpeg_frames_dropped_total{0};
+  std::atomic<std::uint64_t> audio_samples_sent_total{0};
+  std::atomic<std::uint64_t> ws_messages_received_total{0};
+  std::atomic<std::uint64_t> ws_bytes_sent_total{0};
+  std::atomic<std::uint64_t> slow_clients_closed_total{0};
+  std::atomic<std::uint64_t> protocol_errors_total{0};
+  // HTTP
+  std::atomic<std::uint64_t> http_requests_total{0};
+  std::array<std::atomic<std::uint64_t>, 6> http_responses_by_class{};  // 1xx..5xx (index 1..5)
+  // Jobs
+  std::atomic<long> jobs_queued{0};
+  std::atomic<long> jobs_running{0};
+  std::atomic<std::uint64_t> jobs_done_total{0};
+  std::atomic<std::uint64_t> jobs_failed_total{0};
+
+  Histogram http_request_seconds;
+  Histogram time_to_first_frame_seconds;
+  Histogram analysis_seconds;  // speech analysis + animation set-up per utterance
+  Histogram render_seconds;    // one frame: render + JPEG
+  Histogram rig_build_seconds;
+  Histogram video_render_seconds;
+
+  std::string render(double uptime_seconds) const;
+};
+
+}  // namespace facecast::server

@@ -1,0 +1,463 @@
+#include "facecast/server/protocol.hpp"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+namespace facecast::server {
+namespace {
+
+using nlohmann::json;
+
+// ---- little-endian encoding ---------------------------------------------------------------------
+
+void put_u16(char* p, std::uint16_t v) noexcept {
+  p[0] = static_cast<char>(v & 0xFF);
+  p[1] = static_cast<char>(v >> 8);
+}
+void put_u32(char* p, std::uint32_t v) noexcept {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+void put_u64(char* p, std::uint64_t v) noexcept {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+std::uint32_t get_u32(const char* p) noexcept {
+  std::uint32_t v = 0;
+  for (int i = 0; i < 4; ++i)
+    v |= static_cast<std::uint32_t>(static_cast<unsigned char>(p[i])) << (8 * i);
+  return v;
+}
+std::uint64_t get_u64(const char* p) noexcept {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i)
+    v |= static_cast<std::uint64_t>(static_cast<unsigned char>(p[i])) << (8 * i);
+  return v;
+}
+
+std::string with_header(const MediaHeader& h, std::size_t payload) {
+  std::string out(kHeaderSize + payload, '\0');
+  write_header(h, out.data());
+  return out;
+}
+
+// ---- JSON field access
+// ----------------------------------------------------------------------------
+
+std::string type_name(const json& v) {
+  return v.is_number() ? "a number" : std::string("a ") + v.type_name();
+}
+
+const std::string& get_string(const json& v, std::string_view field) {
+  if (!v.is_string()) throw Error(std::string(field) + ": expected a string, got " + type_name(v));
+  return v.get_ref<const std::string&>();
+}
+
+double get_number(const json& v, std::string_view field, double lo, double hi) {
+  if (!v.is_number()) throw Error(std::string(field) + ": expected a number, got " + type_name(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x) || x < lo || x > hi) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%.*s: %g is outside [%g, %g]", static_cast<int>(field.size()),
+                  field.data(), x, lo, hi);
+    throw Error(buf);
+  }
+  return x;
+}
+
+bool get_bool(const json& v, std::string_view field) {
+  if (!v.is_boolean())
+    throw Error(std::string(field) + ": expected true or false, got " + type_name(v));
+  return v.get<bool>();
+}
+
+// A short name: 1..64 characters from `allowed` (plus ASCII letters and digits).
+std::string get_name(const json& v, std::string_view field, std::string_view allowed) {
+  const std::string& s = get_string(v, field);
+  if (s.empty() || s.size() > 64) throw Error(std::string(field) + ": expected 1 to 64 characters");
+  for (const char c : s) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    allowed.find(c) != std::string_view::npos;
+    if (!ok) throw Error(std::string(field) + ": '" + s + "' has a character that is not allowed");
+  }
+  return s;
+}
+
+std::string get_id(const json& v) {
+  const std::string& s = get_string(v, "id");
+  if (s.empty() || utf8_length(s) > 64) throw Error("id: expected 1 to 64 characters");
+  for (const char c : s) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F)
+      throw Error("id: control characters are not allowed");
+  }
+  return s;
+}
+
+void check_text_length(const std::string& text, std::string_view field,
+                       const ProtocolLimits& limits) {
+  const std::size_t n = utf8_length(text);
+  if (n > limits.max_text) {
+    throw RequestError(Code::kLimit, std::string(field) + ": " + std::to_string(n) +
+                                         " characters, the limit is " +
+                                         std::to_string(limits.max_text));
+  }
+}
+
+SpeakRequest parse_speak(const json& j, const ProtocolLimits& limits) {
+  SpeakRequest r;
+  std::optional<bool> audio;
+  std::optional<viseme::Timing> timing;
+  std::optional<double> fps;
+  for (const auto& [key, v] : j.items()) {
+    if (key == "type" || key == "id") continue;
+    if (key == "text") {
+      r.text = get_string(v, "text");
+      if (r.text->empty()) throw Error("text: empty");
+      check_text_length(*r.text, "text", limits);
+    } else if (key == "timestamps") {
+      if (!v.is_object())
+        throw Error("timestamps: expected an object {format, data, phoneset, text}");
+      SpeakRequest::Timestamps ts;
+      bool have_format = false, have_data = false;
+      for (const auto& [k, x] : v.items()) {
+        if (k == "format") {
+          ts.format = viseme::parse_timestamp_format(get_string(x, "timestamps.format"));
+          have_format = true;
+        } else if (k == "data") {
+          ts.data = x.is_string() ? x.get<std::string>()
+                                  : x.dump(-1, ' ', false, json::error_handler_t::replace);
+          have_data = true;
+        } else if (k == "phoneset") {
+          ts.phones = viseme::parse_phone_set(get_string(x, "timestamps.phoneset"));
+        } else if (k == "text") {
+          ts.text = get_string(x, "timestamps.text");
+          check_text_length(ts.text, "timestamps.text", limits);
+        } else {
+          throw Error("timestamps: unknown field '" + k + "'");
+        }
+      }
+      if (!have_format) throw Error("timestamps.format: missing");
+      if (!have_data) throw Error("timestamps.data: missing");
+      r.timestamps = std::move(ts);
+    } else if (key == "lang") {
+      r.lang = viseme::parse_lang_mode(get_string(v, "lang"));
+    } else if (key == "rig") {
+      r.rig = get_name(v, "rig", "_-.");
+    } else if (key == "fps") {
+      fps = get_number(v, "fps", 1, limits.max_fps);
+    } else if (key == "output") {
+      const std::string& o = get_string(v, "output");
+      if (o == "weights") {
+        r.output = Output::kWeights;
+      } else if (o == "frames") {
+        r.output = Output::kFrames;
+      } else {
+        throw Error("output: '" + o + "' is not weights or frames");
+      }
+    } else if (key == "audio") {
+      audio = get_bool(v, "audio");
+    } else if (key == "timing") {
+      timing = viseme::parse_timing(get_string(v, "timing"));
+    } else if (key == "size") {
+      if (!v.is_array() || v.size() != 2 || !v[0].is_number_integer() || !v[1].is_number_integer())
+        throw Error("size: expected [width, height] in pixels");
+      const auto lo = 16.0, hi = static_cast<double>(limits.max_frame_side);
+      r.width = static_cast<int>(get_number(v[0], "size[0]", lo, hi));
+      r.height = static_cast<int>(get_number(v[1], "size[1]", lo, hi));
+    } else if (key == "voice") {
+      r.voice = get_name(v, "voice", "_-+");
+    } else if (key == "rate") {
+      r.rate = get_number(v, "rate", 0.5, 20);
+    } else if (key == "idle") {
+      r.idle = get_bool(v, "idle");
+    } else {
+      throw Error("speak: unknown field '" + key + "'");
+    }
+  }
+  if (r.text.has_value() == r.timestamps.has_value())
+    throw Error("speak: give exactly one of text and timestamps");
+  if (r.timestamps) {
+    if (audio.value_or(false))
+      throw Error("audio: not available with timestamps (the audio comes from your TTS)");
+    r.audio = false;
+    r.timing = viseme::Timing::kModel;  // unused: times come from the timestamps
+  } else {
+    r.audio = audio.value_or(true);
+    r.timing = r.audio ? viseme::Timing::kTts : timing.value_or(viseme::Timing::kModel);
+  }
+  r.fps = fps.value_or(r.output == Output::kFrames ? 30.0 : 60.0);
+  return r;
+}
+
+}  // namespace
+
+// ---- errors
+// ---------------------------------------------------------------------------------------
+
+std::string_view to_string(Code code) noexcept {
+  switch (code) {
+    case Code::kInvalidInput:
+      return "invalid_input";
+    case Code::kUnauthorized:
+      return "unauthorized";
+    case Code::kForbidden:
+      return "forbidden";
+    case Code::kNotFound:
+      return "not_found";
+    case Code::kMethod:
+      return "method_not_allowed";
+    case Code::kLimit:
+      return "limit";
+    case Code::kRateLimited:
+      return "rate_limited";
+    case Code::kUnsupported:
+      return "unsupported";
+    case Code::kUnavailable:
+      return "unavailable";
+    case Code::kInternal:
+      return "internal";
+  }
+  return "internal";
+}
+
+int http_status(Code code) noexcept {
+  switch (code) {
+    case Code::kInvalidInput:
+    case Code::kUnsupported:
+      return 400;
+    case Code::kUnauthorized:
+      return 401;
+    case Code::kForbidden:
+      return 403;
+    case Code::kNotFound:
+      return 404;
+    case Code::kMethod:
+      return 405;
+    case Code::kLimit:
+      return 413;
+    case Code::kRateLimited:
+      return 429;
+    case Code::kUnavailable:
+      return 503;
+    case Code::kInternal:
+      return 500;
+  }
+  return 500;
+}
+
+Problem describe(std::exception_ptr error) {
+  Problem p;
+  try {
+    std::rethrow_exception(error);
+  } catch (const RequestError& e) {
+    p.code = e.request_code();
+    p.message = e.what();
+    p.status = e.status();
+  } catch (const Error& e) {
+    switch (e.code()) {
+      case ErrorCode::kInvalidInput:
+        p.code = Code::kInvalidInput;
+        break;
+      case ErrorCode::kNotFound:
+        p.code = Code::kNotFound;
+        break;
+      case ErrorCode::kUnsupported:
+        p.code = Code::kUnsupported;
+        break;
+      case ErrorCode::kLimit:
+        p.code = Code::kLimit;
+        break;
+      case ErrorCode::kInternal:
+        p.code = Code::kInternal;
+        break;
+    }
+    p.message = e.what();
+    p.status = http_status(p.code);
+  } catch (const std::bad_alloc&) {
+    p.code = Code::kInternal;
+    p.message = "out of memory";
+    p.status = 500;
+  } catch (const std::exception& e) {
+    p.code = Code::kInternal;
+    p.message = std::string("internal error: ") + e.what();
+    p.status = 500;
+  } catch (...) {
+    p.code = Code::kInternal;
+    p.message = "internal error";
+    p.status = 500;
+  }
+  return p;
+}
+
+// ---- client messages
+// --------------------------------------------------------------------------------
+
+void check_json_depth(std::string_view text, int max_depth) {
+  int depth = 0;
+  bool in_string = false, escape = false;
+  for (const char c : text) {
+    if (in_string) {
+      if (escape) {
+        escape = false;
+      } else if (c == '\\') {
+        escape = true;
+      } else if (c == '"') {
+        in_string = false;
+      }
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth)
+        throw Error("message: JSON nested deeper than " + std::to_string(max_depth) + " levels");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
+std::size_t utf8_length(std::string_view text) noexcept {
+  std::size_t n = 0;
+  for (const char c : text) n += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+  return n;
+}
+
+ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& limits,
+                                   std::string* id) {
+  check_json_depth(text);
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw Error("malformed JSON: " + what);
+  }
+  if (!j.is_object()) throw Error("message: expected a JSON object, got " + type_name(j));
+  const auto type_it = j.find("type");
+  if (type_it == j.end()) throw Error("type: missing");
+  const std::string type = get_string(*type_it, "type");
+  const auto id_it = j.find("id");
+  std::string the_id;
+  if (id_it != j.end() && (type == "speak" || type == "cancel")) {
+    the_id = get_id(*id_it);
+    if (id) *id = the_id;
+  }
+  if (type == "speak") {
+    if (the_id.empty()) throw Error("id: missing");
+    SpeakRequest r = parse_speak(j, limits);
+    r.id = std::move(the_id);
+    return r;
+  }
+  if (type == "cancel") {
+    for (const auto& [key, v] : j.items()) {
+      if (key != "type" && key != "id") throw Error("cancel: unknown field '" + key + "'");
+    }
+    if (the_id.empty()) throw Error("id: missing");
+    return CancelRequest{std::move(the_id)};
+  }
+  if (type == "ping") {
+    PingRequest p;
+    for (const auto& [key, v] : j.items()) {
+      if (key == "t") {
+        p.t = v;
+      } else if (key != "type") {
+        throw Error("ping: unknown field '" + key + "'");
+      }
+    }
+    return p;
+  }
+  throw Error("type: unknown message type '" + type + "' (speak, cancel or ping)");
+}
+
+// ---- server messages
+// --------------------------------------------------------------------------------
+
+std::string error_message(const std::optional<std::string>& id, const Problem& problem) {
+  const json j = {{"type", "error"},
+                  {"id", id ? json(*id) : json(nullptr)},
+                  {"code", to_string(problem.code)},
+                  {"message", problem.message}};
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string error_body(const Problem& problem) {
+  const json j = {{"error", {{"code", to_string(problem.code)}, {"message", problem.message}}}};
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+// ---- binary media
+// -----------------------------------------------------------------------------------
+
+void write_header(const MediaHeader& h, char* out) noexcept {
+  out[0] = static_cast<char>(h.kind);
+  out[1] = static_cast<char>(h.version);
+  put_u16(out + 2, 0);
+  put_u32(out + 4, h.stream);
+  put_u32(out + 8, h.first);
+  put_u32(out + 12, h.count);
+  put_u64(out + 16, std::bit_cast<std::uint64_t>(h.pts));
+}
+
+MediaHeader read_header(std::string_view bytes) {
+  if (bytes.size() < kHeaderSize)
+    throw Error("binary message: " + std::to_string(bytes.size()) +
+                " bytes, shorter than the header");
+  MediaHeader h;
+  const auto kind = static_cast<unsigned char>(bytes[0]);
+  if (kind < 1 || kind > 3) throw Error("binary message: unknown kind " + std::to_string(kind));
+  h.kind = static_cast<MediaKind>(kind);
+  h.version = static_cast<std::uint8_t>(bytes[1]);
+  if (h.version != kMediaVersion)
+    throw Error("binary message: unknown version " + std::to_string(h.version));
+  h.stream = get_u32(bytes.data() + 4);
+  h.first = get_u32(bytes.data() + 8);
+  h.count = get_u32(bytes.data() + 12);
+  h.pts = std::bit_cast<double>(get_u64(bytes.data() + 16));
+  return h;
+}
+
+std::string weights_message(std::uint32_t stream, std::uint32_t first, double fps,
+                            std::uint32_t count, const float* values, std::size_t values_count) {
+  MediaHeader h{MediaKind::kWeights, kMediaVersion, stream, first, count, first / fps};
+  std::string out = with_header(h, values_count * 4);
+  char* p = out.data() + kHeaderSize;
+  if constexpr (std::endian::native == std::endian::little) {
+    std::memcpy(p, values, values_count * 4);
+  } else {
+    for (std::size_t i = 0; i < values_count; ++i)
+      put_u32(p + 4 * i, std::bit_cast<std::uint32_t>(values[i]));
+  }
+  return out;
+}
+
+std::string audio_message(std::uint32_t stream, std::uint32_t first_sample, int sample_rate,
+                          const std::int16_t* samples, std::size_t count) {
+  MediaHeader h{MediaKind::kAudio,
+                kMediaVersion,
+                stream,
+                first_sample,
+                static_cast<std::uint32_t>(count),
+                static_cast<double>(first_sample) / sample_rate};
+  std::string out = with_header(h, count * 2);
+  char* p = out.data() + kHeaderSize;
+  for (std::size_t i = 0; i < count; ++i)
+    put_u16(p + 2 * i, static_cast<std::uint16_t>(samples[i]));
+  return out;
+}
+
+std::string jpeg_message(std::uint32_t stream, std::uint32_t frame, double fps,
+                         std::string_view jpeg) {
+  MediaHeader h{MediaKind::kJpeg, kMediaVersion, stream, frame, 1, frame / fps};
+  std::string out = with_header(h, jpeg.size());
+  std::memcpy(out.data() + kHeaderSize, jpeg.data(), jpeg.size());
+  return out;
+}
+
+std::vector<float> read_floats(std::string_view payload) {
+  if (payload.size() % 4) throw Error("weights payload: size is not a multiple of 4");
+  std::vector<float> out(payload.size() / 4);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = std::bit_cast<float>(get_u32(payload.data() + 4 * i));
+  return out;
+}
+
+}  // namespace facecast::server

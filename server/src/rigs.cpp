@@ -1,0 +1,296 @@
+#include "rigs.hpp"
+
+#include <chrono>
+#include <regex>
+
+#include "facecast/anim/avatar.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "log.hpp"
+
+namespace facecast::server {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr const char* kBuiltin = "default";
+
+RigInfo builtin_info() {
+  RigInfo i;
+  i.id = kBuiltin;
+  i.name = "Default avatar";
+  i.template_id = "";
+  i.shapes = anim::avatar_shape_names();
+  i.vertices = anim::default_avatar().vertex_count();
+  i.builtin = true;
+  return i;
+}
+
+RigInfo info_from_meta(const nlohmann::json& j) {
+  RigInfo i;
+  i.id = j.at("id").get<std::string>();
+  i.name = j.at("name").get<std::string>();
+  i.template_id = j.value("template", "");
+  i.shapes = j.at("shapes").get<std::vector<std::string>>();
+  i.vertices = j.at("vertices").get<int>();
+  i.virtual_edges = j.value("virtual_edges", false);
+  i.created = j.value("created", 0.0);
+  return i;
+}
+
+}  // namespace
+
+nlohmann::json RigInfo::to_json() const {
+  nlohmann::json j = {{"id", id},           {"name", name},
+                      {"shapes", shapes},   {"vertices", vertices},
+                      {"builtin", builtin}, {"url", "/api/rigs/" + id + ".glb"}};
+  if (!builtin) {
+    j["template"] = template_id;
+    j["created"] = created;
+    j["virtual_edges"] = virtual_edges;
+  }
+  return j;
+}
+
+RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig)
+    : rigs_dir_(std::move(data_dir) / "rigs"), default_rig_(std::move(default_rig)) {
+  std::error_code ec;
+  fs::create_directories(rigs_dir_, ec);
+  if (ec)
+    throw Error(rigs_dir_.string() + ": cannot create the data folder: " + ec.message(),
+                ErrorCode::kInternal);
+  infos_[kBuiltin] = builtin_info();
+  const std::regex id_re("r([0-9]{1,9})");
+  for (const auto& entry : fs::directory_iterator(rigs_dir_)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_directory()) continue;
+    std::smatch m;
+    if (!std::regex_match(name, m, id_re)) {
+      if (name.find(".tmp") != std::string::npos) fs::remove_all(entry.path(), ec);  // a crash
+      continue;
+    }
+    try {
+      const RigInfo info = info_from_meta(load_json(entry.path() / "meta.json"));
+      if (info.id != name) throw Error("meta.json: id '" + info.id + "' differs from the folder");
+      if (!fs::exists(entry.path() / "rig.glb")) throw Error("rig.glb is missing");
+      infos_[info.id] = info;
+      next_id_ = std::max(next_id_, std::stoi(m[1]) + 1);
+    } catch (const std::exception& e) {
+      log::warn("rig_skipped", {{"dir", entry.path().string()}, {"error", e.what()}});
+    }
+  }
+  if (!infos_.contains(default_rig_))
+    throw Error("default_rig: no rig '" + default_rig_ + "' in " + rigs_dir_.string(),
+                ErrorCode::kNotFound);
+  log::info("rigs_listed", {{"dir", rigs_dir_.string()}, {"count", infos_.size()}});
+}
+
+std::vector<RigInfo> RigRegistry::list() const {
+  std::lock_guard lock(mutex_);
+  std::vector<RigInfo> out;
+  out.push_back(infos_.at(kBuiltin));
+  for (const auto& [id, info] : infos_)
+    if (id != kBuiltin) out.push_back(info);
+  return out;
+}
+
+std::optional<RigInfo> RigRegistry::find(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = infos_.find(id);
+  if (it == infos_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::string RigRegistry::resolve(const std::string& id) const {
+  return id.empty() ? default_rig_ : id;
+}
+
+std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested) {
+  const std::string id = resolve(requested);
+  std::promise<std::shared_ptr<const LoadedRig>> promise;
+  std::shared_future<std::shared_ptr<const LoadedRig>> future;
+  bool loader = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (!infos_.contains(id)) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+    const auto it = loaded_.find(id);
+    if (it != loaded_.end()) {
+      future = it->second;
+    } else {
+      future = promise.get_future().share();
+      loaded_[id] = future;
+      loader = true;
+    }
+  }
+  if (!loader) return future.get();  // rethrows the loader's error
+  try {
+    auto loaded = std::make_shared<LoadedRig>();
+    loaded->id = id;
+    if (id == kBuiltin) {
+      // default_avatar() lives for the whole process.
+      loaded->rig =
+          std::shared_ptr<const anim::Rig>(&anim::default_avatar(), [](const anim::Rig*) {});
+    } else {
+      const auto t0 = std::chrono::steady_clock::now();
+      loaded->rig = std::make_shared<const anim::Rig>(anim::read_glb(glb_path(id)));
+      log::info(
+          "rig_loaded",
+          {{"rig", id},
+           {"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                      .count()}});
+    }
+    loaded->mapping = anim::Mapping::for_rig(loaded->rig->shape_names());
+    std::shared_ptr<const LoadedRig> result = std::move(loaded);
+    promise.set_value(result);
+    return result;
+  } catch (...) {
+    promise.set_exception(std::current_exception());
+    std::lock_guard lock(mutex_);
+    loaded_.erase(id);  // let a later request try again
+    throw;
+  }
+}
+
+fs::path RigRegistry::glb_path(const std::string& id) const {
+  if (id == kBuiltin) return {};
+  return rigs_dir_ / id / "rig.glb";
+}
+
+fs::path RigRegistry::virtual_edges_path(const std::string& id) const {
+  if (id == kBuiltin) return {};
+  return rigs_dir_ / id / "virtual_edges.json";
+}
+
+std::shared_ptr<const std::string> RigRegistry::builtin_glb() {
+  std::promise<std::shared_ptr<const std::string>> promise;
+  bool loader = false;
+  std::shared_future<std::shared_ptr<const std::string>> future;
+  {
+    std::lock_guard lock(mutex_);
+    if (!builtin_glb_started_) {
+      builtin_glb_ = promise.get_future().share();
+      builtin_glb_started_ = true;
+      loader = true;
+    }
+    future = builtin_glb_;
+  }
+  if (loader) {
+    try {
+      promise.set_value(
+          std::make_shared<const std::string>(anim::glb_bytes(anim::default_avatar())));
+    } catch (...) {
+      promise.set_exception(std::current_exception());
+      std::lock_guard lock(mutex_);
+      builtin_glb_started_ = false;
+    }
+  }
+  return future.get();
+}
+
+std::string RigRegistry::add(const std::string& name, const std::string& template_id,
+                             const anim::Rig& rig, const nlohmann::json& report,
+                             const std::vector<rigbuild::VirtualEdge>& edges,
+                             const rigbuild::VirtualEdgeStats& stats) {
+  std::string id;
+  {
+    std::lock_guard lock(mutex_);
+    id = "r" + std::to_string(next_id_++);
+  }
+  RigInfo info;
+  info.id = id;
+  info.name = name;
+  info.template_id = template_id;
+  info.shapes = rig.shape_names();
+  info.vertices = rig.vertex_count();
+  info.virtual_edges = !edges.empty();
+  info.created =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  // Everything goes into a temporary folder that is renamed into place at the end.
+  const fs::path tmp = rigs_dir_ / (id + ".tmp");
+  const fs::path dir = rigs_dir_ / id;
+  std::error_code ec;
+  fs::remove_all(tmp, ec);
+  try {
+    fs::create_directories(tmp);
+    write_file_atomic(tmp / "rig.glb", anim::glb_bytes(rig));
+    if (!edges.empty())
+      rigbuild::write_virtual_edges_json(tmp / "virtual_edges.json", edges, stats);
+    write_file_atomic(tmp / "report.json", report.dump(2) + "\n");
+    nlohmann::json meta = {{"id", id},
+                           {"name", name},
+                           {"template", template_id},
+                           {"shapes", info.shapes},
+                           {"vertices", info.vertices},
+                           {"virtual_edges", info.virtual_edges},
+                           {"created", info.created}};
+    write_file_atomic(tmp / "meta.json", meta.dump(2) + "\n");
+    fs::rename(tmp, dir);
+  } catch (const fs::filesystem_error& e) {
+    fs::remove_all(tmp, ec);
+    throw Error(dir.string() + ": cannot store the rig: " + e.code().message(),
+                ErrorCode::kInternal);
+  } catch (...) {
+    fs::remove_all(tmp, ec);
+    throw;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    infos_[id] = info;
+  }
+  log::info("rig_stored", {{"rig", id}, {"name", name}, {"dir", dir.string()}});
+  return id;
+}
+
+std::shared_ptr<render::Renderer> RendererCache::get(const LoadedRig& rig, int width, int height) {
+  const auto key = std::make_tuple(rig.id, width, height);
+  std::promise<std::shared_ptr<render::Renderer>> promise;
+  std::shared_future<std::shared_ptr<render::Renderer>> future;
+  bool loader = false;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = entries_.find(key);
+    if (it == entries_.end()) {
+      // Make room: drop the least recently used renderers (streams keep theirs alive).
+      while (static_cast<int>(entries_.size()) >= capacity_) {
+        auto victim = entries_.begin();
+        for (auto e = entries_.begin(); e != entries_.end(); ++e)
+          if (e->second.used < victim->second.used) victim = e;
+        entries_.erase(victim);
+      }
+      future = promise.get_future().share();
+      it = entries_.emplace(key, Entry{future, 0}).first;
+      loader = true;
+    }
+    it->second.used = ++clock_;
+    future = it->second.renderer;
+  }
+  if (!loader) return future.get();
+  try {
+    render::RenderOptions opt = base_;
+    opt.width = width;
+    opt.height = height;
+    opt.contexts = contexts_;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto r = std::make_shared<render::Renderer>(*rig.rig, opt);
+    const std::vector<float> rest(rig.rig->shapes.size(), 0.0f);
+    (void)r->render(rest);  // creates the first GL context and uploads the rig
+    log::info(
+        "renderer_ready",
+        {{"rig", rig.id},
+         {"size", std::to_string(width) + "x" + std::to_string(height)},
+         {"backend", r->backend()},
+         {"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count()}});
+    promise.set_value(r);
+    return r;
+  } catch (...) {
+    promise.set_exception(std::current_exception());
+    std::lock_guard lock(mutex_);
+    entries_.erase(key);
+    throw;
+  }
+}
+
+}  // namespace facecast::server

@@ -1,0 +1,96 @@
+#pragma once
+// The rigs a server knows: the built-in default avatar (id "default") and the rigs built by jobs,
+// stored under <data>/rigs/<id>/ (rig.glb, meta.json, virtual_edges.json, report.json; the folder
+// is written under a temporary name and renamed, so a crash never leaves half a rig). Rigs are
+// listed from meta.json at start-up and loaded (GLB parsed, mapping chosen) on first use.
+// Renderers (GL contexts with the rig uploaded) are cached per rig and frame size.
+#include <filesystem>
+#include <future>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "facecast/anim/animation.hpp"
+#include "facecast/anim/rig.hpp"
+#include "facecast/render/renderer.hpp"
+#include "facecast/rigbuild/virtual_edges.hpp"
+
+namespace facecast::server {
+
+struct RigInfo {
+  std::string id, name, template_id;
+  std::vector<std::string> shapes;
+  int vertices = 0;
+  bool builtin = false;
+  bool virtual_edges = false;
+  double created = 0;              // Unix seconds
+  nlohmann::json to_json() const;  // the GET /api/rigs entry
+};
+
+struct LoadedRig {
+  std::string id;
+  std::shared_ptr<const anim::Rig> rig;
+  anim::Mapping mapping;
+};
+
+class RigRegistry {
+ public:
+  /// Creates <data>/rigs if needed and lists the stored rigs; `default_rig` is what "" resolves to.
+  RigRegistry(std::filesystem::path data_dir, std::string default_rig);
+
+  std::vector<RigInfo> list() const;
+  std::optional<RigInfo> find(const std::string& id) const;
+  /// `id`, or the default rig for "".
+  std::string resolve(const std::string& id) const;
+  /// Parses and prepares a rig once; throws Error(kNotFound) for an unknown id.
+  std::shared_ptr<const LoadedRig> load(const std::string& id);
+
+  /// The stored GLB of a built rig (empty path for the built-in one).
+  std::filesystem::path glb_path(const std::string& id) const;
+  std::filesystem::path virtual_edges_path(const std::string& id) const;
+  /// GLB bytes of the built-in avatar, made on first call.
+  std::shared_ptr<const std::string> builtin_glb();
+
+  /// Stores a built rig and returns its new id ("r1", "r2", ...).
+  std::string add(const std::string& name, const std::string& template_id, const anim::Rig& rig,
+                  const nlohmann::json& report, const std::vector<rigbuild::VirtualEdge>& edges,
+                  const rigbuild::VirtualEdgeStats& stats);
+
+ private:
+  std::filesystem::path rigs_dir_;
+  std::string default_rig_;
+  mutable std::mutex mutex_;
+  std::map<std::string, RigInfo> infos_;
+  std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;
+  std::shared_future<std::shared_ptr<const std::string>> builtin_glb_;
+  bool builtin_glb_started_ = false;
+  int next_id_ = 1;
+};
+
+/// Renderers per (rig, width, height), least recently used dropped beyond `capacity`.
+class RendererCache {
+ public:
+  /// `base`: camera, background and MSAA of every renderer (configs/anim/render.json).
+  RendererCache(int capacity, int contexts, render::RenderOptions base)
+      : capacity_(capacity), contexts_(contexts), base_(std::move(base)) {}
+  /// Creates (and warms up: one GL context, one frame) on first use; thread-safe.
+  std::shared_ptr<render::Renderer> get(const LoadedRig& rig, int width, int height);
+
+ private:
+  struct Entry {
+    std::shared_future<std::shared_ptr<render::Renderer>> renderer;
+    unsigned long long used = 0;
+  };
+  int capacity_, contexts_;
+  render::RenderOptions base_;
+  std::mutex mutex_;
+  std::map<std::tuple<std::string, int, int>, Entry> entries_;
+  unsigned long long clock_ = 0;
+};
+
+}  // namespace facecast::server

@@ -1,0 +1,214 @@
+#include "facecast/server/server.hpp"
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <thread>
+
+#include "beast.hpp"
+#include "facecast/core/error.hpp"
+#include "http_session.hpp"
+#include "log.hpp"
+#include "state.hpp"
+
+namespace facecast::server {
+namespace {
+
+// Many WebSocket clients need many descriptors: raise the soft limit to the hard one.
+void raise_file_limit() {
+  rlimit rl{};
+  if (getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < rl.rlim_max) {
+    rl.rlim_cur = rl.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &rl);
+  }
+}
+
+}  // namespace
+
+struct Server::Impl {
+  explicit Impl(ServerOptions options);
+
+  void do_accept();
+  void on_accept(beast::error_code ec, tcp::socket socket);
+  void begin_shutdown();
+  void check_shutdown();
+
+  std::shared_ptr<State> state;
+  net::io_context ioc;
+  net::executor_work_guard<net::io_context::executor_type> work;
+  tcp::acceptor acceptor;
+  net::signal_set signals;
+  net::steady_timer shutdown_timer;
+  std::chrono::steady_clock::time_point shutdown_deadline;
+  std::vector<std::thread> threads;
+  std::thread jobs_stopper;    // cancels jobs during shutdown
+  bool shutting_down = false;  // on the io_context
+  std::mutex mutex;
+  bool started = false;
+};
+
+Server::Impl::Impl(ServerOptions options)
+    : ioc(options.io_threads),
+      work(net::make_work_guard(ioc)),
+      acceptor(net::make_strand(ioc)),
+      signals(ioc),
+      shutdown_timer(ioc) {
+  validate(options);
+  log::set_level(options.log_level);
+  raise_file_limit();
+  state = std::make_shared<State>(std::move(options));
+  const auto& o = state->options;
+  beast::error_code ec;
+  const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
+  const auto address = net::ip::make_address(host, ec);
+  if (ec) throw Error("host: '" + o.host + "' is not an IP address");
+  const tcp::endpoint endpoint(address, static_cast<unsigned short>(o.port));
+  acceptor.open(endpoint.protocol(), ec);
+  if (!ec) acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) acceptor.bind(endpoint, ec);
+  if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) {
+    throw Error("cannot listen on " + o.host + ":" + std::to_string(o.port) + ": " + ec.message(),
+                ErrorCode::kInternal);
+  }
+}
+
+void Server::Impl::do_accept() {
+  acceptor.async_accept(net::make_strand(ioc), beast::bind_front_handler(&Impl::on_accept, this));
+}
+
+void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
+  if (ec) {
+    if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
+    log::warn("accept_failed", {{"error", ec.message()}});
+    if (ec == net::error::no_descriptors || ec == net::error::no_buffer_space) {
+      // Out of descriptors: back off a little instead of spinning.
+      auto t = std::make_shared<net::steady_timer>(ioc, std::chrono::milliseconds(50));
+      t->async_wait([this, t](beast::error_code) { do_accept(); });
+      return;
+    }
+    do_accept();
+    return;
+  }
+  auto& o = state->options;
+  socket.set_option(tcp::no_delay(true), ec);
+  if (o.send_buffer > 0) socket.set_option(net::socket_base::send_buffer_size(o.send_buffer), ec);
+  const long open = state->connections.fetch_add(1) + 1;
+  auto slot = std::make_unique<ConnectionSlot>(&state->connections);
+  state->metrics.connections_total.fetch_add(1);
+  const std::uint64_t id = state->next_connection.fetch_add(1);
+  std::make_shared<HttpSession>(std::move(socket), state, std::move(slot), id,
+                                open > o.max_connections)
+      ->run();
+  do_accept();
+}
+
+void Server::Impl::begin_shutdown() {
+  if (shutting_down) return;
+  shutting_down = true;
+  state->stopping = true;
+  log::info("shutdown", {{"connections", state->connections.load()}});
+  beast::error_code ec;
+  acceptor.close(ec);
+  signals.cancel(ec);
+  state->shut_down_sessions();
+  // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
+  jobs_stopper = std::thread([s = state] { s->jobs.shutdown(); });
+  shutdown_deadline = std::chrono::steady_clock::now() +
+                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(state->options.shutdown_timeout));
+  check_shutdown();
+}
+
+void Server::Impl::check_shutdown() {
+  const bool idle = state->connections.load() == 0;
+  if (idle || std::chrono::steady_clock::now() >= shutdown_deadline) {
+    if (!idle) log::warn("shutdown_forced", {{"connections", state->connections.load()}});
+    work.reset();
+    ioc.stop();
+    return;
+  }
+  shutdown_timer.expires_after(std::chrono::milliseconds(20));
+  shutdown_timer.async_wait([this](beast::error_code) { check_shutdown(); });
+}
+
+Server::Server(ServerOptions options) : impl_(std::make_unique<Impl>(std::move(options))) {}
+
+Server::~Server() {
+  stop();
+  wait();
+}
+
+unsigned short Server::port() const {
+  return impl_->acceptor.local_endpoint().port();
+}
+
+std::string Server::url() const {
+  const auto& host = impl_->state->options.host;
+  const bool v6 = host.find(':') != std::string::npos;
+  return "http://" + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port());
+}
+
+void Server::handle_signals() {
+  impl_->signals.add(SIGINT);
+  impl_->signals.add(SIGTERM);
+  impl_->signals.async_wait([this](beast::error_code ec, int signal) {
+    if (ec) return;
+    log::info("signal", {{"signal", signal == SIGINT ? "SIGINT" : "SIGTERM"}});
+    impl_->begin_shutdown();
+  });
+}
+
+void Server::start() {
+  {
+    std::lock_guard lock(impl_->mutex);
+    if (impl_->started) return;
+    impl_->started = true;
+  }
+  const auto& o = impl_->state->options;
+  log::info("listening", {{"url", url()},
+                          {"io_threads", o.io_threads},
+                          {"workers", o.workers},
+                          {"data", o.data.string()},
+                          {"web", impl_->state->web_root.string()},
+                          {"token", !o.token.empty()}});
+  net::dispatch(impl_->acceptor.get_executor(), [this] { impl_->do_accept(); });
+  for (int i = 0; i < o.io_threads; ++i) {
+    impl_->threads.emplace_back([this] { impl_->ioc.run(); });
+  }
+}
+
+void Server::run() {
+  start();
+  wait();
+}
+
+void Server::stop() {
+  net::post(impl_->ioc, [this] { impl_->begin_shutdown(); });
+  {
+    std::lock_guard lock(impl_->mutex);
+    if (!impl_->started) {
+      // Never started: nothing runs the io_context, so shut down here.
+      impl_->started = true;
+      impl_->threads.emplace_back([this] { impl_->ioc.run(); });
+    }
+  }
+}
+
+void Server::wait() {
+  std::vector<std::thread> threads;
+  {
+    std::lock_guard lock(impl_->mutex);
+    threads.swap(impl_->threads);
+  }
+  for (auto& t : threads) t.join();
+  if (threads.empty()) return;
+  if (impl_->jobs_stopper.joinable()) impl_->jobs_stopper.join();
+  impl_->state->jobs.shutdown();
+  impl_->state->workers.join();
+  log::info("stopped", {});
+}
+
+}  // namespace facecast::server

@@ -1,0 +1,52 @@
+#include "speech.hpp"
+
+#include <chrono>
+
+#include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/import.hpp"
+
+namespace facecast::server {
+
+viseme::Options speech_options(const State& state, viseme::LangMode lang, viseme::Timing timing,
+                               const std::string& voice, double rate) {
+  viseme::Options o = state.viseme_options;
+  o.lang = lang;
+  o.timing = timing;
+  o.en_voice = voice;
+  o.rate = rate;
+  return o;
+}
+
+std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest& r,
+                                               std::uint32_t seed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto p = std::make_shared<PreparedSpeech>();
+  p->rig = state.rigs.load(r.rig);
+  const viseme::Options vo = speech_options(state, r.lang, r.timing, r.voice, r.rate);
+  viseme::Utterance u;
+  if (r.text) {
+    u = viseme::analyze(*r.text, vo);
+  } else {
+    u = viseme::import_timestamps(r.timestamps->format, r.timestamps->data, vo,
+                                  r.timestamps->phones, "timestamps");
+    if (!r.timestamps->text.empty()) u.text = r.timestamps->text;
+  }
+  anim::AnimOptions ao = state.anim_options;
+  ao.idle = r.idle;
+  ao.seed = seed;
+  p->performance.emplace(u, p->rig->mapping, ao);
+  p->duration = p->performance->duration();
+  p->speech_duration = p->performance->speech_duration();
+  p->frames = p->performance->frame_count(r.fps);
+  p->utterance = viseme::to_json(u);
+  if (r.audio) {
+    p->pcm = std::move(u.pcm);
+    p->sample_rate = u.sample_rate;
+  }
+  if (r.output == Output::kFrames) p->renderer = state.renderers.get(*p->rig, r.width, r.height);
+  state.metrics.analysis_seconds.observe(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  return p;
+}
+
+}  // namespace facecast::server

@@ -1,0 +1,54 @@
+#include "state.hpp"
+
+#include "facecast/core/config.hpp"
+
+namespace facecast::server {
+namespace {
+
+std::filesystem::path project_path(const std::filesystem::path& p) {
+  if (p.is_absolute()) return p;
+  return config_dir().parent_path() / p;
+}
+
+}  // namespace
+
+State::State(ServerOptions opts)
+    : options(std::move(opts)),
+      web_root(project_path(options.web_root)),
+      three_root(project_path(options.three_root)),
+      rigs(options.data, options.default_rig),
+      viseme_options(viseme::load_options()),
+      anim_options(anim::load_anim_options()),
+      render_options(render::load_render_options()),
+      video_options(render::load_video_options()),
+      renderers(options.max_renderers, options.render_contexts, render_options),
+      limits{options.max_text, options.max_fps, options.max_frame_side},
+      workers(static_cast<std::size_t>(options.workers)),
+      jobs(metrics, options.job_workers, options.max_jobs) {}
+
+void State::add_session(std::uint64_t id, std::weak_ptr<Closable> session) {
+  std::lock_guard lock(sessions_mutex_);
+  sessions_[id] = std::move(session);
+}
+
+void State::remove_session(std::uint64_t id) {
+  std::lock_guard lock(sessions_mutex_);
+  sessions_.erase(id);
+}
+
+std::size_t State::session_count() {
+  std::lock_guard lock(sessions_mutex_);
+  return sessions_.size();
+}
+
+void State::shut_down_sessions() {
+  std::vector<std::shared_ptr<Closable>> live;
+  {
+    std::lock_guard lock(sessions_mutex_);
+    for (auto& [id, weak] : sessions_)
+      if (auto s = weak.lock()) live.push_back(std::move(s));
+  }
+  for (auto& s : live) s->shut_down();
+}
+
+}  // namespace facecast::server

@@ -1,0 +1,71 @@
+#pragma once
+// What every connection shares (Beast chat-multi's shared_state): options, metrics, rigs,
+// renderers, jobs, the worker pool, and the list of live sessions for shutdown.
+#include <atomic>
+#include <boost/asio/thread_pool.hpp>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+
+#include "facecast/anim/animation.hpp"
+#include "facecast/render/renderer.hpp"
+#include "facecast/render/video.hpp"
+#include "facecast/server/options.hpp"
+#include "facecast/server/protocol.hpp"
+#include "facecast/viseme/options.hpp"
+#include "jobs.hpp"
+#include "metrics.hpp"
+#include "rigs.hpp"
+
+namespace facecast::server {
+
+/// A live connection the server can ask to close (from any thread).
+class Closable {
+ public:
+  virtual ~Closable() = default;
+  /// WebSockets: close with 1001 (going away); HTTP: close the socket.
+  virtual void shut_down() = 0;
+};
+
+struct State {
+  explicit State(ServerOptions opts);
+
+  ServerOptions options;
+  std::filesystem::path web_root, three_root;  // resolved
+  Metrics metrics;
+  RigRegistry rigs;
+  viseme::Options viseme_options;
+  anim::AnimOptions anim_options;
+  render::RenderOptions render_options;  // configs/anim/render.json (camera, background, msaa)
+  render::VideoOptions video_options;    // configs/anim/render.json "video"
+  RendererCache renderers;
+  ProtocolLimits limits;
+  std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
+  std::atomic<bool> stopping{false};
+  std::atomic<std::uint64_t> next_connection{1};
+  std::atomic<std::uint32_t> next_stream{1};
+  std::atomic<long> connections{0};
+
+  // Short work: speech analysis, rendering, request bodies. Declared after everything it uses.
+  boost::asio::thread_pool workers;
+  Jobs jobs;
+
+  double uptime() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  }
+
+  void add_session(std::uint64_t id, std::weak_ptr<Closable> session);
+  void remove_session(std::uint64_t id);
+  std::size_t session_count();
+  /// Asks every live session to close.
+  void shut_down_sessions();
+
+ private:
+  std::mutex sessions_mutex_;
+  std::unordered_map<std::uint64_t, std::weak_ptr<Closable>> sessions_;
+};
+
+}  // namespace facecast::server

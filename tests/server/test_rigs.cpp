@@ -1,0 +1,229 @@
+// Rig jobs: upload -> job -> stored rig -> download -> speak with it -> listed after a restart;
+// bad uploads; video render jobs.
+#include <catch2/catch.hpp>
+#include <thread>
+
+#include "client.hpp"
+#include "facecast/anim/avatar.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/files.hpp"
+#include "test_data.hpp"
+
+using namespace fctest;
+using facecast::server::ServerOptions;
+
+namespace {
+
+std::string obj_text(const facecast::anim::Rig& rig, const std::string& name) {
+  const auto path = facecast::test::scratch_dir() / (name + ".obj");
+  facecast::anim::write_obj(path, rig);
+  return facecast::read_file(path);
+}
+
+std::string base64(const std::string& bytes) {
+  static const char* a = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  std::size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = (static_cast<unsigned char>(bytes[i]) << 16) |
+                       (static_cast<unsigned char>(bytes[i + 1]) << 8) |
+                       static_cast<unsigned char>(bytes[i + 2]);
+    out += a[v >> 18];
+    out += a[(v >> 12) & 63];
+    out += a[(v >> 6) & 63];
+    out += a[v & 63];
+  }
+  if (i < bytes.size()) {
+    unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) v |= static_cast<unsigned char>(bytes[i + 1]) << 8;
+    out += a[v >> 18];
+    out += a[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? a[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+// Polls a job until it is done or failed.
+nlohmann::json wait_job(unsigned short port, const std::string& job, double timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
+  double last_progress = -1;
+  std::string last_stage;
+  for (;;) {
+    const auto r = http_request(port, http::verb::get, "/api/jobs/" + job);
+    REQUIRE(r.status == 200);
+    const auto j = r.json();
+    if (j["state"] == "done" || j["state"] == "failed") return j;
+    if (j["stage"] == last_stage) CHECK(j["progress"].get<double>() >= last_progress);
+    last_stage = j["stage"];
+    last_progress = j["progress"];
+    REQUIRE(std::chrono::steady_clock::now() < deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
+nlohmann::json post_json(unsigned short port, const std::string& target, const nlohmann::json& body,
+                         int expect) {
+  const auto r = http_request(port, http::verb::post, target, body.dump());
+  INFO(r.body);
+  REQUIRE(r.status == expect);
+  return r.json();
+}
+
+}  // namespace
+
+TEST_CASE("rig upload builds a rig that downloads, streams and survives a restart",
+          "[rigs][jobs]") {
+  TestServer s;
+  const auto variant = facecast::anim::make_avatar(facecast::anim::avatar_variant(7));
+  const auto accepted = post_json(
+      s.port(), "/api/rigs",
+      {{"name", "Seven"}, {"mesh", {{"format", "obj"}, {"data", obj_text(variant, "variant7")}}}},
+      202);
+  const std::string job = accepted["job"];
+  CHECK(accepted["url"] == "/api/jobs/" + job);
+  const auto done = wait_job(s.port(), job, 900 * slowdown());
+  INFO(done.dump());
+  REQUIRE(done["state"] == "done");
+  CHECK(done["kind"] == "rig");
+  CHECK(done["progress"] == 1.0);
+  const std::string id = done["result"]["rig"];
+  CHECK(done["result"]["url"] == "/api/rigs/" + id + ".glb");
+  CHECK(done["result"]["report"]["shapes"].size() == 52);
+  CHECK(done["result"]["report"]["virtual_edges"]["count"].get<int>() > 0);
+
+  const auto check_listed = [&] {
+    const auto rigs = http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"];
+    REQUIRE(rigs.size() == 2);
+    CHECK(rigs[1]["id"] == id);
+    CHECK(rigs[1]["name"] == "Seven");
+    CHECK(rigs[1]["builtin"] == false);
+    CHECK(rigs[1]["template"] == "default");
+    CHECK(rigs[1]["vertices"] == variant.vertex_count());
+    CHECK(rigs[1]["shapes"].get<std::vector<std::string>>() ==
+          facecast::anim::avatar_shape_names());
+    const auto glb = http_request(s.port(), http::verb::get, "/api/rigs/" + id + ".glb");
+    REQUIRE(glb.status == 200);
+    CHECK(glb.header("content-type") == "model/gltf-binary");
+    const auto rig = facecast::anim::parse_glb(glb.body, "built");
+    REQUIRE(rig.vertex_count() == variant.vertex_count());
+    CHECK((rig.positions - variant.positions).cwiseAbs().maxCoeff() < 1e-4f);
+    CHECK(rig.shapes.size() == 52);
+    CHECK(rig.shapes[static_cast<std::size_t>(rig.find_shape("jawOpen"))].max_displacement() >
+          0.1f);
+  };
+  check_listed();
+  const auto edges =
+      http_request(s.port(), http::verb::get, "/api/rigs/" + id + "/virtual_edges.json");
+  CHECK(edges.status == 200);
+  CHECK(edges.json()["edges"].size() > 0);
+
+  // Stream with it.
+  {
+    WsClient c(s.port());
+    CHECK(c.read_json(10)["rigs"] == nlohmann::json({"default", id}));
+    c.send(nlohmann::json{{"type", "speak"},
+                          {"id", "mine"},
+                          {"rig", id},
+                          {"text", "My own face."},
+                          {"audio", false}});
+    const auto r = collect_stream(c, "mine");
+    REQUIRE_FALSE(r.error);
+    CHECK(r.start["rig"] == id);
+    CHECK(r.end["frames"] == r.start["frames"]);
+  }
+  // Stored atomically: the rig's folder and no temporaries.
+  const auto rig_dir = s.options().data / "rigs" / id;
+  CHECK(std::filesystem::exists(rig_dir / "rig.glb"));
+  CHECK(std::filesystem::exists(rig_dir / "meta.json"));
+  for (const auto& e : std::filesystem::directory_iterator(s.options().data / "rigs"))
+    CHECK(e.path().filename().string().find("tmp") == std::string::npos);
+
+  s.restart();
+  check_listed();
+}
+
+TEST_CASE("rig uploads with bad input are refused at once", "[rigs]") {
+  TestServer s;
+  const auto error = [&](const nlohmann::json& body, int status) {
+    const auto r = http_request(s.port(), http::verb::post, "/api/rigs", body.dump());
+    INFO(r.body);
+    CHECK(r.status == status);
+    return r.json()["error"]["message"].get<std::string>();
+  };
+  CHECK_THAT(error({{"name", "x"}}, 400), Catch::Contains("mesh: missing"));
+  CHECK_THAT(error({{"mesh", {{"format", "stl"}, {"data", "solid"}}}}, 400),
+             Catch::Contains("'stl' is not obj or glb"));
+  CHECK_THAT(error({{"mesh", {{"format", "obj"}, {"data", "v 1 2\nf 1 2 3\n"}}}}, 400),
+             Catch::Contains("mesh"));
+  CHECK_THAT(error({{"mesh", {{"format", "glb"}, {"data", "@@@not base64@@@"}}}}, 400),
+             Catch::Contains("not base64"));
+  const std::string tetra =
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  CHECK_THAT(error({{"mesh", {{"format", "obj"}, {"data", tetra}}}}, 400),
+             Catch::Contains("give markers"));
+  CHECK_THAT(
+      error({{"mesh", {{"format", "obj"}, {"data", tetra}}},
+             {"markers",
+              {{"index_base", 0}, {"pairs", {{{"name", "a"}, {"template", 1}, {"target", 99}}}}}}},
+            400),
+      Catch::Contains("99"));
+  CHECK_THAT(error({{"template", "nope"}, {"mesh", {{"format", "obj"}, {"data", tetra}}}}, 404),
+             Catch::Contains("rig 'nope' does not exist"));
+  CHECK_THAT(
+      error({{"mesh", {{"format", "obj"}, {"data", tetra}}}, {"options", {{"lambda", -1}}}}, 400),
+      Catch::Contains("options.lambda"));
+  CHECK_THAT(error({{"mesh", {{"format", "obj"}, {"data", tetra}}}, {"colour", "red"}}, 400),
+             Catch::Contains("unknown field 'colour'"));
+}
+
+TEST_CASE("a GLB upload of the same topology is accepted and shutdown cancels its job",
+          "[rigs][jobs]") {
+  std::filesystem::path data;
+  {
+    TestServer s([](ServerOptions& o) { o.shutdown_timeout = 3; });
+    data = s.options().data;
+    // A GLB groups triangles by material, so their order differs from the template's.
+    const auto variant = facecast::anim::make_avatar(facecast::anim::avatar_variant(3));
+    const auto accepted = post_json(
+        s.port(), "/api/rigs",
+        {{"mesh", {{"format", "glb"}, {"data", base64(facecast::anim::glb_bytes(variant))}}}}, 202);
+    const std::string job = accepted["job"];
+    const auto j = http_request(s.port(), http::verb::get, "/api/jobs/" + job).json();
+    CHECK((j["state"] == "queued" || j["state"] == "running"));
+    // A second job waits behind it (one job worker); max_jobs bounds the queue.
+    const auto t0 = std::chrono::steady_clock::now();
+    s.server().stop();
+    s.server().wait();
+    CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() <
+          10 * slowdown());
+  }
+  // Nothing half-built is left behind.
+  for (const auto& e : std::filesystem::directory_iterator(data / "rigs")) FAIL(e.path().string());
+}
+
+TEST_CASE("render jobs produce an MP4 video", "[jobs][render]") {
+  TestServer s;
+  const auto accepted =
+      post_json(s.port(), "/api/render",
+                {{"text", "Hello."}, {"size", {160, 120}}, {"fps", 10}, {"audio", true}}, 202);
+  const auto done = wait_job(s.port(), accepted["job"], 120 * slowdown());
+  INFO(done.dump());
+  REQUIRE(done["state"] == "done");
+  CHECK(done["kind"] == "render");
+  CHECK(done["result"]["audio"] == true);
+  CHECK(done["result"]["frames"].get<int>() >= 5);
+  const auto video = http_request(s.port(), http::verb::get, done["result"]["url"]);
+  REQUIRE(video.status == 200);
+  CHECK(video.header("content-type") == "video/mp4");
+  REQUIRE(video.body.size() > 1000);
+  CHECK(video.body.substr(4, 4) == "ftyp");
+  // Errors of the request itself come back at once.
+  auto r =
+      http_request(s.port(), http::verb::post, "/api/render", R"({"text":"hi","size":[161,120]})");
+  CHECK(r.status == 400);
+  CHECK_THAT(r.body, Catch::Contains("even"));
+  r = http_request(s.port(), http::verb::post, "/api/render", R"({"size":[160,120]})");
+  CHECK(r.status == 400);
+  CHECK_THAT(r.body, Catch::Contains("text: missing"));
+}
