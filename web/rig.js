@@ -612,6 +612,7 @@ async function showResult(result) {
     buildSliders(names);
     $('open-speak').href = `/?rig=${encodeURIComponent(id)}`;
     $('report').textContent = result.report ? JSON.stringify(result.report, null, 1) : 'no report';
+    $('report-summary').textContent = summarize(result.report);
     window.__rig.resultReady = true;
     loadRigList();
   } catch (e) {
@@ -628,6 +629,20 @@ async function showResult(result) {
     $('show-ve').disabled = true;
     $('ve-info').textContent = e.status === 404 ? 'none for this rig' : `unavailable (${e.message})`;
   }
+}
+
+/** One line from the build report: time, virtual edges, the shape whose gap changed most. */
+function summarize(report) {
+  if (!report || typeof report !== 'object') return '';
+  const parts = [];
+  const total = report.timings_s?.total;
+  if (typeof total === 'number') parts.push(`built in ${total.toFixed(1)} s`);
+  const ve = report.virtual_edges;
+  if (ve && typeof ve.count === 'number') parts.push(ve.mode === 'off' ? 'no virtual edges' : `${ve.count} virtual edges (λ ${ve.lambda})`);
+  const shapes = Array.isArray(report.shapes) ? report.shapes : [];
+  const worst = shapes.filter((x) => typeof x.gap_change === 'number').sort((a, b) => b.gap_change - a.gap_change)[0];
+  if (worst) parts.push(`largest gap change ${worst.gap_change.toFixed(2)} (${worst.name}; neutral gap = 10)`);
+  return parts.join(' · ');
 }
 
 function buildSliders(names) {

@@ -101,7 +101,7 @@ async function body(work) {
       }
     }
     if (s.ready || s.job?.state === 'failed' || s.errors.length) {
-      log(`job ${JSON.stringify(s.job)} — ${s.status}`);
+      log(`job ${s.job?.id}: ${s.job?.state}, stage ${s.job?.stage}, ${s.job?.seconds ?? '?'} s — ${s.status}`);
       break;
     }
     if (Date.now() - t0 > 400000) throw new Error('the build did not finish in 400 s');
