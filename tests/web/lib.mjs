@@ -42,6 +42,7 @@ const { chromium } = require('playwright-core');
 export const CHROMIUM = process.env.FACECAST_CHROMIUM || '/usr/bin/chromium';
 
 const cleanups = [];
+const servers = [];
 let failures = 0;
 let passes = 0;
 const started = Date.now();
@@ -84,9 +85,10 @@ export async function startServer({ port = 0, data = null, extraArgs = [] } = {}
   log(`starting ${binary} ${args.join(' ')}`);
   const proc = spawn(binary, args, { cwd: sourceDir, stdio: ['ignore', 'pipe', 'pipe'] });
   let out = '';
+  // The server's log is kept and printed when the test fails (FACECAST_WEB_VERBOSE=1: as it comes).
   const onData = (d) => {
     out += d.toString();
-    for (const line of d.toString().split('\n')) if (line.trim()) log(`  server: ${line.trim()}`);
+    if (process.env.FACECAST_WEB_VERBOSE) for (const line of d.toString().split('\n')) if (line.trim()) log(`  server: ${line.trim()}`);
   };
   proc.stdout.on('data', onData);
   proc.stderr.on('data', onData);
@@ -113,7 +115,7 @@ export async function startServer({ port = 0, data = null, extraArgs = [] } = {}
     }
     await sleep(100);
   }
-  log(`server up at ${url}`);
+  log(`server up at ${url} (${out.split('\n').find((l) => l.includes(String(chosen)))?.trim() ?? ''})`);
   const server = {
     url,
     port: chosen,
@@ -138,6 +140,7 @@ export async function startServer({ port = 0, data = null, extraArgs = [] } = {}
       return exited;
     },
   };
+  servers.push(server);
   cleanups.push(async () => {
     await server.stop();
     if (owned) rmSync(dir, { recursive: true, force: true });
@@ -230,6 +233,13 @@ export async function run(name, body) {
     crashed = e;
     failures += 1;
     log(`ERROR ${e.stack || e}`);
+  }
+  if (failures || crashed) {
+    for (const srv of servers) {
+      const lines = srv.output.trim().split('\n');
+      log(`server on port ${srv.port}, last ${Math.min(80, lines.length)} of ${lines.length} log lines:`);
+      for (const line of lines.slice(-80)) console.log(`    ${line}`);
+    }
   }
   for (const c of cleanups.reverse()) {
     try {
