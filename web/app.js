@@ -3,7 +3,7 @@
 //
 // window.__facecast exposes the page's state for the browser tests and for curious people.
 
-import { FacecastClient, fetchJson, authHeaders } from './protocol.js';
+import { FacecastClient, fetchJson, authHeaders, keepTokenInLinks } from './protocol.js';
 import { StreamPlayer } from './player.js';
 import { AvatarView, loadGlb } from './avatar.js';
 import { Timeline, expressionColor } from './timeline.js';
@@ -322,7 +322,8 @@ function pendingIds() {
 }
 
 function updateButtons() {
-  els.speak.disabled = !client.open || !view.model;
+  // Frames mode needs no model here: the server renders.
+  els.speak.disabled = !client.open || (!view.model && output() === 'weights');
   els.stop.disabled = !pendingIds().length && !player.current;
 }
 
@@ -417,7 +418,11 @@ client.addEventListener('state', (e) => {
     state.wasDown = false;
     refreshRigs();
   } else if (d.state === 'reconnecting') {
-    if (d.attempt >= 2 || state.everOpen) {
+    // A browser does not tell why a WebSocket handshake failed: ask the API whether it wants a token.
+    if (d.attempt === 1 || d.attempt % 4 === 0) probeAuth();
+    if (state.needsToken) {
+      els.connText.textContent = 'Token required';
+    } else if (d.attempt >= 2 || state.everOpen) {
       showAlert({
         key: 'connection',
         level: 'error',
@@ -430,6 +435,25 @@ client.addEventListener('state', (e) => {
   }
   updateButtons();
 });
+
+async function probeAuth() {
+  try {
+    await fetchJson('/api/rigs');
+    state.needsToken = false;
+  } catch (e) {
+    if (e.status !== 401) return;
+    state.needsToken = true;
+    els.connText.textContent = 'Token required';
+    const has = new URLSearchParams(location.search).has('token');
+    showAlert({
+      key: 'connection',
+      level: 'error',
+      code: 'unauthorized',
+      message: has ? 'The server rejected the token in the address (?token=…).' : 'This server needs a token: open the page as /?token=YOUR_TOKEN.',
+      sticky: true,
+    });
+  }
+}
 
 client.addEventListener('closed', () => {
   // Whatever was playing is gone with the connection: stop it and let the face settle.
@@ -507,7 +531,8 @@ async function refreshRigs() {
     const res = await fetchJson('/api/rigs');
     state.rigs = res?.rigs || [];
   } catch (e) {
-    showAlert({ level: 'error', code: e.code || 'rigs', message: `Could not list the rigs: ${e.message}` });
+    if (e.status === 401) state.needsToken = true;
+    else showAlert({ level: 'error', code: e.code || 'rigs', message: `Could not list the rigs: ${e.message}` });
     if (!state.rigs.length) state.rigs = (client.hello?.rigs || ['default']).map((id) => ({ id, name: id }));
   }
   const want = new URLSearchParams(location.search).get('rig') || state.rigId || state.savedRig || 'default';
@@ -676,6 +701,7 @@ function init() {
   });
   applyOutputMode();
   updateCount();
+  keepTokenInLinks();
   timeline.draw();
   client.connect();
   requestAnimationFrame(tick);

@@ -203,3 +203,15 @@ export function authHeaders() {
   const token = new URLSearchParams(window.location.search).get('token');
   return token ? { Authorization: `Bearer ${token}` } : {};
 }
+
+/** Carries the page's ?token= over to the other pages' links (a protected server needs it). */
+export function keepTokenInLinks(root = document) {
+  const token = new URLSearchParams(window.location.search).get('token');
+  if (!token) return;
+  for (const a of root.querySelectorAll('a[href]')) {
+    const url = new URL(a.getAttribute('href'), window.location.href);
+    if (url.origin !== window.location.origin) continue;
+    url.searchParams.set('token', token);
+    a.setAttribute('href', url.pathname + url.search + url.hash);
+  }
+}

@@ -7,7 +7,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { makeRenderer, addStudioLights, loadGlb, morphMeshes, targetNames, restBox } from './avatar.js';
-import { fetchJson, authHeaders } from './protocol.js';
+import { fetchJson, authHeaders, keepTokenInLinks } from './protocol.js';
 import { showAlert } from './alerts.js';
 
 const $ = (id) => document.getElementById(id);
@@ -611,6 +611,7 @@ async function showResult(result) {
     state.result = { rig: id, url: result.url, names, root, edges: null, lines: null };
     buildSliders(names);
     $('open-speak').href = `/?rig=${encodeURIComponent(id)}`;
+    keepTokenInLinks($('result-panel'));
     $('report').textContent = result.report ? JSON.stringify(result.report, null, 1) : 'no report';
     $('report-summary').textContent = summarize(result.report);
     window.__rig.resultReady = true;
@@ -766,6 +767,7 @@ function init() {
       setShape(input.dataset.shape, 0);
     }
   });
+  keepTokenInLinks();
   const loop = () => {
     requestAnimationFrame(loop);
     for (const v of Object.values(views)) if (!v.el.classList.contains('hidden')) v.render();

@@ -62,7 +62,8 @@ await run('speak', async () => {
   while (Date.now() - t0 < 40000) {
     const s = await page.evaluate(() => {
       const f = window.__facecast;
-      return { jaw: f.influence('jawOpen'), mouth: f.mouth(), audio: f.audioTime(), t: f.utteranceTime, state: f.lastUtterance?.state };
+      const h = f.headRotation();
+      return { jaw: f.influence('jawOpen'), mouth: f.mouth(), audio: f.audioTime(), t: f.utteranceTime, state: f.lastUtterance?.state, head: Math.max(Math.abs(h.x), Math.abs(h.y), Math.abs(h.z)) };
     });
     samples.push(s);
     if (!shot && s.mouth > 0.15) {
@@ -99,6 +100,8 @@ await run('speak', async () => {
   const span = shown.length ? shown[shown.length - 1][0] - shown[0][0] : 0;
   log(`${shown.length} frames shown over ${span.toFixed(2)} s (${(shown.length / Math.max(span, 1e-3)).toFixed(1)} fps), pixel ratio ${render.pixelRatio}`);
   check('the mouth opens, closes and opens again (syllables)', swings >= 2, `${swings} openings in ${shown.length} shown frames`);
+  const headPeak = Math.max(...samples.map((s) => s.head));
+  check('the head moves with the streamed headYaw/headPitch/headRoll', headPeak > 1e-3, `peak ${headPeak.toFixed(4)} rad`);
   const rest = await page.evaluate(() => window.__facecast.mouth());
   check('mouth shapes return to rest after the utterance', rest < 0.02, `mouth ${rest.toFixed(4)} at the end`);
   const audioAfter = samples[samples.length - 1].audio;
