@@ -103,6 +103,7 @@ export class AvatarView {
     this.controls.enableDamping = true;
     this.controls.dampingFactor = 0.12;
     this.controls.addEventListener('change', () => (this.dirty = true));
+    this.controls.addEventListener('start', () => (this.userMoved = true));
     this.dirty = true; // render only when something changed
     addStudioLights(this.scene, this.renderer);
     this.pivot = new THREE.Group(); // the neck: head rotation is applied here
@@ -122,6 +123,8 @@ export class AvatarView {
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
+    // Keep the head framed while the person has not moved the camera.
+    if (this.box && !this.userMoved) this.frame(this.box);
     this.dirty = true;
   }
 
@@ -160,6 +163,8 @@ export class AvatarView {
     this.weights = new Float32Array(this.names.length);
     this._mapNames = null;
     this.setupCpuMorph();
+    this.box = box;
+    this.userMoved = false;
     this.frame(box);
     this.dirty = true;
   }
@@ -168,7 +173,7 @@ export class AvatarView {
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
     const tan = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
-    const dist = 1.12 * Math.max((0.5 * size.y) / tan, (0.5 * size.x) / (tan * this.camera.aspect)) + 0.5 * size.z;
+    const dist = 1.12 * Math.max((0.5 * size.y) / tan, (0.6 * size.x) / (tan * this.camera.aspect)) + 0.5 * size.z;
     this.camera.near = dist / 50;
     this.camera.far = dist * 20;
     this.camera.position.set(center.x + dist * 0.12, center.y + size.y * 0.04, center.z + dist);
