@@ -130,7 +130,7 @@ window.__facecast = {
     return state.history.slice();
   },
   get renderInfo() {
-    return { renders: view.renders || 0, pixelRatio: view.renderer.getPixelRatio() };
+    return { renders: view.renders || 0, pixelRatio: view.renderer.getPixelRatio(), motionPixelRatio: view.motionPR };
   },
   get alerts() {
     return alerts.map((a) => ({ level: a.level, code: a.code, message: a.message }));
@@ -509,7 +509,7 @@ client.addEventListener('error', (e) => {
     showAlert({
       level: 'warn',
       code: 'rate_limited',
-      message: `Too many requests${per ? ` (the server allows ${per} per minute)` : ''}: ${m.message} Try again in a moment.`,
+      message: `Slow down: ${per ? `the server takes at most ${per} utterances a minute` : 'too many requests'}. Try again in a moment. (${m.message})`,
     });
     return;
   }
@@ -587,7 +587,7 @@ function tick() {
     if (state.shownStream !== s) {
       state.shownStream = s;
       state.history = [];
-      timeline.set(s.id, s.utterance, s.duration);
+      timeline.set(s.id, s.utterance, s.duration, s.jawCurve);
       const u = s.utterance;
       els.tlInfo.textContent = u
         ? `${s.id} · ${(s.duration || 0).toFixed(2)} s · ${u.set || ''} · ${u.visemes?.length || 0} visemes · ${u.expressions?.length || 0} expression tags`
@@ -602,8 +602,6 @@ function tick() {
         };
         view.setHead(e('headYaw'), e('headPitch'), e('headRoll'));
       }
-      const jaw = s.names.indexOf('jawOpen');
-      timeline.addMouth(r.t, jaw >= 0 ? r.weights[jaw] : window.__facecast.mouth());
       state.history.push([r.t, window.__facecast.mouth()]);
       if (state.history.length > 5000) state.history.splice(0, 1000);
       state.restDecay = false;

@@ -96,6 +96,8 @@ export class AvatarView {
   constructor(canvas, { background = 0x272a33 } = {}) {
     this.canvas = canvas;
     this.renderer = makeRenderer(canvas);
+    this.fullPR = this.renderer.getPixelRatio();
+    this.motionPR = this.fullPR; // lowered by adapt() when frames come too slowly
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(background);
     this.camera = new THREE.PerspectiveCamera(22, 1, 0.1, 1000);
@@ -209,8 +211,10 @@ export class AvatarView {
   setWeight(name, value) {
     const k = this.index.get(name);
     if (k === undefined) return false;
-    this.weights[k] = value;
-    this.push();
+    if (this.weights[k] !== value) {
+      this.weights[k] = value;
+      this.push();
+    }
     return true;
   }
 
@@ -307,16 +311,35 @@ export class AvatarView {
   /** Renders when anything changed (weights, head, camera, size) or when forced. */
   render(force = false) {
     this.controls.update();
+    const now = performance.now();
     if (!this.dirty && !force) {
       this._streak = 0;
+      // Reduced resolution is for motion: once still for a moment, draw one frame at full resolution.
+      if (this.motionPR < this.fullPR && !this.refined && now - (this._lastDirty || 0) > 400) {
+        this.refined = true;
+        this.setPR(this.fullPR);
+        this.blendOnCpu();
+        this.renderer.render(this.scene, this.camera);
+      }
       return false;
     }
     this.dirty = false;
+    this._lastDirty = now;
+    if (this.refined) {
+      this.refined = false;
+      this.setPR(this.motionPR);
+    }
     this.blendOnCpu();
     this.renderer.render(this.scene, this.camera);
     this.renders = (this.renders || 0) + 1;
     this.adapt();
     return true;
+  }
+
+  setPR(pr) {
+    if (this.renderer.getPixelRatio() === pr) return;
+    this.renderer.setPixelRatio(pr);
+    this.renderer.setSize(Math.max(1, this.canvas.clientWidth), Math.max(1, this.canvas.clientHeight), false);
   }
 
   /**
@@ -340,10 +363,10 @@ export class AvatarView {
     const avg = this._sum / this._n;
     this._sum = 0;
     this._n = 0;
-    const pr = this.renderer.getPixelRatio();
+    const pr = this.motionPR;
     if (avg > 50 && pr > 0.4) {
-      this.renderer.setPixelRatio(Math.max(0.4, pr * 0.7));
-      this.resize();
+      this.motionPR = Math.max(0.4, pr * 0.7);
+      this.setPR(this.motionPR);
     }
   }
 }

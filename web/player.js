@@ -77,6 +77,8 @@ export class StreamPlayer {
       utterance: msg.utterance || null,
       duration: msg.duration || msg.utterance?.duration || 0,
       frames: [], // {t, w: Float32Array(nch)}, in order of time
+      jawIndex: (msg.names || []).indexOf('jawOpen'),
+      jawCurve: [], // [t, jawOpen] of every frame received (for the timeline)
       jpegs: [], // {t, bitmap}
       pendingJpegs: 0,
       cursor: 0,
@@ -223,6 +225,7 @@ export class StreamPlayer {
     for (let k = 0; k < count; k++) {
       const t = h.pts + k / s.fps;
       const frame = { t, w: all.subarray(k * nch, (k + 1) * nch) };
+      if (s.jawIndex >= 0) s.jawCurve.push([t, frame.w[s.jawIndex]]);
       // Frames arrive in order; a dropped message only leaves a gap.
       const last = s.frames[s.frames.length - 1];
       if (!last || t > last.t) s.frames.push(frame);

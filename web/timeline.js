@@ -104,19 +104,17 @@ export class Timeline {
     new ResizeObserver(() => this.draw()).observe(canvas);
   }
 
-  /** A new utterance (stream_start): its viseme engine JSON and the stream's duration. */
-  set(id, utterance, duration) {
+  /**
+   * A new utterance (stream_start): its viseme engine JSON, the stream's duration, and the array the
+   * stream's jawOpen values arrive in ([t, value], filled as frames come).
+   */
+  set(id, utterance, duration, mouth = []) {
     this.id = id;
     this.utterance = utterance || null;
     this.duration = Math.max(0.5, duration || utterance?.duration || 1);
-    this.mouth = [];
+    this.mouth = mouth;
     this.t = null;
     this.draw();
-  }
-
-  addMouth(t, v) {
-    const last = this.mouth[this.mouth.length - 1];
-    if (!last || t > last[0] + 1e-4) this.mouth.push([t, v]);
   }
 
   setTime(t) {
@@ -246,17 +244,23 @@ export class Timeline {
       g.fillStyle = '#222631';
       g.fillRect(GUTTER, ty, w - GUTTER - 8, th);
       if (this.mouth.length > 1) {
-        g.beginPath();
-        for (let i = 0; i < this.mouth.length; i++) {
-          const [t, v] = this.mouth[i];
-          const px = this.x(Math.min(t, this.duration), w);
-          const py = ty + th - Math.max(0, Math.min(1, v)) * (th - 2);
-          if (i) g.lineTo(px, py);
-          else g.moveTo(px, py);
+        // Received frames: played (bright) and buffered ahead of the playhead (dim).
+        const now = this.t ?? -Infinity;
+        for (const played of [true, false]) {
+          g.beginPath();
+          let started = false;
+          for (const [t, v] of this.mouth) {
+            if (played ? t > now + 1e-6 : t < now - 1e-6) continue;
+            const px = this.x(Math.min(t, this.duration), w);
+            const py = ty + th - Math.max(0, Math.min(1, v)) * (th - 2);
+            if (started) g.lineTo(px, py);
+            else g.moveTo(px, py);
+            started = true;
+          }
+          g.strokeStyle = played ? '#7fd1ae' : 'rgba(127, 209, 174, 0.35)';
+          g.lineWidth = 1.5;
+          g.stroke();
         }
-        g.strokeStyle = '#7fd1ae';
-        g.lineWidth = 1.5;
-        g.stroke();
         g.lineWidth = 1;
       } else if (this.t !== null && this.t > 0.3) {
         g.fillStyle = '#6b7483';

@@ -98,7 +98,7 @@ await run('speak', async () => {
     } else if (high && m < 0.25 * shownPeak) high = false;
   }
   const span = shown.length ? shown[shown.length - 1][0] - shown[0][0] : 0;
-  log(`${shown.length} frames shown over ${span.toFixed(2)} s (${(shown.length / Math.max(span, 1e-3)).toFixed(1)} fps), pixel ratio ${render.pixelRatio}`);
+  log(`${shown.length} frames shown over ${span.toFixed(2)} s (${(shown.length / Math.max(span, 1e-3)).toFixed(1)} fps), pixel ratio in motion ${render.motionPixelRatio}`);
   check('the mouth opens, closes and opens again (syllables)', swings >= 2, `${swings} openings in ${shown.length} shown frames`);
   const headPeak = Math.max(...samples.map((s) => s.head));
   check('the head moves with the streamed headYaw/headPitch/headRoll', headPeak > 1e-3, `peak ${headPeak.toFixed(4)} rad`);
