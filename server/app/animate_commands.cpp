@@ -6,6 +6,7 @@
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/render/timeline.hpp"
 #include "facecast/viseme/viseme.hpp"
 #include "speech_input.hpp"
 
@@ -62,7 +63,7 @@ namespace {
 
 struct AnimateArgs {
   SpeechArgs speech;
-  std::string rig, out;
+  std::string rig, out, plot;
   double fps = 60;
 };
 
@@ -82,6 +83,9 @@ void add_animate_commands(CLI::App& app) {
                   "weights.json ({fps, frames, shapes, weights, head}) or weights.bin (FCWT: see "
                   "anim/animation.hpp)")
       ->required();
+  cmd->add_option("--plot", a->plot,
+                  "Also draw the timeline (viseme events and curves, expressions, jaw, blink) "
+                  "as a PNG");
   cmd->callback([a] {
     const bool binary = a->out.ends_with(".bin");
     if (!binary && !a->out.ends_with(".json"))
@@ -92,6 +96,7 @@ void add_animate_commands(CLI::App& app) {
     const anim::Performance p(u, mapping, speech_anim_options(a->speech));
     const anim::WeightTrack track = anim::bake(p, a->fps);
     write_file_atomic(a->out, binary ? anim::to_binary(track) : anim::to_json(track) + "\n");
+    if (!a->plot.empty()) render::write_image(a->plot, render::plot_timeline(u, p));
     std::cerr << "wrote " << a->out << ": " << track.frames << " frames x " << track.shapes.size()
               << " shapes at " << a->fps << " fps (" << p.duration() << " s, " << mapping.table()
               << " mapping)\n";

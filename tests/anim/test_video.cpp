@@ -7,6 +7,7 @@
 #include "facecast/anim/avatar.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/render/timeline.hpp"
 #include "facecast/render/video.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "test_data.hpp"
@@ -139,6 +140,7 @@ TEST_CASE("speech to MP4 with the ICT FaceKit", "[render][video]") {
                                      3);
   const auto art = test::artifacts_dir("video");
   render::write_image(art / "ict_speech_sheet.png", sheet);
+  render::write_image(art / "ict_speech_timeline.png", render::plot_timeline(u, performance));
   fs::copy_file(out, art / "ict_speech.mp4", fs::copy_options::overwrite_existing);
 }
 
@@ -173,4 +175,28 @@ TEST_CASE("a frame sequence with its WAV, and ffmpeg errors", "[render][video]")
   CHECK_THROWS_WITH(render::write_video(renderer, p, u.pcm, u.sample_rate, bad, vo),
                     Catch::Contains("ffmpeg failed"));
   CHECK(!fs::exists(bad));
+}
+
+TEST_CASE("the timeline picture draws events and curves", "[render][timeline]") {
+  const anim::Rig rig = anim::default_avatar();
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kOculus;
+  u.visemes = {{"sil", 0, 0.2}, {"aa", 0.2, 0.5}, {"PP", 0.5, 0.6}, {"sil", 0.6, 1.0}};
+  u.expressions = {{"joy", 63, 0.1, 0.3}};
+  u.duration = 1.0;
+  const anim::Performance p(u, anim::Mapping::for_rig(rig.shape_names()));
+  const render::Image im = render::plot_timeline(u, p, 400);
+  CHECK(im.width >= 400 + 90);
+  // 1 event lane + 14 channels + 1 expression + jaw + blink, 26 px each, under a 22 px header.
+  CHECK(im.height == 22 + 18 * 26 + 4);
+  // Something is drawn in the event lane inside the "aa" event, and nothing before it starts.
+  const auto lit = [&](int x, int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      if (im.at(x, y, 0) > 60 || im.at(x, y, 1) > 60 || im.at(x, y, 2) > 60) return true;
+    return false;
+  };
+  const int x_aa = 90 + static_cast<int>(0.35 / p.duration() * (im.width - 90));
+  const int x_rest = 90 + static_cast<int>(0.05 / p.duration() * (im.width - 90));
+  CHECK(lit(x_aa, 25, 45));
+  CHECK(!lit(x_rest, 25, 45));
 }

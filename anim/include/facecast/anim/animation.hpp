@@ -34,8 +34,8 @@ namespace facecast::anim {
 /// Defaults mirrored in configs/anim/animation.json.
 struct AnimOptions {
   // Coarticulation
-  double theta_anticipation = 20.0;  // 1/s, dominance decay before a viseme's centre
-  double theta_carryover = 14.0;     // 1/s, after it
+  double theta_anticipation = 30.0;  // 1/s, dominance decay before a viseme's centre
+  double theta_carryover = 22.0;     // 1/s, after it
   double closure_alpha = 6.0;        // dominance of closure visemes (others 1)
   double articulation = 1.0;         // scales every viseme key (0.8 = lazier speech)
   double rest_pause = 0.25;          // pauses (sil) at least this long get rest keys (s)
@@ -122,6 +122,9 @@ class Performance {
 
   /// The rig's shape names, in the order sample() writes them.
   const std::vector<std::string>& shape_names() const { return mapping_.shape_names(); }
+
+  /// The viseme names of the utterance's set, in channel order ("sil" first).
+  const std::vector<std::string>& viseme_names() const { return mapping_.viseme_names(set_); }
 
   /// The viseme channel values at `t` (for tests and the timeline), one per viseme of the set.
   std::vector<float> viseme_channels(double t) const;
