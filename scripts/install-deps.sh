@@ -9,7 +9,7 @@ packages=(
   libnanoflann-dev libsuitesparse-dev catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev
   libopenimageio-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  nodejs chromium fonts-wqy-microhei
+  nodejs chromium fonts-wqy-microhei fonts-dejavu-core
 )
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)
