@@ -112,6 +112,10 @@ window.__facecast = {
   get stats() {
     return { ...player.stats };
   },
+  /** The clock the current stream runs on: 'audio' (AudioContext) or 'perf' (no audio). */
+  get clock() {
+    return player.current ? player.current.clock : null;
+  },
   get utteranceTime() {
     return player.current ? player.current.lastT : null;
   },

@@ -110,6 +110,7 @@ await run('speak', async () => {
   const ts = samples.map((s) => s.t).filter((t) => t !== null);
   const monotonic = ts.every((t, i) => i === 0 || t >= ts[i - 1] - 1e-6);
   check('utterance time runs forward to the end', monotonic && ts[ts.length - 1] >= 0.9 * (u1.duration || 1), `last ${ts[ts.length - 1]?.toFixed(2)} of ${u1.duration?.toFixed(2)} s`);
+  check('the frames ran on the audio clock', (await page.evaluate(() => window.__facecast.clock)) === 'audio');
   const stats = await page.evaluate(() => window.__facecast.stats);
   check('audio chunks and weight frames arrived', stats.audioChunks > 0 && stats.weightFrames > 30, JSON.stringify(stats));
 
@@ -127,6 +128,19 @@ await run('speak', async () => {
   });
   check('the timeline canvas has coloured viseme and expression blocks', tlPixels > 0.05, `${(tlPixels * 100).toFixed(1)}% coloured pixels`);
   await screenshot(page, 'speak-03-done');
+
+  // ---- Without audio the frames run on performance.now().
+  await page.uncheck('#audio');
+  await page.fill('#text', '(smile, 40, 0.2)Hello, 你好！');
+  await page.click('#speak');
+  await waitFor(page, () => window.__facecast.lastUtterance?.state === 'playing', null, { timeout: 30000, what: 'the silent utterance' });
+  const silentPeak = await page
+    .waitForFunction(() => window.__facecast.mouth() > 0.08 && window.__facecast.mouth(), null, { timeout: 15000, polling: 30 })
+    .then((h) => h.jsonValue())
+    .catch(() => 0);
+  check('without audio the mouth moves on the performance clock', silentPeak > 0.08 && (await page.evaluate(() => window.__facecast.clock)) === 'perf', `peak ${Number(silentPeak).toFixed(3)}`);
+  await waitFor(page, () => window.__facecast.lastUtterance?.state === 'done', null, { timeout: 30000, what: 'the silent utterance to end' });
+  await page.check('#audio');
 
   // ---- Stop cancels a playing utterance; the face returns to rest.
   await page.fill('#text', 'This is a long sentence that the stop button interrupts before it ends, 这句话很长，会被打断。');
