@@ -117,7 +117,8 @@ window.__facecast = {
     return player.current ? player.current.clock : null;
   },
   get utteranceTime() {
-    return player.current ? player.current.lastT : null;
+    const t = player.current ? player.current.lastT : null;
+    return Number.isFinite(t) ? t : null;
   },
   get timeline() {
     return { ...timeline.drawn };
@@ -534,12 +535,13 @@ async function refreshRigs() {
   try {
     const res = await fetchJson('/api/rigs');
     state.rigs = res?.rigs || [];
+    if (res?.default) state.serverDefault = res.default;
   } catch (e) {
     if (e.status === 401) state.needsToken = true;
     else showAlert({ level: 'error', code: e.code || 'rigs', message: `Could not list the rigs: ${e.message}` });
     if (!state.rigs.length) state.rigs = (client.hello?.rigs || ['default']).map((id) => ({ id, name: id }));
   }
-  const want = new URLSearchParams(location.search).get('rig') || state.rigId || state.savedRig || 'default';
+  const want = new URLSearchParams(location.search).get('rig') || state.rigId || state.savedRig || state.serverDefault || client.hello?.default_rig || 'default';
   els.rig.replaceChildren();
   for (const r of state.rigs) {
     const o = document.createElement('option');

@@ -49,13 +49,15 @@ export class StreamPlayer {
   /** The audio clock, corrected by the output timestamp where the browser gives one. */
   audioNow() {
     if (!this.ctx) return 0;
+    let t = this.ctx.currentTime;
     const ts = this.ctx.getOutputTimestamp ? this.ctx.getOutputTimestamp() : null;
     if (ts && ts.contextTime > 0 && ts.performanceTime > 0) {
-      const t = ts.contextTime + (performance.now() - ts.performanceTime) / 1000;
       // Never run ahead of what the context has rendered.
-      return Math.min(t, this.ctx.currentTime);
+      t = Math.min(t, ts.contextTime + (performance.now() - ts.performanceTime) / 1000);
     }
-    return this.ctx.currentTime;
+    // The two estimates can disagree by the output latency: the clock never goes back.
+    this._audioNow = Math.max(this._audioNow || 0, t);
+    return this._audioNow;
   }
 
   clockNow(kind) {
@@ -91,7 +93,7 @@ export class StreamPlayer {
       cancelled: false,
       endInfo: null,
       startedAt: perfNow(),
-      lastT: 0,
+      lastT: -Infinity,
       shownJpeg: null,
     };
     this.streams.set(msg.stream, s);
@@ -313,8 +315,8 @@ export class StreamPlayer {
     const out = { stream: s, t, weights: null, extra: null, jpeg: null, done: this.done(s) };
     if (t === null) return out;
     if (out.done) out.t = Math.min(t, this.endOf(s) || s.duration);
-    // The output-timestamp correction can step back a hair; presentation time never does.
-    if (s.lastT > out.t && s.lastT - out.t < 0.05) out.t = s.lastT;
+    // Presentation time never goes back (a clock hand-over or correction waits instead).
+    if (s.lastT > out.t) out.t = s.lastT;
     s.lastT = out.t;
     const tt = out.t;
     if (s.frames.length) {

@@ -614,7 +614,6 @@ async function showResult(result) {
     keepTokenInLinks($('result-panel'));
     $('report').textContent = result.report ? JSON.stringify(result.report, null, 1) : 'no report';
     $('report-summary').textContent = summarize(result.report);
-    window.__rig.resultReady = true;
     loadRigList();
   } catch (e) {
     error(`Could not load the built rig: ${e.message || e}`, 'result');
@@ -630,6 +629,7 @@ async function showResult(result) {
     $('show-ve').disabled = true;
     $('ve-info').textContent = e.status === 404 ? 'none for this rig' : `unavailable (${e.message})`;
   }
+  window.__rig.resultReady = true;
 }
 
 /** One line from the build report: time, virtual edges, the shape whose gap changed most. */

@@ -109,6 +109,7 @@ await run('speak', async () => {
   check('audio time advances', audioAfter - (audioBefore ?? 0) > Math.min(1.5, 0.5 * (u1.duration || 2)), `AudioContext ${audioBefore} -> ${audioAfter?.toFixed(2)} s over ${wall.toFixed(1)} s`);
   const ts = samples.map((s) => s.t).filter((t) => t !== null);
   const monotonic = ts.every((t, i) => i === 0 || t >= ts[i - 1] - 1e-6);
+  if (!monotonic) log(`utterance time: ${ts.map((t) => t.toFixed(3)).join(' ')}`);
   check('utterance time runs forward to the end', monotonic && ts[ts.length - 1] >= 0.9 * (u1.duration || 1), `last ${ts[ts.length - 1]?.toFixed(2)} of ${u1.duration?.toFixed(2)} s`);
   check('the frames ran on the audio clock', (await page.evaluate(() => window.__facecast.clock)) === 'audio');
   const stats = await page.evaluate(() => window.__facecast.stats);

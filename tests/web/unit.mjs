@@ -110,7 +110,7 @@ function message(kind, stream, first, count, pts, payload) {
     p.start({ id: 'u2', stream: 4, fps: 10, names: ['jawOpen'], extra: [], audio: null, duration: 0.2 });
     const one = new Float32Array([0.6]);
     p.media(parseHeader(message(KIND.WEIGHTS, 4, 0, 1, 0, one)), message(KIND.WEIGHTS, 4, 0, 1, 0, one).slice(HEADER_BYTES));
-    now += 200;
+    now += 250;
     r = p.update();
     check('the next stream follows the finished one', r.stream.id === 'u2' && r.weights && Math.abs(r.weights[0] - 0.6) < 1e-6, `${r.stream.id} ${r.weights?.[0]}`);
   } finally {
