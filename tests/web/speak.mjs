@@ -143,6 +143,24 @@ await run('speak', async () => {
   await waitFor(page, () => window.__facecast.lastUtterance?.state === 'done', null, { timeout: 30000, what: 'the silent utterance to end' });
   await page.check('#audio');
 
+  // ---- Two utterances in a row queue and play in order.
+  await page.fill('#text', '第一句。');
+  await page.click('#speak');
+  await page.fill('#text', 'The second one.');
+  await page.click('#speak');
+  const pair = await page.evaluate(() => window.__facecast.utterances.slice(-2).map((u) => u.id));
+  await waitFor(page, (ids) => ids.every((id) => window.__facecast.utterances.find((u) => u.id === id)?.state === 'done'), pair, {
+    timeout: 40000,
+    what: 'both queued utterances to finish',
+  });
+  const order = await page.evaluate((ids) => {
+    const ev = window.__facecast.log.filter((e) => (e.stream_start || e.stream_end) && ids.includes((e.stream_start || e.stream_end).id));
+    return ev.map((e) => (e.stream_start ? `start:${e.stream_start.id}` : `end:${e.stream_end.id}`));
+  }, pair);
+  check('queued utterances play one after the other', order.join(' ') === `start:${pair[0]} end:${pair[0]} start:${pair[1]} end:${pair[1]}`, order.join(' '));
+  const tl2 = await page.evaluate(() => window.__facecast.timeline);
+  check('the timeline moves on to the second utterance', tl2.id === pair[1], JSON.stringify(tl2.id));
+
   // ---- Stop cancels a playing utterance; the face returns to rest.
   await page.fill('#text', 'This is a long sentence that the stop button interrupts before it ends, 这句话很长，会被打断。');
   await page.click('#speak');
