@@ -256,3 +256,23 @@ export async function run(name, body) {
 export function readJson(rel) {
   return JSON.parse(readFileSync(join(sourceDir, rel), 'utf8'));
 }
+
+/**
+ * The share of a canvas's pixels that differ from its corner colour (the background): a WebGL view
+ * that draws nothing gives 0.
+ */
+export async function drawnShare(page, selector) {
+  return page.evaluate((sel) => {
+    const src = document.querySelector(sel);
+    const c = document.createElement('canvas');
+    c.width = 160;
+    c.height = Math.max(1, Math.round((160 * src.height) / Math.max(1, src.width)));
+    const g = c.getContext('2d');
+    g.drawImage(src, 0, 0, c.width, c.height);
+    const d = g.getImageData(0, 0, c.width, c.height).data;
+    const [r, gr, b] = [d[0], d[1], d[2]];
+    let n = 0;
+    for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - r) + Math.abs(d[i + 1] - gr) + Math.abs(d[i + 2] - b) > 30) n += 1;
+    return n / (d.length / 4);
+  }, selector);
+}

@@ -8,7 +8,7 @@ import { execFileSync } from 'node:child_process';
 import { mkdtempSync, writeFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { run, binary, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log } from './lib.mjs';
+import { run, binary, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, drawnShare } from './lib.mjs';
 
 await run('rig_builder', async () => {
   const work = mkdtempSync(join(tmpdir(), 'facecast-web-rig-'));
@@ -126,6 +126,10 @@ async function body(work) {
   await sleep(300);
   const jaw = await page.evaluate(() => window.__rig.influence('jawOpen'));
   check('the jawOpen slider drives the morph target', Math.abs(jaw - 1) < 1e-6, String(jaw));
+  for (const [name, sel] of [['template', '#view-template canvas'], ['uploaded head', '#view-target canvas'], ['built rig', '#view-result canvas']]) {
+    const share = await drawnShare(page, sel);
+    check(`the ${name} is drawn`, share > 0.08, `${(share * 100).toFixed(1)}% of its view`);
+  }
   await screenshot(page, 'rig-03-result');
   const edges = result.edges;
   if (edges > 0) {

@@ -4,7 +4,7 @@
 // server JPEGs on the canvas, a bad tag shows its error with the offset, the connection state follows
 // the server going away and coming back, and the page logs no console errors.
 
-import { run, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, readJson } from './lib.mjs';
+import { run, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, readJson, drawnShare } from './lib.mjs';
 
 const SENTENCE = '大家好，我是 Facecast。(joy, 40, 0.5)Nice to meet you, 很高兴认识你！';
 
@@ -37,6 +37,9 @@ await run('speak', async () => {
   const configured = readJson('configs/viseme/expressions.json').expressions;
   check('the tag buttons are the configured expressions', JSON.stringify(info.expressions) === JSON.stringify(configured), info.expressions.join(','));
   check('connection state shows connected', (await page.textContent('#conn-text')).startsWith('Connected'));
+  await sleep(700); // the full-resolution frame once still
+  const share = await drawnShare(page, '#view3d');
+  check('the 3D view draws the avatar (WebGL works)', share > 0.15, `${(share * 100).toFixed(1)}% of the view`);
   await screenshot(page, 'speak-01-loaded');
 
   // ---- The tag buttons insert a tag at the cursor.
