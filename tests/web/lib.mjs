@@ -220,12 +220,33 @@ export async function waitFor(page, fn, arg, { timeout = 30000, what = 'conditio
   }
 }
 
+async function cleanupAll() {
+  for (const c of cleanups.splice(0).reverse()) {
+    try {
+      await c();
+    } catch (e) {
+      log(`cleanup: ${e.message}`);
+    }
+  }
+}
+
+// Whatever ends the test (its own time limit, ctest's, Ctrl+C), the server and browser go with it.
+for (const sig of ['SIGTERM', 'SIGINT']) {
+  process.on(sig, () => {
+    log(`${sig}: stopping`);
+    cleanupAll().finally(() => process.exit(1));
+  });
+}
+process.on('exit', () => {
+  for (const srv of servers) if (!srv.exited) srv.proc.kill('SIGKILL');
+});
+
 /** Runs the test body, then cleans up and prints the closing line ctest and CI read. */
 export async function run(name, body) {
   let crashed = null;
   const timer = setTimeout(() => {
     log('test timed out after 600 s');
-    process.exit(1);
+    cleanupAll().finally(() => process.exit(1));
   }, 600000);
   try {
     await body();
@@ -241,13 +262,7 @@ export async function run(name, body) {
       for (const line of lines.slice(-80)) console.log(`    ${line}`);
     }
   }
-  for (const c of cleanups.reverse()) {
-    try {
-      await c();
-    } catch (e) {
-      log(`cleanup: ${e.message}`);
-    }
-  }
+  await cleanupAll();
   clearTimeout(timer);
   console.log(`${name}: ${passes} passed, ${failures} failed`);
   process.exit(failures || crashed ? 1 : 0);
