@@ -449,6 +449,7 @@ async function probeAuth() {
     if (e.status !== 401) return;
     state.needsToken = true;
     els.connText.textContent = 'Token required';
+    if (!view.model) els.loading.textContent = 'The avatar loads once the page has the server’s token.';
     const has = new URLSearchParams(location.search).has('token');
     showAlert({
       key: 'connection',
