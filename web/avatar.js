@@ -65,6 +65,47 @@ export function restBox(root) {
   return box;
 }
 
+// Colours for the material names heads usually have: OBJ uploads carry no .mtl, and a rig built from
+// one has its material names with a plain grey.
+const PART_COLORS = [
+  [/lip/i, 0xd98b84],
+  [/sclera|eye_?white/i, 0xf3f1ec],
+  [/iris/i, 0x4a7fa0],
+  [/pupil/i, 0x111111],
+  [/teeth|tooth/i, 0xf1ede4],
+  [/tongue/i, 0xcc6f6c],
+  [/mouth|interior|cavity/i, 0x5a2a2a],
+  [/brow/i, 0x6b4a32],
+  [/lash/i, 0x2a2220],
+];
+const SKIN = 0xe8cbb5;
+
+function partColor(name) {
+  const hit = PART_COLORS.find(([re]) => re.test(name || ''));
+  return hit ? hit[1] : SKIN;
+}
+
+export function partMaterial(name) {
+  return new THREE.MeshStandardMaterial({ color: partColor(name), roughness: 0.6, side: THREE.DoubleSide, name: name || '' });
+}
+
+/**
+ * When every material of a model has the same untextured colour (a rig built from an OBJ without
+ * .mtl), colours the parts by their material names instead.
+ */
+export function colorizePlainMaterials(root) {
+  const mats = new Set();
+  root.traverse((o) => o.isMesh && [].concat(o.material).forEach((m) => mats.add(m)));
+  const list = [...mats];
+  if (list.length < 2 || list.some((m) => m.map || !m.color)) return false;
+  const c0 = list[0].color;
+  if (!list.every((m) => m.color.equals(c0))) return false;
+  for (const m of list) {
+    m.color.setHex(partColor(m.name), THREE.SRGBColorSpace);
+  }
+  return true;
+}
+
 /** True when WebGL runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
 export function isSoftwareRenderer(renderer) {
   const gl = renderer.getContext();
@@ -151,6 +192,7 @@ export class AvatarView {
     this.pivot.position.copy(neck);
     this.pivot.rotation.set(0, 0, 0);
     this.pivot.add(model);
+    colorizePlainMaterials(model);
     for (const m of morphMeshes(model)) {
       for (const mat of [].concat(m.material)) {
         mat.envMapIntensity = 1;

@@ -6,7 +6,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { makeRenderer, addStudioLights, loadGlb, morphMeshes, targetNames, restBox } from './avatar.js';
+import { makeRenderer, addStudioLights, loadGlb, morphMeshes, targetNames, restBox, partMaterial, colorizePlainMaterials } from './avatar.js';
 import { fetchJson, authHeaders, keepTokenInLinks } from './protocol.js';
 import { showAlert } from './alerts.js';
 
@@ -58,24 +58,6 @@ export function parseObj(text) {
     vertexCount: n,
     groups: groups.filter((g) => g.count > 0),
   };
-}
-
-// Colours for the material names heads usually have (OBJ uploads carry no .mtl).
-const PART_COLORS = [
-  [/lip/i, 0xd98b84],
-  [/sclera|eye_?white/i, 0xf3f1ec],
-  [/iris/i, 0x4a7fa0],
-  [/pupil/i, 0x111111],
-  [/teeth|tooth/i, 0xf1ede4],
-  [/tongue/i, 0xcc6f6c],
-  [/mouth|interior|cavity/i, 0x5a2a2a],
-  [/brow/i, 0x6b4a32],
-  [/lash/i, 0x2a2220],
-];
-
-function partMaterial(name) {
-  const hit = PART_COLORS.find(([re]) => re.test(name || ''));
-  return new THREE.MeshStandardMaterial({ color: hit ? hit[1] : 0xe8cbb5, roughness: 0.6, side: THREE.DoubleSide, name: name || '' });
 }
 
 function objToObject(parsed) {
@@ -374,6 +356,7 @@ async function readFile(file) {
       const buf = await file.arrayBuffer();
       const gltf = await loadGlb(buf);
       object = gltf.scene;
+      colorizePlainMaterials(object);
       // Show the neutral: no morphs on the target.
       for (const m of morphMeshes(object)) m.morphTargetInfluences.fill(0);
       mesh = { format: 'glb', data: await toBase64(file) };
@@ -605,6 +588,7 @@ async function showResult(result) {
   try {
     const gltf = await loadGlb(result.url || `/api/rigs/${encodeURIComponent(id)}.glb`, authHeaders());
     const root = gltf.scene;
+    colorizePlainMaterials(root);
     views.result.resize();
     views.result.setObject(root);
     const names = targetNames(root);
