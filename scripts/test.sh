@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One command from a fresh Debian 12 machine (as root) to a passing test suite:
 # installs dependencies, builds (Release), runs every test through ctest, then builds again with
-# AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there.
+# AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there, and runs the server
+# tests under ThreadSanitizer (build-tsan/, only the server and what it links).
 # Options: --fast  skip tests labelled slow (CI runs everything)
 #          --no-sanitize  skip the sanitizer pass
 set -euo pipefail
@@ -23,4 +24,10 @@ if ((sanitize)); then
   scripts/build.sh build-asan -DFACECAST_SANITIZE=ON -DFACECAST_BUILD_BENCH=OFF
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   (cd build-asan && ctest --output-on-failure -j2 -LE slow)
+  # ThreadSanitizer on the multi-threaded part: the server and its tests only.
+  cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
+    -DFACECAST_BUILD_BENCH=OFF >/dev/null
+  cmake --build build-tsan -j2 --target test_server
+  TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
+    build-tsan/tests/server/test_server "~[slow]"
 fi

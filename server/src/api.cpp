@@ -22,7 +22,7 @@ json parse_body(const Request& req) {
   check_json_depth(req.body(), 64);
   try {
     return json::parse(req.body());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, out_of_range (number overflow)
     std::string what = e.what();
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw Error("body: malformed JSON: " + what);

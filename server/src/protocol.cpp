@@ -326,7 +326,7 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
   json j;
   try {
     j = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, out_of_range (number overflow)
     std::string what = e.what();
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw Error("malformed JSON: " + what);

@@ -405,13 +405,16 @@ void WebSocketSession::tick() {
   Stream& s = *active_;
   const auto& o = state_->options;
   const double elapsed = seconds(Clock::now() - s.start);
+  // With min_tick > 0 a wake-up also sends what falls due before the next one (never late, at
+  // most min_tick early), so a stream writes one message per min_tick instead of one per frame.
+  const double ahead = s.frames_mode ? 0.0 : o.min_tick;
 
   // Audio: one chunk ahead of the frames it belongs to.
   const auto& pcm = s.p->pcm;
   const double rate = s.p->sample_rate;
   if (!s.cancelling) {
     while (s.audio_next < pcm.size() &&
-           s.audio_next / rate - o.lead - o.audio_chunk <= elapsed + kSlack) {
+           s.audio_next / rate - o.lead - o.audio_chunk <= elapsed + ahead + kSlack) {
       const std::size_t n = std::min(s.audio_chunk, pcm.size() - s.audio_next);
       auto msg = std::make_shared<const std::string>(
           audio_message(s.id, static_cast<std::uint32_t>(s.audio_next), s.p->sample_rate,
@@ -424,7 +427,7 @@ void WebSocketSession::tick() {
   if (s.frames_mode) {
     launch_renders(s, elapsed);
   } else {
-    send_weights(s, elapsed);
+    send_weights(s, elapsed + ahead);
   }
   if (!active_) return;  // a render error ended it
   if (s.next_frame >= s.end_frame && s.in_flight.empty()) {
@@ -434,9 +437,9 @@ void WebSocketSession::tick() {
   double next = INFINITY;
   const bool renders_full =
       s.frames_mode && static_cast<int>(s.in_flight.size()) >= o.frames_in_flight;
-  if (s.next_frame < s.end_frame && !renders_full) next = s.next_frame / s.fps - o.lead;
+  if (s.next_frame < s.end_frame && !renders_full) next = s.next_frame / s.fps - o.lead - ahead;
   if (!s.cancelling && s.audio_next < pcm.size())
-    next = std::min(next, s.audio_next / rate - o.lead - o.audio_chunk);
+    next = std::min(next, s.audio_next / rate - o.lead - o.audio_chunk - ahead);
   if (std::isinf(next)) return;  // waiting for renders; on_rendered ticks
   next = std::max(next, elapsed + o.min_tick);
   arm_timer(s.start + from_seconds(next));
@@ -451,12 +454,13 @@ void WebSocketSession::arm_timer(Clock::time_point when) {
   });
 }
 
-void WebSocketSession::send_weights(Stream& s, double elapsed) {
+// Sends every frame whose send time (pts - lead) is at or before `horizon` (seconds since start).
+void WebSocketSession::send_weights(Stream& s, double horizon) {
   const double lead = state_->options.lead;
   const int first = s.next_frame;
   thread_local std::vector<float> values, frame;
   values.clear();
-  while (s.next_frame < s.end_frame && s.next_frame / s.fps - lead <= elapsed + kSlack) {
+  while (s.next_frame < s.end_frame && s.next_frame / s.fps - lead <= horizon + kSlack) {
     frame_values(s, s.next_frame, frame);
     values.insert(values.end(), frame.begin(), frame.end());
     ++s.next_frame;

@@ -66,7 +66,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>, 
   void tick();
   void arm_timer(Clock::time_point when);
   void frame_values(Stream& s, int frame, std::vector<float>& out);
-  void send_weights(Stream& s, double elapsed);
+  void send_weights(Stream& s, double horizon);
   void launch_renders(Stream& s, double elapsed);
   void on_rendered(std::uint32_t stream, int frame, std::shared_ptr<const std::string> message,
                    std::optional<Problem> problem);

@@ -111,6 +111,7 @@ TEST_CASE("bad messages are refused with the field named", "[protocol]") {
              Catch::Contains("mp3"));
   CHECK_THAT(parse_error(R"({"type":"cancel"})"), Catch::Contains("id: missing"));
   CHECK_THAT(parse_error(R"({"type":"ping","x":1})"), Catch::Contains("unknown field 'x'"));
+  CHECK_THAT(parse_error(R"({"type":"ping","t":1e99999})"), Catch::Contains("malformed JSON"));
   CHECK_THAT(parse_error(std::string(40, '[') + std::string(40, ']')),
              Catch::Contains("nested deeper"));
   // The id is known as soon as it is parsed, so the error can name it.
