@@ -11,6 +11,7 @@
 #include "facecast/core/error.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
+#include "speech.hpp"
 #include "state.hpp"
 
 namespace facecast::server {
@@ -175,6 +176,27 @@ void Server::start() {
                           {"web", impl_->state->web_root.string()},
                           {"token", !o.token.empty()}});
   net::dispatch(impl_->acceptor.get_executor(), [this] { impl_->do_accept(); });
+  // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
+  // loaded once here rather than during the first client's speak.
+  net::post(impl_->state->workers, [s = impl_->state] {
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      SpeakRequest r;
+      r.text = "你好, hello.";
+      r.audio = false;
+      r.timing = viseme::Timing::kModel;
+      (void)prepare_speech(*s, r, 1);
+      r.audio = true;
+      r.timing = viseme::Timing::kTts;
+      (void)prepare_speech(*s, r, 1);
+      log::info(
+          "warm",
+          {{"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                      .count()}});
+    } catch (const std::exception& e) {
+      log::warn("warm_up_failed", {{"error", e.what()}});
+    }
+  });
   for (int i = 0; i < o.io_threads; ++i) {
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });
   }
