@@ -7,7 +7,7 @@
 //     (p50/p99, measured at the client).
 //  2. frames: 2 clients at once in frames mode at 640x480 (JPEG) for --frames-seconds: delivered
 //     frames per second each.
-// Usage: bench_server [--clients 1000] [--seconds 60] [--ramp 5] [--fps 60] [--min-tick 0]
+// Usage: bench_server [--clients 1000] [--seconds 60] [--ramp 5] [--fps 60] [--min-tick (config)]
 //                     [--frames-clients 2] [--frames-seconds 15] [--frames-fps 30]
 //                     [--frames-size 640x480] [--client-threads 1] [--exe path/to/facecast]
 #include <fcntl.h>
@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -59,7 +60,7 @@ double secs(Clock::duration d) {
 
 struct Args {
   int clients = 1000;
-  double seconds = 60, ramp = 5, fps = 60, min_tick = 0;
+  double seconds = 60, ramp = 5, fps = 60, min_tick = -1;  // -1: the config's
   int frames_clients = 2;
   double frames_seconds = 15, frames_fps = 30;
   int width = 640, height = 480;
@@ -206,7 +207,7 @@ class Client : public std::enable_shared_from_this<Client> {
         [self = shared_from_this()](beast::error_code ec) { self->on_connect(ec); });
   }
   Stats stats;
-  bool done = false, failed = false;
+  std::atomic<bool> done{false}, failed{false};
   std::uint64_t jpeg_frames = 0, jpeg_bytes = 0;
   Clock::time_point first_stream_at{}, last_frame_at{};
 
@@ -470,7 +471,8 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   json config = facecast::load_json(facecast::config_path("server.json"));
   config["max_connections"] = std::max(config["max_connections"].get<int>(), a.clients + 100);
-  config["min_tick"] = a.min_tick;
+  if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
+  a.min_tick = config["min_tick"];
   facecast::write_file_atomic(dir / "server.json", config.dump(2));
 
   std::printf(
@@ -489,6 +491,13 @@ int main(int argc, char** argv) {
     // ---- 1. weights -----------------------------------------------------------------------------
     double peak_rss = 0;
     const double cpu0 = server.cpu();
+    const auto self_cpu = [] {
+      rusage ru{};
+      getrusage(RUSAGE_SELF, &ru);
+      return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec +
+             1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+    };
+    const double client_cpu0 = self_cpu();
     const auto t0 = Clock::now();
     int second = 0;
     auto clients = run_clients(a, server.port, a.clients, a.seconds, a.ramp, a.fps, "weights", [&] {
@@ -501,6 +510,7 @@ int main(int argc, char** argv) {
     });
     const double wall = secs(Clock::now() - t0);
     const double cpu = server.cpu() - cpu0;
+    const double client_cpu = self_cpu() - client_cpu0;
     Stats s;
     int failed = 0;
     for (auto& c : clients) {
@@ -530,8 +540,11 @@ int main(int argc, char** argv) {
         s.ttff.size());
     std::printf(
         "  server RSS: peak %.0f MB sampled, VmHWM %.0f MB; server CPU %.1f s (%.0f %% of one "
-        "core)\n",
-        peak_rss, hwm, cpu, 100.0 * cpu / wall);
+        "core); load generator CPU %.0f %% of one core\n",
+        peak_rss, hwm, cpu, 100.0 * cpu / wall, 100.0 * client_cpu / wall);
+    double load[3] = {0, 0, 0};
+    if (getloadavg(load, 3) == 3)
+      std::printf("  machine load average (1 min) at the end: %.2f\n", load[0]);
     {
       const std::string m = http_get(server.port, "/metrics");
       const auto ttff = histogram(m, "facecast_time_to_first_frame_seconds", 0.99);

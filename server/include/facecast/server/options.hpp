@@ -44,7 +44,7 @@ struct ServerOptions {
 
   // Streaming.
   double lead = 0.1;         // frames are sent this many seconds before their presentation time
-  double min_tick = 0.0;     // at least this long between two sends of one stream (s)
+  double min_tick = 0.034;   // at least this long between two sends of one stream (s)
   double audio_chunk = 0.2;  // seconds of PCM per audio message
   double cancel_fade = 0.2;  // seconds to fade to rest after cancel
   int write_queue = 64;      // media messages queued per connection before dropping
