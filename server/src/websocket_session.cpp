@@ -606,6 +606,18 @@ void WebSocketSession::send_control(std::string text) {
 void WebSocketSession::enqueue(Out out) {
   if (closing_ || closed_) return;
   const bool media = out.kind != OutKind::kControl;
+  if (!media) {
+    // Control messages are never dropped, but a client that sends requests without reading the
+    // answers must not grow the queue without bound.
+    const int control = static_cast<int>(queue_.size()) - media_queued_;
+    if (control >= 16 * state_->options.write_queue) {
+      state_->metrics.slow_clients_closed_total.fetch_add(1);
+      log::warn("slow_client", {{"conn", conn_}, {"remote", remote_}, {"queued", queue_.size()}});
+      close_with(websocket::close_code::policy_error, "slow client: messages not read");
+      return;
+    }
+    if (control >= state_->options.write_queue) mark_stalled();
+  }
   if (media && media_queued_ >= state_->options.write_queue && out.kind == OutKind::kWeights) {
     // Drop the oldest queued weights of this stream (not the one being written).
     const std::size_t from = writing_ ? 1 : 0;

@@ -555,3 +555,28 @@ TEST_CASE("a slow weights reader loses the oldest frames first", "[ws][slow-read
   const auto& last = r.weights.back();
   CHECK(last.header.first + last.header.count == static_cast<std::uint32_t>(total));
 }
+
+TEST_CASE("a client that sends requests but never reads the answers is closed",
+          "[ws][slow-reader]") {
+  TestServer s([](ServerOptions& o) {
+    o.write_queue = 4;  // 64 unread control messages at most
+    o.slow_client_grace = 30;
+    o.close_timeout = 10;
+    o.send_buffer = 4096;
+  });
+  WsClient::Options small;
+  small.receive_buffer = 2048;
+  WsClient c(s.port(), small);
+  hello(c);
+  for (int i = 0; i < 2000 && !c.closed(); ++i) c.send(nlohmann::json{{"type", "ping"}, {"t", i}});
+  int pongs = 0;
+  for (;;) {
+    auto m = c.read(15);
+    if (!m) break;
+    pongs += m->json()["type"] == "pong";
+  }
+  CHECK(c.close_code() == 1008);
+  CHECK(pongs < 2000);
+  const auto metrics = http_request(s.port(), http::verb::get, "/metrics").body;
+  CHECK(metric_value(metrics, "facecast_slow_clients_closed_total") == 1);
+}
