@@ -10,6 +10,7 @@
 // Usage: bench_server [--clients 1000] [--seconds 60] [--ramp 5] [--fps 60] [--min-tick (config)]
 //                     [--frames-clients 2] [--frames-seconds 15] [--frames-fps 30]
 //                     [--frames-size 640x480] [--client-threads 1] [--exe path/to/facecast]
+//                     [--set key=json ...] (server config values, e.g. --set frames_in_flight=3)
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -66,6 +67,7 @@ struct Args {
   int width = 640, height = 480;
   int client_threads = 1;
   std::string exe = FACECAST_EXE;
+  std::vector<std::pair<std::string, std::string>> set;  // --set key=json (server config)
 };
 
 // ---- the server process -------------------------------------------------------------------------
@@ -79,8 +81,8 @@ struct ServerProcess {
     int out[2];
     if (pipe(out) != 0) throw std::runtime_error("pipe");
     const std::string log = (config.parent_path() / "server.log").string();
-    std::vector<std::string> args = {exe, "serve",  "--config",    config,        "--port",
-                                     "0", "--data", data.string(), "--log-level", "warn"};
+    std::vector<std::string> args = {exe,      "serve", "--config", config,
+                                     "--port", "0",     "--data",   data.string()};
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -397,7 +399,12 @@ Args parse_args(int argc, char** argv) {
         throw std::runtime_error("--frames-size WxH");
     } else if (k == "--client-threads")
       a.client_threads = std::stoi(next());
-    else if (k == "--exe")
+    else if (k == "--set") {
+      const std::string kv = next();
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) throw std::runtime_error("--set key=value");
+      a.set.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    } else if (k == "--exe")
       a.exe = next();
     else
       throw std::runtime_error("unknown option " + k);
@@ -471,7 +478,9 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   json config = facecast::load_json(facecast::config_path("server.json"));
   config["max_connections"] = std::max(config["max_connections"].get<int>(), a.clients + 100);
+  config["log_level"] = "warn";
   if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
+  for (const auto& [key, value] : a.set) config[key] = json::parse(value);
   a.min_tick = config["min_tick"];
   facecast::write_file_atomic(dir / "server.json", config.dump(2));
 
@@ -584,6 +593,9 @@ int main(int argc, char** argv) {
     rc = 3;
   }
   std::error_code ec;
+  if (const char* keep = std::getenv("BENCH_SERVER_LOG"))  // keep the server's log there
+    std::filesystem::copy_file(dir / "server.log", keep,
+                               std::filesystem::copy_options::overwrite_existing, ec);
   std::filesystem::remove_all(dir, ec);
   return rc;
 }

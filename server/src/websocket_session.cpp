@@ -483,8 +483,12 @@ void WebSocketSession::launch_renders(Stream& s, double elapsed) {
   const auto& o = state_->options;
   while (s.next_frame < s.end_frame && static_cast<int>(s.in_flight.size()) < o.frames_in_flight &&
          s.next_frame / s.fps - o.lead <= elapsed + kSlack) {
-    // A frame whose presentation time has passed is useless: skip it.
-    if (s.next_frame / s.fps < elapsed && s.next_frame + 1 < s.end_frame) {
+    // A frame is useless once the next frame's presentation time has passed: skip it.
+    if ((s.next_frame + 1) / s.fps < elapsed && s.next_frame + 1 < s.end_frame) {
+      log::debug("frame_skipped", {{"conn", conn_},
+                                   {"stream", s.id},
+                                   {"frame", s.next_frame},
+                                   {"late_s", elapsed - s.next_frame / s.fps}});
       ++s.dropped;
       ++s.next_frame;
       state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
