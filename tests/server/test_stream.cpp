@@ -144,7 +144,7 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   std::sort(late.begin(), late.end());
   const double p95 = late[late.size() * 95 / 100];
   INFO("lateness p95 " << p95 << " max " << late.back() << " min " << late.front());
-  CHECK(p95 < 0.05 * slowdown());
+  CHECK(p95 < 0.1 * slowdown());  // within the lead: the client still has it in time
   // Never earlier than its schedule, except what min_tick batching sends ahead.
   CHECK(late.front() > -(s.options().min_tick + 0.02));
   const double span = secs(r.weights.back().at - r.start_at);
@@ -508,7 +508,7 @@ TEST_CASE("a slow reader is dropped and closed with 1008 while others keep strea
   for (const auto& w : r.weights)
     late.push_back(secs(w.at - r.start_at) - std::max(0.0, w.header.pts - 0.1));
   std::sort(late.begin(), late.end());
-  CHECK(late[late.size() * 95 / 100] < 0.05 * slowdown());
+  CHECK(late[late.size() * 95 / 100] < 0.1 * slowdown());
   // By now the slow client has been closed; reading shows what arrived, then the 1008 close.
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   int frames = 0;
