@@ -296,6 +296,35 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
   return report;
 }
 
+std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
+                                                     const Triangles& triangles, double margin) {
+  const int nf = static_cast<int>(triangles.rows());
+  std::vector<Box> boxes(static_cast<std::size_t>(nf));
+  const float pad = static_cast<float>(0.5 * margin);
+  for (int f = 0; f < nf; ++f) {
+    Box& b = boxes[static_cast<std::size_t>(f)];
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector3f p = positions.row(triangles(f, c)).transpose();
+      b.grow({p, p});
+    }
+    b.lo.array() -= pad;
+    b.hi.array() += pad;
+  }
+  const Bvh bvh(boxes);
+  std::vector<std::pair<int, int>> out;
+  for (int f = 0; f < nf; ++f) {
+    bvh.query(boxes[static_cast<std::size_t>(f)], [&](int g) {
+      if (g <= f) return;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          if (triangles(f, i) == triangles(g, j)) return;
+      out.emplace_back(f, g);
+    });
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 std::function<bool(int, int)> ignore_between_groups(
     const Rig& rig, const std::vector<std::pair<std::string, std::string>>& group_pairs) {
   const auto index_of = [&rig](const std::string& name) {

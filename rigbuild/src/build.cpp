@@ -8,9 +8,11 @@
 #include <numeric>
 #include <optional>
 
+#include "contacts.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "mesh_graph.hpp"
 #include "parallel.hpp"
 
 namespace facecast::rigbuild {
@@ -309,28 +311,30 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   // 7. Solve every shape: prescribed positions, then one block solve.
   report(progress, "solve", 0.0);
   t0 = Clock::now();
-  // Each virtual edge follows the source deformation of the template segment it maps to: the
-  // template gap vector r (in the target's frame and units) changes by r' - r, and so does the
-  // target's: e' = e + (r' - r). (Scaling the change by |e|/|r| breaks translations such as
-  // jawForward at thin mouth corners: the ICT test gained 28 crossing pairs with it.)
+  // The reference of each shape: the template's displacement copied vertex by vertex (for the
+  // same topology, the ICT ground truth's construction). Each virtual edge follows it: the target
+  // gap e changes as the template gap r does, e' = e + (r' - r) = ref_a - ref_b. (Scaling the
+  // change by |e|/|r| breaks translations such as jawForward at thin mouth corners: the ICT test
+  // gained 28 crossing pairs with it.)
+  std::vector<Points> reference(n_shapes, tgt_rest);
+  parallel_for(n_shapes, [&](std::size_t k) {
+    for (int v = 0; v < nv; ++v) {
+      const SurfacePoint& sp = corr.vertex_map[static_cast<std::size_t>(v)];
+      // In the target's frame and units (the correspondence's similarity).
+      reference[k].row(v) +=
+          corr.scale * (at(src_shape[k], sp) - at(src_rest, sp)) * corr.rotation.transpose();
+    }
+  });
   const std::size_t ne = result.virtual_edges.size();
   std::vector<Points> edge_targets(ne ? n_shapes : 0);
-  for (std::size_t k = 0; k < edge_targets.size(); ++k) {
+  parallel_for(edge_targets.size(), [&](std::size_t k) {
     Points& E = edge_targets[k];
     E.resize(static_cast<Eigen::Index>(ne), 3);
     for (std::size_t i = 0; i < ne; ++i) {
       const auto& ve = result.virtual_edges[i];
-      const auto& ma = corr.vertex_map[static_cast<std::size_t>(ve.a)];
-      const auto& mb = corr.vertex_map[static_cast<std::size_t>(ve.b)];
-      // Template vectors in the target's frame and units (the correspondence's similarity).
-      const Eigen::RowVector3d r =
-          corr.scale * (at(src_rest, ma) - at(src_rest, mb)) * corr.rotation.transpose();
-      const Eigen::RowVector3d r2 =
-          corr.scale * (at(src_shape[k], ma) - at(src_shape[k], mb)) * corr.rotation.transpose();
-      const Eigen::RowVector3d e = tgt_rest.row(ve.a) - tgt_rest.row(ve.b);
-      E.row(static_cast<Eigen::Index>(i)) = e + (r2 - r);
+      E.row(static_cast<Eigen::Index>(i)) = reference[k].row(ve.a) - reference[k].row(ve.b);
     }
-  }
+  });
   std::vector<Points> prescribed(n_shapes);
   std::vector<const Gradients*> src_ptrs(n_shapes);
   for (std::size_t k = 0; k < n_shapes; ++k) {
@@ -370,21 +374,68 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     for (std::size_t k = b; k < e; ++k) solved[k] = std::move(out[k - b]);
     report(progress, "solve", static_cast<double>(e) / static_cast<double>(n_shapes));
   }
+  // Vertices the template shape leaves still stay exactly still.
+  const auto keep_still = [&](std::size_t k, Points& shape) {
+    for (int v = 0; v < nv; ++v) {
+      if (!moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)])
+        shape.row(v) = tgt_rest.row(v);
+    }
+  };
+  parallel_for(n_shapes, [&](std::size_t k) { keep_still(k, solved[k]); });
   result.timings.solve = seconds_since(t0);
 
-  // 8. Deltas; vertices the template shape leaves still stay exactly still.
+  // 8. Contacts: watched triangle pairs that cross where the reference does not (contacts.hpp).
+  result.quality.resize(n_shapes);
+  if (options.contacts.enabled) {
+    report(progress, "contacts", 0.0);
+    t0 = Clock::now();
+    const double margin = options.contacts.margin > 0
+                              ? options.contacts.margin
+                              : 0.5 * MeshGraph(tgt_rest, tgt_faces).median_edge_length();
+    const ContactGuard guard(tgt_rest, tgt_faces, comps.label, margin);
+    result.watched_pairs = guard.watched();
+    parallel_for(n_shapes, [&](std::size_t k) {
+      const Points& ref = reference[k];
+      auto crossing = guard.new_crossings(solved[k], ref, moves[k]);
+      ShapeQuality& q = result.quality[k];
+      q.crossings = static_cast<int>(crossing.size());
+      if (crossing.empty()) return;
+      std::vector<char> held(static_cast<std::size_t>(nv));
+      for (int v = 0; v < nv; ++v)
+        held[static_cast<std::size_t>(v)] =
+            !moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)];
+      const Points transferred = solved[k];
+      std::vector<Contact> contacts;
+      double weight = options.contacts.weight;
+      for (int round = 0; round < options.contacts.rounds && !crossing.empty(); ++round) {
+        guard.add_contacts(crossing, contacts);
+        // Each contact keeps the reference's offset between its vertex and its point.
+        Points targets(static_cast<Eigen::Index>(contacts.size()), 3);
+        for (std::size_t i = 0; i < contacts.size(); ++i) {
+          const Contact& c = contacts[i];
+          targets.row(static_cast<Eigen::Index>(i)) = ref.row(c.a) - c.w[0] * ref.row(c.b[0]) -
+                                                      c.w[1] * ref.row(c.b[1]) -
+                                                      c.w[2] * ref.row(c.b[2]);
+        }
+        solved[k] = transfer.solve_with_contacts(transferred, held, contacts, targets, weight);
+        crossing = guard.new_crossings(solved[k], ref, moves[k]);
+        weight *= 10;
+      }
+      q.crossings_left = static_cast<int>(crossing.size());
+      q.contacts = static_cast<int>(contacts.size());
+    });
+    result.timings.contacts = seconds_since(t0);
+  }
+
+  // 9. Deltas.
   result.rig = target;
   result.rig.shapes.clear();
   const double tgt_diag = diagonal(tgt_rest);
   const float keep = static_cast<float>(1e-7 * tgt_diag);
   for (std::size_t k = 0; k < n_shapes; ++k) {
-    anim::Positions d = (solved[k] - tgt_rest).cast<float>();
-    for (int v = 0; v < nv; ++v) {
-      if (!moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)])
-        d.row(v).setZero();
-    }
+    const anim::Positions d = (solved[k] - tgt_rest).cast<float>();
     result.rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
-    ShapeQuality q;
+    ShapeQuality& q = result.quality[k];
     q.shape = tmpl.shapes[k].name;
     q.max_displacement = result.rig.shapes.back().max_displacement();
     q.min_gap = ne ? std::numeric_limits<double>::max() : 0.0;
@@ -402,7 +453,6 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
           got.cast<double>().dot(tgt_rest.row(ve.a) - tgt_rest.row(ve.b)) < 0 ? 0.0 : 1.0;
       q.min_gap = std::min(q.min_gap, sign * built);
     }
-    result.quality.push_back(q);
   }
   result.timings.total = seconds_since(t_start);
   report(progress, "done", 1.0);
@@ -444,6 +494,12 @@ BuildOptions load_build_options() {
   get(ve, "f", o.ve.f, "ve.");
   get(ve, "per_vertex", o.ve.per_vertex, "ve.");
   get(ve, "spacing", o.ve.spacing, "ve.");
+  if (!j.contains("contacts")) throw Error(path.string() + ": needs the 'contacts' section");
+  const auto& contacts = j.at("contacts");
+  get(contacts, "enabled", o.contacts.enabled, "contacts.");
+  get(contacts, "margin", o.contacts.margin, "contacts.");
+  get(contacts, "weight", o.contacts.weight, "contacts.");
+  get(contacts, "rounds", o.contacts.rounds, "contacts.");
   const auto& reg = j.at("registration");
   get(reg, "closest_weights", o.registration.closest_weights, "registration.");
   get(reg, "iterations_per_step", o.registration.iterations_per_step, "registration.");
@@ -452,6 +508,55 @@ BuildOptions load_build_options() {
   get(reg, "rest_pull", o.registration.rest_pull, "registration.");
   get(reg, "max_distance", o.registration.max_distance, "registration.");
   return o;
+}
+
+nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& options) {
+  nlohmann::json j;
+  const bool edges_on = options.virtual_edges != VirtualEdgeMode::kOff;
+  j["vertices"] = r.rig.vertex_count();
+  j["virtual_edges"] = {{"mode", options.virtual_edges == VirtualEdgeMode::kAuto   ? "auto"
+                                 : options.virtual_edges == VirtualEdgeMode::kFile ? "file"
+                                                                                   : "off"},
+                        {"count", edges_on ? r.virtual_edges.size() : 0},
+                        {"d", r.ve_stats.d},
+                        {"spacing", r.ve_stats.spacing},
+                        {"candidate_pairs", r.ve_stats.candidate_pairs},
+                        {"qualifying_pairs", r.ve_stats.qualifying_pairs},
+                        {"lambda", options.lambda}};
+  int crossings = 0, left = 0, contacts = 0;
+  for (const auto& q : r.quality) {
+    crossings += q.crossings;
+    left += q.crossings_left;
+    contacts += q.contacts;
+  }
+  j["contacts"] = {{"enabled", options.contacts.enabled},
+                   {"watched_pairs", r.watched_pairs},
+                   {"crossings", crossings},
+                   {"crossings_left", left},
+                   {"contacts", contacts}};
+  j["timings_s"] = {{"correspondence", r.timings.correspondence},
+                    {"gradients", r.timings.gradients},
+                    {"virtual_edges", r.timings.detect},
+                    {"factor", r.timings.factor},
+                    {"solve", r.timings.solve},
+                    {"contacts", r.timings.contacts},
+                    {"total", r.timings.total}};
+  j["factor_nonzeros"] = r.factor_nonzeros;
+  j["fixed_vertices"] = r.fixed_vertices;
+  j["components"] = nlohmann::json::array();
+  for (const auto& c : r.components)
+    j["components"].push_back({{"vertices", c.vertices}, {"placement", c.placement}});
+  j["shapes"] = nlohmann::json::array();
+  for (const auto& q : r.quality) {
+    j["shapes"].push_back({{"name", q.shape},
+                           {"max_displacement", q.max_displacement},
+                           {"gap_change", q.gap_change},
+                           {"min_gap", q.min_gap},
+                           {"crossings", q.crossings},
+                           {"crossings_left", q.crossings_left},
+                           {"contacts", q.contacts}});
+  }
+  return j;
 }
 
 void write_virtual_edges_json(const std::filesystem::path& path,

@@ -77,12 +77,19 @@ struct Transfer::Impl {
   int n = 0, nf = 0, free_n = 0;
   std::vector<int> free_index;             // per vertex: index among free vertices, or -1
   std::vector<int> dirichlet_index;        // per vertex: index among Dirichlet vertices, or -1
+  std::vector<int> free_vertex;            // per free index: the vertex
   std::vector<Eigen::Matrix3d> projector;  // P_t = E E^+ per target triangle
   std::vector<double> sqrt_w;              // per target triangle
   SpMat At_free;                           // free columns of A, transposed: #free by #rows
   SpMat A_dir;                             // Dirichlet columns of A: #rows by #D
+  SpMat M;                                 // the normal matrix over the free vertices
   Cholmod cholmod;
   Eigen::SimplicialLDLT<SpMat> ldlt;
+
+  // A^T of one shape's right-hand side over the free vertices (#free by 3).
+  Dense rhs(const Gradients& src, const Points& prescribed, const Points* edge_targets) const;
+  // The positions of one shape from columns col..col+2 of a solution.
+  Points positions(const Dense& x, Eigen::Index col, const Points& prescribed) const;
 
   Dense solve(const Dense& rhs) const {
     if (setup.solver == SolverKind::kCholmod) {
@@ -110,7 +117,10 @@ Transfer::Transfer(TransferSetup setup) : impl_(std::make_unique<Impl>()) {
   for (std::size_t k = 0; k < S.dirichlet.size(); ++k)
     I.dirichlet_index[S.dirichlet[k]] = static_cast<int>(k);
   for (int v = 0; v < I.n; ++v) {
-    if (I.dirichlet_index[v] < 0) I.free_index[v] = I.free_n++;
+    if (I.dirichlet_index[v] < 0) {
+      I.free_index[v] = I.free_n++;
+      I.free_vertex.push_back(v);
+    }
   }
 
   // Rows of A: 3 per target triangle (its gradient), 1 per virtual edge.
@@ -162,7 +172,8 @@ Transfer::Transfer(TransferSetup setup) : impl_(std::make_unique<Impl>()) {
   I.A_dir.setFromTriplets(dir_t.begin(), dir_t.end());
 
   const auto t0 = std::chrono::steady_clock::now();
-  const SpMat M = SpMat(I.At_free * I.At_free.transpose());
+  I.M = SpMat(I.At_free * I.At_free.transpose());
+  const SpMat& M = I.M;
   bool ok = true;
   if (I.free_n == 0) {
     // Every vertex is prescribed: nothing to factor.
@@ -193,56 +204,134 @@ long Transfer::factor_nonzeros() const {
   return static_cast<long>(impl_->ldlt.matrixL().nestedExpression().nonZeros());
 }
 
+Dense Transfer::Impl::rhs(const Gradients& src, const Points& prescribed,
+                          const Points* edge_targets) const {
+  Dense C(At_free.cols(), 3);
+  for (int t = 0; t < nf; ++t) {
+    const auto& from = setup.map.sources[static_cast<std::size_t>(t)];
+    Eigen::Matrix3d G = Eigen::Matrix3d::Identity();
+    if (!from.empty()) {
+      G.setZero();
+      for (int s : from) G += src[static_cast<std::size_t>(s)];
+      G /= static_cast<double>(from.size());
+    }
+    const Eigen::Matrix3d SP = G * projector[static_cast<std::size_t>(t)];
+    for (int r = 0; r < 3; ++r)
+      C.row(3 * t + r) = sqrt_w[static_cast<std::size_t>(t)] * SP.col(r).transpose();
+  }
+  if (!setup.virtual_edges.empty()) {
+    C.bottomRows(static_cast<Eigen::Index>(setup.virtual_edges.size())) =
+        std::sqrt(setup.lambda) * *edge_targets;
+  }
+  if (A_dir.cols() > 0) C -= A_dir * Eigen::MatrixXd(prescribed);
+  return At_free * C;
+}
+
+Points Transfer::Impl::positions(const Dense& x, Eigen::Index col, const Points& prescribed) const {
+  Points P(n, 3);
+  for (int v = 0; v < n; ++v) {
+    if (free_index[v] >= 0) {
+      P.row(v) = x.block(free_index[v], col, 1, 3);
+    } else {
+      P.row(v) = prescribed.row(dirichlet_index[v]);
+    }
+  }
+  return P;
+}
+
 std::vector<Points> Transfer::solve(const std::vector<const Gradients*>& source,
                                     const std::vector<Points>& prescribed,
                                     const std::vector<Points>& edge_targets) const {
   const Impl& I = *impl_;
-  const TransferSetup& S = I.setup;
   const std::size_t shapes = source.size();
   if (prescribed.size() != shapes) throw Error("transfer: one prescribed set per shape expected");
-  if (!S.virtual_edges.empty() && edge_targets.size() != shapes) {
+  if (!I.setup.virtual_edges.empty() && edge_targets.size() != shapes) {
     throw Error("transfer: one set of virtual-edge targets per shape expected");
   }
-  const Eigen::Index rows = I.At_free.cols();
   Dense rhs(I.free_n, static_cast<Eigen::Index>(3 * shapes));
-
-  // Right-hand sides, shape by shape (independent: use the cores).
-  auto build_rhs = [&](std::size_t k) {
-    const Gradients& src = *source[k];
-    Dense C(rows, 3);
-    for (int t = 0; t < I.nf; ++t) {
-      const auto& from = S.map.sources[static_cast<std::size_t>(t)];
-      Eigen::Matrix3d G = Eigen::Matrix3d::Identity();
-      if (!from.empty()) {
-        G.setZero();
-        for (int s : from) G += src[static_cast<std::size_t>(s)];
-        G /= static_cast<double>(from.size());
-      }
-      const Eigen::Matrix3d SP = G * I.projector[static_cast<std::size_t>(t)];
-      for (int r = 0; r < 3; ++r)
-        C.row(3 * t + r) = I.sqrt_w[static_cast<std::size_t>(t)] * SP.col(r).transpose();
-    }
-    if (!S.virtual_edges.empty()) {
-      C.bottomRows(static_cast<Eigen::Index>(S.virtual_edges.size())) =
-          std::sqrt(S.lambda) * edge_targets[k];
-    }
-    if (I.A_dir.cols() > 0) C -= I.A_dir * Eigen::MatrixXd(prescribed[k]);
-    rhs.middleCols(static_cast<Eigen::Index>(3 * k), 3) = I.At_free * C;
-  };
-  parallel_for(shapes, build_rhs);  // right-hand sides are independent per shape
-
+  parallel_for(shapes, [&](std::size_t k) {  // right-hand sides are independent per shape
+    rhs.middleCols(static_cast<Eigen::Index>(3 * k), 3) =
+        I.rhs(*source[k], prescribed[k], edge_targets.empty() ? nullptr : &edge_targets[k]);
+  });
   const Dense x = I.free_n ? I.solve(rhs) : Dense(0, rhs.cols());
   std::vector<Points> out(shapes);
-  for (std::size_t k = 0; k < shapes; ++k) {
-    Points& P = out[k];
-    P.resize(I.n, 3);
-    for (int v = 0; v < I.n; ++v) {
-      if (I.free_index[v] >= 0) {
-        P.row(v) = x.block(I.free_index[v], static_cast<Eigen::Index>(3 * k), 1, 3);
-      } else {
-        P.row(v) = prescribed[k].row(I.dirichlet_index[v]);
-      }
+  for (std::size_t k = 0; k < shapes; ++k)
+    out[k] = I.positions(x, static_cast<Eigen::Index>(3 * k), prescribed[k]);
+  return out;
+}
+
+Points Transfer::solve_with_contacts(const Points& solved, const std::vector<char>& held,
+                                     const std::vector<Contact>& contacts, const Points& targets,
+                                     double weight, int rings) const {
+  const Impl& I = *impl_;
+  if (targets.rows() != static_cast<Eigen::Index>(contacts.size()))
+    throw Error("transfer: one target per contact expected");
+  // `solved` minimises the energy, so its gradient over the free vertices is zero and the contact
+  // terms change it by the delta that minimises
+  //     d^T M d + weight * sum_i (u_i^T (x + d) - t_i)^2,   u_i = e_a - sum_j w_j e_b[j],
+  // over the free vertices within `rings` rings (of M's pattern) of the contacts; the others
+  // stay. The patch's principal submatrix of M is small: an LDLT of a few hundred unknowns.
+  // Free vertices of the patch: slot >= 0 while growing; held free vertices get -2.
+  std::vector<int> patch, slot(static_cast<std::size_t>(I.free_n), -1);
+  if (!held.empty()) {
+    for (int v = 0; v < I.n; ++v)
+      if (held[static_cast<std::size_t>(v)] && I.free_index[v] >= 0) slot[I.free_index[v]] = -2;
+  }
+  const auto seed = [&](int v) {
+    if (const int f = I.free_index[v]; f >= 0 && slot[f] == -1) {
+      slot[f] = 0;
+      patch.push_back(f);
     }
+  };
+  for (const auto& c : contacts) {
+    seed(c.a);
+    for (const int v : c.b) seed(v);
+  }
+  for (int ring = 0, begin = 0; ring < rings; ++ring) {
+    const int end = static_cast<int>(patch.size());
+    for (int i = begin; i < end; ++i)
+      for (SpMat::InnerIterator it(I.M, patch[i]); it; ++it)
+        if (slot[it.index()] == -1) {
+          slot[it.index()] = 0;
+          patch.push_back(static_cast<int>(it.index()));
+        }
+    begin = end;
+  }
+  const auto np = static_cast<Eigen::Index>(patch.size());
+  for (Eigen::Index i = 0; i < np; ++i) slot[patch[i]] = static_cast<int>(i);
+  std::vector<Eigen::Triplet<double>> t;
+  for (Eigen::Index i = 0; i < np; ++i)
+    for (SpMat::InnerIterator it(I.M, patch[i]); it; ++it)
+      if (slot[it.index()] >= 0) t.emplace_back(slot[it.index()], i, it.value());
+  Dense rhs = Dense::Zero(np, 3);
+  std::vector<std::pair<int, double>> u;  // the contact's row over the patch
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const Contact& k = contacts[c];
+    Eigen::RowVector3d r = targets.row(static_cast<Eigen::Index>(c)) - solved.row(k.a);
+    u.clear();
+    const auto term = [&](int v, double coefficient) {
+      if (const int f = I.free_index[v]; f >= 0 && slot[f] >= 0)
+        u.emplace_back(slot[f], coefficient);
+    };
+    term(k.a, 1.0);
+    for (int j = 0; j < 3; ++j) {
+      r += k.w[j] * solved.row(k.b[j]);
+      term(k.b[j], -k.w[j]);
+    }
+    for (const auto& [i, ci] : u) {
+      rhs.row(i) += ci * weight * r;
+      for (const auto& [j, cj] : u) t.emplace_back(i, j, ci * cj * weight);
+    }
+  }
+  SpMat local(np, np);
+  local.setFromTriplets(t.begin(), t.end());
+  Eigen::SimplicialLDLT<SpMat> ldlt(local);
+  if (ldlt.info() != Eigen::Success) throw Error("transfer: the contact system is singular");
+  const Dense delta = ldlt.solve(rhs);
+  Points out = solved;
+  for (Eigen::Index i = 0; i < np; ++i) {
+    const int f = patch[static_cast<std::size_t>(i)];
+    out.row(I.free_vertex[f]) += delta.row(i);
   }
   return out;
 }

@@ -21,6 +21,7 @@ namespace {
 struct BuildArgs {
   std::string tmpl, tmpl_neutral, tmpl_shapes, target, markers, out, obj_out, report, fixed;
   std::string correspondence, ve_mode = "auto", ve_pair, ve_out, ve_png, solver = "cholmod";
+  std::string contacts = "on";
   rigbuild::BuildOptions opt;
 };
 
@@ -78,53 +79,14 @@ nlohmann::json intersections_json(const rigbuild::IntersectionSummary& s) {
 }
 
 nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
-                           const std::vector<rigbuild::ShapeError>* errors,
-                           const rigbuild::IntersectionSummary* inter) {
-  nlohmann::json j;
+                           const rigbuild::IntersectionSummary& inter) {
+  nlohmann::json j = rigbuild::build_report_json(r, a.opt);
   j["target"] = a.target;
-  j["vertices"] = r.rig.vertex_count();
-  j["virtual_edges"] = {{"mode", a.ve_mode},
-                        {"count", r.virtual_edges.size()},
-                        {"d", r.ve_stats.d},
-                        {"spacing", r.ve_stats.spacing},
-                        {"candidate_pairs", r.ve_stats.candidate_pairs},
-                        {"qualifying_pairs", r.ve_stats.qualifying_pairs},
-                        {"lambda", a.opt.lambda}};
-  j["timings_s"] = {{"correspondence", r.timings.correspondence},
-                    {"gradients", r.timings.gradients},
-                    {"virtual_edges", r.timings.detect},
-                    {"factor", r.timings.factor},
-                    {"solve", r.timings.solve},
-                    {"total", r.timings.total}};
-  j["factor_nonzeros"] = r.factor_nonzeros;
-  j["fixed_vertices"] = r.fixed_vertices;
-  for (const auto& c : r.components)
-    j["components"].push_back({{"vertices", c.vertices}, {"placement", c.placement}});
-  for (std::size_t k = 0; k < r.quality.size(); ++k) {
-    const auto& q = r.quality[k];
-    nlohmann::json s = {{"name", q.shape},
-                        {"max_displacement", q.max_displacement},
-                        {"gap_change", q.gap_change},
-                        {"min_gap", q.min_gap}};
-    if (inter && k < inter->shapes.size())
-      s["intersections"] = {{"total", inter->shapes[k].total},
-                            {"in_neutral", inter->shapes[k].in_neutral},
-                            {"in_template", inter->shapes[k].in_reference},
-                            {"new", inter->shapes[k].fresh}};
-    if (errors && k < errors->size()) {
-      const auto& e = (*errors)[k];
-      s["error"] = {{"mean", e.mean},
-                    {"p99", e.p99},
-                    {"max", e.max},
-                    {"p99_percent_of_diagonal", e.p99_percent}};
-    }
-    j["shapes"].push_back(s);
-  }
-  if (inter) {
-    j["intersections"] = intersections_json(*inter);
-    j["intersections"].erase("per_shape");
-    j["timings_s"]["intersections"] = inter->seconds;
-  }
+  j["intersections"] = intersections_json(inter);
+  for (std::size_t k = 0; k < j["shapes"].size() && k < inter.shapes.size(); ++k)
+    j["shapes"][k]["intersections"] = j["intersections"]["per_shape"][inter.shapes[k].shape];
+  j["intersections"].erase("per_shape");
+  j["timings_s"]["intersections"] = inter.seconds;
   return j;
 }
 
@@ -143,6 +105,7 @@ void run_build(BuildArgs& a) {
     opt.virtual_edges = rigbuild::VirtualEdgeMode::kFile;
     opt.virtual_edges_file = a.ve_mode;
   }
+  opt.contacts.enabled = a.contacts == "on";
   opt.markers = a.markers;
   if (!a.fixed.empty()) opt.fixed = read_fixed(a.fixed);
   if (!a.markers.empty()) {
@@ -177,7 +140,7 @@ void run_build(BuildArgs& a) {
   if (!a.report.empty()) {
     std::cerr << "checking self-intersections of every shape...\n";
     const auto inter = rigbuild::shape_intersections(r.rig, &tmpl, r.triangle_map, kCheck);
-    write_file_atomic(a.report, report_json(r, a, nullptr, &inter).dump(2) + "\n");
+    write_file_atomic(a.report, report_json(r, a, inter).dump(2) + "\n");
     std::fprintf(stderr,
                  "report %s: %d of %zu shapes have new intersecting triangle pairs (%.2f s)\n",
                  a.report.c_str(),
@@ -188,10 +151,10 @@ void run_build(BuildArgs& a) {
   std::fprintf(
       stderr,
       "wrote %s: %d vertices, %zu shapes, %zu virtual edges (%s); %.2f s (correspondence %.2f, "
-      "virtual edges %.2f, factor %.2f, solve %.2f)\n",
+      "virtual edges %.2f, factor %.2f, solve %.2f, contacts %.2f)\n",
       a.out.c_str(), r.rig.vertex_count(), r.rig.shapes.size(), r.virtual_edges.size(),
       a.ve_mode.c_str(), r.timings.total, r.timings.correspondence, r.timings.detect,
-      r.timings.factor, r.timings.solve);
+      r.timings.factor, r.timings.solve, r.timings.contacts);
 }
 
 struct CheckArgs {
@@ -282,6 +245,14 @@ void add_rig_build_commands(CLI::App& rig) {
   b->add_option("--ve-out", a->ve_out,
                 "Write the virtual edges as OBJ lines (and .json beside it)");
   b->add_option("--ve-png", a->ve_png, "Write a picture of the virtual edges over the mesh");
+  b->add_option("--contacts", a->contacts,
+                "on | off: hold apart surfaces that a shape pushes "
+                "through each other where the template's does not")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"on", "off"}));
+  b->add_option("--contact-margin", a->opt.contacts.margin,
+                "Watch triangle pairs within this distance (0 = half the median edge)")
+      ->capture_default_str();
   b->add_option("--solver", a->solver, "cholmod | eigen")
       ->capture_default_str()
       ->check(CLI::IsMember({"cholmod", "eigen"}));
@@ -290,6 +261,7 @@ void add_rig_build_commands(CLI::App& rig) {
     a->opt = rigbuild::load_build_options();
     a->ve_mode = a->opt.virtual_edges == rigbuild::VirtualEdgeMode::kOff ? "off" : "auto";
     a->solver = a->opt.solver == rigbuild::SolverKind::kEigenLDLT ? "eigen" : "cholmod";
+    a->contacts = a->opt.contacts.enabled ? "on" : "off";
   });
   b->callback([a] { run_build(*a); });
 

@@ -61,33 +61,6 @@ struct TempDir {
   }
 };
 
-json build_report(const rigbuild::BuildResult& r, bool virtual_edges_on, double lambda) {
-  json j;
-  j["vertices"] = r.rig.vertex_count();
-  j["virtual_edges"] = {{"mode", virtual_edges_on ? "auto" : "off"},
-                        {"count", virtual_edges_on ? r.virtual_edges.size() : 0},
-                        {"d", r.ve_stats.d},
-                        {"lambda", lambda}};
-  j["timings_s"] = {{"correspondence", r.timings.correspondence},
-                    {"gradients", r.timings.gradients},
-                    {"virtual_edges", r.timings.detect},
-                    {"factor", r.timings.factor},
-                    {"solve", r.timings.solve},
-                    {"total", r.timings.total}};
-  j["fixed_vertices"] = r.fixed_vertices;
-  j["components"] = json::array();
-  for (const auto& c : r.components)
-    j["components"].push_back({{"vertices", c.vertices}, {"placement", c.placement}});
-  j["shapes"] = json::array();
-  for (const auto& q : r.quality) {
-    j["shapes"].push_back({{"name", q.shape},
-                           {"max_displacement", q.max_displacement},
-                           {"gap_change", q.gap_change},
-                           {"min_gap", q.min_gap}});
-  }
-  return j;
-}
-
 }  // namespace
 
 std::string base64_decode(std::string_view text, std::string_view field) {
@@ -169,8 +142,7 @@ http::message_generator post_rig(State& state, const Request& req) {
   std::string name = "Rig", template_id = state.options.default_rig;
   const json* mesh = nullptr;
   const json* markers = nullptr;
-  bool ve_on = true;
-  double lambda = 4.0;
+  rigbuild::BuildOptions opt = rigbuild::load_build_options();  // configs/rigbuild/build.json
   for (const auto& [k, v] : body.items()) {
     if (k == "name") {
       name = str(v, "name");
@@ -188,9 +160,13 @@ http::message_generator post_rig(State& state, const Request& req) {
           const std::string& mode = str(ov, "options.virtual_edges");
           if (mode != "auto" && mode != "off")
             throw Error("options.virtual_edges: '" + mode + "' is not auto or off");
-          ve_on = mode == "auto";
+          opt.virtual_edges =
+              mode == "auto" ? rigbuild::VirtualEdgeMode::kAuto : rigbuild::VirtualEdgeMode::kOff;
         } else if (ok == "lambda") {
-          lambda = number(ov, "options.lambda", 0, 1e6);
+          opt.lambda = number(ov, "options.lambda", 0, 1e6);
+        } else if (ok == "contacts") {
+          if (!ov.is_boolean()) throw Error("options.contacts: expected true or false");
+          opt.contacts.enabled = ov.get<bool>();
         } else {
           throw Error("options: unknown field '" + ok + "'");
         }
@@ -216,9 +192,6 @@ http::message_generator post_rig(State& state, const Request& req) {
   target.validate("mesh");
   const auto tmpl = state.rigs.load(template_id);
 
-  rigbuild::BuildOptions opt;
-  opt.virtual_edges = ve_on ? rigbuild::VirtualEdgeMode::kAuto : rigbuild::VirtualEdgeMode::kOff;
-  opt.lambda = lambda;
   auto tmp = std::make_shared<TempDir>(state.options.data);
   if (markers) {
     const fs::path path = tmp->path / "markers.json";
@@ -242,14 +215,16 @@ http::message_generator post_rig(State& state, const Request& req) {
   }
   auto shared_target = std::make_shared<const anim::Rig>(std::move(target));
   const std::string job = state.jobs.submit(
-      "rig", [&state, shared_target, tmpl, opt, name, ve_on, lambda, tmp](JobContext& ctx) -> json {
+      "rig", [&state, shared_target, tmpl, opt, name, tmp](JobContext& ctx) -> json {
         const auto t0 = std::chrono::steady_clock::now();
         const auto r = rigbuild::build_rig(*tmpl->rig, *shared_target, opt, ctx.progress_fn());
-        const json report = build_report(r, ve_on, lambda);
+        const json report = rigbuild::build_report_json(r, opt);
         ctx.progress("storing", 1.0);
-        const std::string id = state.rigs.add(
-            name, tmpl->id, r.rig, report,
-            ve_on ? r.virtual_edges : std::vector<rigbuild::VirtualEdge>{}, r.ve_stats);
+        const std::string id = state.rigs.add(name, tmpl->id, r.rig, report,
+                                              opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
+                                                  ? r.virtual_edges
+                                                  : std::vector<rigbuild::VirtualEdge>{},
+                                              r.ve_stats);
         state.metrics.rig_build_seconds.observe(
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};

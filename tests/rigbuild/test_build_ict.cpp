@@ -48,41 +48,50 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
       on.rig.shapes[static_cast<std::size_t>(jaw)].dense(on.rig.vertex_count());
   CHECK(d.middleRows(19247, 2204).rowwise().norm().maxCoeff() > 0.5f);
 
-  // Without virtual edges the gaps they span follow the template less well.
+  // Without virtual edges (and contacts) the gaps they span follow the template less well.
   opt.virtual_edges = VirtualEdgeMode::kOff;
+  opt.contacts.enabled = false;
   const auto off = build_rig(truth.template_rig, truth.target, opt);
+  opt.virtual_edges = VirtualEdgeMode::kAuto;
+  const auto edges_only = build_rig(truth.template_rig, truth.target, opt);
   double gap_on = 0, gap_off = 0;
   for (std::size_t k = 0; k < 57; ++k) {
-    gap_on += on.quality[k].gap_change;
+    gap_on += edges_only.quality[k].gap_change;
     gap_off += off.quality[k].gap_change;
   }
   CHECK(gap_on < gap_off);
 
-  // Self-intersections against the truth shape (the target neutral + the template's delta): the
-  // skin gains only a few crossing pairs per shape, at the mouth corners where the neutral's gap
-  // (0.018 units) is below the transfer's error. Issue 3 asks for none; see the closing note.
+  // Self-intersections against the truth shape (the target neutral + the template's delta) on
+  // the skin (vertices 0-14061: lips, lids, nostrils; lashes, occlusion strips and eyes are
+  // separate parts that already cross the skin in the ICT neutral). The transfer alone adds a few
+  // crossing pairs per shape at the mouth corners, where the neutral's gap (0.006 units) is below
+  // its error; contacts remove every one.
   anim::Rig truth_rig = truth.target;
   truth_rig.shapes = truth.template_rig.shapes;
-  // The skin (vertices 0-14061: lips, lids, nostrils); lashes, occlusion strips and eyes are
-  // separate parts that already cross the skin in the ICT neutral.
   const auto identity = TriangleMap::identity(on.rig.triangle_count());
   IntersectionCheck skin;
   for (int t = 0; t < on.rig.triangle_count(); ++t)
     skin.region.push_back(on.rig.triangles.row(t).maxCoeff() < 14062);
   const auto inter_on = shape_intersections(on.rig, &truth_rig, identity, skin);
+  const auto inter_edges = shape_intersections(edges_only.rig, &truth_rig, identity, skin);
   const auto inter_off = shape_intersections(off.rig, &truth_rig, identity, skin);
-  std::size_t new_on = 0, new_off = 0;
+  std::size_t new_edges = 0, new_off = 0;
+  int found = 0;
   for (std::size_t k = 0; k < 57; ++k) {
-    INFO(inter_on.shapes[k].shape << ": " << inter_on.shapes[k].fresh << " new pairs with virtual "
-                                  << "edges, " << inter_off.shapes[k].fresh << " without");
-    CHECK(inter_on.shapes[k].fresh <= 25);
-    new_on += inter_on.shapes[k].fresh;
+    INFO(inter_on.shapes[k].shape << ": " << inter_on.shapes[k].fresh << " new pairs, "
+                                  << inter_edges.shapes[k].fresh << " without contacts, "
+                                  << inter_off.shapes[k].fresh << " without virtual edges either");
+    CHECK(inter_on.shapes[k].fresh == 0);
+    new_edges += inter_edges.shapes[k].fresh;
     new_off += inter_off.shapes[k].fresh;
+    found += on.quality[k].crossings;
   }
-  CHECK(new_on <= new_off);  // virtual edges never add crossings
-  CHECK(new_on <= 60);
-  WARN("new intersecting pairs over 57 shapes: " << new_on << " with virtual edges, " << new_off
-                                                 << " without (" << inter_on.seconds << " s)");
+  CHECK(new_edges <= new_off);  // virtual edges never add crossings
+  CHECK(new_edges > 0);         // ... and the contacts had work to do
+  CHECK(found > 0);
+  WARN("new intersecting skin pairs over 57 shapes: 0 with contacts, "
+       << new_edges << " with virtual edges only, " << new_off << " with neither; contacts: "
+       << found << " crossings found in " << on.timings.contacts << " s");
 }
 
 TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlink moves the lids",
@@ -101,9 +110,35 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   CHECK(r.timings.correspondence <= 10.0);
   REQUIRE(r.rig.shapes.size() == 57);
   REQUIRE(std::filesystem::exists(opt.correspondence));
-  // The cached correspondence is reused.
+  // The cached correspondence is reused (here for a build without contacts).
+  opt.contacts.enabled = false;
   const auto again = build_rig(tmpl, target, opt);
   CHECK(again.timings.correspondence < 0.5);
+  // The skin's own crossings that the template does not have (lips, lids): contacts remove most.
+  // What is left is where copying the template's motion vertex by vertex crosses too (the
+  // MakeHuman lips are fuller than the ICT's); see the closing note of issue 3.
+  IntersectionCheck body;
+  const auto group = std::find(target.groups.begin(), target.groups.end(), "body");
+  REQUIRE(group != target.groups.end());
+  for (int t = 0; t < target.triangle_count(); ++t)
+    body.region.push_back(target.triangle_group[static_cast<std::size_t>(t)] ==
+                          group - target.groups.begin());
+  const auto total_new = [&](const BuildResult& b) {
+    std::size_t n = 0;
+    for (const auto& x : shape_intersections(b.rig, &tmpl, b.triangle_map, body).shapes)
+      n += x.fresh;
+    return n;
+  };
+  const std::size_t with_contacts = total_new(r), without = total_new(again);
+  CHECK(with_contacts < without * 2 / 3);
+  int found = 0, left = 0;
+  for (const auto& q : r.quality) {
+    found += q.crossings;
+    left += q.crossings_left;
+  }
+  CHECK(left * 20 < found);
+  WARN("MakeHuman skin: " << with_contacts << " new crossing pairs with contacts, " << without
+                          << " without (contacts found " << found << ", left " << left << ")");
   auto max_move = [&](const char* name) {
     return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
   };

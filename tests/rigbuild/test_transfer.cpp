@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "facecast/anim/intersections.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
@@ -199,4 +200,87 @@ TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
   CHECK(file.registration.identity == code.registration.identity);
   CHECK(file.registration.rest_pull == code.registration.rest_pull);
   CHECK(file.registration.max_distance == code.registration.max_distance);
+  CHECK(file.contacts.enabled == code.contacts.enabled);
+  CHECK(file.contacts.margin == code.contacts.margin);
+  CHECK(file.contacts.weight == code.contacts.weight);
+  CHECK(file.contacts.rounds == code.contacts.rounds);
+}
+
+TEST_CASE("contacts solved on a patch match a full solve with the same term, and stay local",
+          "[rigbuild][transfer][contacts]") {
+  const anim::Rig mesh = double_layer(10, 0.5f);
+  TransferSetup setup;
+  setup.target_rest = mesh.positions.cast<double>();
+  setup.target_faces = mesh.triangles;
+  setup.map = TriangleMap::identity(mesh.triangle_count());
+  setup.dirichlet = {0, 9, 90, 99};  // corners of the top layer
+  // Source gradients: a shear of every triangle.
+  Eigen::Matrix3d shear = Eigen::Matrix3d::Identity();
+  shear(2, 0) = 0.2;
+  const Gradients grads(static_cast<std::size_t>(mesh.triangle_count()), shear);
+  Points prescribed(4, 3);
+  for (int i = 0; i < 4; ++i)
+    prescribed.row(i) = setup.target_rest.row(setup.dirichlet[static_cast<std::size_t>(i)]);
+  const Transfer plain(setup);
+  const Points x0 = plain.solve({&grads}, {prescribed}, {})[0];
+
+  // A contact between top vertex 45 and bottom vertex 145 (weights 1, 0, 0) pulling them together
+  // is a virtual edge with lambda = weight.
+  const std::vector<Contact> contacts = {{45, {145, 146, 155}, {1.0, 0.0, 0.0}}};
+  Points target(1, 3);
+  target << 0.0, 0.0, 0.1;
+  const double weight = 50;
+  const Points local = plain.solve_with_contacts(x0, {}, contacts, target, weight, 1000);
+  setup.virtual_edges = {{45, 145}};
+  setup.lambda = weight;
+  const Points full = Transfer(setup).solve({&grads}, {prescribed}, {target})[0];
+  CHECK((local - full).cwiseAbs().maxCoeff() < 1e-8);
+  CHECK((local.row(45) - local.row(145) - target).norm() < 0.05);
+
+  // With two rings only the vertices near the contact move; held vertices never do.
+  std::vector<char> held(static_cast<std::size_t>(mesh.vertex_count()), 0);
+  held[145] = 1;
+  const Points near = plain.solve_with_contacts(x0, held, contacts, target, weight, 2);
+  CHECK((near.row(145) - x0.row(145)).norm() == 0.0);
+  CHECK((near.row(45) - x0.row(45)).norm() > 0.05);
+  CHECK((near.row(0) - x0.row(0)).norm() == 0.0);
+  CHECK((near.row(72) - x0.row(72)).norm() == 0.0);  // four rows away
+}
+
+TEST_CASE("contacts hold apart layers that the transfer pushes through each other",
+          "[rigbuild][contacts]") {
+  // Template: two layers 0.5 apart; the shape dents the top layer 0.3 towards the bottom one.
+  anim::Rig tmpl = double_layer(9, 0.5f);
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  for (int y = 1; y < 8; ++y)
+    for (int x = 1; x < 8; ++x) {
+      const double r = std::hypot(x - 4.0, y - 4.0);
+      if (r < 3) d(y * 9 + x, 2) = static_cast<float>(-0.3 * 0.5 * (1 + std::cos(M_PI * r / 3)));
+    }
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("dent", d));
+  // Target: twice as wide and long, as far apart. Deformation transfer keeps the dent's slopes, so
+  // it is twice as deep (0.6) and goes through the bottom layer; the template's displacement
+  // copied would not (0.3).
+  anim::Rig target = tmpl;
+  target.shapes.clear();
+  target.positions.leftCols(2) *= 2.0f;
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto crossings = [](const anim::Rig& r) {
+    return anim::find_intersections(r.positions + r.shapes[0].dense(r.vertex_count()), r.triangles)
+        .count;
+  };
+  opt.contacts.enabled = false;
+  const auto without = build_rig(tmpl, target, opt);
+  CHECK(crossings(without.rig) > 0);
+  CHECK(without.rig.shapes[0].max_displacement() > 0.5f);
+  opt.contacts.enabled = true;
+  const auto with = build_rig(tmpl, target, opt);
+  CHECK(with.watched_pairs > 0);
+  CHECK(with.quality[0].crossings > 0);
+  CHECK(with.quality[0].crossings_left == 0);
+  CHECK(with.quality[0].contacts > 0);
+  CHECK(crossings(with.rig) == 0);
+  // The dent is still there: the contacts hold the layers apart, they do not undo the shape.
+  CHECK(with.rig.shapes[0].max_displacement() > 0.3f);
 }

@@ -40,6 +40,11 @@ struct IntersectionReport {
 IntersectionReport find_intersections(const Positions& positions, const Triangles& triangles,
                                       const IntersectionOptions& options = {});
 
+/// Pairs (a, b), a < b, of triangles that share no vertex and whose bounding boxes come within
+/// `margin` of each other: the places where a deformation could make the surface cross itself.
+std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
+                                                     const Triangles& triangles, double margin);
+
 /// An `ignore` predicate for the rig's triangle groups: skips pairs with one triangle in group
 /// `first` and the other in group `second` of each entry (names from rig.groups; a missing name
 /// throws facecast::Error). The predicate refers to copies, not to `rig`.

@@ -11,6 +11,7 @@
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -24,13 +25,25 @@ namespace facecast::rigbuild {
 
 enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
+/// Contacts (rigbuild/src/contacts.hpp): triangle pairs near each other in the target neutral are
+/// watched; where a built shape crosses there and the reference (the template's displacement
+/// copied vertex by vertex) does not, contacts that keep the reference's offsets are added and the
+/// shape is solved again around them (the factor is not touched).
+struct ContactOptions {
+  bool enabled = true;
+  double margin = 0.0;    // watch pairs within this distance; <= 0: half the median edge length
+  double weight = 100.0;  // weight of a contact (the units of lambda), x10 each next round
+  int rounds = 3;         // solve again at most this many times per shape
+};
+
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
 /// that the two agree).
 struct BuildOptions {
   VirtualEdgeMode virtual_edges = VirtualEdgeMode::kAuto;
   std::filesystem::path virtual_edges_file;  // with kFile: JSON written by write_virtual_edges_json
   VirtualEdgeOptions ve;
-  double lambda = 4.0;            // weight of the virtual-edge term
+  double lambda = 4.0;  // weight of the virtual-edge term
+  ContactOptions contacts;
   std::vector<int> fixed;         // extra target vertices that never move
   double still_tolerance = 1e-4;  // "does not move": |template delta| < this * bbox diagonal
   double rigid_tolerance = 0.01;  // a component is rigid if its rigid-fit RMS residual is below
@@ -50,7 +63,8 @@ struct ComponentInfo {
 };
 
 struct BuildTimings {
-  double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, total = 0;
+  double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, contacts = 0,
+         total = 0;
 };
 
 /// Per shape: how well the gaps that virtual edges span keep the template's behaviour. For each
@@ -60,7 +74,10 @@ struct ShapeQuality {
   std::string shape;
   double max_displacement = 0;
   double gap_change = 0;
-  double min_gap = 0;  // smallest normalised gap (0 = the two sides meet or cross)
+  double min_gap = 0;      // smallest normalised gap (0 = the two sides meet or cross)
+  int crossings = 0;       // watched triangle pairs that crossed after the transfer
+  int crossings_left = 0;  // ... and still cross after the contact rounds
+  int contacts = 0;        // vertex-to-triangle contacts added to hold them apart
 };
 
 struct BuildResult {
@@ -72,6 +89,7 @@ struct BuildResult {
   TriangleMap
       triangle_map;  // per target triangle, its template triangles (identity if same topology)
   int fixed_vertices = 0;
+  std::size_t watched_pairs = 0;  // triangle pairs the contact guard watches
   long factor_nonzeros = 0;
   BuildTimings timings;
 };
@@ -82,6 +100,10 @@ BuildOptions load_build_options();
 /// Throws facecast::Error for unusable input (vertex counts, markers, zero-area triangles, NaN).
 BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
                       const BuildOptions& options, const ProgressFn& progress = {});
+
+/// The build report (`rig build --report`, the server's rig jobs): virtual edges, timings,
+/// components and per-shape quality.
+nlohmann::json build_report_json(const BuildResult& result, const BuildOptions& options);
 
 /// Virtual edges as JSON ({"d":..,"edges":[[a,b],...]}) and as OBJ line elements over the mesh.
 void write_virtual_edges_json(const std::filesystem::path& path,

@@ -16,6 +16,7 @@
 // (prescribed) vertices: their positions go to the right-hand side, the matrix does not change.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -37,6 +38,14 @@ void source_gradients(const std::vector<Eigen::Matrix3d>& rest_inverse, const Po
 /// A virtual edge between two target vertices.
 struct VirtualEdge {
   int a = 0, b = 0;
+};
+
+/// A vertex and a point of a triangle (barycentric weights over its corners) to be kept at a
+/// given offset from each other: contacts (build.cpp, contacts.hpp).
+struct Contact {
+  int a = 0;
+  std::array<int, 3> b{};
+  std::array<double, 3> w{};
 };
 
 /// Which source triangles drive each target triangle. Same topology: {t} for every t. Otherwise
@@ -73,6 +82,15 @@ class Transfer {
   std::vector<Points> solve(const std::vector<const Gradients*>& source,
                             const std::vector<Points>& prescribed,
                             const std::vector<Points>& edge_targets) const;
+
+  /// A solved shape (a row of solve()'s result) with contact terms
+  /// weight * ||x_a - sum_i w_i x_b[i] - t||^2 added to the energy (`targets` #contacts by 3).
+  /// The change is local: only the free vertices within `rings` rings of the contacts move,
+  /// solved on that patch's block of the normal matrix (the factor is not touched); vertices
+  /// with `held` set (per vertex; may be empty) stay where they are.
+  Points solve_with_contacts(const Points& solved, const std::vector<char>& held,
+                             const std::vector<Contact>& contacts, const Points& targets,
+                             double weight, int rings = 8) const;
 
   int free_count() const;
   long factor_nonzeros() const;

@@ -1,0 +1,48 @@
+#pragma once
+// Contacts: where the transfer makes the target's surface cross itself at a place where the
+// template's shape does not cross. Private to rigbuild (build.cpp runs it after the block solve).
+//
+// Virtual edges hold gaps that are long along the surface; at a mouth corner the two lips meet a
+// few triangles from the corner, so those gaps fail the geodesic test, yet they are thinner
+// (0.006 units on the ICT identity targets) than the transfer's error. The guard watches every
+// pair of triangles of one connected part that are near each other in the target neutral (and
+// do not cross there). A watched pair that crosses in a built shape but not in the reference
+// (the target neutral plus the template's displacement copied vertex by vertex; for a
+// same-topology target, the ICT ground truth's construction) gets contacts: each corner of one
+// triangle with its closest point on the other, kept at the reference's offset. The shape is
+// then solved again around them (Transfer::solve_with_contacts), up to a few rounds. Where the
+// reference crosses too, following the template cannot separate the two sides; those pairs are
+// left (the build report counts them).
+#include <utility>
+#include <vector>
+
+#include "facecast/rigbuild/transfer.hpp"
+
+namespace facecast::rigbuild {
+
+class ContactGuard {
+ public:
+  /// Watches the pairs of triangles of one connected component (`component`: per target vertex)
+  /// that come within `margin` of each other in the neutral and do not cross there.
+  ContactGuard(const Points& target_rest, const Faces& target_faces,
+               const std::vector<int>& component, double margin);
+
+  /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions) and
+  /// not in `reference`.
+  std::vector<std::pair<int, int>> new_crossings(const Points& shape, const Points& reference,
+                                                 const std::vector<char>& moved) const;
+
+  /// Contacts that hold crossing triangles apart: each corner of one triangle with its closest
+  /// point on the other in the neutral. Appended to `contacts` unless already there.
+  void add_contacts(const std::vector<std::pair<int, int>>& crossings,
+                    std::vector<Contact>& contacts) const;
+
+  std::size_t watched() const { return watched_.size(); }
+
+ private:
+  const Points& rest_;
+  const Faces& faces_;
+  std::vector<std::pair<int, int>> watched_;
+};
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# facecast rig build / rig check on the built-in avatar and a variant of it (same topology, no
+# shared data): the rig, the report with contacts and intersections, the virtual-edge files and
+# picture; one-line errors with a non-zero exit and no file left behind.
+# Usage: cli_rig_build.sh FACECAST
+set -euo pipefail
+facecast=$1
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one error line naming PATTERN
+  local pattern=$1; shift
+  if "$@" 2>"$tmp/err"; then fail "succeeded: $*"; fi
+  grep "^facecast: " "$tmp/err" >"$tmp/error" || true  # progress lines may come first
+  grep -q -- "$pattern" "$tmp/error" || fail "message lacks '$pattern': $(cat "$tmp/err")"
+  [[ $(wc -l <"$tmp/error") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
+}
+
+"$facecast" avatar default --out "$tmp/default.glb" 2>/dev/null
+"$facecast" avatar variant --seed 7 --out "$tmp/user.glb" 2>/dev/null
+"$facecast" rig build --template "$tmp/default.glb" --target "$tmp/user.glb" --out "$tmp/me.glb" \
+  --report "$tmp/report.json" --ve-out "$tmp/edges.obj" --ve-png "$tmp/edges.png" 2>"$tmp/log"
+grep -q "contacts" "$tmp/log" || fail "no stage timings: $(cat "$tmp/log")"
+test -s "$tmp/edges.png" && test -s "$tmp/edges.json" && grep -q "^l " "$tmp/edges.obj"
+node -e '
+const r = JSON.parse(require("fs").readFileSync(process.argv[1]));
+if (r.shapes.length !== 52) throw "shapes: " + r.shapes.length;
+if (!(r.virtual_edges.count > 100)) throw "virtual edges: " + r.virtual_edges.count;
+if (!(r.contacts.watched_pairs > 0) || r.contacts.crossings_left > r.contacts.crossings) throw "contacts";
+for (const k of ["correspondence", "virtual_edges", "factor", "solve", "contacts", "total", "intersections"])
+  if (typeof r.timings_s[k] !== "number") throw "timing " + k;
+const s = r.shapes.find(x => x.name === "jawOpen");
+if (!(s.max_displacement > 0.5) || typeof s.intersections.new !== "number") throw "jawOpen entry";
+' "$tmp/report.json"
+"$facecast" rig info "$tmp/me.glb" | grep -q "shapes      52" || fail "rig info"
+"$facecast" rig check "$tmp/me.glb" --template "$tmp/default.glb" >/dev/null
+
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/triangle.obj"
+expect_error "give --markers" "$facecast" rig build --template "$tmp/default.glb" \
+  --target "$tmp/triangle.obj" --out "$tmp/x.glb"
+test ! -e "$tmp/x.glb" || fail "a failed build left its output"
+if "$facecast" rig build --template "$tmp/default.glb" --target "$tmp/user.glb" \
+  --out "$tmp/x.glb" --contacts maybe 2>"$tmp/err"; then fail "--contacts maybe accepted"; fi
+grep -q -- "--contacts" "$tmp/err" || fail "usage error lacks --contacts: $(cat "$tmp/err")"
+echo "cli_rig_build: ok"
