@@ -156,6 +156,31 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   CHECK(gap("eyeBlink_R", 1068, 1081) < 0.45f);
 }
 
+TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker file",
+          "[rigbuild][mediapipe][slow]") {
+  const auto dir = test::ict_dir();
+  const auto mp = test::shared_data() / "mediapipe/canonical_face_model.obj";
+  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mp)) return;
+  const anim::Rig tmpl =
+      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const anim::Rig target = anim::read_obj(mp);
+  BuildOptions opt;
+  opt.markers = test::shared_data() / "markers/mediapipe_to_ict.json";
+  const auto r = build_rig(tmpl, target, opt);
+  REQUIRE(r.rig.shapes.size() == 57);
+  CHECK(r.timings.correspondence <= 10.0);
+  const auto moved = [&](const char* name) {
+    return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
+  };
+  // Centimetres: the chin drops, the lids come down, the mouth corners rise; brows stay.
+  CHECK(moved("jawOpen") > 2.0f);
+  CHECK(moved("eyeBlink_L") > 0.4f);
+  CHECK(moved("mouthSmile_L") > 0.5f);
+  CHECK(r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape("jawOpen"))].vertices.size() <
+        static_cast<std::size_t>(r.rig.vertex_count()));
+  for (const auto& q : r.quality) CHECK(q.crossings_left == 0);
+}
+
 TEST_CASE("markers out of range are rejected naming the pair", "[rigbuild][errors]") {
   const auto path = test::scratch_dir() / "bad_markers.json";
   std::ofstream(path)
