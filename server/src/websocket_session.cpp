@@ -483,6 +483,13 @@ void WebSocketSession::launch_renders(Stream& s, double elapsed) {
   const auto& o = state_->options;
   while (s.next_frame < s.end_frame && static_cast<int>(s.in_flight.size()) < o.frames_in_flight &&
          s.next_frame / s.fps - o.lead <= elapsed + kSlack) {
+    if (media_queued_ >= o.write_queue) {  // the client is not reading: skip (late or not)
+      ++s.dropped;
+      ++s.next_frame;
+      state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
+      mark_stalled();
+      continue;
+    }
     // A frame is useless once the next frame's presentation time has passed: skip it.
     if ((s.next_frame + 1) / s.fps < elapsed && s.next_frame + 1 < s.end_frame) {
       log::debug("frame_skipped", {{"conn", conn_},
@@ -492,13 +499,6 @@ void WebSocketSession::launch_renders(Stream& s, double elapsed) {
       ++s.dropped;
       ++s.next_frame;
       state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
-      continue;
-    }
-    if (media_queued_ >= o.write_queue) {  // the client is not reading: skip
-      ++s.dropped;
-      ++s.next_frame;
-      state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
-      mark_stalled();
       continue;
     }
     const int frame = s.next_frame++;
