@@ -374,14 +374,14 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     for (std::size_t k = b; k < e; ++k) solved[k] = std::move(out[k - b]);
     report(progress, "solve", static_cast<double>(e) / static_cast<double>(n_shapes));
   }
-  // Vertices the template shape leaves still stay exactly still.
-  const auto keep_still = [&](std::size_t k, Points& shape) {
-    for (int v = 0; v < nv; ++v) {
-      if (!moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)])
-        shape.row(v) = tgt_rest.row(v);
-    }
+  // Vertices the template shape leaves still stay exactly still (contacts hold them too).
+  const auto is_still = [&](std::size_t k, int v) {
+    return !moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)];
   };
-  parallel_for(n_shapes, [&](std::size_t k) { keep_still(k, solved[k]); });
+  parallel_for(n_shapes, [&](std::size_t k) {
+    for (int v = 0; v < nv; ++v)
+      if (is_still(k, v)) solved[k].row(v) = tgt_rest.row(v);
+  });
   result.timings.solve = seconds_since(t0);
 
   // 8. Contacts: watched triangle pairs that cross where the reference does not (contacts.hpp).
@@ -401,9 +401,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       q.crossings = static_cast<int>(crossing.size());
       if (crossing.empty()) return;
       std::vector<char> held(static_cast<std::size_t>(nv));
-      for (int v = 0; v < nv; ++v)
-        held[static_cast<std::size_t>(v)] =
-            !moves[k][static_cast<std::size_t>(v)] && !floats[static_cast<std::size_t>(v)];
+      for (int v = 0; v < nv; ++v) held[static_cast<std::size_t>(v)] = is_still(k, v);
       const Points transferred = solved[k];
       std::vector<Contact> contacts;
       double weight = options.contacts.weight;

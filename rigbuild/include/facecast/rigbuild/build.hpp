@@ -9,6 +9,8 @@
 //        (lashes, tongue) are transferred with one anchor vertex that follows the same rigid fit
 //     -> virtual edges on the target neutral
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
+//     -> contacts: where a shape crosses itself and the template's motion copied vertex by vertex
+//        would not, vertex-to-triangle constraints, solved again on a patch (contacts.hpp)
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
