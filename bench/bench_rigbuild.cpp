@@ -1,6 +1,7 @@
 // Rig building on the ICT FaceKit: template -> random identity (same topology), with and without
 // virtual edges; prints timings per stage and the error against the ground truth per shape.
-// Usage: bench_rigbuild [seed] [--solver eigen] [--lambda L] [--intersections] [--verbose]
+// Usage: bench_rigbuild [seed] [--solver eigen] [--lambda L] [--ve-spacing S]
+//                       [--intersections] [--verbose]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -67,6 +68,8 @@ int main(int argc, char** argv) try {
                                                     : rigbuild::SolverKind::kCholmod;
     } else if (!std::strcmp(argv[i], "--lambda") && i + 1 < argc) {
       opt.lambda = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--ve-spacing") && i + 1 < argc) {
+      opt.ve.spacing = std::atof(argv[++i]);
     } else if (!std::strcmp(argv[i], "--intersections")) {
       intersections = true;
     } else if (!std::strcmp(argv[i], "--verbose")) {

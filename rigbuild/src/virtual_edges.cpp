@@ -113,7 +113,7 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
   const MeshGraph graph(points, faces);
   const int n = static_cast<int>(points.rows());
   const double d = options.d > 0 ? options.d : estimate_from(graph, points);
-  const double spacing = options.spacing > 0 ? options.spacing : d;
+  const double spacing = options.spacing > 0 ? options.spacing : 0.5 * graph.median_edge_length();
 
   const PointIndex tree(points);
   const anim::Components comps = anim::connected_components(n, faces);

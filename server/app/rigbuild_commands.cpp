@@ -238,7 +238,8 @@ void add_rig_build_commands(CLI::App& rig) {
       ->capture_default_str();
   b->add_option("--ve-per-vertex", a->opt.ve.per_vertex, "Edges kept per source vertex")
       ->capture_default_str();
-  b->add_option("--ve-spacing", a->opt.ve.spacing, "Density-control radius (0 = d)")
+  b->add_option("--ve-spacing", a->opt.ve.spacing,
+                "Density-control radius (0 = half the median edge length)")
       ->capture_default_str();
   b->add_option("--ve-pair", a->ve_pair,
                 "I,J: take d from this target vertex pair across a region");

@@ -23,8 +23,9 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
   BuildOptions opt;
   const auto on = build_rig(truth.template_rig, truth.target, opt);
   REQUIRE(on.rig.shapes.size() == 57);
-  CHECK(on.virtual_edges.size() > 300);
-  CHECK(on.virtual_edges.size() < 3000);
+  // Density control at half a median edge: edges at the lips, lids and nostrils, not everywhere.
+  CHECK(on.virtual_edges.size() > 5000);
+  CHECK(on.virtual_edges.size() < 40000);
   const auto errors = truth_errors(on.rig, truth.target.positions, truth.template_rig, 0, 14062);
   REQUIRE(errors.size() == 57);
   for (const auto& e : errors) {
@@ -114,9 +115,10 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   opt.contacts.enabled = false;
   const auto again = build_rig(tmpl, target, opt);
   CHECK(again.timings.correspondence < 0.5);
-  // The skin's own crossings that the template does not have (lips, lids): contacts remove most.
-  // What is left is where copying the template's motion vertex by vertex crosses too (the
-  // MakeHuman lips are fuller than the ICT's); see the closing note of issue 3.
+  // The skin's own crossings that the template does not have (lips, lids): contacts remove most
+  // of those they watch. What is left is where copying the template's motion vertex by vertex
+  // crosses too (the MakeHuman lips and lids are fuller than the ICT's, so closing them as far
+  // as the template does presses them through each other); see the notes of issue 3.
   IntersectionCheck body;
   const auto group = std::find(target.groups.begin(), target.groups.end(), "body");
   REQUIRE(group != target.groups.end());
@@ -130,7 +132,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
     return n;
   };
   const std::size_t with_contacts = total_new(r), without = total_new(again);
-  CHECK(with_contacts < without * 2 / 3);
+  CHECK(with_contacts < without * 3 / 4);
   int found = 0, left = 0;
   for (const auto& q : r.quality) {
     found += q.crossings;
@@ -144,7 +146,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   };
   CHECK(max_move("jawOpen") > 0.3f);  // decimetres: the chin drops
   // The lids close over most of the eye opening (mid upper / mid lower lid markers; the ICT
-  // template itself closes 84% at this spot).
+  // template itself closes 84% at this spot, this build about 74%).
   const auto gap = [&](const char* shape, int upper, int lower) {
     const anim::Positions p =
         r.rig.positions +
@@ -152,8 +154,8 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
     return (p.row(upper) - p.row(lower)).norm() /
            (r.rig.positions.row(upper) - r.rig.positions.row(lower)).norm();
   };
-  CHECK(gap("eyeBlink_L", 3190, 3203) < 0.45f);
-  CHECK(gap("eyeBlink_R", 1068, 1081) < 0.45f);
+  CHECK(gap("eyeBlink_L", 3190, 3203) < 0.3f);
+  CHECK(gap("eyeBlink_R", 1068, 1081) < 0.3f);
 }
 
 TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker file",

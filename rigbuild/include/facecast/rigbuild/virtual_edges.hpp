@@ -9,7 +9,10 @@
 // connected components are infinitely far apart along the surface. Candidates come from a k-d tree
 // radius search (nanoflann), so the cost is linear in the vertex count. Each vertex keeps its
 // `per_vertex` shortest pairs; density control then walks the sources shortest-first and, after
-// placing a source's edges, skips every vertex within `spacing` of the edges' ends.
+// placing a source's edges, skips every vertex within `spacing` of the edges' ends. The default
+// spacing is half a median edge, so nearly every vertex at a gap keeps its edges: with spacing d
+// each eye of the MakeHuman head got one or two edges, all to the eyelashes (the nearest part),
+// and none joined the two lids, which then stopped at 0.31-0.39 of the gap in eyeBlink.
 #include <vector>
 
 #include "facecast/rigbuild/transfer.hpp"
@@ -20,7 +23,7 @@ struct VirtualEdgeOptions {
   double d = 0.0;        // Euclidean threshold; <= 0: estimate_ve_distance()
   double f = 3.0;        // geodesic / Euclidean ratio threshold, >= 2
   int per_vertex = 4;    // edges kept per source vertex (the paper: 3 to 5)
-  double spacing = 0.0;  // density-control radius; <= 0: d
+  double spacing = 0.0;  // density-control radius; <= 0: half the median edge length
 };
 
 struct VirtualEdgeStats {
