@@ -7,11 +7,13 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <tuple>
 
 #include "contacts.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rigbuild/quality.hpp"
 #include "mesh_graph.hpp"
 #include "parallel.hpp"
 
@@ -308,23 +310,50 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   result.timings.factor = transfer.factor_seconds();
   result.factor_nonzeros = transfer.factor_nonzeros();
 
-  // 7. Solve every shape: prescribed positions, then one block solve.
-  report(progress, "solve", 0.0);
-  t0 = Clock::now();
-  // The reference of each shape: the template's displacement copied vertex by vertex (for the
-  // same topology, the ICT ground truth's construction). Each virtual edge follows it: the target
-  // gap e changes as the template gap r does, e' = e + (r' - r) = ref_a - ref_b. (Scaling the
+  // 7. The copy of each shape: the template's displacement copied vertex by vertex (for the same
+  // topology, the ICT ground truth's construction). Each virtual edge follows it: the target gap
+  // e changes as the template gap r does, e' = e + (r' - r) = copy_a - copy_b. (Scaling the
   // change by |e|/|r| breaks translations such as jawForward at thin mouth corners: the ICT test
   // gained 28 crossing pairs with it.)
-  std::vector<Points> reference(n_shapes, tgt_rest);
+  std::vector<Points> copied(n_shapes, tgt_rest);
   parallel_for(n_shapes, [&](std::size_t k) {
     for (int v = 0; v < nv; ++v) {
       const SurfacePoint& sp = corr.vertex_map[static_cast<std::size_t>(v)];
       // In the target's frame and units (the correspondence's similarity).
-      reference[k].row(v) +=
+      copied[k].row(v) +=
           corr.scale * (at(src_shape[k], sp) - at(src_rest, sp)) * corr.rotation.transpose();
     }
   });
+  // The contacts' reference: the copy, smoothed where it crosses itself and the template does not
+  // (a target's fuller lips and lids closed as far as the template's; a mouth corner that the
+  // correspondence splits between the lips). The edges keep the copy: they close the lids, the
+  // contacts keep them from crossing.
+  result.quality.resize(n_shapes);
+  std::vector<Points> reference;
+  std::optional<ContactGuard> guard;
+  if (options.contacts.enabled) {
+    report(progress, "contacts", 0.0);
+    t0 = Clock::now();
+    const double margin = options.contacts.margin > 0
+                              ? options.contacts.margin
+                              : 0.5 * MeshGraph(tgt_rest, tgt_faces).median_edge_length();
+    guard.emplace(tgt_rest, tgt_faces, comps.label, margin);
+    result.watched_pairs = guard->watched();
+    const ReferenceCrossings template_sites(tmpl, corr.map, 3);
+    reference = copied;
+    parallel_for(n_shapes, [&](std::size_t k) {
+      const auto template_crosses = [&](int a, int b) {
+        return template_sites.crosses_at(src_shape[k], a, b);
+      };
+      std::tie(result.quality[k].copy_crossings, result.quality[k].copy_crossings_left) =
+          guard->untangle(reference[k], moves[k], template_crosses);
+    });
+    result.timings.contacts = seconds_since(t0);
+  }
+
+  // 8. Solve every shape: prescribed positions, then one block solve.
+  report(progress, "solve", 0.0);
+  t0 = Clock::now();
   const std::size_t ne = result.virtual_edges.size();
   std::vector<Points> edge_targets(ne ? n_shapes : 0);
   parallel_for(edge_targets.size(), [&](std::size_t k) {
@@ -332,7 +361,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     E.resize(static_cast<Eigen::Index>(ne), 3);
     for (std::size_t i = 0; i < ne; ++i) {
       const auto& ve = result.virtual_edges[i];
-      E.row(static_cast<Eigen::Index>(i)) = reference[k].row(ve.a) - reference[k].row(ve.b);
+      E.row(static_cast<Eigen::Index>(i)) = copied[k].row(ve.a) - copied[k].row(ve.b);
     }
   });
   std::vector<Points> prescribed(n_shapes);
@@ -384,19 +413,12 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   });
   result.timings.solve = seconds_since(t0);
 
-  // 8. Contacts: watched triangle pairs that cross where the reference does not (contacts.hpp).
-  result.quality.resize(n_shapes);
-  if (options.contacts.enabled) {
-    report(progress, "contacts", 0.0);
+  // 9. Contacts: watched triangle pairs that cross where the reference does not (contacts.hpp).
+  if (guard) {
     t0 = Clock::now();
-    const double margin = options.contacts.margin > 0
-                              ? options.contacts.margin
-                              : 0.5 * MeshGraph(tgt_rest, tgt_faces).median_edge_length();
-    const ContactGuard guard(tgt_rest, tgt_faces, comps.label, margin);
-    result.watched_pairs = guard.watched();
     parallel_for(n_shapes, [&](std::size_t k) {
       const Points& ref = reference[k];
-      auto crossing = guard.new_crossings(solved[k], ref, moves[k]);
+      auto crossing = guard->new_crossings(solved[k], ref, moves[k]);
       ShapeQuality& q = result.quality[k];
       q.crossings = static_cast<int>(crossing.size());
       if (crossing.empty()) return;
@@ -406,7 +428,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       std::vector<Contact> contacts;
       double weight = options.contacts.weight;
       for (int round = 0; round < options.contacts.rounds && !crossing.empty(); ++round) {
-        guard.add_contacts(crossing, contacts);
+        guard->add_contacts(crossing, contacts);
         // Each contact keeps the reference's offset between its vertex and its point.
         Points targets(static_cast<Eigen::Index>(contacts.size()), 3);
         for (std::size_t i = 0; i < contacts.size(); ++i) {
@@ -416,16 +438,16 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
                                                       c.w[2] * ref.row(c.b[2]);
         }
         solved[k] = transfer.solve_with_contacts(transferred, held, contacts, targets, weight);
-        crossing = guard.new_crossings(solved[k], ref, moves[k]);
+        crossing = guard->new_crossings(solved[k], ref, moves[k]);
         weight *= 10;
       }
       q.crossings_left = static_cast<int>(crossing.size());
       q.contacts = static_cast<int>(contacts.size());
     });
-    result.timings.contacts = seconds_since(t0);
+    result.timings.contacts += seconds_since(t0);
   }
 
-  // 9. Deltas.
+  // 10. Deltas.
   result.rig = target;
   result.rig.shapes.clear();
   const double tgt_diag = diagonal(tgt_rest);
@@ -521,14 +543,18 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                         {"candidate_pairs", r.ve_stats.candidate_pairs},
                         {"qualifying_pairs", r.ve_stats.qualifying_pairs},
                         {"lambda", options.lambda}};
-  int crossings = 0, left = 0, contacts = 0;
+  int copy_crossings = 0, copy_left = 0, crossings = 0, left = 0, contacts = 0;
   for (const auto& q : r.quality) {
+    copy_crossings += q.copy_crossings;
+    copy_left += q.copy_crossings_left;
     crossings += q.crossings;
     left += q.crossings_left;
     contacts += q.contacts;
   }
   j["contacts"] = {{"enabled", options.contacts.enabled},
                    {"watched_pairs", r.watched_pairs},
+                   {"copy_crossings", copy_crossings},
+                   {"copy_crossings_left", copy_left},
                    {"crossings", crossings},
                    {"crossings_left", left},
                    {"contacts", contacts}};
@@ -550,6 +576,8 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                            {"max_displacement", q.max_displacement},
                            {"gap_change", q.gap_change},
                            {"min_gap", q.min_gap},
+                           {"copy_crossings", q.copy_crossings},
+                           {"copy_crossings_left", q.copy_crossings_left},
                            {"crossings", q.crossings},
                            {"crossings_left", q.crossings_left},
                            {"contacts", q.contacts}});

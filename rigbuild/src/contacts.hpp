@@ -1,22 +1,29 @@
 #pragma once
 // Contacts: where the transfer makes the target's surface cross itself at a place where the
-// template's shape does not cross. Private to rigbuild (build.cpp runs it after the block solve).
+// template's shape does not cross. Private to rigbuild (build.cpp runs it around the block solve).
 //
 // Virtual edges hold gaps that are long along the surface; at a mouth corner the two lips meet a
 // few triangles from the corner, so those gaps fail the geodesic test, yet they are thinner
 // (0.006 units on the ICT identity targets) than the transfer's error. The guard watches every
 // pair of triangles of one connected part that are near each other in the target neutral (and
-// do not cross there). A watched pair that crosses in a built shape but not in the reference
-// (the target neutral plus the template's displacement copied vertex by vertex; for a
-// same-topology target, the ICT ground truth's construction) gets contacts: each corner of one
-// triangle with its closest point on the other, kept at the reference's offset. The shape is
-// then solved again around them (Transfer::solve_with_contacts), up to a few rounds. Where the
-// reference crosses too, following the template cannot separate the two sides; those pairs are
-// left (the build report counts them).
+// do not cross there).
+//
+// The reference of a shape starts as the copy: the target neutral plus the template's
+// displacement copied vertex by vertex (for a same-topology target, the ICT ground truth's
+// construction). Where the copy crosses itself at a watched pair and the template does not --
+// the MakeHuman lips and lids are fuller than the ICT's, so closing them as far as the template
+// does presses them through each other, and its mouth corners are split between the lips by the
+// correspondence -- untangle() smooths the copy's displacement there, a few sweeps at a time,
+// until it no longer crosses. A watched pair that crosses in a built shape but not in the
+// reference then gets contacts: each corner of one triangle with its closest point on the other,
+// kept at the reference's offset. The shape is solved again around them
+// (Transfer::solve_with_contacts), up to a few rounds.
+#include <functional>
 #include <utility>
 #include <vector>
 
 #include "facecast/rigbuild/transfer.hpp"
+#include "mesh_graph.hpp"
 
 namespace facecast::rigbuild {
 
@@ -37,12 +44,21 @@ class ContactGuard {
   void add_contacts(const std::vector<std::pair<int, int>>& crossings,
                     std::vector<Contact>& contacts) const;
 
+  /// Where `reference` (the copied motion of one shape) crosses itself at watched pairs with a
+  /// moved vertex and the template does not (`template_crosses(a, b)`), smooths the displacement
+  /// of the crossing triangles' moved vertices towards their surroundings, as little as
+  /// uncrosses them. Returns the number of such pairs before and after.
+  std::pair<int, int> untangle(Points& reference, const std::vector<char>& moved,
+                               const std::function<bool(int, int)>& template_crosses) const;
+
   std::size_t watched() const { return watched_.size(); }
 
  private:
   const Points& rest_;
   const Faces& faces_;
+  MeshGraph graph_;
   std::vector<std::pair<int, int>> watched_;
+  std::vector<int> pair_start_, pair_index_;  // per vertex, the watched pairs touching it
 };
 
 }  // namespace facecast::rigbuild

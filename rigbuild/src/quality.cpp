@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "facecast/anim/intersections.hpp"
 #include "parallel.hpp"
@@ -106,6 +107,108 @@ std::function<bool(int, int)> group_filter(
 
 }  // namespace
 
+ReferenceCrossings::ReferenceCrossings(const anim::Rig& reference, const TriangleMap& map,
+                                       int rings)
+    : reference_(reference),
+      map_(map),
+      rings_(rings),
+      adjacency_(static_cast<std::size_t>(reference.vertex_count())) {
+  triangles_at_.resize(adjacency_.size());
+  for (int t = 0; t < reference.triangle_count(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      adjacency_[static_cast<std::size_t>(reference.triangles(t, c))].push_back(
+          reference.triangles(t, (c + 1) % 3));
+      triangles_at_[static_cast<std::size_t>(reference.triangles(t, c))].push_back(t);
+    }
+}
+
+bool ReferenceCrossings::crosses_at(const Points& positions, int a, int b) const {
+  const auto touching = [&](int built) {
+    std::vector<int> tris;
+    for (const int v : around(built))
+      for (const int t : triangles_at_[static_cast<std::size_t>(v)]) tris.push_back(t);
+    std::sort(tris.begin(), tris.end());
+    tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
+    return tris;
+  };
+  const auto& f = reference_.triangles;
+  const auto corner = [&](int t, int c) -> Eigen::Vector3d {
+    return positions.row(f(t, c)).transpose();
+  };
+  const auto share = [&](int s, int t) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (f(s, i) == f(t, j)) return true;
+    return false;
+  };
+  // Sweep and prune along x: boxes of b's triangles sorted by their low end.
+  struct Box {
+    Eigen::Vector3d lo, hi;
+    int t;
+  };
+  const auto boxes = [&](const std::vector<int>& tris) {
+    std::vector<Box> out;
+    for (const int t : tris) {
+      const Eigen::Vector3d p = corner(t, 0), q = corner(t, 1), r = corner(t, 2);
+      out.push_back({p.cwiseMin(q).cwiseMin(r), p.cwiseMax(q).cwiseMax(r), t});
+    }
+    std::sort(out.begin(), out.end(), [](const Box& x, const Box& y) { return x.lo[0] < y.lo[0]; });
+    return out;
+  };
+  const auto ba = boxes(touching(a)), bb = boxes(touching(b));
+  std::size_t first = 0;
+  for (const Box& x : ba) {
+    while (first < bb.size() && bb[first].hi[0] < x.lo[0]) ++first;
+    for (std::size_t j = first; j < bb.size() && bb[j].lo[0] <= x.hi[0]; ++j) {
+      const Box& y = bb[j];
+      if ((x.lo - y.hi).maxCoeff() > 0 || (y.lo - x.hi).maxCoeff() > 0) continue;
+      if (x.t != y.t && !share(x.t, y.t) &&
+          anim::triangles_intersect(corner(x.t, 0), corner(x.t, 1), corner(x.t, 2), corner(y.t, 0),
+                                    corner(y.t, 1), corner(y.t, 2)))
+        return true;
+    }
+  }
+  return false;
+}
+
+std::vector<std::pair<int, int>> ReferenceCrossings::pairs(
+    const std::string& name, const std::function<bool(int, int)>& ignore) const {
+  const int k = reference_.find_shape(name);
+  return k < 0 ? std::vector<std::pair<int, int>>{}
+               : shape_pairs(reference_, k, ignore, static_cast<std::size_t>(-1)).pairs;
+}
+
+// The reference vertices within `rings_` rings of a built triangle's reference triangles, sorted.
+std::vector<int> ReferenceCrossings::around(int built_triangle) const {
+  std::vector<int> v;
+  for (const int t : map_.sources[static_cast<std::size_t>(built_triangle)])
+    for (int c = 0; c < 3; ++c) v.push_back(reference_.triangles(t, c));
+  for (int r = 0; r < rings_; ++r) {
+    const std::size_t n = v.size();
+    for (std::size_t i = 0; i < n; ++i)
+      for (const int u : adjacency_[static_cast<std::size_t>(v[i])]) v.push_back(u);
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  }
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
+
+bool ReferenceCrossings::at(const std::vector<std::pair<int, int>>& pairs, int a, int b) const {
+  if (pairs.empty()) return false;
+  const auto va = around(a), vb = around(b);
+  const auto touches = [&](int ref_triangle, const std::vector<int>& verts) {
+    for (int c = 0; c < 3; ++c)
+      if (std::binary_search(verts.begin(), verts.end(), reference_.triangles(ref_triangle, c)))
+        return true;
+    return false;
+  };
+  for (const auto& [x, y] : pairs)
+    if ((touches(x, va) && touches(y, vb)) || (touches(x, vb) && touches(y, va))) return true;
+  return false;
+}
+
 IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig* reference,
                                         const TriangleMap& map, const IntersectionCheck& check) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -127,36 +230,8 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
   out.neutral = neutral_pairs.count;
   if (reference) out.reference_neutral = shape_pairs(*reference, -1, ref_ignore, 0).count;
 
-  // Reference triangles -> the vertices within `rings` rings of them.
-  std::vector<std::vector<int>> adjacency;
-  if (reference) {
-    adjacency.resize(static_cast<std::size_t>(reference->vertex_count()));
-    for (int t = 0; t < reference->triangle_count(); ++t)
-      for (int c = 0; c < 3; ++c)
-        adjacency[static_cast<std::size_t>(reference->triangles(t, c))].push_back(
-            reference->triangles(t, (c + 1) % 3));
-  }
-  const auto verts_of = [&](const std::vector<int>& tris) {
-    std::vector<int> v;
-    for (const int t : tris)
-      for (int c = 0; c < 3; ++c) v.push_back(reference->triangles(t, c));
-    for (int r = 0; r < check.rings; ++r) {
-      const std::size_t n = v.size();
-      for (std::size_t i = 0; i < n; ++i)
-        for (const int u : adjacency[static_cast<std::size_t>(v[i])]) v.push_back(u);
-      std::sort(v.begin(), v.end());
-      v.erase(std::unique(v.begin(), v.end()), v.end());
-    }
-    std::sort(v.begin(), v.end());
-    v.erase(std::unique(v.begin(), v.end()), v.end());
-    return v;
-  };
-  const auto touches = [&](int ref_triangle, const std::vector<int>& verts) {
-    for (int c = 0; c < 3; ++c)
-      if (std::binary_search(verts.begin(), verts.end(), reference->triangles(ref_triangle, c)))
-        return true;
-    return false;
-  };
+  std::optional<ReferenceCrossings> sites;
+  if (reference) sites.emplace(*reference, map, check.rings);
 
   const auto n = static_cast<int>(built.shapes.size());
   out.shapes.resize(static_cast<std::size_t>(n));
@@ -165,27 +240,14 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
     r.shape = built.shapes[static_cast<std::size_t>(k)].name;
     const auto got = shape_pairs(built, k, built_ignore, static_cast<std::size_t>(-1));
     r.total = got.count;
-    std::vector<std::pair<int, int>> ref_pairs;
-    if (reference) {
-      if (const int rk = reference->find_shape(r.shape); rk >= 0)
-        ref_pairs = shape_pairs(*reference, rk, ref_ignore, static_cast<std::size_t>(-1)).pairs;
-    }
+    const auto ref_pairs = sites ? sites->pairs(r.shape, ref_ignore) : decltype(got.pairs){};
     for (const auto& [a, b] : got.pairs) {
       if (std::binary_search(neutral_pairs.pairs.begin(), neutral_pairs.pairs.end(),
                              std::pair{a, b})) {
         ++r.in_neutral;
         continue;
       }
-      bool known = false;
-      if (!ref_pairs.empty()) {
-        const auto va = verts_of(map.sources[static_cast<std::size_t>(a)]);
-        const auto vb = verts_of(map.sources[static_cast<std::size_t>(b)]);
-        for (const auto& [x, y] : ref_pairs)
-          if ((touches(x, va) && touches(y, vb)) || (touches(x, vb) && touches(y, va))) {
-            known = true;
-            break;
-          }
-      }
+      const bool known = sites && sites->at(ref_pairs, a, b);
       if (known) {
         ++r.in_reference;
       } else {

@@ -25,7 +25,8 @@ node -e '
 const r = JSON.parse(require("fs").readFileSync(process.argv[1]));
 if (r.shapes.length !== 52) throw "shapes: " + r.shapes.length;
 if (!(r.virtual_edges.count > 100)) throw "virtual edges: " + r.virtual_edges.count;
-if (!(r.contacts.watched_pairs > 0) || r.contacts.crossings_left > r.contacts.crossings) throw "contacts";
+if (!(r.contacts.watched_pairs > 0) || r.contacts.crossings_left > r.contacts.crossings ||
+    r.contacts.copy_crossings_left > r.contacts.copy_crossings) throw "contacts";
 for (const k of ["correspondence", "virtual_edges", "factor", "solve", "contacts", "total", "intersections"])
   if (typeof r.timings_s[k] !== "number") throw "timing " + k;
 const s = r.shapes.find(x => x.name === "jawOpen");

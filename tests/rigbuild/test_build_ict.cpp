@@ -115,10 +115,9 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   opt.contacts.enabled = false;
   const auto again = build_rig(tmpl, target, opt);
   CHECK(again.timings.correspondence < 0.5);
-  // The skin's own crossings that the template does not have (lips, lids): contacts remove most
-  // of those they watch. What is left is where copying the template's motion vertex by vertex
-  // crosses too (the MakeHuman lips and lids are fuller than the ICT's, so closing them as far
-  // as the template does presses them through each other); see the notes of issue 3.
+  // The skin's own crossings that the template does not have (lips, lids), as the report counts
+  // them: the transfer alone brings hundreds (fuller lips and lids than the template's, closed
+  // as far as the template closes its own); contacts against the smoothed copy leave a handful.
   IntersectionCheck body;
   const auto group = std::find(target.groups.begin(), target.groups.end(), "body");
   REQUIRE(group != target.groups.end());
@@ -132,15 +131,19 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
     return n;
   };
   const std::size_t with_contacts = total_new(r), without = total_new(again);
-  CHECK(with_contacts < without * 3 / 4);
-  int found = 0, left = 0;
+  CHECK(without > 100);
+  CHECK(with_contacts * 10 < without);
+  int copy_found = 0, found = 0, left = 0;
   for (const auto& q : r.quality) {
+    copy_found += q.copy_crossings;
     found += q.crossings;
     left += q.crossings_left;
   }
+  CHECK(copy_found > 0);  // the copy itself crosses: the untangling had work to do
   CHECK(left * 20 < found);
   WARN("MakeHuman skin: " << with_contacts << " new crossing pairs with contacts, " << without
-                          << " without (contacts found " << found << ", left " << left << ")");
+                          << " without (copy crossings " << copy_found << "; contacts found "
+                          << found << ", left " << left << ")");
   auto max_move = [&](const char* name) {
     return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
   };
@@ -180,7 +183,13 @@ TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker fil
   CHECK(moved("mouthSmile_L") > 0.5f);
   CHECK(r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape("jawOpen"))].vertices.size() <
         static_cast<std::size_t>(r.rig.vertex_count()));
-  for (const auto& q : r.quality) CHECK(q.crossings_left == 0);
+  int found = 0, left = 0;
+  for (const auto& q : r.quality) {
+    found += q.crossings;
+    left += q.crossings_left;
+  }
+  CHECK(found > 0);
+  CHECK(left * 10 < found);
 }
 
 TEST_CASE("markers out of range are rejected naming the pair", "[rigbuild][errors]") {

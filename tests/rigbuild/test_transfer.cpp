@@ -284,3 +284,31 @@ TEST_CASE("contacts hold apart layers that the transfer pushes through each othe
   // The dent is still there: the contacts hold the layers apart, they do not undo the shape.
   CHECK(with.rig.shapes[0].max_displacement() > 0.3f);
 }
+
+TEST_CASE("where the copied motion presses a thinner gap shut, contacts keep the layers apart",
+          "[rigbuild][contacts]") {
+  // A dent in the template's top layer comes down 0.45 towards a layer 0.5 below it; the
+  // target's layers are 0.2 apart, so the template's motion copied onto the target passes
+  // through its bottom layer (fuller lips pressed together as far as the template's).
+  const int n = 10;
+  anim::Rig tmpl = double_layer(n, 0.5f);
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  for (int v : {5 * n + 5, 5 * n + 6, 6 * n + 5, 6 * n + 6}) d(v, 2) = -0.45f;
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("dent", d));
+  const anim::Rig target = double_layer(n, 0.2f);
+  const auto crossings = [](const BuildResult& r) {
+    const anim::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
+    return anim::find_intersections(p, r.rig.triangles).count;
+  };
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;  // the contacts alone
+  const auto on = build_rig(tmpl, target, opt);
+  opt.contacts.enabled = false;
+  const auto off = build_rig(tmpl, target, opt);
+  CHECK(crossings(off) > 0);
+  CHECK(on.quality[0].copy_crossings > 0);  // the copy crosses: it was smoothed there
+  CHECK(on.quality[0].copy_crossings_left == 0);
+  CHECK(crossings(on) == 0);
+  // The dent still comes down towards the bottom layer.
+  CHECK(on.rig.shapes[0].dense(target.vertex_count())(5 * n + 5, 2) < -0.05f);
+}

@@ -76,10 +76,12 @@ struct ShapeQuality {
   std::string shape;
   double max_displacement = 0;
   double gap_change = 0;
-  double min_gap = 0;      // smallest normalised gap (0 = the two sides meet or cross)
-  int crossings = 0;       // watched triangle pairs that crossed after the transfer
-  int crossings_left = 0;  // ... and still cross after the contact rounds
-  int contacts = 0;        // vertex-to-triangle contacts added to hold them apart
+  double min_gap = 0;           // smallest normalised gap (0 = the two sides meet or cross)
+  int copy_crossings = 0;       // watched pairs where the copied motion crosses, not the template
+  int copy_crossings_left = 0;  // ... and still crosses after smoothing it there
+  int crossings = 0;            // watched triangle pairs that crossed after the transfer
+  int crossings_left = 0;       // ... and still cross after the contact rounds
+  int contacts = 0;             // vertex-to-triangle contacts added to hold them apart
 };
 
 struct BuildResult {

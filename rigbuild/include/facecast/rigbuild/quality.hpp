@@ -1,5 +1,6 @@
 #pragma once
 // Measures of a built rig: error against ground-truth shapes, and the seed paper's gap measure.
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -48,6 +49,32 @@ struct IntersectionCheck {
   std::vector<char> region;
   /// Vertex rings around the corresponding reference triangles that count as "the same place".
   int rings = 3;
+};
+
+/// Where a reference rig's shapes cross themselves, seen from a built rig through a triangle map:
+/// a built pair (a, b) is at a reference pair when the reference triangles of a and of b, widened
+/// by `rings` vertex rings, touch one triangle of the pair each (the same fold seldom crosses at
+/// exactly the same triangles). Keeps references to its arguments.
+class ReferenceCrossings {
+ public:
+  ReferenceCrossings(const anim::Rig& reference, const TriangleMap& map, int rings);
+  /// Intersecting pairs of the reference's shape `name` with a triangle the shape moves (none when
+  /// the reference has no such shape).
+  std::vector<std::pair<int, int>> pairs(const std::string& name,
+                                         const std::function<bool(int, int)>& ignore = {}) const;
+  /// True if built triangles a and b sit at one of `pairs` (from pairs()).
+  bool at(const std::vector<std::pair<int, int>>& pairs, int a, int b) const;
+  /// The same question for one pair without listing the whole shape's pairs: does the reference
+  /// cross itself, with its vertices at `positions` (a shape), where built triangles a and b sit?
+  bool crosses_at(const Points& positions, int a, int b) const;
+
+ private:
+  std::vector<int> around(int built_triangle) const;
+  const anim::Rig& reference_;
+  const TriangleMap& map_;
+  int rings_;
+  std::vector<std::vector<int>> adjacency_;
+  std::vector<std::vector<int>> triangles_at_;  // per reference vertex
 };
 
 /// `reference` may be null (no split: every pair counts as fresh). `map` gives, per built
