@@ -9,8 +9,10 @@
 //        (lashes, tongue) are transferred with one anchor vertex that follows the same rigid fit
 //     -> virtual edges on the target neutral
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
-//     -> contacts: where a shape crosses itself and the template's motion copied vertex by vertex
-//        would not, vertex-to-triangle constraints, solved again on a patch (contacts.hpp)
+//     -> the template's motion copied vertex by vertex (the virtual edges' targets), and the
+//        contacts' reference: that copy smoothed where it crosses itself and the template does not
+//     -> contacts: where a shape crosses itself and the reference does not, vertex-to-triangle
+//        constraints, solved again on a patch (contacts.hpp)
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -29,8 +31,9 @@ enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
 /// Contacts (rigbuild/src/contacts.hpp): triangle pairs near each other in the target neutral are
 /// watched; where a built shape crosses there and the reference (the template's displacement
-/// copied vertex by vertex) does not, contacts that keep the reference's offsets are added and the
-/// shape is solved again around them (the factor is not touched).
+/// copied vertex by vertex, smoothed where that copy crosses itself and the template does not)
+/// does not, contacts that keep the reference's offsets are added and the shape is solved again
+/// around them (the factor is not touched).
 struct ContactOptions {
   bool enabled = true;
   double margin = 0.0;    // watch pairs within this distance; <= 0: half the median edge length
