@@ -141,6 +141,9 @@ std::pair<int, int> ContactGuard::untangle(
   };
   Points d = reference - rest_;
   std::vector<std::size_t> near;
+  // Smoothing can push the region into its surroundings: the fewest crossings seen are kept.
+  Points best = reference;
+  std::size_t fewest = pairs.size();
   for (int step = 0; step < 60 && !pairs.empty(); ++step) {
     for (const std::size_t i : pairs)
       for (int c = 0; c < 3; ++c) {
@@ -169,8 +172,13 @@ std::pair<int, int> ContactGuard::untangle(
     std::sort(near.begin(), near.end());
     near.erase(std::unique(near.begin(), near.end()), near.end());
     pairs = crossing(near);
+    if (pairs.size() < fewest) {
+      fewest = pairs.size();
+      best = reference;
+    }
   }
-  return {found, static_cast<int>(pairs.size())};
+  if (pairs.size() > fewest) reference = best;
+  return {found, static_cast<int>(fewest)};
 }
 
 }  // namespace facecast::rigbuild
