@@ -232,6 +232,17 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
 
   std::optional<ReferenceCrossings> sites;
   if (reference) sites.emplace(*reference, map, check.rings);
+  // The part of each built triangle, by name, for the breakdown of new pairs.
+  const bool by_group = !built.groups.empty() && !built.triangle_group.empty();
+  const bool by_material = !by_group && built.materials.size() > 1;
+  const auto part = [&](int t) -> const std::string& {
+    return by_group ? built.groups[static_cast<std::size_t>(
+                          built.triangle_group[static_cast<std::size_t>(t)])]
+                    : built
+                          .materials[static_cast<std::size_t>(
+                              built.triangle_material[static_cast<std::size_t>(t)])]
+                          .name;
+  };
 
   const auto n = static_cast<int>(built.shapes.size());
   out.shapes.resize(static_cast<std::size_t>(n));
@@ -253,6 +264,11 @@ IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig*
       } else {
         ++r.fresh;
         if (r.fresh_pairs.size() < 20) r.fresh_pairs.emplace_back(a, b);
+        if (by_group || by_material) {
+          const auto& x = part(a);
+          const auto& y = part(b);
+          ++r.fresh_by_parts[x < y ? x + "|" + y : y + "|" + x];
+        }
       }
     }
   });

@@ -65,16 +65,17 @@ nlohmann::json intersections_json(const rigbuild::IntersectionSummary& s) {
                       {"reference_neutral", s.reference_neutral},
                       {"seconds", s.seconds},
                       {"shapes_with_new_pairs", 0}};
+  std::map<std::string, std::size_t> by_parts;  // over every shape
   for (const auto& r : s.shapes) {
     j["shapes_with_new_pairs"] = j["shapes_with_new_pairs"].get<int>() + (r.fresh > 0);
+    for (const auto& [parts, n] : r.fresh_by_parts) by_parts[parts] += n;
     nlohmann::json pairs = nlohmann::json::array();
     for (const auto& [x, y] : r.fresh_pairs) pairs.push_back({x, y});
-    j["per_shape"][r.shape] = {{"total", r.total},
-                               {"in_neutral", r.in_neutral},
-                               {"in_reference", r.in_reference},
-                               {"new", r.fresh},
-                               {"new_pairs", pairs}};
+    j["per_shape"][r.shape] = {
+        {"total", r.total}, {"in_neutral", r.in_neutral},       {"in_reference", r.in_reference},
+        {"new", r.fresh},   {"new_by_parts", r.fresh_by_parts}, {"new_pairs", pairs}};
   }
+  j["new_by_parts"] = by_parts;
   return j;
 }
 

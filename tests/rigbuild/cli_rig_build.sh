@@ -31,6 +31,12 @@ for (const k of ["correspondence", "virtual_edges", "factor", "solve", "contacts
   if (typeof r.timings_s[k] !== "number") throw "timing " + k;
 const s = r.shapes.find(x => x.name === "jawOpen");
 if (!(s.max_displacement > 0.5) || typeof s.intersections.new !== "number") throw "jawOpen entry";
+// New pairs by the parts they join (the avatar has one material per part) add up to the count.
+for (const x of r.shapes) {
+  const by = Object.values(x.intersections.new_by_parts).reduce((a, b) => a + b, 0);
+  if (by !== x.intersections.new) throw "new_by_parts of " + x.name;
+}
+if (typeof r.intersections.new_by_parts !== "object") throw "new_by_parts";
 ' "$tmp/report.json"
 "$facecast" rig info "$tmp/me.glb" | grep -q "shapes      52" || fail "rig info"
 "$facecast" rig check "$tmp/me.glb" --template "$tmp/default.glb" >/dev/null

@@ -1,6 +1,7 @@
 #pragma once
 // Measures of a built rig: error against ground-truth shapes, and the seed paper's gap measure.
 #include <functional>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +35,9 @@ struct ShapeIntersections {
   std::size_t in_reference = 0;                  // the reference shape crosses there too
   std::size_t fresh = 0;                         // new
   std::vector<std::pair<int, int>> fresh_pairs;  // up to 20, triangle indices of the built rig
+  /// New pairs by the parts they join ("body|body", "body|teeth"): the built rig's OBJ groups,
+  /// else its materials; empty when it has neither.
+  std::map<std::string, std::size_t> fresh_by_parts;
 };
 struct IntersectionSummary {
   std::size_t neutral = 0;            // the built neutral's own intersecting pairs
