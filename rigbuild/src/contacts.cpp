@@ -141,8 +141,10 @@ std::pair<int, int> ContactGuard::untangle(
   };
   Points d = reference - rest_;
   std::vector<std::size_t> near;
-  // Smoothing can push the region into its surroundings: the fewest crossings seen are kept.
-  Points best = reference;
+  // Smoothing can push the region into its surroundings: the fewest crossings seen are kept (the
+  // region's rows at that step; a vertex that joined the region later keeps its copied value).
+  const Points copied = reference;
+  std::vector<Eigen::RowVector3d> best;  // rows of region[0, best.size()) at the fewest
   std::size_t fewest = pairs.size();
   for (int step = 0; step < 60 && !pairs.empty(); ++step) {
     for (const std::size_t i : pairs)
@@ -174,10 +176,14 @@ std::pair<int, int> ContactGuard::untangle(
     pairs = crossing(near);
     if (pairs.size() < fewest) {
       fewest = pairs.size();
-      best = reference;
+      best.clear();
+      for (int v : region) best.push_back(reference.row(v));
     }
   }
-  if (pairs.size() > fewest) reference = best;
+  if (pairs.size() > fewest) {
+    for (std::size_t i = 0; i < region.size(); ++i)
+      reference.row(region[i]) = i < best.size() ? best[i] : copied.row(region[i]);
+  }
   return {found, static_cast<int>(fewest)};
 }
 
