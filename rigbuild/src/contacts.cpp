@@ -64,15 +64,17 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   });
 }
 
+bool ContactGuard::moves_at(const std::vector<char>& moved, int t) const {
+  return moved[static_cast<std::size_t>(faces_(t, 0))] ||
+         moved[static_cast<std::size_t>(faces_(t, 1))] ||
+         moved[static_cast<std::size_t>(faces_(t, 2))];
+}
+
 std::vector<std::pair<int, int>> ContactGuard::new_crossings(const Points& shape,
                                                              const Points& reference,
                                                              const std::vector<char>& moved) const {
   std::vector<std::pair<int, int>> out;
-  const auto moves = [&](int t) {
-    return moved[static_cast<std::size_t>(faces_(t, 0))] ||
-           moved[static_cast<std::size_t>(faces_(t, 1))] ||
-           moved[static_cast<std::size_t>(faces_(t, 2))];
-  };
+  const auto moves = [&](int t) { return moves_at(moved, t); };
   for (const auto& [a, b] : watched_) {
     if ((moves(a) || moves(b)) && cross(shape, faces_, a, b) && !cross(reference, faces_, a, b))
       out.emplace_back(a, b);
@@ -106,11 +108,7 @@ void ContactGuard::add_contacts(const std::vector<std::pair<int, int>>& crossing
 std::pair<int, int> ContactGuard::untangle(
     Points& reference, const std::vector<char>& moved,
     const std::function<bool(int, int)>& template_crosses) const {
-  const auto moves = [&](int t) {
-    return moved[static_cast<std::size_t>(faces_(t, 0))] ||
-           moved[static_cast<std::size_t>(faces_(t, 1))] ||
-           moved[static_cast<std::size_t>(faces_(t, 2))];
-  };
+  const auto moves = [&](int t) { return moves_at(moved, t); };
   // Pairs (indices into watched_) to fix: they cross in the reference, not in the template.
   std::vector<std::int8_t> in_template(watched_.size(), -1);  // asked once per pair
   const auto crossing = [&](const std::vector<std::size_t>& candidates) {

@@ -54,6 +54,7 @@ class ContactGuard {
   std::size_t watched() const { return watched_.size(); }
 
  private:
+  bool moves_at(const std::vector<char>& moved, int triangle) const;  // a corner in `moved`
   const Points& rest_;
   const Faces& faces_;
   MeshGraph graph_;
