@@ -14,7 +14,6 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/quality.hpp"
-#include "mesh_graph.hpp"
 #include "parallel.hpp"
 
 namespace facecast::rigbuild {
@@ -334,10 +333,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   if (options.contacts.enabled) {
     report(progress, "contacts", 0.0);
     t0 = Clock::now();
-    const double margin = options.contacts.margin > 0
-                              ? options.contacts.margin
-                              : 0.5 * MeshGraph(tgt_rest, tgt_faces).median_edge_length();
-    guard.emplace(tgt_rest, tgt_faces, comps.label, margin);
+    guard.emplace(tgt_rest, tgt_faces, comps.label, options.contacts.margin);
     result.watched_pairs = guard->watched();
     const ReferenceCrossings template_sites(tmpl, corr.map, 3);
     reference = copied;

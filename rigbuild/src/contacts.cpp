@@ -39,6 +39,7 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
                            const std::vector<int>& component, double margin)
     : rest_(target_rest), faces_(target_faces), graph_(target_rest, target_faces) {
+  if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   const anim::Positions p = target_rest.cast<float>();
   for (const auto& [a, b] : anim::near_triangle_pairs(p, target_faces, margin)) {
     if (component[static_cast<std::size_t>(target_faces(a, 0))] !=
@@ -74,9 +75,9 @@ std::vector<std::pair<int, int>> ContactGuard::new_crossings(const Points& shape
                                                              const Points& reference,
                                                              const std::vector<char>& moved) const {
   std::vector<std::pair<int, int>> out;
-  const auto moves = [&](int t) { return moves_at(moved, t); };
   for (const auto& [a, b] : watched_) {
-    if ((moves(a) || moves(b)) && cross(shape, faces_, a, b) && !cross(reference, faces_, a, b))
+    if ((moves_at(moved, a) || moves_at(moved, b)) && cross(shape, faces_, a, b) &&
+        !cross(reference, faces_, a, b))
       out.emplace_back(a, b);
   }
   return out;
@@ -108,14 +109,13 @@ void ContactGuard::add_contacts(const std::vector<std::pair<int, int>>& crossing
 std::pair<int, int> ContactGuard::untangle(
     Points& reference, const std::vector<char>& moved,
     const std::function<bool(int, int)>& template_crosses) const {
-  const auto moves = [&](int t) { return moves_at(moved, t); };
   // Pairs (indices into watched_) to fix: they cross in the reference, not in the template.
   std::vector<std::int8_t> in_template(watched_.size(), -1);  // asked once per pair
   const auto crossing = [&](const std::vector<std::size_t>& candidates) {
     std::vector<std::size_t> out;
     for (const std::size_t i : candidates) {
       const auto [a, b] = watched_[i];
-      if (!(moves(a) || moves(b)) || !cross(reference, faces_, a, b)) continue;
+      if (!(moves_at(moved, a) || moves_at(moved, b)) || !cross(reference, faces_, a, b)) continue;
       if (in_template[i] < 0) in_template[i] = template_crosses(a, b);
       if (!in_template[i]) out.push_back(i);
     }

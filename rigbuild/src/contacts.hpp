@@ -30,7 +30,8 @@ namespace facecast::rigbuild {
 class ContactGuard {
  public:
   /// Watches the pairs of triangles of one connected component (`component`: per target vertex)
-  /// that come within `margin` of each other in the neutral and do not cross there.
+  /// that come within `margin` of each other in the neutral and do not cross there (margin <= 0:
+  /// half the median edge length).
   ContactGuard(const Points& target_rest, const Faces& target_faces,
                const std::vector<int>& component, double margin);
 
