@@ -297,7 +297,8 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
 }
 
 std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
-                                                     const Triangles& triangles, double margin) {
+                                                     const Triangles& triangles, double margin,
+                                                     const std::vector<char>& from) {
   const int nf = static_cast<int>(triangles.rows());
   std::vector<Box> boxes(static_cast<std::size_t>(nf));
   const float pad = static_cast<float>(0.5 * margin);
@@ -312,13 +313,15 @@ std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
   }
   const Bvh bvh(boxes);
   std::vector<std::pair<int, int>> out;
+  const auto queried = [&](int f) { return from.empty() || from[static_cast<std::size_t>(f)]; };
   for (int f = 0; f < nf; ++f) {
+    if (!queried(f)) continue;
     bvh.query(boxes[static_cast<std::size_t>(f)], [&](int g) {
-      if (g <= f) return;
+      if (g == f || (g < f && queried(g))) return;  // each pair once
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           if (triangles(f, i) == triangles(g, j)) return;
-      out.emplace_back(f, g);
+      out.emplace_back(std::min(f, g), std::max(f, g));
     });
   }
   std::sort(out.begin(), out.end());

@@ -4,10 +4,12 @@
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <numeric>
 #include <optional>
 #include <tuple>
+#include <unordered_map>
 
 #include "contacts.hpp"
 #include "facecast/core/config.hpp"
@@ -82,6 +84,74 @@ std::vector<int> template_parts(const anim::Rig& tmpl) {
         part_of[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])];
   }
   return parts;
+}
+
+// The template's rigid parts: connected components that every shape moves rigidly (teeth,
+// eyeballs), those of one part of template_parts() that move together joined -- the ICT's 16
+// upper teeth are one rigid part, its 16 lower teeth another.
+struct RigidParts {
+  std::vector<int> of_vertex;              // per template vertex: its rigid part, or -1
+  std::vector<std::vector<Rigid>> motion;  // per part, per shape
+};
+RigidParts rigid_parts(const anim::Rig& tmpl, const Points& rest, const std::vector<Points>& shapes,
+                       double tolerance) {
+  const anim::Components comps = anim::connected_components(tmpl.vertex_count(), tmpl.triangles);
+  const std::vector<int> parts = template_parts(tmpl);
+  std::vector<std::vector<int>> members(static_cast<std::size_t>(comps.count));
+  for (int v = 0; v < tmpl.vertex_count(); ++v)
+    if (const int c = comps.label[static_cast<std::size_t>(v)]; c >= 0)
+      members[static_cast<std::size_t>(c)].push_back(v);
+  std::vector<int> material(static_cast<std::size_t>(comps.count), -1);
+  for (int t = 0; t < tmpl.triangle_count(); ++t)
+    material[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])] =
+        parts.empty() ? comps.label[tmpl.triangles(t, 0)] : parts[static_cast<std::size_t>(t)];
+  const auto rows = [](const Points& p, const std::vector<int>& vertices) {
+    Points out(static_cast<Eigen::Index>(vertices.size()), 3);
+    for (std::size_t i = 0; i < vertices.size(); ++i)
+      out.row(static_cast<Eigen::Index>(i)) = p.row(vertices[i]);
+    return out;
+  };
+  const auto fit = [&](const std::vector<int>& vertices) {
+    const Points from = rows(rest, vertices);
+    std::vector<Rigid> motion;
+    for (const Points& shape : shapes) motion.push_back(fit_rigid(from, rows(shape, vertices)));
+    return motion;
+  };
+  // Every shape moves `vertices` by `motion` within the tolerance (relative to their size).
+  const auto moves_by = [&](const std::vector<int>& vertices, const std::vector<Rigid>& motion) {
+    const Points from = rows(rest, vertices);
+    const double size = std::max(diagonal(from), 1e-12);
+    for (std::size_t k = 0; k < shapes.size(); ++k) {
+      const Points moved = (from * motion[k].R.transpose()).rowwise() + motion[k].t.transpose();
+      if (std::sqrt((moved - rows(shapes[k], vertices)).rowwise().squaredNorm().mean()) >
+          tolerance * size)
+        return false;
+    }
+    return true;
+  };
+  RigidParts out;
+  out.of_vertex.assign(static_cast<std::size_t>(tmpl.vertex_count()), -1);
+  std::vector<std::vector<int>> part_members;
+  std::vector<int> part_material;
+  for (int c = 0; c < comps.count; ++c) {
+    const auto& mem = members[static_cast<std::size_t>(c)];
+    if (mem.size() < 3) continue;
+    std::vector<Rigid> own = fit(mem);
+    if (!moves_by(mem, own)) continue;
+    std::size_t p = 0;
+    while (p < part_members.size() && !(part_material[p] == material[static_cast<std::size_t>(c)] &&
+                                        moves_by(mem, out.motion[p])))
+      ++p;
+    if (p == part_members.size()) {
+      part_members.emplace_back();
+      part_material.push_back(material[static_cast<std::size_t>(c)]);
+      out.motion.push_back(std::move(own));
+    }
+    part_members[p].insert(part_members[p].end(), mem.begin(), mem.end());
+    for (int v : mem) out.of_vertex[static_cast<std::size_t>(v)] = static_cast<int>(p);
+  }
+  for (std::size_t p = 0; p < part_members.size(); ++p) out.motion[p] = fit(part_members[p]);
+  return out;
 }
 
 }  // namespace
@@ -181,7 +251,6 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     if (comps.label[static_cast<std::size_t>(v)] >= 0)
       members[static_cast<std::size_t>(comps.label[static_cast<std::size_t>(v)])].push_back(v);
   }
-  const double scale = diagonal(tgt_rest) / diagonal(src_rest);
   int largest = 0;
   for (int c = 1; c < comps.count; ++c) {
     if (members[static_cast<std::size_t>(c)].size() >
@@ -197,6 +266,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     Eigen::RowVector3d src_pivot;
   };
   std::vector<Floating> floating;
+  std::optional<RigidParts> rigid;
+  if (!same_topology) rigid = rigid_parts(tmpl, src_rest, src_shape, options.rigid_tolerance);
   result.components.resize(static_cast<std::size_t>(comps.count));
   for (int c = 0; c < comps.count; ++c) {
     const auto& mem = members[static_cast<std::size_t>(c)];
@@ -238,6 +309,29 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       }
       fl.motion.push_back(fit_rigid(from, to));
       if (fl.motion.back().rms > options.rigid_tolerance * size) fl.rigid = false;
+    }
+    // Another topology's teeth sit partly on the template's gums and lips, so the points they map
+    // to do not move rigidly. If at least a third of its vertices map onto the template's rigid
+    // parts, the component moves with the one that most of them map onto.
+    if (!fl.rigid && rigid) {
+      std::map<int, int> votes;
+      for (int v : mem) {
+        const SurfacePoint& sp = corr.vertex_map[static_cast<std::size_t>(v)];
+        Eigen::Index heaviest = 0;
+        sp.w.maxCoeff(&heaviest);
+        if (const int p = rigid->of_vertex[static_cast<std::size_t>(sp.v[heaviest])]; p >= 0)
+          ++votes[p];
+      }
+      int landed = 0;
+      auto best_part = votes.end();
+      for (auto it = votes.begin(); it != votes.end(); ++it) {
+        landed += it->second;
+        if (best_part == votes.end() || it->second > best_part->second) best_part = it;
+      }
+      if (3 * landed >= static_cast<int>(mem.size())) {
+        fl.rigid = true;
+        fl.motion = rigid->motion[static_cast<std::size_t>(best_part->first)];
+      }
     }
     // The anchor: the member closest to the pivot.
     fl.anchor = mem[0];
@@ -323,24 +417,69 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
           corr.scale * (at(src_shape[k], sp) - at(src_rest, sp)) * corr.rotation.transpose();
     }
   });
-  // The contacts' reference: the copy, smoothed where it crosses itself and the template does not
-  // (a target's fuller lips and lids closed as far as the template's; a mouth corner that the
+  // Placed vertices (still, or moved rigidly with their part) have their places; the copy takes
+  // them too, so the edges and contacts at them measure from where they are.
+  std::vector<Points> prescribed(n_shapes);
+  for (std::size_t k = 0; k < n_shapes; ++k) {
+    Points& P = prescribed[k];
+    P.resize(static_cast<Eigen::Index>(dirichlet.size()), 3);
+    for (std::size_t i = 0; i < dirichlet.size(); ++i) {
+      const int v = dirichlet[i];
+      const int f = owner[static_cast<std::size_t>(v)];
+      if (f < 0) {
+        P.row(static_cast<Eigen::Index>(i)) = tgt_rest.row(v);
+        continue;
+      }
+      // The template component's rigid motion, applied about the target component's own pivot
+      // (in the target's frame and units: the correspondence's similarity).
+      const Floating& fl = floating[static_cast<std::size_t>(f)];
+      const Rigid& m = fl.motion[k];
+      const Eigen::Matrix3d turn = corr.rotation * m.R * corr.rotation.transpose();
+      const Eigen::RowVector3d pivot_shift =
+          (m.R * fl.src_pivot.transpose() + m.t).transpose() - fl.src_pivot;
+      P.row(static_cast<Eigen::Index>(i)) = (tgt_rest.row(v) - fl.pivot) * turn.transpose() +
+                                            fl.pivot +
+                                            corr.scale * pivot_shift * corr.rotation.transpose();
+    }
+    for (std::size_t i = 0; i < dirichlet.size(); ++i)
+      copied[k].row(dirichlet[i]) = P.row(static_cast<Eigen::Index>(i));
+  }
+  // The contacts' reference: the copy, moved out of the rigidly moved parts where it crosses them
+  // and smoothed where it crosses itself, where the template does not (a target's fuller lips and
+  // lids closed as far as the template's; lips that lie on the teeth; a mouth corner that the
   // correspondence splits between the lips). The edges keep the copy: they close the lids, the
   // contacts keep them from crossing.
   result.quality.resize(n_shapes);
   std::vector<Points> reference;
   std::optional<ContactGuard> guard;
+  std::optional<ReferenceCrossings> template_sites;
+  // Does the template's shape k cross where built triangles a and b sit? Asked again and again
+  // for the same pairs while the reference is cleared and the contacts are solved: kept per
+  // shape (each shape is one task).
+  std::vector<std::unordered_map<std::uint64_t, bool>> template_answers(n_shapes);
+  const auto template_cross = [&](std::size_t k, int a, int b) {
+    const auto key = (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
+    const auto [it, fresh] = template_answers[k].try_emplace(key, false);
+    if (fresh) it->second = template_sites->crosses_at(src_shape[k], a, b);
+    return it->second;
+  };
   if (options.contacts.enabled) {
+    template_sites.emplace(tmpl, corr.map, 3);
     report(progress, "contacts", 0.0);
     t0 = Clock::now();
-    guard.emplace(tgt_rest, tgt_faces, comps.label, options.contacts.margin);
+    std::vector<char> held(static_cast<std::size_t>(nv), 0);  // moved rigidly with their part
+    for (int v = 0; v < nv; ++v)
+      held[static_cast<std::size_t>(v)] =
+          owner[static_cast<std::size_t>(v)] >= 0 &&
+          floating[static_cast<std::size_t>(owner[static_cast<std::size_t>(v)])].rigid;
+    guard.emplace(tgt_rest, tgt_faces, comps.label, held, options.contacts.margin,
+                  options.contacts.part_margin);
     result.watched_pairs = guard->watched();
-    const ReferenceCrossings template_sites(tmpl, corr.map, 3);
     reference = copied;
     parallel_for(n_shapes, [&](std::size_t k) {
-      const auto template_crosses = [&](int a, int b) {
-        return template_sites.crosses_at(src_shape[k], a, b);
-      };
+      const auto template_crosses = [&](int a, int b) { return template_cross(k, a, b); };
+      std::tie(result.quality[k].part_crossings, result.quality[k].part_crossings_left) =
+          guard->clear_parts(reference[k], moves[k], template_crosses);
       std::tie(result.quality[k].copy_crossings, result.quality[k].copy_crossings_left) =
           guard->untangle(reference[k], moves[k], template_crosses);
     });
@@ -360,28 +499,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       E.row(static_cast<Eigen::Index>(i)) = copied[k].row(ve.a) - copied[k].row(ve.b);
     }
   });
-  std::vector<Points> prescribed(n_shapes);
   std::vector<const Gradients*> src_ptrs(n_shapes);
-  for (std::size_t k = 0; k < n_shapes; ++k) {
-    src_ptrs[k] = &grads[k];
-    Points& P = prescribed[k];
-    P.resize(static_cast<Eigen::Index>(dirichlet.size()), 3);
-    for (std::size_t i = 0; i < dirichlet.size(); ++i) {
-      const int v = dirichlet[i];
-      const int f = owner[static_cast<std::size_t>(v)];
-      if (f < 0) {
-        P.row(static_cast<Eigen::Index>(i)) = tgt_rest.row(v);
-        continue;
-      }
-      // The template component's rigid motion, applied about the target component's own pivot.
-      const Floating& fl = floating[static_cast<std::size_t>(f)];
-      const Rigid& m = fl.motion[k];
-      const Eigen::RowVector3d pivot_shift =
-          (m.R * fl.src_pivot.transpose() + m.t).transpose() - fl.src_pivot;
-      P.row(static_cast<Eigen::Index>(i)) =
-          (tgt_rest.row(v) - fl.pivot) * m.R.transpose() + fl.pivot + scale * pivot_shift;
-    }
-  }
+  for (std::size_t k = 0; k < n_shapes; ++k) src_ptrs[k] = &grads[k];
   // Solve in blocks so the right-hand sides stay small; report progress per block.
   std::vector<Points> solved(n_shapes);
   const std::size_t block = 20;
@@ -414,31 +533,26 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     t0 = Clock::now();
     parallel_for(n_shapes, [&](std::size_t k) {
       const Points& ref = reference[k];
-      auto crossing = guard->new_crossings(solved[k], ref, moves[k]);
+      const auto template_crosses = [&](int a, int b) { return template_cross(k, a, b); };
+      auto crossing = guard->new_crossings(solved[k], ref, moves[k], template_crosses);
       ShapeQuality& q = result.quality[k];
       q.crossings = static_cast<int>(crossing.size());
       if (crossing.empty()) return;
       std::vector<char> held(static_cast<std::size_t>(nv));
       for (int v = 0; v < nv; ++v) held[static_cast<std::size_t>(v)] = is_still(k, v);
       const Points transferred = solved[k];
-      std::vector<Contact> contacts;
+      GuardContacts contacts;
       double weight = options.contacts.weight;
       for (int round = 0; round < options.contacts.rounds && !crossing.empty(); ++round) {
-        guard->add_contacts(crossing, contacts);
-        // Each contact keeps the reference's offset between its vertex and its point.
-        Points targets(static_cast<Eigen::Index>(contacts.size()), 3);
-        for (std::size_t i = 0; i < contacts.size(); ++i) {
-          const Contact& c = contacts[i];
-          targets.row(static_cast<Eigen::Index>(i)) = ref.row(c.a) - c.w[0] * ref.row(c.b[0]) -
-                                                      c.w[1] * ref.row(c.b[1]) -
-                                                      c.w[2] * ref.row(c.b[2]);
-        }
-        solved[k] = transfer.solve_with_contacts(transferred, held, contacts, targets, weight);
-        crossing = guard->new_crossings(solved[k], ref, moves[k]);
+        guard->add_contacts(crossing, ref, contacts);
+        solved[k] =
+            transfer.solve_with_contacts(transferred, held, contacts.contacts,
+                                         guard->targets(contacts, ref, transferred), weight);
+        crossing = guard->new_crossings(solved[k], ref, moves[k], template_crosses);
         weight *= 10;
       }
       q.crossings_left = static_cast<int>(crossing.size());
-      q.contacts = static_cast<int>(contacts.size());
+      q.contacts = static_cast<int>(contacts.contacts.size());
     });
     result.timings.contacts += seconds_since(t0);
   }
@@ -514,6 +628,7 @@ BuildOptions load_build_options() {
   const auto& contacts = j.at("contacts");
   get(contacts, "enabled", o.contacts.enabled, "contacts.");
   get(contacts, "margin", o.contacts.margin, "contacts.");
+  get(contacts, "part_margin", o.contacts.part_margin, "contacts.");
   get(contacts, "weight", o.contacts.weight, "contacts.");
   get(contacts, "rounds", o.contacts.rounds, "contacts.");
   const auto& reg = j.at("registration");
@@ -539,10 +654,13 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                         {"candidate_pairs", r.ve_stats.candidate_pairs},
                         {"qualifying_pairs", r.ve_stats.qualifying_pairs},
                         {"lambda", options.lambda}};
-  int copy_crossings = 0, copy_left = 0, crossings = 0, left = 0, contacts = 0;
+  int copy_crossings = 0, copy_left = 0, part_crossings = 0, part_left = 0, crossings = 0, left = 0,
+      contacts = 0;
   for (const auto& q : r.quality) {
     copy_crossings += q.copy_crossings;
     copy_left += q.copy_crossings_left;
+    part_crossings += q.part_crossings;
+    part_left += q.part_crossings_left;
     crossings += q.crossings;
     left += q.crossings_left;
     contacts += q.contacts;
@@ -551,6 +669,8 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                    {"watched_pairs", r.watched_pairs},
                    {"copy_crossings", copy_crossings},
                    {"copy_crossings_left", copy_left},
+                   {"part_crossings", part_crossings},
+                   {"part_crossings_left", part_left},
                    {"crossings", crossings},
                    {"crossings_left", left},
                    {"contacts", contacts}};
@@ -574,6 +694,8 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                            {"min_gap", q.min_gap},
                            {"copy_crossings", q.copy_crossings},
                            {"copy_crossings_left", q.copy_crossings_left},
+                           {"part_crossings", q.part_crossings},
+                           {"part_crossings_left", q.part_crossings_left},
                            {"crossings", q.crossings},
                            {"crossings_left", q.crossings_left},
                            {"contacts", q.contacts}});

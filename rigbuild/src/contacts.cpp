@@ -8,6 +8,7 @@
 
 #include "facecast/anim/intersections.hpp"
 #include "geometry.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -34,19 +35,82 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
   return best;
 }
 
+// An orthonormal frame of the triangle with corners t at positions p (columns: the first edge,
+// in the plane, the normal).
+Eigen::Matrix3d frame_of(const Points& p, const std::array<int, 3>& t) {
+  const Eigen::Vector3d p0 = p.row(t[0]).transpose();
+  const Eigen::Vector3d e1 = (p.row(t[1]).transpose() - p0).normalized();
+  const Eigen::Vector3d n = e1.cross(p.row(t[2]).transpose() - p0).normalized();
+  Eigen::Matrix3d m;
+  m << e1, n.cross(e1), n;
+  return m;
+}
+
 }  // namespace
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
-                           const std::vector<int>& component, double margin)
-    : rest_(target_rest), faces_(target_faces), graph_(target_rest, target_faces) {
+                           const std::vector<int>& component, const std::vector<char>& held,
+                           double margin, double part_margin)
+    : rest_(target_rest),
+      faces_(target_faces),
+      component_(component),
+      graph_(target_rest, target_faces) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
+  if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
+  const auto held_corners = [&](int t) {
+    return held[static_cast<std::size_t>(target_faces(t, 0))] +
+           held[static_cast<std::size_t>(target_faces(t, 1))] +
+           held[static_cast<std::size_t>(target_faces(t, 2))];
+  };
+  // Candidates by their boxes, then the exact tests on all cores.
+  const auto keep = [&](std::vector<std::pair<int, int>> candidates, auto&& test) {
+    std::vector<char> kept(candidates.size());
+    parallel_for(candidates.size(), [&](std::size_t i) { kept[i] = test(candidates[i]); });
+    std::vector<std::pair<int, int>> out;
+    for (std::size_t i = 0; i < candidates.size(); ++i)
+      if (kept[i]) out.push_back(candidates[i]);
+    return out;
+  };
   const anim::Positions p = target_rest.cast<float>();
-  for (const auto& [a, b] : anim::near_triangle_pairs(p, target_faces, margin)) {
-    if (component[static_cast<std::size_t>(target_faces(a, 0))] !=
-        component[static_cast<std::size_t>(target_faces(b, 0))])
-      continue;
-    if (corner_distance(target_rest, target_faces, a, b) > margin) continue;
-    if (!cross(target_rest, target_faces, a, b)) watched_.emplace_back(a, b);  // not the neutral's
+  watched_ = keep(anim::near_triangle_pairs(p, target_faces, margin), [&](auto pair) {
+    const auto [a, b] = pair;
+    return part_of(a) == part_of(b) && corner_distance(target_rest, target_faces, a, b) <= margin &&
+           !cross(target_rest, target_faces, a, b);  // not the neutral's own
+  });
+  // A placed triangle against a free one of another part, in that order.
+  std::vector<char> placed(static_cast<std::size_t>(target_faces.rows()), 0);
+  for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
+    placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
+  auto candidates = anim::near_triangle_pairs(p, target_faces, part_margin, placed);
+  for (auto& [a, b] : candidates)
+    if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
+  part_pairs_ = keep(std::move(candidates), [&](auto pair) {
+    const auto [a, b] = pair;
+    return held_corners(b) == 0 && part_of(a) != part_of(b) &&
+           corner_distance(target_rest, target_faces, a, b) <= part_margin &&
+           !cross(target_rest, target_faces, a, b);
+  });
+  // The placed parts' vertices, and which parts are round: the distances of their vertices from
+  // their centre vary by less than 15 % of the mean (one standard deviation).
+  for (const auto& pair : part_pairs_) {
+    const auto c = static_cast<std::size_t>(part_of(pair.first));
+    if (c >= members_.size()) members_.resize(c + 1);
+    if (!members_[c].empty()) continue;
+    for (int v = 0; v < target_rest.rows(); ++v)
+      if (component[static_cast<std::size_t>(v)] == static_cast<int>(c)) members_[c].push_back(v);
+  }
+  round_.assign(members_.size(), 0);
+  for (std::size_t c = 0; c < members_.size(); ++c) {
+    if (members_[c].empty()) continue;
+    const Eigen::RowVector3d centre = centre_of(target_rest, static_cast<int>(c));
+    double sum = 0, sum2 = 0;
+    for (int v : members_[c]) {
+      const double r = (target_rest.row(v) - centre).norm();
+      sum += r;
+      sum2 += r * r;
+    }
+    const double n = static_cast<double>(members_[c].size()), mean = sum / n;
+    round_[c] = sum2 / n - mean * mean < 0.15 * 0.15 * mean * mean;
   }
   // Per vertex, the watched pairs with a triangle at it (compressed rows).
   pair_start_.assign(static_cast<std::size_t>(target_rest.rows()) + 1, 0);
@@ -65,45 +129,170 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   });
 }
 
+int ContactGuard::part_of(int t) const {
+  return component_[static_cast<std::size_t>(faces_(t, 0))];
+}
+
+Eigen::RowVector3d ContactGuard::centre_of(const Points& p, int part) const {
+  Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+  for (int v : members_[static_cast<std::size_t>(part)]) sum += p.row(v);
+  return sum / static_cast<double>(members_[static_cast<std::size_t>(part)].size());
+}
+
+Eigen::RowVector3d ContactGuard::carried(const Points& p, int vertex,
+                                         const std::array<int, 3>& t) const {
+  const Eigen::Vector3d w =
+      closest_on_triangle(rest_.row(vertex).transpose(), rest_.row(t[0]).transpose(),
+                          rest_.row(t[1]).transpose(), rest_.row(t[2]).transpose());
+  Eigen::RowVector3d on_rest = Eigen::RowVector3d::Zero(), on_now = on_rest;
+  for (std::size_t j = 0; j < 3; ++j) {
+    on_rest += w[static_cast<Eigen::Index>(j)] * rest_.row(t[j]);
+    on_now += w[static_cast<Eigen::Index>(j)] * p.row(t[j]);
+  }
+  const Eigen::Matrix3d turn = frame_of(p, t) * frame_of(rest_, t).transpose();
+  return on_now + (rest_.row(vertex) - on_rest) * turn.transpose();
+}
+
 bool ContactGuard::moves_at(const std::vector<char>& moved, int t) const {
   return moved[static_cast<std::size_t>(faces_(t, 0))] ||
          moved[static_cast<std::size_t>(faces_(t, 1))] ||
          moved[static_cast<std::size_t>(faces_(t, 2))];
 }
 
-std::vector<std::pair<int, int>> ContactGuard::new_crossings(const Points& shape,
-                                                             const Points& reference,
-                                                             const std::vector<char>& moved) const {
+std::vector<std::pair<int, int>> ContactGuard::new_crossings(
+    const Points& shape, const Points& reference, const std::vector<char>& moved,
+    const std::function<bool(int, int)>& template_crosses) const {
   std::vector<std::pair<int, int>> out;
-  for (const auto& [a, b] : watched_) {
-    if ((moves_at(moved, a) || moves_at(moved, b)) && cross(shape, faces_, a, b) &&
-        !cross(reference, faces_, a, b))
-      out.emplace_back(a, b);
-  }
+  for (const auto& [a, b] : watched_)
+    if (moving_cross(shape, moved, a, b) && !cross(reference, faces_, a, b)) out.emplace_back(a, b);
+  for (const auto& [a, b] : part_pairs_)
+    if (moving_cross(shape, moved, a, b) && !template_crosses(a, b)) out.emplace_back(a, b);
   return out;
 }
 
+bool ContactGuard::moving_cross(const Points& shape, const std::vector<char>& moved, int a,
+                                int b) const {
+  return (moves_at(moved, a) || moves_at(moved, b)) && cross(shape, faces_, a, b);
+}
+
 void ContactGuard::add_contacts(const std::vector<std::pair<int, int>>& crossings,
-                                std::vector<Contact>& contacts) const {
-  const auto add = [&](int vertex, int triangle) {
+                                const Points& reference, GuardContacts& out) const {
+  const auto add = [&](int vertex, int triangle, bool turns) {
     Contact c;
     c.a = vertex;
     for (int i = 0; i < 3; ++i) c.b[static_cast<std::size_t>(i)] = faces_(triangle, i);
-    if (std::any_of(contacts.begin(), contacts.end(),
+    if (std::any_of(out.contacts.begin(), out.contacts.end(),
                     [&](const Contact& x) { return x.a == c.a && x.b == c.b; }))
       return;
     const Eigen::Vector3d w =
         closest_on_triangle(rest_.row(vertex).transpose(), rest_.row(c.b[0]).transpose(),
                             rest_.row(c.b[1]).transpose(), rest_.row(c.b[2]).transpose());
     for (int i = 0; i < 3; ++i) c.w[static_cast<std::size_t>(i)] = w[i];
-    contacts.push_back(c);
+    out.contacts.push_back(c);
+    out.turns.push_back(turns);
   };
   for (const auto& [a, b] : crossings) {
+    if (part_of(a) != part_of(b)) {  // (placed, free): the free corners on the placed triangle
+      const bool turns = cross(reference, faces_, a, b);
+      for (int c = 0; c < 3; ++c) add(faces_(b, c), a, turns);
+      continue;
+    }
     for (int c = 0; c < 3; ++c) {
-      add(faces_(a, c), b);
-      add(faces_(b, c), a);
+      add(faces_(a, c), b, false);
+      add(faces_(b, c), a, false);
     }
   }
+}
+
+Points ContactGuard::targets(const GuardContacts& g, const Points& reference,
+                             const Points& shape) const {
+  Points out(static_cast<Eigen::Index>(g.contacts.size()), 3);
+  for (std::size_t i = 0; i < g.contacts.size(); ++i) {
+    const Contact& c = g.contacts[i];
+    const Points& p = g.turns[i] ? shape : reference;
+    Eigen::RowVector3d offset = g.turns[i] ? carried(shape, c.a, c.b) : reference.row(c.a);
+    for (int j = 0; j < 3; ++j) offset -= c.w[static_cast<std::size_t>(j)] * p.row(c.b[j]);
+    out.row(static_cast<Eigen::Index>(i)) = offset;
+  }
+  return out;
+}
+
+std::pair<int, int> ContactGuard::clear_parts(
+    Points& reference, const std::vector<char>& moved,
+    const std::function<bool(int, int)>& template_crosses) const {
+  const auto crossing = [&]() {
+    std::vector<std::pair<int, int>> out;
+    for (const auto& [h, f] : part_pairs_)
+      if (moving_cross(reference, moved, h, f) && !template_crosses(h, f)) out.emplace_back(h, f);
+    return out;
+  };
+  auto pairs = crossing();
+  const int found = static_cast<int>(pairs.size());
+  std::vector<char> in_region(static_cast<std::size_t>(rest_.rows()), 0);
+  std::vector<int> cleared;  // vertices moved out of a part so far
+  std::vector<Eigen::RowVector3d> sum(static_cast<std::size_t>(rest_.rows()));
+  std::vector<int> count(static_cast<std::size_t>(rest_.rows()), 0);
+  for (int step = 0; step < 5 && !pairs.empty(); ++step) {
+    // Each free corner a quarter of the way more towards where it should be (no further than it
+    // must), averaged over its crossing pairs.
+    const double toward = std::min(1.0, 0.25 * (step + 1));
+    std::vector<int> now;
+    for (const auto& [h, f] : pairs) {
+      const int part = part_of(h);
+      const Eigen::RowVector3d centre = round_[static_cast<std::size_t>(part)]
+                                            ? centre_of(reference, part)
+                                            : Eigen::RowVector3d{};
+      for (int c = 0; c < 3; ++c) {
+        const int v = faces_(f, c);
+        Eigen::RowVector3d to = carried(reference, v, {faces_(h, 0), faces_(h, 1), faces_(h, 2)});
+        if (round_[static_cast<std::size_t>(part)]) {  // radially, to the neutral's distance
+          const Eigen::RowVector3d out = reference.row(v) - centre;
+          to = centre + std::max(out.norm(), (to - centre).norm()) * out.normalized();
+        }
+        to = reference.row(v) + toward * (to - reference.row(v));
+        if (count[static_cast<std::size_t>(v)]++ == 0) {
+          now.push_back(v);
+          sum[static_cast<std::size_t>(v)].setZero();
+        }
+        sum[static_cast<std::size_t>(v)] += to;
+      }
+    }
+    for (int v : now) {
+      reference.row(v) = sum[static_cast<std::size_t>(v)] / count[static_cast<std::size_t>(v)];
+      count[static_cast<std::size_t>(v)] = 0;
+      if (in_region[static_cast<std::size_t>(v)] != 2) {
+        in_region[static_cast<std::size_t>(v)] = 2;
+        cleared.push_back(v);
+      }
+    }
+    // Two rings around follow smoothly: sweeps of the graph Laplacian of the displacement with
+    // the cleared vertices held.
+    std::vector<int> region, ring = cleared;
+    for (int r = 0; r < 2; ++r) {
+      std::vector<int> next;
+      for (int v : ring)
+        for (const auto& [u, w] : graph_.neighbours(v))
+          if (!in_region[static_cast<std::size_t>(u)] && moved[static_cast<std::size_t>(u)]) {
+            in_region[static_cast<std::size_t>(u)] = 1;
+            next.push_back(u);
+          }
+      region.insert(region.end(), next.begin(), next.end());
+      ring = std::move(next);
+    }
+    Points d = reference - rest_;
+    for (int sweep = 0; sweep < 10; ++sweep)
+      for (int v : region) {
+        Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
+        for (const auto& [u, w] : graph_.neighbours(v)) acc += d.row(u);
+        d.row(v) = acc / static_cast<double>(graph_.degree(v));
+      }
+    for (int v : region) {
+      reference.row(v) = rest_.row(v) + d.row(v);
+      in_region[static_cast<std::size_t>(v)] = 0;
+    }
+    pairs = crossing();
+  }
+  return {found, static_cast<int>(pairs.size())};
 }
 
 std::pair<int, int> ContactGuard::untangle(

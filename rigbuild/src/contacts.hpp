@@ -18,6 +18,19 @@
 // reference then gets contacts: each corner of one triangle with its closest point on the other,
 // kept at the reference's offset. The shape is solved again around them
 // (Transfer::solve_with_contacts), up to a few rounds.
+//
+// Parts the build moves rigidly (teeth, eyes) do not follow the copy: the guard also watches
+// pairs of a placed triangle (all corners on such a part) and a free triangle of another part --
+// lips against teeth, lids against eyes -- within a wider margin, and counts a crossing there as
+// new where the template does not cross at the corresponding triangles. The copy crosses such
+// parts where the target's skin sits closer to them than the template's (the MakeHuman lips lie
+// on its teeth): clear_parts() moves the copy's crossing skin out first -- over a round part (an
+// eyeball) radially, back to the distance from its centre it had in the neutral, so a lid still
+// slides over it; with any other part (a row of teeth) as it sat on it in the neutral, turned as
+// the part turns -- and smooths two rings around. Contacts at a part then keep the reference's
+// offsets like the others, or the neutral's turned with the part where the reference still
+// crosses there.
+#include <array>
 #include <functional>
 #include <utility>
 #include <vector>
@@ -27,23 +40,41 @@
 
 namespace facecast::rigbuild {
 
+/// The contacts of one shape, with what their offsets follow.
+struct GuardContacts {
+  std::vector<Contact> contacts;
+  /// Per contact: false, it keeps the reference's offset; true (a skin vertex on a placed
+  /// triangle where the reference crosses), the neutral's, turned as the triangle turns.
+  std::vector<char> turns;
+};
+
 class ContactGuard {
  public:
   /// Watches the pairs of triangles of one connected component (`component`: per target vertex)
   /// that come within `margin` of each other in the neutral and do not cross there (margin <= 0:
-  /// half the median edge length).
+  /// half the median edge length), and the pairs of a triangle with all corners in `held` and a
+  /// triangle of another component with none, within `part_margin` (<= 0: two median edges).
+  /// Keeps references to the positions, faces and components.
   ContactGuard(const Points& target_rest, const Faces& target_faces,
-               const std::vector<int>& component, double margin);
+               const std::vector<int>& component, const std::vector<char>& held, double margin,
+               double part_margin);
 
-  /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions) and
-  /// not in `reference`.
-  std::vector<std::pair<int, int>> new_crossings(const Points& shape, const Points& reference,
-                                                 const std::vector<char>& moved) const;
+  /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions): pairs
+  /// of one part where `reference` does not cross, pairs of parts where the template does not
+  /// (`template_crosses(a, b)`).
+  std::vector<std::pair<int, int>> new_crossings(
+      const Points& shape, const Points& reference, const std::vector<char>& moved,
+      const std::function<bool(int, int)>& template_crosses) const;
 
   /// Contacts that hold crossing triangles apart: each corner of one triangle with its closest
-  /// point on the other in the neutral. Appended to `contacts` unless already there.
-  void add_contacts(const std::vector<std::pair<int, int>>& crossings,
-                    std::vector<Contact>& contacts) const;
+  /// point on the other in the neutral (of a pair of parts, the free triangle's corners on the
+  /// placed one). Appended unless already there.
+  void add_contacts(const std::vector<std::pair<int, int>>& crossings, const Points& reference,
+                    GuardContacts& out) const;
+
+  /// What each contact keeps between its vertex and its point: the reference's offset, or the
+  /// neutral's turned as the triangle turns in `shape`.
+  Points targets(const GuardContacts& c, const Points& reference, const Points& shape) const;
 
   /// Where `reference` (the copied motion of one shape) crosses itself at watched pairs with a
   /// moved vertex and the template does not (`template_crosses(a, b)`), smooths the displacement
@@ -52,15 +83,31 @@ class ContactGuard {
   std::pair<int, int> untangle(Points& reference, const std::vector<char>& moved,
                                const std::function<bool(int, int)>& template_crosses) const;
 
-  std::size_t watched() const { return watched_.size(); }
+  /// Where `reference` crosses a placed part and the template does not (`template_crosses`),
+  /// moves the free triangle's vertices out of the part (see above) and smooths two rings around
+  /// them, at most 5 times. Returns the number of such pairs before and after.
+  std::pair<int, int> clear_parts(Points& reference, const std::vector<char>& moved,
+                                  const std::function<bool(int, int)>& template_crosses) const;
+
+  std::size_t watched() const { return watched_.size() + part_pairs_.size(); }
 
  private:
   bool moves_at(const std::vector<char>& moved, int triangle) const;  // a corner in `moved`
+  bool moving_cross(const Points& shape, const std::vector<char>& moved, int a, int b) const;
+  int part_of(int triangle) const;
+  Eigen::RowVector3d centre_of(const Points& p, int part) const;
+  // Where `vertex` is when it moves with the placed triangle with corners t (at `p`) as it sat
+  // on it in the neutral.
+  Eigen::RowVector3d carried(const Points& p, int vertex, const std::array<int, 3>& t) const;
   const Points& rest_;
   const Faces& faces_;
+  const std::vector<int>& component_;
   MeshGraph graph_;
-  std::vector<std::pair<int, int>> watched_;
-  std::vector<int> pair_start_, pair_index_;  // per vertex, the watched pairs touching it
+  std::vector<std::pair<int, int>> watched_;     // of one part
+  std::vector<std::pair<int, int>> part_pairs_;  // (placed triangle, free triangle)
+  std::vector<std::vector<int>> members_;        // per component with placed triangles
+  std::vector<char> round_;                      // per component: within 15 % of one radius
+  std::vector<int> pair_start_, pair_index_;     // per vertex, the watched pairs touching it
 };
 
 }  // namespace facecast::rigbuild

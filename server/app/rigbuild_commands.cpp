@@ -255,6 +255,10 @@ void add_rig_build_commands(CLI::App& rig) {
   b->add_option("--contact-margin", a->opt.contacts.margin,
                 "Watch triangle pairs within this distance (0 = half the median edge)")
       ->capture_default_str();
+  b->add_option("--contact-part-margin", a->opt.contacts.part_margin,
+                "Watch skin near rigidly moved parts (teeth, eyes) within this distance "
+                "(0 = two median edges)")
+      ->capture_default_str();
   b->add_option("--solver", a->solver, "cholmod | eigen")
       ->capture_default_str()
       ->check(CLI::IsMember({"cholmod", "eigen"}));

@@ -202,6 +202,7 @@ TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
   CHECK(file.registration.max_distance == code.registration.max_distance);
   CHECK(file.contacts.enabled == code.contacts.enabled);
   CHECK(file.contacts.margin == code.contacts.margin);
+  CHECK(file.contacts.part_margin == code.contacts.part_margin);
   CHECK(file.contacts.weight == code.contacts.weight);
   CHECK(file.contacts.rounds == code.contacts.rounds);
 }
@@ -311,4 +312,43 @@ TEST_CASE("where the copied motion presses a thinner gap shut, contacts keep the
   CHECK(crossings(on) == 0);
   // The dent still comes down towards the bottom layer.
   CHECK(on.rig.shapes[0].dense(target.vertex_count())(5 * n + 5, 2) < -0.05f);
+}
+
+TEST_CASE("a layer pressed onto a part that moves rigidly is kept off it", "[rigbuild][contacts]") {
+  // The template's bottom layer is a rigid part (a row of teeth): the shape lifts it 0.05 and
+  // brings a dent of the top layer (a lip) 0.4 down towards it. The target's layers are 0.2
+  // apart, so the template's motion copied onto the target passes through the part.
+  const int n = 10;
+  const auto separate_layers = [&](float gap) {  // without the strip that joins them
+    anim::Rig r = double_layer(n, gap);
+    const Eigen::Index kept = 4 * (n - 1) * (n - 1);
+    r.triangles.conservativeResize(kept, 3);
+    r.triangle_material.resize(static_cast<std::size_t>(kept));
+    return r;
+  };
+  anim::Rig tmpl = separate_layers(0.5f);
+  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  for (int v = n * n; v < 2 * n * n; ++v) d(v, 2) = 0.05f;
+  for (int v : {5 * n + 5, 5 * n + 6, 6 * n + 5, 6 * n + 6}) d(v, 2) = -0.4f;
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("press", d));
+  const anim::Rig target = separate_layers(0.2f);
+  const auto crossings = [](const BuildResult& r) {
+    const anim::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
+    return anim::find_intersections(p, r.rig.triangles).count;
+  };
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto on = build_rig(tmpl, target, opt);
+  opt.contacts.enabled = false;
+  const auto off = build_rig(tmpl, target, opt);
+  REQUIRE(on.components.size() == 2);
+  CHECK(on.components[1].placement == "rigid");
+  CHECK(crossings(off) > 0);
+  CHECK(on.quality[0].part_crossings > 0);  // the copy crosses the part: it was moved out
+  CHECK(on.quality[0].part_crossings_left == 0);
+  CHECK(crossings(on) == 0);
+  // The part moved as the template's did; the dent still comes down towards it.
+  const anim::Positions moved = on.rig.shapes[0].dense(target.vertex_count());
+  CHECK(moved(n * n + 3, 2) == Approx(0.05f));
+  CHECK(moved(5 * n + 5, 2) < -0.02f);
 }

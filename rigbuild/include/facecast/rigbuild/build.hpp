@@ -36,9 +36,10 @@ enum class VirtualEdgeMode { kAuto, kOff, kFile };
 /// around them (the factor is not touched).
 struct ContactOptions {
   bool enabled = true;
-  double margin = 0.0;    // watch pairs within this distance; <= 0: half the median edge length
-  double weight = 100.0;  // weight of a contact (the units of lambda), x10 each next round
-  int rounds = 3;         // solve again at most this many times per shape
+  double margin = 0.0;       // watch pairs within this distance; <= 0: half the median edge length
+  double part_margin = 0.0;  // ... of a placed part (teeth) and the skin; <= 0: two median edges
+  double weight = 100.0;     // weight of a contact (the units of lambda), x10 each next round
+  int rounds = 3;            // solve again at most this many times per shape
 };
 
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
@@ -82,6 +83,8 @@ struct ShapeQuality {
   double min_gap = 0;           // smallest normalised gap (0 = the two sides meet or cross)
   int copy_crossings = 0;       // watched pairs where the copied motion crosses, not the template
   int copy_crossings_left = 0;  // ... and still crosses after smoothing it there
+  int part_crossings = 0;  // pairs where the copy crosses a rigidly moved part, not the template
+  int part_crossings_left = 0;  // ... and still crosses after moving the copy out of it
   int crossings = 0;            // watched triangle pairs that crossed after the transfer
   int crossings_left = 0;       // ... and still cross after the contact rounds
   int contacts = 0;             // vertex-to-triangle contacts added to hold them apart
