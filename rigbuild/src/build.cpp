@@ -16,6 +16,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/quality.hpp"
+#include "geometry.hpp"
 #include "parallel.hpp"
 
 namespace facecast::rigbuild {
@@ -154,6 +155,67 @@ RigidParts rigid_parts(const anim::Rig& tmpl, const Points& rest, const std::vec
   return out;
 }
 
+// The closest triangles of one component of a mesh: a k-d tree over its vertices, then the
+// triangles at the 8 nearest of them.
+class ComponentSurface {
+ public:
+  ComponentSurface(const Points& p, const Faces& f, const std::vector<int>& label, int component)
+      : p_(p),
+        f_(f),
+        index_(vertices_of(p, label, component)),
+        at_(static_cast<std::size_t>(p.rows())) {
+    for (Eigen::Index t = 0; t < f.rows(); ++t) {
+      if (label[static_cast<std::size_t>(f(t, 0))] != component) continue;
+      for (int c = 0; c < 3; ++c)
+        at_[static_cast<std::size_t>(f(t, c))].push_back(static_cast<int>(t));
+    }
+    std::vector<double> lengths;
+    for (Eigen::Index t = 0; t < f.rows(); ++t)
+      if (label[static_cast<std::size_t>(f(t, 0))] == component)
+        for (int c = 0; c < 3; ++c)
+          lengths.push_back((p.row(f(t, c)) - p.row(f(t, (c + 1) % 3))).norm());
+    std::nth_element(lengths.begin(), lengths.begin() + static_cast<long>(lengths.size() / 2),
+                     lengths.end());
+    median_edge_ = lengths.empty() ? 0.0 : lengths[lengths.size() / 2];
+  }
+  double median_edge() const { return median_edge_; }
+  /// The corners of the closest triangle to q, and the distance.
+  std::pair<std::array<int, 3>, double> closest(const Eigen::RowVector3d& q) const {
+    std::vector<std::uint32_t> idx;
+    std::vector<double> d2;
+    const Eigen::Vector3d x = q.transpose();
+    index_.nearest(x.data(), 8, idx, d2);
+    std::pair<std::array<int, 3>, double> best{{}, std::numeric_limits<double>::infinity()};
+    for (const std::uint32_t i : idx) {
+      for (const int t : at_[static_cast<std::size_t>(vertex_[i])]) {
+        const std::array<int, 3> c{f_(t, 0), f_(t, 1), f_(t, 2)};
+        const Eigen::Vector3d w = closest_on_triangle(
+            x, p_.row(c[0]).transpose(), p_.row(c[1]).transpose(), p_.row(c[2]).transpose());
+        const double d =
+            (w[0] * p_.row(c[0]) + w[1] * p_.row(c[1]) + w[2] * p_.row(c[2]) - q).norm();
+        if (d < best.second) best = {c, d};
+      }
+    }
+    return best;
+  }
+
+ private:
+  Points vertices_of(const Points& p, const std::vector<int>& label, int component) {
+    for (Eigen::Index v = 0; v < p.rows(); ++v)
+      if (label[static_cast<std::size_t>(v)] == component) vertex_.push_back(static_cast<int>(v));
+    Points out(static_cast<Eigen::Index>(vertex_.size()), 3);
+    for (std::size_t i = 0; i < vertex_.size(); ++i)
+      out.row(static_cast<Eigen::Index>(i)) = p.row(vertex_[i]);
+    return out;
+  }
+  const Points& p_;
+  const Faces& f_;
+  std::vector<int> vertex_;  // the component's vertices, in the index's order
+  PointIndex index_;
+  std::vector<std::vector<int>> at_;  // per vertex, the component's triangles at it
+  double median_edge_ = 0;
+};
+
 }  // namespace
 
 BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options,
@@ -264,10 +326,15 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     Eigen::RowVector3d pivot;
     std::vector<Rigid> motion;  // per shape, in template coordinates about the template pivot
     Eigen::RowVector3d src_pivot;
+    std::vector<std::array<int, 3>> carrier;  // attached: per member, the skin triangle under it
   };
   std::vector<Floating> floating;
   std::optional<RigidParts> rigid;
-  if (!same_topology) rigid = rigid_parts(tmpl, src_rest, src_shape, options.rigid_tolerance);
+  std::optional<ComponentSurface> skin;
+  if (!same_topology) {
+    rigid = rigid_parts(tmpl, src_rest, src_shape, options.rigid_tolerance);
+    skin.emplace(tgt_rest, tgt_faces, comps.label, largest);
+  }
   result.components.resize(static_cast<std::size_t>(comps.count));
   for (int c = 0; c < comps.count; ++c) {
     const auto& mem = members[static_cast<std::size_t>(c)];
@@ -343,7 +410,21 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
         fl.anchor = v;
       }
     }
-    info.placement = fl.rigid ? "rigid" : "floating";
+    // Another topology's thin parts that lie on the skin (eyelashes on the lids: most of their
+    // vertices within a median edge of it) are carried by it, each vertex with its closest skin
+    // triangle as it sat on it in the neutral; transferred on their own through the template's
+    // lashes and lids they leave the lids.
+    if (!fl.rigid && skin && c != largest) {
+      std::vector<std::array<int, 3>> carrier;
+      std::size_t on_skin = 0;
+      for (int v : mem) {
+        const auto [t, distance] = skin->closest(tgt_rest.row(v));
+        carrier.push_back(t);
+        on_skin += distance <= skin->median_edge();
+      }
+      if (2 * on_skin >= mem.size()) fl.carrier = std::move(carrier);
+    }
+    info.placement = fl.rigid ? "rigid" : fl.carrier.empty() ? "floating" : "attached";
     floating.push_back(std::move(fl));
   }
 
@@ -363,7 +444,6 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
         owner[static_cast<std::size_t>(v)] = static_cast<int>(f);
     } else {
       owner[static_cast<std::size_t>(fl.anchor)] = static_cast<int>(f);
-      result.components[static_cast<std::size_t>(fl.component)].placement = "floating";
     }
   }
   for (int v = 0; v < nv; ++v) {
@@ -555,6 +635,16 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       q.contacts = static_cast<int>(contacts.contacts.size());
     });
     result.timings.contacts += seconds_since(t0);
+  }
+
+  // Attached parts ride on the skin (after the contacts have placed it).
+  for (const auto& fl : floating) {
+    if (fl.carrier.empty()) continue;
+    const auto& mem = members[static_cast<std::size_t>(fl.component)];
+    parallel_for(n_shapes, [&](std::size_t k) {
+      for (std::size_t i = 0; i < mem.size(); ++i)
+        solved[k].row(mem[i]) = carried(tgt_rest, solved[k], tgt_rest.row(mem[i]), fl.carrier[i]);
+    });
   }
 
   // 10. Deltas.

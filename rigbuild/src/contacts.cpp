@@ -35,17 +35,6 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
   return best;
 }
 
-// An orthonormal frame of the triangle with corners t at positions p (columns: the first edge,
-// in the plane, the normal).
-Eigen::Matrix3d frame_of(const Points& p, const std::array<int, 3>& t) {
-  const Eigen::Vector3d p0 = p.row(t[0]).transpose();
-  const Eigen::Vector3d e1 = (p.row(t[1]).transpose() - p0).normalized();
-  const Eigen::Vector3d n = e1.cross(p.row(t[2]).transpose() - p0).normalized();
-  Eigen::Matrix3d m;
-  m << e1, n.cross(e1), n;
-  return m;
-}
-
 }  // namespace
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
@@ -139,20 +128,6 @@ Eigen::RowVector3d ContactGuard::centre_of(const Points& p, int part) const {
   return sum / static_cast<double>(members_[static_cast<std::size_t>(part)].size());
 }
 
-Eigen::RowVector3d ContactGuard::carried(const Points& p, int vertex,
-                                         const std::array<int, 3>& t) const {
-  const Eigen::Vector3d w =
-      closest_on_triangle(rest_.row(vertex).transpose(), rest_.row(t[0]).transpose(),
-                          rest_.row(t[1]).transpose(), rest_.row(t[2]).transpose());
-  Eigen::RowVector3d on_rest = Eigen::RowVector3d::Zero(), on_now = on_rest;
-  for (std::size_t j = 0; j < 3; ++j) {
-    on_rest += w[static_cast<Eigen::Index>(j)] * rest_.row(t[j]);
-    on_now += w[static_cast<Eigen::Index>(j)] * p.row(t[j]);
-  }
-  const Eigen::Matrix3d turn = frame_of(p, t) * frame_of(rest_, t).transpose();
-  return on_now + (rest_.row(vertex) - on_rest) * turn.transpose();
-}
-
 bool ContactGuard::moves_at(const std::vector<char>& moved, int t) const {
   return moved[static_cast<std::size_t>(faces_(t, 0))] ||
          moved[static_cast<std::size_t>(faces_(t, 1))] ||
@@ -210,7 +185,8 @@ Points ContactGuard::targets(const GuardContacts& g, const Points& reference,
   for (std::size_t i = 0; i < g.contacts.size(); ++i) {
     const Contact& c = g.contacts[i];
     const Points& p = g.turns[i] ? shape : reference;
-    Eigen::RowVector3d offset = g.turns[i] ? carried(shape, c.a, c.b) : reference.row(c.a);
+    Eigen::RowVector3d offset =
+        g.turns[i] ? carried(rest_, shape, rest_.row(c.a), c.b) : reference.row(c.a);
     for (int j = 0; j < 3; ++j) offset -= c.w[static_cast<std::size_t>(j)] * p.row(c.b[j]);
     out.row(static_cast<Eigen::Index>(i)) = offset;
   }
@@ -244,7 +220,8 @@ std::pair<int, int> ContactGuard::clear_parts(
                                             : Eigen::RowVector3d{};
       for (int c = 0; c < 3; ++c) {
         const int v = faces_(f, c);
-        Eigen::RowVector3d to = carried(reference, v, {faces_(h, 0), faces_(h, 1), faces_(h, 2)});
+        Eigen::RowVector3d to =
+            carried(rest_, reference, rest_.row(v), {faces_(h, 0), faces_(h, 1), faces_(h, 2)});
         if (round_[static_cast<std::size_t>(part)]) {  // radially, to the neutral's distance
           const Eigen::RowVector3d out = reference.row(v) - centre;
           to = centre + std::max(out.norm(), (to - centre).norm()) * out.normalized();

@@ -96,9 +96,6 @@ class ContactGuard {
   bool moving_cross(const Points& shape, const std::vector<char>& moved, int a, int b) const;
   int part_of(int triangle) const;
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
-  // Where `vertex` is when it moves with the placed triangle with corners t (at `p`) as it sat
-  // on it in the neutral.
-  Eigen::RowVector3d carried(const Points& p, int vertex, const std::array<int, 3>& t) const;
   const Points& rest_;
   const Faces& faces_;
   const std::vector<int>& component_;

@@ -186,6 +186,38 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   };
   CHECK(moved_in("jawOpen", "helper-upper-teeth") == 0.0f);
   CHECK(moved_in("jawOpen", "helper-lower-teeth") > 0.2f);
+  // The lashes lie on the lids and are carried by them: through eyeBlink each lash vertex moves
+  // as the skin vertex nearest to it does, give or take the turn of the lid.
+  const anim::Positions blink =
+      r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape("eyeBlink_L"))].dense(
+          r.rig.vertex_count());
+  int body = -1;
+  for (int t = 0; t < target.triangle_count() && body < 0; ++t)
+    if (group_of(t) == "body") body = comps.label[static_cast<std::size_t>(target.triangles(t, 0))];
+  double apart = 0, lid = 0;
+  int lashes = 0;
+  for (int v = 0; v < target.vertex_count(); ++v) {
+    const int c = comps.label[static_cast<std::size_t>(v)];
+    bool lash = false;
+    for (int t = 0; t < target.triangle_count() && !lash; ++t)
+      lash = comps.label[static_cast<std::size_t>(target.triangles(t, 0))] == c &&
+             group_of(t).starts_with("helper-l-eyelashes");
+    if (!lash) continue;
+    CHECK(r.components[static_cast<std::size_t>(c)].placement == "attached");
+    int nearest = -1;
+    for (int u = 0; u < target.vertex_count(); ++u)
+      if (comps.label[static_cast<std::size_t>(u)] == body &&
+          (nearest < 0 ||
+           (target.positions.row(u) - target.positions.row(v)).squaredNorm() <
+               (target.positions.row(nearest) - target.positions.row(v)).squaredNorm()))
+        nearest = u;
+    apart += (blink.row(v) - blink.row(nearest)).norm();
+    lid = std::max(lid, static_cast<double>(blink.row(nearest).norm()));
+    ++lashes;
+  }
+  REQUIRE(lashes > 0);
+  WARN("eyeBlink_L: lash vertices move "
+       << apart / lashes << " apart from their nearest skin vertex; the lid moves up to " << lid);
   auto max_move = [&](const char* name) {
     return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
   };

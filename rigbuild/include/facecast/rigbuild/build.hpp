@@ -5,14 +5,18 @@
 //     -> correspondence (identity, or registration + triangle map; see correspondence.hpp)
 //     -> anchoring: vertices that move in no template shape and --fixed vertices stay put; every
 //        separate component is placed: a component that the template moves rigidly (teeth,
-//        eyeballs) gets the template's rigid motion about its own pivot; other separate components
-//        (lashes, tongue) are transferred with one anchor vertex that follows the same rigid fit
+//        eyeballs; for another topology also one whose points lie mostly on one of the template's
+//        rigid parts, e.g. its lower teeth row) gets that rigid motion about its own pivot; other
+//        separate components (lashes, tongue) are transferred with one anchor vertex that follows
+//        the same rigid fit, and for another topology those lying on the skin (lashes) are then
+//        carried by the skin triangles under them
 //     -> virtual edges on the target neutral
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
 //     -> the template's motion copied vertex by vertex (the virtual edges' targets), and the
-//        contacts' reference: that copy smoothed where it crosses itself and the template does not
-//     -> contacts: where a shape crosses itself and the reference does not, vertex-to-triangle
-//        constraints, solved again on a patch (contacts.hpp)
+//        contacts' reference: that copy moved out of the rigid parts and smoothed where it
+//        crosses itself, where the template does not
+//     -> contacts: where a shape crosses itself or a rigid part and the reference does not,
+//        vertex-to-triangle constraints, solved again on a patch (contacts.hpp)
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -64,7 +68,8 @@ struct BuildOptions {
 struct ComponentInfo {
   int vertices = 0;
   // "fixed" (never moves), "anchored" (held by its still vertices), "rigid" (the template part's
-  // rigid motion), "floating" (transferred, one vertex follows the template part's rigid motion)
+  // rigid motion), "floating" (transferred, one vertex follows the template part's rigid motion),
+  // "attached" (another topology's part lying on the skin, carried by the skin triangles under it)
   std::string placement;
 };
 
