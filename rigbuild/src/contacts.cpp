@@ -15,6 +15,13 @@ namespace {
 
 bool cross(const Points& p, const Faces& f, int a, int b) {
   const auto corner = [&](int t, int c) -> Eigen::Vector3d { return p.row(f(t, c)).transpose(); };
+  // Most watched pairs are apart: their boxes do not even overlap.
+  const auto box = [&](int t) {
+    Eigen::AlignedBox3d bounds(corner(t, 0));
+    bounds.extend(corner(t, 1));
+    return bounds.extend(corner(t, 2));
+  };
+  if (!box(a).intersects(box(b))) return false;
   return anim::triangles_intersect(corner(a, 0), corner(a, 1), corner(a, 2), corner(b, 0),
                                    corner(b, 1), corner(b, 2));
 }
@@ -66,7 +73,16 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
     return part_of(a) == part_of(b) && corner_distance(target_rest, target_faces, a, b) <= margin &&
            !cross(target_rest, target_faces, a, b);  // not the neutral's own
   });
-  // A placed triangle against a free one of another part, in that order.
+  // A placed triangle against a free one of the skin (the largest part), in that order.
+  std::vector<int> size_of;
+  for (const int c : component) {
+    if (c < 0) continue;
+    if (static_cast<std::size_t>(c) >= size_of.size())
+      size_of.resize(static_cast<std::size_t>(c) + 1);
+    ++size_of[static_cast<std::size_t>(c)];
+  }
+  const int skin =
+      static_cast<int>(std::max_element(size_of.begin(), size_of.end()) - size_of.begin());
   std::vector<char> placed(static_cast<std::size_t>(target_faces.rows()), 0);
   for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
     placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
@@ -75,7 +91,7 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
     if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
   part_pairs_ = keep(std::move(candidates), [&](auto pair) {
     const auto [a, b] = pair;
-    return held_corners(b) == 0 && part_of(a) != part_of(b) &&
+    return held_corners(b) == 0 && part_of(b) == skin && part_of(a) != skin &&
            corner_distance(target_rest, target_faces, a, b) <= part_margin &&
            !cross(target_rest, target_faces, a, b);
   });

@@ -20,8 +20,8 @@
 // (Transfer::solve_with_contacts), up to a few rounds.
 //
 // Parts the build moves rigidly (teeth, eyes) do not follow the copy: the guard also watches
-// pairs of a placed triangle (all corners on such a part) and a free triangle of another part --
-// lips against teeth, lids against eyes -- within a wider margin, and counts a crossing there as
+// pairs of a placed triangle (all corners on such a part) and a free triangle of the skin (the
+// largest part) -- lips against teeth, lids against eyes -- within a wider margin, and counts a crossing there as
 // new where the template does not cross at the corresponding triangles. The copy crosses such
 // parts where the target's skin sits closer to them than the template's (the MakeHuman lips lie
 // on its teeth): clear_parts() moves the copy's crossing skin out first -- over a round part (an
@@ -53,7 +53,7 @@ class ContactGuard {
   /// Watches the pairs of triangles of one connected component (`component`: per target vertex)
   /// that come within `margin` of each other in the neutral and do not cross there (margin <= 0:
   /// half the median edge length), and the pairs of a triangle with all corners in `held` and a
-  /// triangle of another component with none, within `part_margin` (<= 0: two median edges).
+  /// triangle of the largest component with none, within `part_margin` (<= 0: two median edges).
   /// Keeps references to the positions, faces and components.
   ContactGuard(const Points& target_rest, const Faces& target_faces,
                const std::vector<int>& component, const std::vector<char>& held, double margin,
