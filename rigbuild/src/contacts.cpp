@@ -144,6 +144,16 @@ Eigen::RowVector3d ContactGuard::centre_of(const Points& p, int part) const {
   return sum / static_cast<double>(members_[static_cast<std::size_t>(part)].size());
 }
 
+void ContactGuard::smooth(Points& d, const std::vector<int>& region, int sweeps) const {
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (int v : region) {
+      Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+      for (const auto& [u, w] : graph_.neighbours(v)) sum += d.row(u);
+      d.row(v) = sum / static_cast<double>(graph_.degree(v));
+    }
+  }
+}
+
 bool ContactGuard::moves_at(const std::vector<char>& moved, int t) const {
   return moved[static_cast<std::size_t>(faces_(t, 0))] ||
          moved[static_cast<std::size_t>(faces_(t, 1))] ||
@@ -233,7 +243,7 @@ std::pair<int, int> ContactGuard::clear_parts(
       const int part = part_of(h);
       const Eigen::RowVector3d centre = round_[static_cast<std::size_t>(part)]
                                             ? centre_of(reference, part)
-                                            : Eigen::RowVector3d{};
+                                            : Eigen::RowVector3d::Zero();
       for (int c = 0; c < 3; ++c) {
         const int v = faces_(f, c);
         Eigen::RowVector3d to =
@@ -273,12 +283,7 @@ std::pair<int, int> ContactGuard::clear_parts(
       ring = std::move(next);
     }
     Points d = reference - rest_;
-    for (int sweep = 0; sweep < 10; ++sweep)
-      for (int v : region) {
-        Eigen::RowVector3d acc = Eigen::RowVector3d::Zero();
-        for (const auto& [u, w] : graph_.neighbours(v)) acc += d.row(u);
-        d.row(v) = acc / static_cast<double>(graph_.degree(v));
-      }
+    smooth(d, region, 10);
     for (int v : region) {
       reference.row(v) = rest_.row(v) + d.row(v);
       in_region[static_cast<std::size_t>(v)] = 0;
@@ -337,13 +342,7 @@ std::pair<int, int> ContactGuard::untangle(
       for (int v : edge)
         for (const auto& [u, w] : graph_.neighbours(v)) add(u);
     }
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      for (int v : region) {
-        Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
-        for (const auto& [u, w] : graph_.neighbours(v)) sum += d.row(u);
-        d.row(v) = sum / static_cast<double>(graph_.degree(v));
-      }
-    }
+    smooth(d, region, 2);
     near.clear();
     for (int v : region) {
       reference.row(v) = rest_.row(v) + d.row(v);

@@ -21,13 +21,13 @@
 //
 // Parts the build moves rigidly (teeth, eyes) do not follow the copy: the guard also watches
 // pairs of a placed triangle (all corners on such a part) and a free triangle of the skin (the
-// largest part) -- lips against teeth, lids against eyes -- within a wider margin, and counts a crossing there as
-// new where the template does not cross at the corresponding triangles. The copy crosses such
-// parts where the target's skin sits closer to them than the template's (the MakeHuman lips lie
-// on its teeth): clear_parts() moves the copy's crossing skin out first -- over a round part (an
-// eyeball) radially, back to the distance from its centre it had in the neutral, so a lid still
-// slides over it; with any other part (a row of teeth) as it sat on it in the neutral, turned as
-// the part turns -- and smooths two rings around. Contacts at a part then keep the reference's
+// largest part) -- lips against teeth, lids against eyes -- within a wider margin, and counts a
+// crossing there as new where the template does not cross at the corresponding triangles. The copy
+// crosses such parts where the target's skin sits closer to them than the template's (the MakeHuman
+// lips lie on its teeth): clear_parts() moves the copy's crossing skin out first -- over a round
+// part (an eyeball) radially, back to the distance from its centre it had in the neutral, so a lid
+// still slides over it; with any other part (a row of teeth) as it sat on it in the neutral, turned
+// as the part turns -- and smooths two rings around. Contacts at a part then keep the reference's
 // offsets like the others, or the neutral's turned with the part where the reference still
 // crosses there.
 #include <array>
@@ -93,6 +93,9 @@ class ContactGuard {
 
  private:
   bool moves_at(const std::vector<char>& moved, int triangle) const;  // a corner in `moved`
+  // Gauss-Seidel sweeps of the graph Laplacian of the displacement d over `region`: each vertex
+  // takes its neighbours' mean, the rest of the mesh held.
+  void smooth(Points& d, const std::vector<int>& region, int sweeps) const;
   bool moving_cross(const Points& shape, const std::vector<char>& moved, int a, int b) const;
   int part_of(int triangle) const;
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
