@@ -70,6 +70,8 @@ int main(int argc, char** argv) try {
       opt.lambda = std::atof(argv[++i]);
     } else if (!std::strcmp(argv[i], "--ve-spacing") && i + 1 < argc) {
       opt.ve.spacing = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--contact-rounds") && i + 1 < argc) {
+      opt.contacts.rounds = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--intersections")) {
       intersections = true;
     } else if (!std::strcmp(argv[i], "--verbose")) {
