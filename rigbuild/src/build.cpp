@@ -210,7 +210,8 @@ class ComponentSurface {
   }
   const Points& p_;
   const Faces& f_;
-  std::vector<int> vertex_;  // the component's vertices, in the index's order
+  std::vector<int> vertex_;  // the component's vertices, in the index's order (filled by
+                             // vertices_of() while index_, declared after it, is built)
   PointIndex index_;
   std::vector<std::vector<int>> at_;  // per vertex, the component's triangles at it
   double median_edge_ = 0;
