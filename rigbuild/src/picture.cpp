@@ -32,23 +32,18 @@ struct View {
 };
 
 void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions& p,
-          const std::vector<VirtualEdge>& edges, const Eigen::Vector3f& lo, float scale,
-          bool see_through) {
+          const std::vector<VirtualEdge>& edges, const std::vector<char>& marked,
+          const Eigen::Vector3f& lo, float scale, bool see_through) {
   const int size = cv.h;
   auto project = [&](int i) {
     const Eigen::Vector3f q = p.row(i).transpose() - lo;
     return Eigen::Vector3f(v.x0 + q.dot(v.right) * scale, size - 1 - q.dot(v.up) * scale,
                            q.dot(v.toward));
   };
-  // Triangles: flat Lambert shading with a z-buffer.
-  for (int f = 0; f < rig.triangle_count(); ++f) {
+  // Calls fn(x, y, depth) for every pixel that triangle f covers in this view.
+  const auto raster = [&](int f, auto&& fn) {
     const Eigen::Vector3f a = project(rig.triangles(f, 0)), b = project(rig.triangles(f, 1)),
                           c = project(rig.triangles(f, 2));
-    const Eigen::Vector3f n = (p.row(rig.triangles(f, 1)) - p.row(rig.triangles(f, 0)))
-                                  .cross(p.row(rig.triangles(f, 2)) - p.row(rig.triangles(f, 0)))
-                                  .normalized()
-                                  .transpose();
-    const float shade = 0.25f + 0.7f * std::abs(n.dot((v.toward + 0.4f * v.up).normalized()));
     const int xmin = std::max(v.x0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))));
     const int xmax =
         std::min(v.x0 + size - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
@@ -56,7 +51,7 @@ void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions
     const int ymax =
         std::min(size - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
     const float area = (b.x() - a.x()) * (c.y() - a.y()) - (c.x() - a.x()) * (b.y() - a.y());
-    if (std::abs(area) < 1e-12f) continue;
+    if (std::abs(area) < 1e-12f) return;
     for (int y = ymin; y <= ymax; ++y) {
       for (int x = xmin; x <= xmax; ++x) {
         const float px = x + 0.5f, py = y + 0.5f;
@@ -64,16 +59,41 @@ void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions
         const float w1 = ((c.x() - px) * (a.y() - py) - (a.x() - px) * (c.y() - py)) / area;
         const float w2 = 1 - w0 - w1;
         if (w0 < 0 || w1 < 0 || w2 < 0) continue;
-        const float z = w0 * a.z() + w1 * b.z() + w2 * c.z();
-        float& d = cv.depth[static_cast<std::size_t>(y * cv.w + x)];
-        if (z <= d) continue;
-        d = z;
-        cv.put(x, y, Eigen::Vector3f::Constant(shade));
+        fn(x, y, w0 * a.z() + w1 * b.z() + w2 * c.z());
       }
+    }
+  };
+  const auto is_marked = [&](int f) {
+    return !marked.empty() && marked[static_cast<std::size_t>(f)];
+  };
+  const Eigen::Vector3f red(0.9f, 0.05f, 0.05f);
+  // Triangles: flat Lambert shading with a z-buffer; marked ones red.
+  for (int f = 0; f < rig.triangle_count(); ++f) {
+    const Eigen::Vector3f n = (p.row(rig.triangles(f, 1)) - p.row(rig.triangles(f, 0)))
+                                  .cross(p.row(rig.triangles(f, 2)) - p.row(rig.triangles(f, 0)))
+                                  .normalized()
+                                  .transpose();
+    const float shade = 0.25f + 0.7f * std::abs(n.dot((v.toward + 0.4f * v.up).normalized()));
+    const Eigen::Vector3f colour = is_marked(f) ? Eigen::Vector3f(red * (0.5f + 0.5f * shade))
+                                                : Eigen::Vector3f(Eigen::Vector3f::Constant(shade));
+    raster(f, [&](int x, int y, float z) {
+      float& d = cv.depth[static_cast<std::size_t>(y * cv.w + x)];
+      if (z <= d) return;
+      d = z;
+      cv.put(x, y, colour);
+    });
+  }
+  // Marked triangles behind the surface (inside the mouth, under a lid): pale red through it.
+  const float eps = 0.002f / scale * size;
+  if (see_through) {
+    for (int f = 0; f < rig.triangle_count(); ++f) {
+      if (!is_marked(f)) continue;
+      raster(f, [&](int x, int y, float z) {
+        if (z < cv.depth[static_cast<std::size_t>(y * cv.w + x)] - eps) cv.put(x, y, red, 0.35f);
+      });
     }
   }
   // Virtual edges: red where visible, pale red where hidden.
-  const float eps = 0.002f / scale * size;
   for (const auto& e : edges) {
     const Eigen::Vector3f a = project(e.a), b = project(e.b);
     const int steps = std::max(1, static_cast<int>((b - a).head<2>().norm() * 2));
@@ -83,17 +103,14 @@ void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions
       if (x < v.x0 || x >= v.x0 + size || y < 0 || y >= size) continue;
       const bool visible = q.z() >= cv.depth[static_cast<std::size_t>(y * cv.w + x)] - eps;
       if (!visible && !see_through) continue;
-      cv.put(x, y, Eigen::Vector3f(0.9f, 0.05f, 0.05f), visible ? 1.0f : 0.45f);
+      cv.put(x, y, red, visible ? 1.0f : 0.45f);
     }
   }
 }
 
-}  // namespace
-
-void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Rig& rig,
-                                const anim::Positions& positions,
-                                const std::vector<VirtualEdge>& edges,
-                                const PictureOptions& options) {
+void write_views(const std::filesystem::path& png, const anim::Rig& rig,
+                 const anim::Positions& positions, const std::vector<VirtualEdge>& edges,
+                 const std::vector<char>& marked, const PictureOptions& options) {
   const int size = options.size;
   Canvas cv(2 * size, size);
   // Frame the front of the face: the bounding box of the vertices in the front half (z above the
@@ -112,11 +129,11 @@ void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Ri
   const Eigen::Vector3f center = 0.5f * (lo + hi);
   const Eigen::Vector3f origin(center.x() - 0.5f * extent, center.y() - 0.5f * extent, zmid);
   draw(cv, View{Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), Eigen::Vector3f::UnitZ(), 0},
-       rig, positions, edges, origin, scale, options.see_through);
+       rig, positions, edges, marked, origin, scale, options.see_through);
   // Right side of the subject (-x), looking along +x; the face points to the left of the image.
   draw(cv,
        View{-Eigen::Vector3f::UnitZ(), Eigen::Vector3f::UnitY(), -Eigen::Vector3f::UnitX(), size},
-       rig, positions, edges, Eigen::Vector3f(lo_all.x(), origin.y(), hi_all.z()), scale,
+       rig, positions, edges, marked, Eigen::Vector3f(lo_all.x(), origin.y(), hi_all.z()), scale,
        options.see_through);
 
   std::vector<unsigned char> bytes(cv.rgb.size());
@@ -135,6 +152,27 @@ void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Ri
     throw Error(png.string() + ": cannot write PNG: " + out->geterror(), ErrorCode::kInternal);
   }
   std::filesystem::rename(tmp, png);
+}
+
+}  // namespace
+
+void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Rig& rig,
+                                const anim::Positions& positions,
+                                const std::vector<VirtualEdge>& edges,
+                                const PictureOptions& options) {
+  write_views(png, rig, positions, edges, {}, options);
+}
+
+void write_crossing_picture(const std::filesystem::path& png, const anim::Rig& rig,
+                            const anim::Positions& positions,
+                            const std::vector<std::pair<int, int>>& pairs,
+                            const PictureOptions& options) {
+  std::vector<char> marked(static_cast<std::size_t>(rig.triangle_count()), 0);
+  for (const auto& [a, b] : pairs) {
+    marked.at(static_cast<std::size_t>(a)) = 1;
+    marked.at(static_cast<std::size_t>(b)) = 1;
+  }
+  write_views(png, rig, positions, {}, marked, options);
 }
 
 }  // namespace facecast::rigbuild

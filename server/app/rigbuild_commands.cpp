@@ -20,7 +20,8 @@ namespace {
 
 struct BuildArgs {
   std::string tmpl, tmpl_neutral, tmpl_shapes, target, markers, out, obj_out, report, fixed;
-  std::string correspondence, ve_mode = "auto", ve_pair, ve_out, ve_png, solver = "cholmod";
+  std::string correspondence, ve_mode = "auto", ve_pair, ve_out, ve_png, crossings_png,
+                              solver = "cholmod";
   std::string contacts = "on";
   rigbuild::BuildOptions opt;
 };
@@ -138,16 +139,32 @@ void run_build(BuildArgs& a) {
   }
   if (!a.ve_png.empty())
     rigbuild::write_virtual_edge_picture(a.ve_png, r.rig, r.rig.positions, r.virtual_edges);
-  if (!a.report.empty()) {
+  if (!a.report.empty() || !a.crossings_png.empty()) {
     std::cerr << "checking self-intersections of every shape...\n";
     const auto inter = rigbuild::shape_intersections(r.rig, &tmpl, r.triangle_map, kCheck);
-    write_file_atomic(a.report, report_json(r, a, inter).dump(2) + "\n");
-    std::fprintf(stderr,
-                 "report %s: %d of %zu shapes have new intersecting triangle pairs (%.2f s)\n",
-                 a.report.c_str(),
-                 static_cast<int>(std::count_if(inter.shapes.begin(), inter.shapes.end(),
-                                                [](auto& x) { return x.fresh > 0; })),
-                 inter.shapes.size(), inter.seconds);
+    const auto with_new = static_cast<int>(std::count_if(inter.shapes.begin(), inter.shapes.end(),
+                                                         [](auto& x) { return x.fresh > 0; }));
+    if (!a.report.empty()) {
+      write_file_atomic(a.report, report_json(r, a, inter).dump(2) + "\n");
+      std::fprintf(stderr,
+                   "report %s: %d of %zu shapes have new intersecting triangle pairs (%.2f s)\n",
+                   a.report.c_str(), with_new, inter.shapes.size(), inter.seconds);
+    }
+    if (!a.crossings_png.empty()) {
+      const auto progress = terminal_progress();
+      int written = 0;
+      for (std::size_t k = 0; k < inter.shapes.size(); ++k) {
+        const auto& x = inter.shapes[k];
+        if (!x.fresh) continue;
+        const anim::Positions posed = r.rig.positions + r.rig.shapes[k].dense(r.rig.vertex_count());
+        rigbuild::write_crossing_picture(
+            std::filesystem::path(a.crossings_png) / (x.shape + ".png"), r.rig, posed,
+            x.fresh_pairs);
+        progress("pictures of new crossings", static_cast<double>(++written) / with_new);
+      }
+      std::fprintf(stderr, "wrote %d pictures of new crossings to %s\n", written,
+                   a.crossings_png.c_str());
+    }
   }
   std::fprintf(
       stderr,
@@ -247,6 +264,9 @@ void add_rig_build_commands(CLI::App& rig) {
   b->add_option("--ve-out", a->ve_out,
                 "Write the virtual edges as OBJ lines (and .json beside it)");
   b->add_option("--ve-png", a->ve_png, "Write a picture of the virtual edges over the mesh");
+  b->add_option("--crossings-png", a->crossings_png,
+                "Write DIR/<shape>.png for every shape with new intersecting triangle pairs, "
+                "those triangles in red");
   b->add_option("--contacts", a->contacts,
                 "on | off: hold apart surfaces that a shape pushes "
                 "through each other where the template's does not")

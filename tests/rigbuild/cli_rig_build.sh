@@ -18,7 +18,8 @@ expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one error li
 "$facecast" avatar default --out "$tmp/default.glb" 2>/dev/null
 "$facecast" avatar variant --seed 7 --out "$tmp/user.glb" 2>/dev/null
 "$facecast" rig build --template "$tmp/default.glb" --target "$tmp/user.glb" --out "$tmp/me.glb" \
-  --report "$tmp/report.json" --ve-out "$tmp/edges.obj" --ve-png "$tmp/edges.png" 2>"$tmp/log"
+  --report "$tmp/report.json" --ve-out "$tmp/edges.obj" --ve-png "$tmp/edges.png" \
+  --crossings-png "$tmp/crossings" 2>"$tmp/log"
 grep -q "contacts" "$tmp/log" || fail "no stage timings: $(cat "$tmp/log")"
 test -s "$tmp/edges.png" && test -s "$tmp/edges.json" && grep -q "^l " "$tmp/edges.obj"
 node -e '
@@ -37,7 +38,13 @@ for (const x of r.shapes) {
   if (by !== x.intersections.new) throw "new_by_parts of " + x.name;
 }
 if (typeof r.intersections.new_by_parts !== "object") throw "new_by_parts";
-' "$tmp/report.json"
+// One picture per shape with new pairs, named after it.
+const fs = require("fs");
+const with_new = r.shapes.filter(x => x.intersections.new > 0).map(x => x.name + ".png").sort();
+if (with_new.length === 0) throw "no shape with new pairs to draw";
+if (JSON.stringify(fs.readdirSync(process.argv[2]).sort()) !== JSON.stringify(with_new))
+  throw "crossing pictures: " + fs.readdirSync(process.argv[2]);
+' "$tmp/report.json" "$tmp/crossings"
 "$facecast" rig info "$tmp/me.glb" | grep -q "shapes      52" || fail "rig info"
 "$facecast" rig check "$tmp/me.glb" --template "$tmp/default.glb" >/dev/null
 

@@ -1,7 +1,9 @@
 #pragma once
-// Pictures of a rig for people: the mesh shaded in grey with virtual edges drawn over it, front and
-// side views of the face, rasterized on the CPU (no GL needed) and written as PNG.
+// Pictures of a rig for people: the mesh shaded in grey with virtual edges or crossing triangles
+// drawn over it, front and side views of the face, rasterized on the CPU (no GL needed) and
+// written as PNG (to a temporary file, then renamed).
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include "facecast/anim/rig.hpp"
@@ -19,5 +21,12 @@ void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Ri
                                 const anim::Positions& positions,
                                 const std::vector<VirtualEdge>& edges,
                                 const PictureOptions& options = {});
+
+/// Two views of `positions` (a posed shape) with the triangles of `pairs` (e.g. a shape's new
+/// intersecting pairs) in red, and in pale red through the surface where hidden.
+void write_crossing_picture(const std::filesystem::path& png, const anim::Rig& rig,
+                            const anim::Positions& positions,
+                            const std::vector<std::pair<int, int>>& pairs,
+                            const PictureOptions& options = {});
 
 }  // namespace facecast::rigbuild
