@@ -121,7 +121,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // teeth and the eyes (the lips, the lids, the lips on the teeth, the lids on the eyes): the
   // transfer alone brings over a thousand -- fuller lips and lids than the template's, closed as
   // far as the template closes its own, and lips that lie on the teeth -- the contacts leave
-  // about ten.
+  // a handful (the lid margins in eyeBlink, beyond the watched margin).
   IntersectionCheck check;
   const auto group_of = [&](int t) {
     return target
@@ -146,7 +146,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   const auto with = new_pairs(r), without = new_pairs(again);
   CHECK(sum(without, "") > 500);
   CHECK(sum(with, "") * 10 < sum(without, ""));
-  CHECK(sum(with, "") <= 30);
+  CHECK(sum(with, "") <= 15);
   CHECK(sum(without, "teeth") > 400);
   CHECK(sum(with, "teeth") * 10 < sum(without, "teeth"));
   int copy_found = 0, part_found = 0, found = 0, left = 0;
@@ -264,7 +264,7 @@ TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker fil
     left += q.crossings_left;
   }
   CHECK(found > 0);
-  CHECK(left == 0);  // five contact rounds hold every watched pair apart
+  CHECK(left == 0);  // the contact rounds hold every watched pair apart
 }
 
 TEST_CASE("markers out of range are rejected naming the pair", "[rigbuild][errors]") {

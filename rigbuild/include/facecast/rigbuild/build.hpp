@@ -43,7 +43,7 @@ struct ContactOptions {
   double margin = 0.0;       // watch pairs within this distance; <= 0: half the median edge length
   double part_margin = 0.0;  // ... of a placed part (teeth) and the skin; <= 0: two median edges
   double weight = 100.0;     // weight of a contact (the units of lambda), x10 each next round
-  int rounds = 5;            // solve again at most this many times per shape
+  int rounds = 7;            // solve again at most this many times per shape
 };
 
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
