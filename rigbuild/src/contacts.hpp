@@ -30,7 +30,6 @@
 // as the part turns -- and smooths two rings around. Contacts at a part then keep the reference's
 // offsets like the others, or the neutral's turned with the part where the reference still
 // crosses there.
-#include <array>
 #include <functional>
 #include <utility>
 #include <vector>

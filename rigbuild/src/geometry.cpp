@@ -35,6 +35,10 @@ Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vecto
   return {1 - v - w, v, w};
 }
 
+namespace {
+
+// An orthonormal frame of the triangle with corners t at positions p (columns: the first edge,
+// in the plane, the normal).
 Eigen::Matrix3d triangle_frame(const Points& p, const std::array<int, 3>& t) {
   const Eigen::Vector3d p0 = p.row(t[0]).transpose();
   const Eigen::Vector3d e1 = (p.row(t[1]).transpose() - p0).normalized();
@@ -43,6 +47,8 @@ Eigen::Matrix3d triangle_frame(const Points& p, const std::array<int, 3>& t) {
   m << e1, n.cross(e1), n;
   return m;
 }
+
+}  // namespace
 
 Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::RowVector3d& point,
                            const std::array<int, 3>& t) {

@@ -1,6 +1,6 @@
 #pragma once
-// Small geometric helpers private to rigbuild: closest point on a triangle, a triangle's frame,
-// k-d trees over points.
+// Small geometric helpers private to rigbuild: closest point on a triangle, a point carried by a
+// triangle, k-d trees over points.
 #include <Eigen/Core>
 #include <array>
 #include <nanoflann.hpp>
@@ -14,13 +14,9 @@ namespace facecast::rigbuild {
 Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                                     const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
-/// An orthonormal frame of the triangle with corners t at positions p (columns: the first edge,
-/// in the plane, the normal).
-Eigen::Matrix3d triangle_frame(const Points& p, const std::array<int, 3>& t);
-
 /// Where `point` goes when it moves with the triangle with corners t from `rest` to `now` as it
 /// sat on it at rest: its closest point on the triangle follows the triangle, its offset from
-/// there turns with the triangle's frame.
+/// there turns with the triangle's frame (first edge, in-plane, normal).
 Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::RowVector3d& point,
                            const std::array<int, 3>& t);
 
