@@ -17,6 +17,7 @@
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/quality.hpp"
 #include "geometry.hpp"
+#include "mesh_graph.hpp"
 #include "parallel.hpp"
 
 namespace facecast::rigbuild {
@@ -169,16 +170,7 @@ class ComponentSurface {
       for (int c = 0; c < 3; ++c)
         at_[static_cast<std::size_t>(f(t, c))].push_back(static_cast<int>(t));
     }
-    std::vector<double> lengths;
-    for (Eigen::Index t = 0; t < f.rows(); ++t)
-      if (label[static_cast<std::size_t>(f(t, 0))] == component)
-        for (int c = 0; c < 3; ++c)
-          lengths.push_back((p.row(f(t, c)) - p.row(f(t, (c + 1) % 3))).norm());
-    std::nth_element(lengths.begin(), lengths.begin() + static_cast<long>(lengths.size() / 2),
-                     lengths.end());
-    median_edge_ = lengths.empty() ? 0.0 : lengths[lengths.size() / 2];
   }
-  double median_edge() const { return median_edge_; }
   /// The corners of the closest triangle to q, and the distance.
   std::pair<std::array<int, 3>, double> closest(const Eigen::RowVector3d& q) const {
     std::vector<std::uint32_t> idx;
@@ -214,7 +206,6 @@ class ComponentSurface {
                              // vertices_of() while index_, declared after it, is built)
   PointIndex index_;
   std::vector<std::vector<int>> at_;  // per vertex, the component's triangles at it
-  double median_edge_ = 0;
 };
 
 }  // namespace
@@ -332,7 +323,9 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   std::vector<Floating> floating;
   std::optional<RigidParts> rigid;
   std::optional<ComponentSurface> skin;
+  double median_edge = 0;
   if (!same_topology) {
+    median_edge = MeshGraph(tgt_rest, tgt_faces).median_edge_length();
     rigid = rigid_parts(tmpl, src_rest, src_shape, options.rigid_tolerance);
     skin.emplace(tgt_rest, tgt_faces, comps.label, largest);
   }
@@ -421,7 +414,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
       for (int v : mem) {
         const auto [t, distance] = skin->closest(tgt_rest.row(v));
         carrier.push_back(t);
-        on_skin += distance <= skin->median_edge();
+        on_skin += distance <= median_edge;
       }
       if (2 * on_skin >= mem.size()) fl.carrier = std::move(carrier);
     }
