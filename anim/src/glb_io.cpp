@@ -167,74 +167,114 @@ void write_glb(const std::filesystem::path& path, const Rig& rig) {
 
 namespace {
 
+// Where an accessor's elements lie: `count` elements of `elem` bytes, `stride` apart, from
+// `data` (nullptr: an accessor without a buffer view, all zeros). Every index and extent is
+// checked before anything is read or allocated, without overflow, so a hostile file that declares
+// a huge count or points past its buffers is a one-line error.
+struct AccessorSpan {
+  const unsigned char* data = nullptr;
+  std::size_t stride = 0, count = 0;
+};
+
+AccessorSpan accessor_span(const tinygltf::Model& m, int index, std::size_t elem,
+                           const std::string& what) {
+  if (index < 0 || static_cast<std::size_t>(index) >= m.accessors.size())
+    throw Error(what + ": accessor " + std::to_string(index) + " does not exist");
+  const auto& a = m.accessors[static_cast<std::size_t>(index)];
+  if (a.sparse.isSparse)
+    throw Error(what + ": sparse accessors are not supported", ErrorCode::kUnsupported);
+  AccessorSpan span;
+  span.count = a.count;
+  if (a.bufferView < 0) return span;
+  if (static_cast<std::size_t>(a.bufferView) >= m.bufferViews.size())
+    throw Error(what + ": buffer view " + std::to_string(a.bufferView) + " does not exist");
+  const auto& view = m.bufferViews[static_cast<std::size_t>(a.bufferView)];
+  if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= m.buffers.size())
+    throw Error(what + ": buffer " + std::to_string(view.buffer) + " does not exist");
+  const auto& buf = m.buffers[static_cast<std::size_t>(view.buffer)].data;
+  if (view.byteOffset > buf.size() || view.byteLength > buf.size() - view.byteOffset)
+    throw Error(what + ": buffer view runs past the end of its buffer");
+  span.stride = view.byteStride ? view.byteStride : elem;
+  if (span.stride < elem) throw Error(what + ": byte stride is smaller than an element");
+  const std::size_t room = view.byteLength < a.byteOffset ? 0 : view.byteLength - a.byteOffset;
+  if (a.count && (room < elem || (a.count - 1) > (room - elem) / span.stride))
+    throw Error(what + ": " + std::to_string(a.count) + " elements run past the end of the view");
+  span.data = buf.data() + view.byteOffset + a.byteOffset;
+  return span;
+}
+
 // Reads a float accessor of `comps` components per element into a row-major matrix.
 template <typename Matrix>
 Matrix read_float_accessor(const tinygltf::Model& m, int index, int comps,
                            const std::string& what) {
-  if (index < 0 || index >= static_cast<int>(m.accessors.size())) {
-    throw Error(what + ": accessor index out of range");
-  }
-  const auto& a = m.accessors[index];
-  if (a.sparse.isSparse)
-    throw Error(what + ": sparse accessors are not supported", ErrorCode::kUnsupported);
+  const std::size_t elem = sizeof(float) * static_cast<std::size_t>(comps);
+  const AccessorSpan span = accessor_span(m, index, elem, what);
+  const auto& a = m.accessors[static_cast<std::size_t>(index)];
   if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT ||
       tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type)) != comps) {
     throw Error(what + ": expected float vectors of " + std::to_string(comps) + " components",
                 ErrorCode::kUnsupported);
   }
-  Matrix out(static_cast<Eigen::Index>(a.count), comps);
-  if (a.bufferView < 0) {
+  Matrix out(static_cast<Eigen::Index>(span.count), comps);
+  if (!span.data) {
     out.setZero();
     return out;
   }
-  const auto& view = m.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-  const auto& buf = m.buffers.at(static_cast<std::size_t>(view.buffer)).data;
-  const std::size_t elem = sizeof(float) * static_cast<std::size_t>(comps);
-  const std::size_t stride = view.byteStride ? view.byteStride : elem;
-  const std::size_t start = view.byteOffset + a.byteOffset;
-  if (a.count && start + stride * (a.count - 1) + elem > buf.size()) {
-    throw Error(what + ": accessor runs past the end of its buffer");
-  }
-  for (std::size_t i = 0; i < a.count; ++i) {
-    std::memcpy(out.row(static_cast<Eigen::Index>(i)).data(), buf.data() + start + i * stride,
-                elem);
-  }
+  for (std::size_t i = 0; i < span.count; ++i)
+    std::memcpy(out.row(static_cast<Eigen::Index>(i)).data(), span.data + i * span.stride, elem);
   return out;
 }
 
 std::vector<std::uint32_t> read_indices(const tinygltf::Model& m, int index,
                                         const std::string& what) {
-  const auto& a = m.accessors.at(static_cast<std::size_t>(index));
-  const auto& view = m.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-  const auto& buf = m.buffers.at(static_cast<std::size_t>(view.buffer)).data;
-  const std::size_t size = static_cast<std::size_t>(
-      tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType)));
-  const std::size_t stride = view.byteStride ? view.byteStride : size;
-  const std::size_t start = view.byteOffset + a.byteOffset;
-  if (a.count && start + stride * (a.count - 1) + size > buf.size()) {
-    throw Error(what + ": index accessor runs past the end of its buffer");
-  }
-  std::vector<std::uint32_t> out(a.count);
-  for (std::size_t i = 0; i < a.count; ++i) {
-    const unsigned char* p = buf.data() + start + i * stride;
-    switch (a.componentType) {
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-        out[i] = *p;
-        break;
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        std::uint16_t v;
-        std::memcpy(&v, p, 2);
-        out[i] = v;
-        break;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-        std::memcpy(&out[i], p, 4);
-        break;
-      default:
-        throw Error(what + ": bad index component type");
+  if (index < 0 || static_cast<std::size_t>(index) >= m.accessors.size())
+    throw Error(what + ": accessor " + std::to_string(index) + " does not exist");
+  const auto type = m.accessors[static_cast<std::size_t>(index)].componentType;
+  if (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+      type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    throw Error(what + ": indices must be unsigned 8, 16 or 32 bit integers");
+  const auto size =
+      static_cast<std::size_t>(tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(type)));
+  const AccessorSpan span = accessor_span(m, index, size, what);
+  if (!span.data) throw Error(what + ": index accessor without a buffer view");
+  std::vector<std::uint32_t> out(span.count);
+  for (std::size_t i = 0; i < span.count; ++i) {
+    const unsigned char* p = span.data + i * span.stride;
+    if (size == 1) {
+      out[i] = *p;
+    } else if (size == 2) {
+      std::uint16_t v;
+      std::memcpy(&v, p, 2);
+      out[i] = v;
+    } else {
+      std::memcpy(&out[i], p, 4);
     }
   }
   return out;
+}
+
+// Uploads reach parse_glb: it reads nothing outside the bytes it is given (a buffer or image URI
+// pointing at a local file is an error) and leaves images undecoded (no decoder runs on them).
+bool refuse_external_file(std::vector<unsigned char>*, std::string* err, const std::string& path,
+                          void*) {
+  if (err) *err = "external file '" + path + "' is not read from a GLB";
+  return false;
+}
+bool no_file_exists(const std::string&, void*) {
+  return false;
+}
+std::string path_as_is(const std::string& path, void*) {
+  return path;
+}
+bool refuse_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err = "writing files while reading a GLB";
+  return false;
+}
+
+bool keep_image_undecoded(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                          const unsigned char*, int, void*) {
+  return true;
 }
 
 }  // namespace
@@ -243,6 +283,10 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
   const std::string what(name);
   tinygltf::Model m;
   tinygltf::TinyGLTF loader;
+  tinygltf::FsCallbacks fs{&no_file_exists, &path_as_is, &refuse_external_file, &refuse_write,
+                           nullptr};
+  loader.SetFsCallbacks(fs);
+  loader.SetImageLoader(&keep_image_undecoded, nullptr);
   std::string err, warn;
   if (!loader.LoadBinaryFromMemory(&m, &err, &warn,
                                    reinterpret_cast<const unsigned char*>(bytes.data()),
@@ -285,6 +329,9 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
       auto t_it = p.attributes.find("TEXCOORD_0");
       if (t_it != p.attributes.end()) {
         uv_parts.push_back(read_float_accessor<UVs>(m, t_it->second, 2, what + " TEXCOORD_0"));
+        if (uv_parts.back().rows() != pp.rows())
+          throw Error(what + " TEXCOORD_0: " + std::to_string(uv_parts.back().rows()) +
+                      " elements for " + std::to_string(pp.rows()) + " positions");
       } else {
         all_uv = false;
         uv_parts.emplace_back();
@@ -300,7 +347,8 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
       nv += static_cast<int>(pp.rows());
       pos_parts.push_back(std::move(pp));
     }
-    const int count = static_cast<int>(m.accessors.at(static_cast<std::size_t>(it->second)).count);
+    // Checked by read_float_accessor when the POSITION accessor was first read.
+    const int count = static_cast<int>(m.accessors[static_cast<std::size_t>(it->second)].count);
     std::vector<std::uint32_t> idx;
     if (p.indices >= 0) {
       idx = read_indices(m, p.indices, what + " indices");
