@@ -257,13 +257,16 @@ ParsedObj parse(std::string_view text, std::string_view name) {
 }  // namespace
 
 Rig parse_obj(std::string_view text, std::string_view name) {
-  return parse(text, name).rig;
+  Rig rig = parse(text, name).rig;
+  rig.validate(name);
+  return rig;
 }
 
 Rig read_obj(const std::filesystem::path& path) {
   const std::string text = read_file(path);
   ParsedObj p = parse(text, path.string());
   for (const auto& lib : p.mtllibs) apply_mtl(p.rig, path.parent_path() / lib);
+  p.rig.validate(path.string());
   return std::move(p.rig);
 }
 

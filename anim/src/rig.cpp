@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/utf8.hpp"
 
 namespace facecast::anim {
 
@@ -78,7 +79,14 @@ void Rig::validate(std::string_view what) const {
     }
     if (!s.deltas.allFinite()) throw Error(w + ": shape '" + s.name + "' has a non-finite delta");
   }
+  const auto check_name = [&](const std::string& kind, const std::string& name) {
+    if (!is_valid_utf8(name)) throw Error(w + ": " + kind + " name is not valid UTF-8");
+  };
+  for (const auto& m : materials) check_name("material", m.name);
+  for (const auto& g : groups) check_name("group", g);
+  for (const auto& s : shapes) check_name("shape", s.name);
   for (const auto& l : landmarks) {
+    check_name("landmark", l.name);
     if (l.vertex < 0 || l.vertex >= nv) {
       throw Error(w + ": landmark '" + l.name + "' vertex " + std::to_string(l.vertex) +
                   " out of range");

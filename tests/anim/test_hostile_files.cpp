@@ -1,5 +1,5 @@
-// Hostile GLB files (uploads reach parse_glb): each is a one-line facecast::Error, never a crash,
-// an out-of-range read or an allocation of what the file merely declares.
+// Hostile avatar files (uploads reach parse_glb and parse_obj): each is a one-line facecast::Error,
+// never a crash, an out-of-range read or an allocation of what the file merely declares.
 #include <catch2/catch.hpp>
 #include <cstdint>
 #include <cstring>
@@ -129,4 +129,16 @@ TEST_CASE("a GLB does not read local files through its URIs", "[anim][glb][error
   g.doc["buffers"].push_back({{"uri", "/etc/hostname"}, {"byteLength", 4}});
   g.doc["bufferViews"].push_back({{"buffer", 1}, {"byteOffset", 0}, {"byteLength", 4}});
   CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && Catch::Contains("/etc/hostname"));
+}
+
+TEST_CASE("an OBJ whose material name is not UTF-8 is an error, not a failed GLB write",
+          "[anim][obj][errors]") {
+  // Found by fuzz_obj: the name reached the GLB's JSON and nlohmann threw type_error 316.
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl li\x90\nf 1 2 3\n";
+  try {
+    (void)parse_obj(obj, "head.obj");
+    FAIL("no error");
+  } catch (const Error& e) {
+    CHECK(std::string(e.what()) == "head.obj: material name is not valid UTF-8");
+  }
 }
