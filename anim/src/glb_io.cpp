@@ -279,8 +279,9 @@ bool keep_image_undecoded(tinygltf::Image*, const int, std::string*, std::string
 
 }  // namespace
 
-Rig parse_glb(std::string_view bytes, std::string_view name) {
-  const std::string what(name);
+namespace {
+
+tinygltf::Model load_model(std::string_view bytes, const std::string& what) {
   tinygltf::Model m;
   tinygltf::TinyGLTF loader;
   tinygltf::FsCallbacks fs{&no_file_exists, &path_as_is, &refuse_external_file, &refuse_write,
@@ -296,126 +297,128 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
     for (auto& c : msg) c = c == '\n' ? ';' : c;
     throw Error(what + ": " + msg);
   }
-  if (m.meshes.empty()) throw Error(what + ": GLB has no mesh");
-  const tinygltf::Mesh& mesh = m.meshes[0];
-  if (mesh.primitives.empty()) throw Error(what + ": mesh has no primitives");
+  return m;
+}
 
-  Rig rig;
-  const std::size_t n_targets = mesh.primitives[0].targets.size();
-  // Primitives that share a POSITION accessor share vertices (the layout we write); others are
-  // appended one after another.
-  std::map<int, int> offset_of;
-  std::vector<Positions> pos_parts, nrm_parts;
-  std::vector<std::vector<Positions>> target_parts(n_targets);
-  std::vector<UVs> uv_parts;
-  std::vector<Eigen::Vector3i> tris;
-  int nv = 0;
-  bool all_uv = true;
-  for (const auto& p : mesh.primitives) {
-    if (p.mode != TINYGLTF_MODE_TRIANGLES && p.mode != -1) {
-      throw Error(what + ": only triangle primitives are supported", ErrorCode::kUnsupported);
-    }
-    auto it = p.attributes.find("POSITION");
-    if (it == p.attributes.end()) throw Error(what + ": primitive without POSITION");
-    if (p.targets.size() != n_targets) throw Error(what + ": primitives disagree on morph targets");
-    auto [off_it, fresh] = offset_of.try_emplace(it->second, nv);
-    const int offset = off_it->second;
-    if (fresh) {
-      Positions pp = read_float_accessor<Positions>(m, it->second, 3, what + " POSITION");
-      auto n_it = p.attributes.find("NORMAL");
-      nrm_parts.push_back(n_it != p.attributes.end()
-                              ? read_float_accessor<Positions>(m, n_it->second, 3, what + " NORMAL")
-                              : Positions());
-      auto t_it = p.attributes.find("TEXCOORD_0");
-      if (t_it != p.attributes.end()) {
-        uv_parts.push_back(read_float_accessor<UVs>(m, t_it->second, 2, what + " TEXCOORD_0"));
-        if (uv_parts.back().rows() != pp.rows())
-          throw Error(what + " TEXCOORD_0: " + std::to_string(uv_parts.back().rows()) +
-                      " elements for " + std::to_string(pp.rows()) + " positions");
-      } else {
-        all_uv = false;
-        uv_parts.emplace_back();
-      }
-      for (std::size_t t = 0; t < n_targets; ++t) {
-        auto tp = p.targets[t].find("POSITION");
-        target_parts[t].push_back(tp != p.targets[t].end() ? read_float_accessor<Positions>(
-                                                                 m, tp->second, 3, what + " target")
-                                                           : Positions::Zero(pp.rows(), 3));
-        if (target_parts[t].back().rows() != pp.rows())
-          throw Error(what + ": morph target size differs");
-      }
-      nv += static_cast<int>(pp.rows());
-      pos_parts.push_back(std::move(pp));
-    }
-    // Checked by read_float_accessor when the POSITION accessor was first read.
-    const int count = static_cast<int>(m.accessors[static_cast<std::size_t>(it->second)].count);
-    std::vector<std::uint32_t> idx;
-    if (p.indices >= 0) {
-      idx = read_indices(m, p.indices, what + " indices");
+// The vertices of a mesh's primitives, stacked. Primitives that share a POSITION accessor share
+// vertices (the layout glb_bytes writes); others are appended one after another.
+class MeshVertices {
+ public:
+  MeshVertices(const tinygltf::Model& m, std::size_t targets, std::string what)
+      : m_(m), targets_(targets), what_(std::move(what)), target_(targets) {}
+
+  /// The first row of the primitive's vertices, reading them when the accessor is new.
+  int add(const tinygltf::Primitive& p, int position_accessor) {
+    auto [it, fresh] = offset_of_.try_emplace(position_accessor, count_);
+    if (!fresh) return it->second;
+    Positions pp = read_float_accessor<Positions>(m_, position_accessor, 3, what_ + " POSITION");
+    const auto n_it = p.attributes.find("NORMAL");
+    nrm_.push_back(n_it != p.attributes.end()
+                       ? read_float_accessor<Positions>(m_, n_it->second, 3, what_ + " NORMAL")
+                       : Positions());
+    const auto t_it = p.attributes.find("TEXCOORD_0");
+    if (t_it != p.attributes.end()) {
+      uv_.push_back(read_float_accessor<UVs>(m_, t_it->second, 2, what_ + " TEXCOORD_0"));
+      if (uv_.back().rows() != pp.rows())
+        throw Error(what_ + " TEXCOORD_0: " + std::to_string(uv_.back().rows()) + " elements for " +
+                    std::to_string(pp.rows()) + " positions");
     } else {
-      idx.resize(static_cast<std::size_t>(count));
-      for (int i = 0; i < count; ++i) idx[i] = static_cast<std::uint32_t>(i);
+      all_uv_ = false;
+      uv_.emplace_back();
     }
-    if (idx.size() % 3) throw Error(what + ": index count is not a multiple of 3");
-    int mat = 0;
-    if (p.material >= 0) mat = p.material;
-    for (std::size_t i = 0; i < idx.size(); i += 3) {
-      for (int c = 0; c < 3; ++c) {
-        if (idx[i + c] >= static_cast<std::uint32_t>(count)) {
-          throw Error(what + ": index " + std::to_string(idx[i + c]) + " out of range (" +
-                      std::to_string(count) + " vertices)");
-        }
-      }
-      tris.emplace_back(offset + static_cast<int>(idx[i]), offset + static_cast<int>(idx[i + 1]),
-                        offset + static_cast<int>(idx[i + 2]));
-      rig.triangle_material.push_back(mat);
+    for (std::size_t t = 0; t < targets_; ++t) {
+      const auto tp = p.targets[t].find("POSITION");
+      target_[t].push_back(tp != p.targets[t].end() ? read_float_accessor<Positions>(
+                                                          m_, tp->second, 3, what_ + " target")
+                                                    : Positions::Zero(pp.rows(), 3));
+      if (target_[t].back().rows() != pp.rows()) throw Error(what_ + ": morph target size differs");
+    }
+    count_ += static_cast<int>(pp.rows());
+    pos_.push_back(std::move(pp));
+    return it->second;
+  }
+
+  /// Positions, normals (read where given, else from the triangles), UVs and shapes into `rig`.
+  void fill(Rig& rig, const std::vector<std::string>& names) const {
+    rig.positions = stack(pos_);
+    if (rig.positions.rows() == 0) throw Error(what_ + ": mesh has no vertices");
+    if (!rig.positions.allFinite()) throw Error(what_ + ": non-finite vertex coordinate");
+    rig.normals = vertex_normals(rig.positions, rig.triangles);
+    Eigen::Index row = 0;
+    for (std::size_t k = 0; k < pos_.size(); ++k) {
+      const Eigen::Index rows = pos_[k].rows();
+      if (nrm_[k].rows() == rows)
+        rig.normals.middleRows(row, rows) = nrm_[k].rowwise().normalized();
+      row += rows;
+    }
+    if (all_uv_ && !uv_.empty()) rig.uvs = stack(uv_);
+    for (std::size_t t = 0; t < targets_; ++t) {
+      const std::string nm = t < names.size() ? names[t] : "target_" + std::to_string(t);
+      rig.shapes.push_back(Blendshape::from_dense(nm, stack(target_[t])));
     }
   }
 
-  auto stack = [nv](const std::vector<Positions>& parts) {
-    Positions out(nv, 3);
+ private:
+  template <typename Matrix>
+  Matrix stack(const std::vector<Matrix>& parts) const {
+    Matrix out(count_, Matrix::ColsAtCompileTime);
     Eigen::Index row = 0;
     for (const auto& p : parts) {
       out.middleRows(row, p.rows()) = p;
       row += p.rows();
     }
     return out;
-  };
-  rig.positions = stack(pos_parts);
-  rig.triangles.resize(static_cast<Eigen::Index>(tris.size()), 3);
-  for (std::size_t f = 0; f < tris.size(); ++f)
-    rig.triangles.row(static_cast<Eigen::Index>(f)) = tris[f].transpose();
-  if (rig.positions.rows() == 0) throw Error(what + ": mesh has no vertices");
-  if (!rig.positions.allFinite()) throw Error(what + ": non-finite vertex coordinate");
-  rig.normals = vertex_normals(rig.positions, rig.triangles);
-  {
-    Eigen::Index row = 0;
-    for (const auto& n : nrm_parts) {
-      const Eigen::Index rows = pos_parts[static_cast<std::size_t>(&n - nrm_parts.data())].rows();
-      if (n.rows() == rows) rig.normals.middleRows(row, rows) = n.rowwise().normalized();
-      row += rows;
-    }
-  }
-  if (all_uv && !uv_parts.empty()) {
-    rig.uvs.resize(nv, 2);
-    Eigen::Index row = 0;
-    for (const auto& u : uv_parts) {
-      rig.uvs.middleRows(row, u.rows()) = u;
-      row += u.rows();
-    }
   }
 
+  const tinygltf::Model& m_;
+  std::size_t targets_;
+  std::string what_;
+  std::map<int, int> offset_of_;
+  std::vector<Positions> pos_, nrm_;
+  std::vector<std::vector<Positions>> target_;  // per morph target, per part
+  std::vector<UVs> uv_;
+  bool all_uv_ = true;
+  int count_ = 0;
+};
+
+// A primitive's triangles, `offset` added to its indices, with its material.
+void append_triangles(const tinygltf::Model& m, const tinygltf::Primitive& p, int offset,
+                      int position_accessor, const std::string& what,
+                      std::vector<Eigen::Vector3i>& tris, std::vector<int>& materials) {
+  // The POSITION accessor was checked when its vertices were read.
+  const int count =
+      static_cast<int>(m.accessors[static_cast<std::size_t>(position_accessor)].count);
+  std::vector<std::uint32_t> idx;
+  if (p.indices >= 0) {
+    idx = read_indices(m, p.indices, what + " indices");
+  } else {
+    idx.resize(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) idx[i] = static_cast<std::uint32_t>(i);
+  }
+  if (idx.size() % 3) throw Error(what + ": index count is not a multiple of 3");
+  for (std::size_t i = 0; i < idx.size(); i += 3) {
+    for (int c = 0; c < 3; ++c) {
+      if (idx[i + c] >= static_cast<std::uint32_t>(count)) {
+        throw Error(what + ": index " + std::to_string(idx[i + c]) + " out of range (" +
+                    std::to_string(count) + " vertices)");
+      }
+    }
+    tris.emplace_back(offset + static_cast<int>(idx[i]), offset + static_cast<int>(idx[i + 1]),
+                      offset + static_cast<int>(idx[i + 2]));
+    materials.push_back(p.material >= 0 ? p.material : 0);
+  }
+}
+
+// mesh.extras: targetNames and Facecast's landmarks.
+std::vector<std::string> read_extras(const tinygltf::Mesh& mesh, Rig& rig) {
   std::vector<std::string> names;
-  if (mesh.extras.IsObject() && mesh.extras.Has("targetNames")) {
+  if (!mesh.extras.IsObject()) return names;
+  if (mesh.extras.Has("targetNames")) {
     const auto& tn = mesh.extras.Get("targetNames");
     for (std::size_t i = 0; tn.IsArray() && i < tn.ArrayLen(); ++i)
       names.push_back(tn.Get(static_cast<int>(i)).Get<std::string>());
   }
-  for (std::size_t t = 0; t < n_targets; ++t) {
-    const std::string nm = t < names.size() ? names[t] : "target_" + std::to_string(t);
-    rig.shapes.push_back(Blendshape::from_dense(nm, stack(target_parts[t])));
-  }
-  if (mesh.extras.IsObject() && mesh.extras.Has("facecast")) {
+  if (mesh.extras.Has("facecast")) {
     const auto& fc = mesh.extras.Get("facecast");
     if (fc.Has("landmarks")) {
       const auto& lm = fc.Get("landmarks");
@@ -426,6 +429,36 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
       }
     }
   }
+  return names;
+}
+
+}  // namespace
+
+Rig parse_glb(std::string_view bytes, std::string_view name) {
+  const std::string what(name);
+  const tinygltf::Model m = load_model(bytes, what);
+  if (m.meshes.empty()) throw Error(what + ": GLB has no mesh");
+  const tinygltf::Mesh& mesh = m.meshes[0];
+  if (mesh.primitives.empty()) throw Error(what + ": mesh has no primitives");
+
+  Rig rig;
+  const std::size_t n_targets = mesh.primitives[0].targets.size();
+  MeshVertices vertices(m, n_targets, what);
+  std::vector<Eigen::Vector3i> tris;
+  for (const auto& p : mesh.primitives) {
+    if (p.mode != TINYGLTF_MODE_TRIANGLES && p.mode != -1) {
+      throw Error(what + ": only triangle primitives are supported", ErrorCode::kUnsupported);
+    }
+    const auto it = p.attributes.find("POSITION");
+    if (it == p.attributes.end()) throw Error(what + ": primitive without POSITION");
+    if (p.targets.size() != n_targets) throw Error(what + ": primitives disagree on morph targets");
+    const int offset = vertices.add(p, it->second);
+    append_triangles(m, p, offset, it->second, what, tris, rig.triangle_material);
+  }
+  rig.triangles.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (std::size_t f = 0; f < tris.size(); ++f)
+    rig.triangles.row(static_cast<Eigen::Index>(f)) = tris[f].transpose();
+  vertices.fill(rig, read_extras(mesh, rig));
 
   for (const auto& gm : m.materials) {
     Material mat{gm.name, {0.8f, 0.8f, 0.8f, 1.0f}};
