@@ -237,10 +237,7 @@ std::vector<std::uint32_t> read_indices(const tinygltf::Model& m, int index,
   return out;
 }
 
-}  // namespace
-
-Rig parse_glb(std::string_view bytes, std::string_view name) {
-  const std::string what(name);
+tinygltf::Model load_model(std::string_view bytes, const std::string& what) {
   tinygltf::Model m;
   tinygltf::TinyGLTF loader;
   std::string err, warn;
@@ -252,6 +249,38 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
     for (auto& c : msg) c = c == '\n' ? ';' : c;
     throw Error(what + ": " + msg);
   }
+  return m;
+}
+
+// mesh.extras.facecast.landmarks: [{name, vertex}, ...].
+void read_landmarks(const tinygltf::Mesh& mesh, Rig& rig) {
+  if (!mesh.extras.IsObject() || !mesh.extras.Has("facecast")) return;
+  const auto& fc = mesh.extras.Get("facecast");
+  if (!fc.Has("landmarks")) return;
+  const auto& lm = fc.Get("landmarks");
+  for (std::size_t i = 0; lm.IsArray() && i < lm.ArrayLen(); ++i) {
+    const auto& o = lm.Get(static_cast<int>(i));
+    rig.landmarks.push_back({o.Get("name").Get<std::string>(), o.Get("vertex").GetNumberAsInt()});
+  }
+}
+
+// Each material's name and base colour factor (a grey default material when there are none).
+void read_materials(const tinygltf::Model& m, Rig& rig) {
+  for (const auto& gm : m.materials) {
+    Material mat{gm.name, {0.8f, 0.8f, 0.8f, 1.0f}};
+    const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
+    for (std::size_t c = 0; c < 4 && c < f.size(); ++c)
+      mat.base_color[static_cast<Eigen::Index>(c)] = static_cast<float>(f[c]);
+    rig.materials.push_back(mat);
+  }
+  if (rig.materials.empty()) rig.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
+}
+
+}  // namespace
+
+Rig parse_glb(std::string_view bytes, std::string_view name) {
+  const std::string what(name);
+  const tinygltf::Model m = load_model(bytes, what);
   if (m.meshes.empty()) throw Error(what + ": GLB has no mesh");
   const tinygltf::Mesh& mesh = m.meshes[0];
   if (mesh.primitives.empty()) throw Error(what + ": mesh has no primitives");
@@ -367,26 +396,8 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
     const std::string nm = t < names.size() ? names[t] : "target_" + std::to_string(t);
     rig.shapes.push_back(Blendshape::from_dense(nm, stack(target_parts[t])));
   }
-  if (mesh.extras.IsObject() && mesh.extras.Has("facecast")) {
-    const auto& fc = mesh.extras.Get("facecast");
-    if (fc.Has("landmarks")) {
-      const auto& lm = fc.Get("landmarks");
-      for (std::size_t i = 0; lm.IsArray() && i < lm.ArrayLen(); ++i) {
-        const auto& o = lm.Get(static_cast<int>(i));
-        rig.landmarks.push_back(
-            {o.Get("name").Get<std::string>(), o.Get("vertex").GetNumberAsInt()});
-      }
-    }
-  }
-
-  for (const auto& gm : m.materials) {
-    Material mat{gm.name, {0.8f, 0.8f, 0.8f, 1.0f}};
-    const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
-    for (std::size_t c = 0; c < 4 && c < f.size(); ++c)
-      mat.base_color[static_cast<Eigen::Index>(c)] = static_cast<float>(f[c]);
-    rig.materials.push_back(mat);
-  }
-  if (rig.materials.empty()) rig.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
+  read_landmarks(mesh, rig);
+  read_materials(m, rig);
   rig.validate(what);
   return rig;
 }
