@@ -1,9 +1,9 @@
 #pragma once
-#include <numbers>
 // Private: the default avatar's geometry with the per-vertex information its blendshapes need.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdint>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -93,5 +93,9 @@ inline Eigen::Vector3f rotate_about(const Eigen::Vector3f& p, const Eigen::Vecto
 }
 /// Point on a polyline at arc-length fraction t in [0, 1].
 Eigen::Vector3f polyline_at(const std::vector<Eigen::Vector3f>& line, float t);
+/// Elevation (radians, in the eye frame) of a lid's margin at the lateral angle `a` in the neutral:
+/// upper_margin / -lower_margin at the centre, the lids overlapping by 4 degrees at the corners
+/// (a = +-corner_angle).
+float margin_elevation(const Frames& f, bool upper, float a);
 
 }  // namespace facecast::anim::avatar_detail

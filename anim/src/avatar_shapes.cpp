@@ -108,13 +108,6 @@ void move_jaw(const Ctx& c, Positions& out, float angle, const V3& shift) {
 
 // ---- eyes ---------------------------------------------------------------------------------
 
-float margin_elevation(const Frames& f, bool upper, float a) {
-  const float q = (a / f.corner_angle) * (a / f.corner_angle);
-  constexpr float kOverlap = deg(4);
-  return upper ? f.upper_margin - (f.upper_margin + kOverlap) * q
-               : -f.lower_margin + (f.lower_margin + kOverlap) * q;
-}
-
 // 1 at the lid margin, falling to 0.35 at the lid's far edge.
 float lid_profile(const Frames& f, const VertexInfo& vi) {
   const bool upper = vi.part == Part::kLidUpper;
@@ -164,44 +157,45 @@ struct ShapeDef {
   ShapeFn fn;
 };
 
-std::vector<ShapeDef> shape_defs() {
-  std::vector<ShapeDef> d;
-  const auto add = [&d](std::string name, ShapeFn fn) {
-    d.push_back({std::move(name), std::move(fn)});
-  };
-  const char* sides[2] = {"Left", "Right"};
+struct ShapeList {
+  std::vector<ShapeDef> defs;
+  void add(std::string name, ShapeFn fn) { defs.push_back({std::move(name), std::move(fn)}); }
+};
 
-  // Eyes.
+constexpr const char* kSides[2] = {"Left", "Right"};
+
+// Eyes: blinks, gaze (the eyeball turns, the lids follow), squint, wide.
+void eye_shapes(ShapeList& d) {
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
     const Eigen::AngleAxisf still(0, kX);
-    add("eyeBlink" + S, [s, still](const Ctx& c, Positions& o) {
+    d.add("eyeBlink" + S, [s, still](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [&](float a) { return blink_upper(c.f, a); },
           [&](float a) { return blink_lower(c.f, a); }, false, still);
     });
-    add("eyeLookDown" + S, [s](const Ctx& c, Positions& o) {
+    d.add("eyeLookDown" + S, [s](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return deg(12); }, [](float) { return deg(5); }, true,
           Eigen::AngleAxisf(deg(22), kX));
     });
-    add("eyeLookIn" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("eyeLookIn" + S, [s, sx](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return 0.0f; }, [](float) { return 0.0f; }, true,
           Eigen::AngleAxisf(-sx * deg(25), kY));
     });
-    add("eyeLookOut" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("eyeLookOut" + S, [s, sx](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return 0.0f; }, [](float) { return 0.0f; }, true,
           Eigen::AngleAxisf(sx * deg(25), kY));
     });
-    add("eyeLookUp" + S, [s](const Ctx& c, Positions& o) {
+    d.add("eyeLookUp" + S, [s](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return -deg(12); }, [](float) { return -deg(4); }, true,
           Eigen::AngleAxisf(-deg(20), kX));
     });
-    add("eyeSquint" + S, [s, still](const Ctx& c, Positions& o) {
+    d.add("eyeSquint" + S, [s, still](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return deg(5); },
           [&](float a) { return 1.1f * blink_lower(c.f, a); }, false, still);
@@ -211,17 +205,19 @@ std::vector<ShapeDef> shape_defs() {
       });
       keep_out_of_sockets(c, o);
     });
-    add("eyeWide" + S, [s, still](const Ctx& c, Positions& o) {
+    d.add("eyeWide" + S, [s, still](const Ctx& c, Positions& o) {
       move_eye(
           c, o, s, [](float) { return -deg(11); }, [](float) { return deg(4); }, false, still);
     });
   }
+}
 
-  // Jaw.
-  add("jawForward", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(6), V3(0, 0, 0.5f)); });
-  add("jawLeft", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(5), V3(0.6f, 0, 0)); });
-  add("jawRight", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(5), V3(-0.6f, 0, 0)); });
-  add("jawOpen", [](const Ctx& c, Positions& o) {
+// The jaw: forward, sideways, open (the upper lip lifts a little).
+void jaw_shapes(ShapeList& d) {
+  d.add("jawForward", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(6), V3(0, 0, 0.5f)); });
+  d.add("jawLeft", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(5), V3(0.6f, 0, 0)); });
+  d.add("jawRight", [](const Ctx& c, Positions& o) { move_jaw(c, o, deg(5), V3(-0.6f, 0, 0)); });
+  d.add("jawOpen", [](const Ctx& c, Positions& o) {
     move_jaw(c, o, kJawOpen, V3::Zero());
     displace_skin(c, o,
                   [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {  // upper lip lifts a little
@@ -229,9 +225,11 @@ std::vector<ShapeDef> shape_defs() {
                            (cc.upper(vi) * cc.lips(vi) * cc.mouth_area(vi) * (1 - vi.jaw));
                   });
   });
+}
 
-  // Mouth.
-  add("mouthClose", [](const Ctx& c, Positions& o) {  // undoes jawOpen on the lips
+// The mouth: fields over the lips and around them.
+void mouth_shapes(ShapeList& d) {
+  d.add("mouthClose", [](const Ctx& c, Positions& o) {  // undoes jawOpen on the lips
     for (Eigen::Index v = 0; v < o.rows(); ++v) {
       const VertexInfo& vi = c.info(static_cast<int>(v));
       if (vi.part != Part::kSkin || vi.jaw <= 0) continue;
@@ -241,7 +239,7 @@ std::vector<ShapeDef> shape_defs() {
       o.row(v) += ((p - opened) * w).transpose();
     }
   });
-  add("mouthFunnel", [](const Ctx& c, Positions& o) {
+  d.add("mouthFunnel", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       const auto q = cc.mp(vi);
       const float mid =
@@ -251,77 +249,77 @@ std::vector<ShapeDef> shape_defs() {
     });
   });
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
-    add("mouth" + S, [sx](const Ctx& c, Positions& o) {
+    d.add("mouth" + S, [sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0.7f * sx, 0, 0) * cc.mouth_area(vi, 1.8f, 2.4f);
       });
     });
   }
-  add("mouthPucker", [](const Ctx& c, Positions& o) {
+  d.add("mouthPucker", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       const auto q = cc.mp(vi);
       return V3(-0.36f * q.x(), 0, 0.6f + 0.6f * vi.bulge) * (cc.lips(vi) * cc.mouth_area(vi));
     });
   });
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
-    add("mouthSmile" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("mouthSmile" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         const float cheek = cc.gauss(vi.anchor, cc.f.cheek[s], 1.6f, 1.4f) * cc.front(vi);
         return V3(0.6f * sx, 0.85f, -0.18f) * cc.corner(vi, s, 1.35f) + V3(0, 0.3f, 0.15f) * cheek;
       });
       keep_out_of_sockets(c, o);
     });
-    add("mouthFrown" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("mouthFrown" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0.12f * sx, -0.5f, -0.05f) * cc.corner(vi, s, 1.3f);
       });
     });
-    add("mouthDimple" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("mouthDimple" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0.22f * sx, 0.05f, -0.22f) * cc.corner(vi, s, 1.2f);
       });
     });
-    add("mouthStretch" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("mouthStretch" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0.55f * sx, -0.22f, -0.25f) * cc.corner(vi, s, 1.5f);
       });
     });
   }
-  add("mouthRollLower", [](const Ctx& c, Positions& o) {
+  d.add("mouthRollLower", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       const float b = vi.bulge / std::max(cc.f.lip_bulge_lower, 1e-3f);
       return (-0.7f * vi.bulge * cc.f.lip_dir + V3(0, 0.12f * b, 0)) * cc.lower(vi);
     });
   });
-  add("mouthRollUpper", [](const Ctx& c, Positions& o) {
+  d.add("mouthRollUpper", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       const float b = vi.bulge / std::max(cc.f.lip_bulge_upper, 1e-3f);
       return (-0.7f * vi.bulge * cc.f.lip_dir - V3(0, 0.12f * b, 0)) * cc.upper(vi);
     });
   });
-  add("mouthShrugLower", [](const Ctx& c, Positions& o) {
+  d.add("mouthShrugLower", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       const float y = cc.mp(vi).y();
       return V3(0, 0.3f, 0.15f) * (smoothstep(0.9f, 0.15f, y) * cc.mouth_area(vi, 1.6f, 3.4f));
     });
   });
-  add("mouthShrugUpper", [](const Ctx& c, Positions& o) {
+  d.add("mouthShrugUpper", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       return V3(0, 0.3f, 0.12f) * (cc.upper(vi) * cc.mouth_area(vi, 2.0f, 2.2f));
     });
   });
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
     const auto side_w = [sx](const Ctx& cc, const VertexInfo& vi) {
       const float x = cc.mp(vi).x() - sx * 0.45f * cc.f.mouth_half_width;
       return std::exp(-x * x / (2 * 0.9f * 0.9f));
     };
-    add("mouthPress" + S, [sx](const Ctx& c, Positions& o) {
+    d.add("mouthPress" + S, [sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         const float half = smoothstep(-0.4f, 0.6f, sx * cc.mp(vi).x() / cc.f.mouth_half_width);
         return (-0.45f * vi.bulge * cc.f.lip_dir +
@@ -329,22 +327,24 @@ std::vector<ShapeDef> shape_defs() {
                half;
       });
     });
-    add("mouthLowerDown" + S, [side_w](const Ctx& c, Positions& o) {
+    d.add("mouthLowerDown" + S, [side_w](const Ctx& c, Positions& o) {
       displace_skin(c, o, [side_w](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0, -0.42f, 0.05f) *
                (cc.lower(vi) * cc.mouth_area(vi, 1.0f, 2.0f) * side_w(cc, vi));
       });
     });
-    add("mouthUpperUp" + S, [side_w](const Ctx& c, Positions& o) {
+    d.add("mouthUpperUp" + S, [side_w](const Ctx& c, Positions& o) {
       displace_skin(c, o, [side_w](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0, 0.42f, 0.08f) *
                (cc.upper(vi) * cc.mouth_area(vi, 2.0f, 1.0f) * side_w(cc, vi));
       });
     });
   }
+}
 
-  // Cheeks and nose.
-  add("cheekPuff", [](const Ctx& c, Positions& o) {
+// Cheeks and nose.
+void cheek_nose_shapes(ShapeList& d) {
+  d.add("cheekPuff", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       if (vi.inner) return V3(0, 0, 0);
       V3 total(0, 0, 0);
@@ -358,16 +358,16 @@ std::vector<ShapeDef> shape_defs() {
     });
   });
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
-    add("cheekSquint" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("cheekSquint" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(0.04f * sx, 0.4f, 0.12f) *
                (cc.gauss(vi.anchor, cc.f.cheek[s], 1.4f, 1.2f) * cc.front(vi));
       });
       keep_out_of_sockets(c, o);
     });
-    add("noseSneer" + S, [sx](const Ctx& c, Positions& o) {
+    d.add("noseSneer" + S, [sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         const V3 centre(sx * 0.95f, cc.f.nose_tip.y() - 0.4f, 0);
         return V3(0.05f * sx, 0.32f, 0.06f) *
@@ -375,12 +375,14 @@ std::vector<ShapeDef> shape_defs() {
       });
     });
   }
+}
 
-  // Brows.
+// Brows.
+void brow_shapes(ShapeList& d) {
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
-    add("browDown" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("browDown" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         return V3(-0.15f * sx, -0.4f, 0.1f) *
                (cc.gauss(vi.anchor, cc.f.brow[s], 1.6f, 1.0f) * cc.eye_front(vi, s));
@@ -388,7 +390,7 @@ std::vector<ShapeDef> shape_defs() {
       keep_out_of_sockets(c, o);
     });
   }
-  add("browInnerUp", [](const Ctx& c, Positions& o) {
+  d.add("browInnerUp", [](const Ctx& c, Positions& o) {
     displace_skin(c, o, [](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
       float w = 0;
       for (int s = 0; s < 2; ++s) {
@@ -400,9 +402,9 @@ std::vector<ShapeDef> shape_defs() {
     keep_out_of_sockets(c, o);
   });
   for (int s = 0; s < 2; ++s) {
-    const std::string S = sides[s];
+    const std::string S = kSides[s];
     const float sx = side_sign(s);
-    add("browOuterUp" + S, [s, sx](const Ctx& c, Positions& o) {
+    d.add("browOuterUp" + S, [s, sx](const Ctx& c, Positions& o) {
       displace_skin(c, o, [s, sx](const Ctx& cc, int, const VertexInfo& vi) -> V3 {
         const V3 centre(cc.f.brow[s].x() + sx * 1.3f, cc.f.brow[s].y(), 0);
         return V3(0, 0.7f, 0) * (cc.gauss(vi.anchor, centre, 1.1f, 1.0f) * cc.eye_front(vi, s));
@@ -410,9 +412,11 @@ std::vector<ShapeDef> shape_defs() {
       keep_out_of_sockets(c, o);
     });
   }
+}
 
-  // Tongue: out between the lips over the lower teeth, with the jaw a little open.
-  add("tongueOut", [](const Ctx& c, Positions& o) {
+// The tongue: out between the lips over the lower teeth, with the jaw a little open.
+void tongue_shapes(ShapeList& d) {
+  d.add("tongueOut", [](const Ctx& c, Positions& o) {
     const auto& line = c.f.tongue_out_line;
     for (Eigen::Index v = 0; v < o.rows(); ++v) {
       const VertexInfo& vi = c.info(static_cast<int>(v));
@@ -430,7 +434,17 @@ std::vector<ShapeDef> shape_defs() {
       return V3(0, 0.15f, 0.04f) * (cc.upper(vi) * cc.lips(vi) * cc.mouth_area(vi) * (1 - vi.jaw));
     });
   });
-  return d;
+}
+
+std::vector<ShapeDef> shape_defs() {
+  ShapeList d;
+  eye_shapes(d);
+  jaw_shapes(d);
+  mouth_shapes(d);
+  cheek_nose_shapes(d);
+  brow_shapes(d);
+  tongue_shapes(d);
+  return std::move(d.defs);
 }
 
 }  // namespace

@@ -167,7 +167,7 @@ TEST_CASE("the face rests in long pauses and after the utterance", "[anim][anima
   CHECK(worst < 0.12f);
 }
 
-TEST_CASE("expression ramps follow the seed's three cases", "[anim][animation]") {
+TEST_CASE("expression ramps follow the three start cases", "[anim][animation]") {
   const Mapping m = Mapping::for_rig(avatar().shape_names());
   viseme::Utterance u;
   u.set = viseme::VisemeSet::kZh15;
@@ -268,4 +268,93 @@ TEST_CASE("fade to rest is smooth and ends at zero", "[anim][animation]") {
   CHECK(out[0] == Approx(0.5));
   fade_to_rest(from, 0.2, 0.2, out);
   CHECK(out[0] == 0.0f);
+}
+
+// ---- The steps of the chain on their own (animation_steps.hpp). ---------------------------------
+
+TEST_CASE("the mapping table names the closure visemes of every set", "[anim][animation]") {
+  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  using viseme::VisemeSet;
+  CHECK(m.closure_channels(VisemeSet::kZh15) ==
+        std::vector<int>{channel(m, VisemeSet::kZh15, "bpm"), channel(m, VisemeSet::kZh15, "f")});
+  CHECK(
+      m.closure_channels(VisemeSet::kOculus) ==
+      std::vector<int>{channel(m, VisemeSet::kOculus, "PP"), channel(m, VisemeSet::kOculus, "FF")});
+  CHECK(
+      m.closure_channels(VisemeSet::kMpeg4) ==
+      std::vector<int>{channel(m, VisemeSet::kMpeg4, "pbm"), channel(m, VisemeSet::kMpeg4, "fv")});
+}
+
+TEST_CASE("dominance blends neighbours and closure reaches full value", "[anim][animation]") {
+  const AnimOptions o = quiet();
+  // Channel 1 at 0.1 s alone, then with a channel-2 neighbour 50 ms later (anticipated).
+  std::vector<DominanceEvent> events{{1, 0.05, 0.15, 0.1, 1.0}};
+  auto v = dominance_blend(events, 3, {}, o, 0.1, 1);
+  CHECK(v == std::vector<float>{0.0f, 1.0f, 0.0f});
+  events.push_back({2, 0.1, 0.2, 0.15, 1.0});
+  const double d = std::exp(-o.theta_anticipation * 0.05);
+  v = dominance_blend(events, 3, {}, o, 0.1, 1);
+  CHECK(v[1] == Approx(1 / (1 + d)));
+  CHECK(v[2] == Approx(d / (1 + d)));
+  // As a closure channel it is pushed to 1 and the neighbour scaled by what it lacked.
+  v = dominance_blend(events, 3, {1}, o, 0.1, 1);
+  CHECK(v[1] == 1.0f);
+  CHECK(v[2] == Approx(d / (1 + d) * (1 - 1 / (1 + d))));
+}
+
+TEST_CASE("viseme keys rest around the speech and in long pauses", "[anim][animation]") {
+  const AnimOptions o = quiet();
+  const std::vector<DominanceEvent> events{{-1, 0.0, 0.2, 0.1, 0.5},
+                                           {1, 0.2, 0.4, 0.3, 1.0},
+                                           {-1, 0.4, 1.4, 0.9, 0.5},
+                                           {2, 1.4, 1.6, 1.5, 1.0}};
+  const auto keys = viseme_keys(events, 3, {}, o);
+  std::vector<double> times;
+  for (const auto& k : keys) times.push_back(k.t);
+  const double r = o.rest_ramp;
+  REQUIRE(times.size() == 6);
+  const std::vector<double> want{0.2 - r, 0.3, 0.4 + r, 1.4 - r, 1.5, 1.6 + r};
+  for (size_t i = 0; i < want.size(); ++i) CHECK(times[i] == Approx(want[i]));
+  for (const size_t rest : {0, 2, 3, 5}) CHECK(keys[rest].value == std::vector<float>(3, 0.0f));
+  // Between keys: the Hermite curve with zero tangents (the midpoint is the mean).
+  const auto mid = sample_keys(keys, 3, 0.5 * (times[0] + times[1]));
+  CHECK(mid[1] == Approx(0.5 * keys[1].value[1]));
+  CHECK(sample_keys({}, 3, 1.0) == std::vector<float>(3, 0.0f));
+}
+
+TEST_CASE("the three start cases of an expression ramp", "[anim][animation]") {
+  const ExpressionSegment first = next_ramp(nullptr, 1.0, 0.5, 0.8f);
+  CHECK(first.v0 == 0.0f);
+  CHECK(first.g == 0.0f);
+  const ExpressionSegment after = next_ramp(&first, 2.0, 1.0, 0.2f);  // the first has finished
+  CHECK(after.v0 == 0.8f);
+  CHECK(after.g == 0.0f);
+  const ExpressionSegment cut = next_ramp(&after, 2.5, 2.0, 1.0f);  // halfway through `after`
+  CHECK(cut.v0 == Approx(0.5f));
+  CHECK(cut.g == Approx(hermite_slope(0.8f, 0.2f, 0.0f, 0.5) / 1.0 * 2.0));
+  CHECK(cut.g < 0);
+}
+
+TEST_CASE("idle life is seeded and blinks close, hold and open", "[anim][animation]") {
+  AnimOptions o;
+  const IdleLife a = idle_life(20, o), b = idle_life(20, o);
+  CHECK(a.blinks == b.blinks);
+  REQUIRE(a.blinks.size() >= 3);
+  o.seed = 2;
+  CHECK(idle_life(20, o).blinks != a.blinks);
+  const double t = a.blinks[1];
+  CHECK(blink_at(a, o, t - o.blink_close - 1e-3) == 0.0f);
+  CHECK(blink_at(a, o, t + 0.5 * o.blink_hold) == 1.0f);
+  CHECK(blink_at(a, o, t + o.blink_hold + o.blink_open + 1e-3) == 0.0f);
+  CHECK(gaze_at(a, 0.0) == std::array<float, 2>{0.0f, 0.0f});
+  CHECK(gaze_at(a, 20.0) == std::array<float, 2>{0.0f, 0.0f});
+  CHECK(head_at(a, o, 0.0).yaw == 0.0f);
+}
+
+TEST_CASE("closure damps expressions only on its way to contact", "[anim][animation]") {
+  CHECK(closure_keep(0.0f) == 1.0f);
+  CHECK(closure_keep(0.2f) == 1.0f);
+  CHECK(closure_keep(0.55f) == Approx(0.5));
+  CHECK(closure_keep(0.9f) == Approx(0.0).margin(1e-6));
+  CHECK(closure_keep(1.0f) == 0.0f);
 }

@@ -200,3 +200,21 @@ TEST_CASE("the timeline picture draws events and curves", "[render][timeline]") 
   CHECK(lit(x_aa, 25, 45));
   CHECK(!lit(x_rest, 25, 45));
 }
+
+TEST_CASE("configs/anim/render.json mirrors RenderOptions and VideoOptions", "[render][video]") {
+  const render::RenderOptions file = render::load_render_options(), code;
+  CHECK(file.width == code.width);
+  CHECK(file.height == code.height);
+  CHECK(file.msaa == code.msaa);
+  CHECK(file.fov_y_deg == code.fov_y_deg);
+  CHECK(file.margin == code.margin);
+  CHECK(file.background == code.background);
+  CHECK(file.contexts == code.contexts);
+  const render::VideoOptions vfile = render::load_video_options(), vcode;
+  CHECK(vfile.fps == vcode.fps);
+  CHECK(vfile.crf == vcode.crf);
+  CHECK(vfile.preset == vcode.preset);
+  CHECK(vfile.audio_bitrate_kbps == vcode.audio_bitrate_kbps);
+  CHECK(vfile.pipeline == vcode.pipeline);
+  CHECK(vfile.ffmpeg == vcode.ffmpeg);
+}

@@ -1,9 +1,6 @@
-// The renderer: rig data packed once on the CPU, uploaded once per pooled GL context, blended in
-// the vertex shader from the per-frame weights.
+// The renderer: rig data packed once on the CPU (gpu_rig.cpp), uploaded once per pooled GL
+// context, blended in the vertex shader (shaders.cpp) from the per-frame weights.
 #include "facecast/render/renderer.hpp"
-
-#define GL_GLEXT_PROTOTYPES 1
-#include <GL/glcorearb.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -11,101 +8,17 @@
 #include <condition_variable>
 #include <cstring>
 #include <mutex>
-#include <numeric>
-#include <sstream>
 
 #include "egl.hpp"
 #include "facecast/core/error.hpp"
+#include "gpu_rig.hpp"
+#include "shaders.hpp"
 
 namespace facecast::render {
 namespace {
 
-constexpr int kMaxShapes = 256;
-constexpr int kDeltaWidth =
-    4096;  // texels per row of the delta texture (even: pairs stay on a row)
-
-const char* kVertexShader = R"(#version 330 core
-layout(location = 0) in vec3 a_pos;
-layout(location = 1) in vec3 a_nrm;
-layout(location = 2) in ivec2 a_morph;  // first entry, entry count
-uniform sampler2D u_deltas;             // 2 texels per entry: (dpos, shape), (dnrm, 0)
-uniform float u_weights[256];
-uniform mat4 u_mvp;
-uniform mat4 u_model;  // head pose (a rotation about the neck)
-out vec3 v_pos;
-out vec3 v_nrm;
-void main() {
-  vec3 p = a_pos;
-  vec3 n = a_nrm;
-  for (int i = 0; i < a_morph.y; ++i) {
-    int e = (a_morph.x + i) * 2;
-    ivec2 at = ivec2(e % 4096, e / 4096);
-    vec4 d = texelFetch(u_deltas, at, 0);
-    float w = u_weights[int(d.w)];
-    if (w != 0.0) {
-      p += w * d.xyz;
-      n += w * texelFetch(u_deltas, at + ivec2(1, 0), 0).xyz;
-    }
-  }
-  vec4 world = u_model * vec4(p, 1.0);
-  v_pos = world.xyz;
-  v_nrm = mat3(u_model) * n;
-  gl_Position = u_mvp * world;
-}
-)";
-
-const char* kFragmentShader = R"(#version 330 core
-in vec3 v_pos;
-in vec3 v_nrm;
-uniform vec3 u_color;  // linear
-uniform vec3 u_eye;
-out vec4 frag;
-vec3 to_srgb(vec3 c) {
-  c = clamp(c, 0.0, 1.0);
-  return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
-}
-void main() {
-  vec3 n = normalize(v_nrm);
-  vec3 v = normalize(u_eye - v_pos);
-  if (dot(n, v) < 0.0) n = -n;  // two-sided: open sheets and inner surfaces
-  vec3 key = normalize(vec3(-0.45, 0.55, 0.75));
-  vec3 fill = normalize(vec3(0.6, 0.1, 0.8));
-  vec3 rim = normalize(vec3(0.0, 0.4, -1.0));
-  float wrap = 0.25;  // soft wrap lighting, kinder to skin
-  float kd = max((dot(n, key) + wrap) / (1.0 + wrap), 0.0);
-  float fd = max(dot(n, fill), 0.0);
-  float rd = pow(max(dot(n, rim), 0.0), 2.0);
-  vec3 h = normalize(key + v);
-  float spec = pow(max(dot(n, h), 0.0), 40.0) * 0.12;
-  float hemi = 0.5 + 0.5 * n.y;
-  vec3 c = u_color * (0.22 + 0.1 * hemi + 0.78 * kd + 0.25 * fd + 0.2 * rd) + vec3(spec);
-  frag = vec4(to_srgb(c), 1.0);
-}
-)";
-
-void check_gl(const char* call) {
-  const GLenum e = glGetError();
-  if (e != GL_NO_ERROR) {
-    std::ostringstream s;
-    s << call << " failed: GL error 0x" << std::hex << e;
-    throw Error(s.str(), ErrorCode::kInternal);
-  }
-}
-
-GLuint compile(GLenum type, const char* source, const char* what) {
-  const GLuint s = glCreateShader(type);
-  glShaderSource(s, 1, &source, nullptr);
-  glCompileShader(s);
-  GLint ok = 0;
-  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[2048] = {};
-    glGetShaderInfoLog(s, sizeof log, nullptr, log);
-    for (char& c : log) c = c == '\n' ? ' ' : c;
-    throw Error(std::string("glCompileShader (") + what + ") failed: " + log, ErrorCode::kInternal);
-  }
-  return s;
-}
+using detail::check_gl;
+using detail::PackedRig;
 
 Eigen::Matrix4f perspective(float fov_y_rad, float aspect, float n, float f) {
   const float t = 1.0f / std::tan(0.5f * fov_y_rad);
@@ -133,101 +46,6 @@ Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& targe
   return m;
 }
 
-// The rig packed for the GPU, shared read-only by every context.
-struct Packed {
-  std::vector<float> positions, normals;  // #V * 3
-  std::vector<GLint> morph;               // #V * 2: first entry, count
-  std::vector<float> deltas;              // kDeltaWidth * rows * 4
-  int delta_rows = 0;
-  std::vector<GLuint> indices;  // triangles sorted by material
-  struct Range {
-    std::size_t first = 0, count = 0;
-    Eigen::Vector3f color;
-  };
-  std::vector<Range> ranges;
-  int shape_count = 0;
-};
-
-Packed pack(const anim::Rig& rig) {
-  rig.validate("render rig");
-  if (rig.shapes.size() > static_cast<std::size_t>(kMaxShapes))
-    throw Error("renderer: " + std::to_string(rig.shapes.size()) + " shapes, at most " +
-                    std::to_string(kMaxShapes) + " are supported",
-                ErrorCode::kUnsupported);
-  Packed p;
-  const int nv = rig.vertex_count();
-  p.shape_count = static_cast<int>(rig.shapes.size());
-  p.positions.assign(rig.positions.data(), rig.positions.data() + rig.positions.size());
-  p.normals.assign(rig.normals.data(), rig.normals.data() + rig.normals.size());
-
-  // Per shape: position deltas and normal deltas (shape normals minus neutral normals) wherever
-  // either is non-zero; then bucketed by vertex.
-  struct Entry {
-    int shape;
-    Eigen::Vector3f dp, dn;
-  };
-  std::vector<std::vector<Entry>> per_vertex(static_cast<std::size_t>(nv));
-  const anim::Positions base_n = anim::vertex_normals(rig.positions, rig.triangles);
-  anim::Positions moved, moved_n;
-  for (int s = 0; s < p.shape_count; ++s) {
-    const auto& sh = rig.shapes[static_cast<std::size_t>(s)];
-    moved = rig.positions;
-    for (std::size_t i = 0; i < sh.vertices.size(); ++i)
-      moved.row(sh.vertices[i]) += sh.deltas.row(static_cast<Eigen::Index>(i));
-    anim::vertex_normals(moved, rig.triangles, moved_n);
-    std::vector<char> touched(static_cast<std::size_t>(nv), 0);
-    for (int v : sh.vertices) touched[static_cast<std::size_t>(v)] = 1;
-    std::size_t k = 0;
-    for (int v = 0; v < nv; ++v) {
-      const Eigen::Vector3f dn = (moved_n.row(v) - base_n.row(v)).transpose();
-      const bool moves = touched[static_cast<std::size_t>(v)] != 0;
-      if (!moves && dn.squaredNorm() < 1e-8f) continue;
-      Eigen::Vector3f dp = Eigen::Vector3f::Zero();
-      if (moves) {
-        while (sh.vertices[k] != v) ++k;
-        dp = sh.deltas.row(static_cast<Eigen::Index>(k)).transpose();
-      }
-      per_vertex[static_cast<std::size_t>(v)].push_back({s, dp, dn});
-    }
-  }
-  p.morph.resize(static_cast<std::size_t>(nv) * 2);
-  std::size_t entries = 0;
-  for (int v = 0; v < nv; ++v) {
-    p.morph[2 * v] = static_cast<GLint>(entries);
-    p.morph[2 * v + 1] = static_cast<GLint>(per_vertex[static_cast<std::size_t>(v)].size());
-    entries += per_vertex[static_cast<std::size_t>(v)].size();
-  }
-  p.delta_rows = std::max<int>(1, static_cast<int>((entries * 2 + kDeltaWidth - 1) / kDeltaWidth));
-  p.deltas.assign(static_cast<std::size_t>(kDeltaWidth) * p.delta_rows * 4, 0.0f);
-  std::size_t e = 0;
-  for (const auto& list : per_vertex)
-    for (const auto& en : list) {
-      float* t = &p.deltas[e * 8];
-      t[0] = en.dp.x(), t[1] = en.dp.y(), t[2] = en.dp.z(), t[3] = static_cast<float>(en.shape);
-      t[4] = en.dn.x(), t[5] = en.dn.y(), t[6] = en.dn.z(), t[7] = 0;
-      ++e;
-    }
-
-  std::vector<int> order(static_cast<std::size_t>(rig.triangle_count()));
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return rig.triangle_material[static_cast<std::size_t>(a)] <
-           rig.triangle_material[static_cast<std::size_t>(b)];
-  });
-  for (std::size_t i = 0; i < order.size();) {
-    const int m = rig.triangle_material[static_cast<std::size_t>(order[i])];
-    Packed::Range r;
-    r.first = p.indices.size();
-    r.color = rig.materials[static_cast<std::size_t>(m)].base_color.head<3>();
-    for (; i < order.size() && rig.triangle_material[static_cast<std::size_t>(order[i])] == m; ++i)
-      for (int c = 0; c < 3; ++c)
-        p.indices.push_back(static_cast<GLuint>(rig.triangles(order[i], c)));
-    r.count = p.indices.size() - r.first;
-    p.ranges.push_back(r);
-  }
-  return p;
-}
-
 // One pooled GL context with its own copy of the rig and its framebuffers.
 struct Slot {
   detail::Context context;
@@ -237,7 +55,7 @@ struct Slot {
   int width = 0, height = 0, samples = 0;
   std::string renderer_name;
 
-  Slot(const Packed& p, const RenderOptions& o) {
+  Slot(const PackedRig& p, const RenderOptions& o) {
     context.make_current();
     try {
       init(p, o);
@@ -248,20 +66,10 @@ struct Slot {
     context.release();
   }
 
-  void init(const Packed& p, const RenderOptions& o) {
+  void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, "vertex");
-    const GLuint fs = compile(GL_FRAGMENT_SHADER, kFragmentShader, "fragment");
-    program = glCreateProgram();
-    glAttachShader(program, vs);
-    glAttachShader(program, fs);
-    glLinkProgram(program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (!ok) throw Error("glLinkProgram failed", ErrorCode::kInternal);
+    program = detail::link_program();
     u_weights = glGetUniformLocation(program, "u_weights");
     u_mvp = glGetUniformLocation(program, "u_mvp");
     u_model = glGetUniformLocation(program, "u_model");
@@ -278,14 +86,15 @@ struct Slot {
       glBufferData(target, static_cast<GLsizeiptr>(bytes), data, GL_STATIC_DRAW);
     };
     upload(GL_ARRAY_BUFFER, buffers[0], p.positions.data(), p.positions.size() * sizeof(float));
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(detail::kPositionAttribute, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(detail::kPositionAttribute);
     upload(GL_ARRAY_BUFFER, buffers[1], p.normals.data(), p.normals.size() * sizeof(float));
-    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(detail::kNormalAttribute, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(detail::kNormalAttribute);
+    static_assert(sizeof(p.morph[0]) == sizeof(GLint) && sizeof(p.indices[0]) == sizeof(GLuint));
     upload(GL_ARRAY_BUFFER, buffers[2], p.morph.data(), p.morph.size() * sizeof(GLint));
-    glVertexAttribIPointer(2, 2, GL_INT, 0, nullptr);
-    glEnableVertexAttribArray(2);
+    glVertexAttribIPointer(detail::kMorphAttribute, 2, GL_INT, 0, nullptr);
+    glEnableVertexAttribArray(detail::kMorphAttribute);
     upload(GL_ELEMENT_ARRAY_BUFFER, buffers[3], p.indices.data(),
            p.indices.size() * sizeof(GLuint));
     check_gl("glBufferData (mesh)");
@@ -295,8 +104,8 @@ struct Slot {
     glBindTexture(GL_TEXTURE_2D, delta_tex);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, kDeltaWidth, p.delta_rows, 0, GL_RGBA, GL_FLOAT,
-                 p.deltas.data());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, detail::kDeltaWidth, p.delta_rows, 0, GL_RGBA,
+                 GL_FLOAT, p.deltas.data());
     check_gl("glTexImage2D (morph deltas)");
 
     width = o.width;
@@ -332,14 +141,10 @@ struct Slot {
     check_gl("framebuffer setup");
   }
 
-  void draw(const Packed& p, const RenderOptions& o, const Camera& cam,
+  void draw(const PackedRig& p, const RenderOptions& o, const Camera& cam,
             std::span<const float> weights, const Eigen::Matrix4f& model, Image& out) {
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     glViewport(0, 0, width, height);
-    const auto lin = [](float c) {
-      return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-    };
-    (void)lin;
     glClearColor(o.background.x(), o.background.y(), o.background.z(), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
@@ -348,9 +153,9 @@ struct Slot {
     glUniform1i(u_deltas, 0);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, delta_tex);
-    float w[kMaxShapes] = {};
+    float w[detail::kMaxShapes] = {};
     std::copy(weights.begin(), weights.end(), w);
-    glUniform1fv(u_weights, kMaxShapes, w);
+    glUniform1fv(u_weights, detail::kMaxShapes, w);
     const float aspect = static_cast<float>(width) / static_cast<float>(height);
     const Eigen::Matrix4f mvp =
         perspective(cam.fov_y_deg * 3.14159265f / 180.0f, aspect, cam.near_plane, cam.far_plane) *
@@ -461,7 +266,7 @@ Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& optio
 
 struct Renderer::Impl {
   RenderOptions options;
-  Packed packed;
+  PackedRig packed;
   Camera camera;
   Eigen::Vector3f neck = Eigen::Vector3f::Zero();  // pivot of the head pose
   mutable std::mutex mutex;
@@ -509,7 +314,7 @@ Renderer::Renderer(const anim::Rig& rig, RenderOptions options) : impl_(std::mak
     throw Error("renderer: image size " + std::to_string(options.width) + "x" +
                 std::to_string(options.height) + " is out of range (1..8192)");
   impl_->options = options;
-  impl_->packed = pack(rig);
+  impl_->packed = detail::pack_rig(rig);
   impl_->camera = frame_face(
       rig, static_cast<float>(options.width) / static_cast<float>(options.height), options);
   impl_->neck = neck_pivot(rig);

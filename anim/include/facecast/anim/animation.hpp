@@ -1,21 +1,23 @@
 #pragma once
 // From timed viseme and expression events to blendshape weights per frame.
 //
-// The chain (each step a pure function of its inputs):
+// The chain (steps 1-4 are the pure functions of animation_steps.hpp; Performance runs them once
+// per utterance and mixes their results in sample()):
 //   1. Visemes -> keys. Every viseme event becomes a key at its centre whose value is a vector over
 //      the viseme channels, blended from the neighbouring events by Cohen-Massaro dominance
 //      D_j(t) = alpha_j exp(-theta |t - c_j|) (normalized), so neighbours colour each other
-//      (coarticulation). Closure visemes (bpm/f, PP/FF) have a high alpha and their own channel at
-//      full value: the lips do close on /p/ and /f/. Long pauses get rest keys so the face is
-//      still.
-//   2. Between keys the value follows the seed's Hermite curve with zero end tangents.
-//   3. Expressions: one curve per expression name with the seed's three start cases (from 0, from
-//      the previous target, or from the interrupted value and tangent), ramping over the tag's T.
+//      (coarticulation). Closure visemes (the mapping table's "closure" list: bpm/f, PP/FF) have a
+//      high alpha and their own channel at full value: the lips do close on /p/ and /f/. Long
+//      pauses get rest keys so the face is still. See docs/algorithms.md#coarticulation.
+//   2. Between keys the value follows a cubic Hermite curve with zero end tangents.
+//   3. Expressions: one curve per expression name, Hermite ramps over the tag's T with three start
+//      cases (from 0, from the previous target, or from the interrupted value and tangent),
+//      released over the tail after the speech. See docs/algorithms.md#expression-transitions.
 //   4. Idle life (optional): blinks at random intervals and small eye and head motion, seeded so a
 //      run is reproducible.
 //   5. Mixing: viseme channels and expressions map to the rig's blendshapes through the tables in
 //      configs/anim/ (ARKit names incl. the ICT _L/_R variant, Oculus viseme morphs); the two
-//      contributions mix per shape by the seed's max rule, except that mouth closure damps the
+//      contributions mix per shape by the max rule, except that mouth closure damps the
 //      expression's mouth-opening shapes (a smile must not keep the lips apart on /p/); clamp
 //      [0,1].
 //
@@ -27,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "facecast/anim/animation_steps.hpp"
 #include "facecast/viseme/utterance.hpp"
 
 namespace facecast::anim {
@@ -66,8 +69,8 @@ struct HeadPose {
 /// for_rig() picks the table by the rig's shape names: Oculus viseme morphs (viseme_aa ...) ->
 /// configs/anim/visemes_oculus.json; otherwise ARKit names -> configs/anim/visemes_arkit.json, with
 /// Left/Right mapped to _L/_R where the rig uses those (ICT FaceKit). Expressions come from
-/// configs/anim/expressions_arkit.json (or the table's own expressions section). Table entries
-/// whose shape the rig lacks are dropped; throws Error when nothing at all maps (not a face rig).
+/// configs/anim/expressions_arkit.json. Table entries whose shape the rig lacks are dropped; throws
+/// Error when nothing at all maps (not a face rig) and names the file and key of a bad table.
 class Mapping {
  public:
   static Mapping for_rig(const std::vector<std::string>& shape_names);
@@ -86,7 +89,10 @@ class Mapping {
   const std::vector<std::string>& viseme_names(viseme::VisemeSet set) const;
   /// Expression rows by name; nullptr for an unknown name.
   const std::vector<Entry>* expression(const std::string& name) const;
-  /// Shapes that mouth closure damps in the expression contribution, and the closure channels.
+  /// Channels of `set` (indices into viseme_names(set)) whose lips must meet: the table's
+  /// "closure" list (MPEG-4 takes the Oculus channels, its visemes being the Oculus ones renamed).
+  const std::vector<int>& closure_channels(viseme::VisemeSet set) const;
+  /// Shapes that mouth closure damps in the expression contribution.
   const std::vector<int>& closure_damped() const { return closure_damped_; }
   /// Blink and eye-look shapes for idle life (-1 when absent).
   int blink_left = -1, blink_right = -1;
@@ -97,6 +103,7 @@ class Mapping {
   std::string table_;
   std::vector<std::vector<Entry>> sets_[3];
   std::vector<std::string> set_names_[3];
+  std::vector<int> closure_[3];
   std::vector<std::pair<std::string, std::vector<Entry>>> expressions_;
   std::vector<int> closure_damped_;
 };
@@ -132,30 +139,18 @@ class Performance {
   float expression_value(const std::string& name, double t) const;
 
  private:
-  struct Key {
-    double t;
-    std::vector<float> value;  // per viseme channel
-  };
-  struct ExprSegment {  // a Hermite ramp from (t0, v0, slope g) to (t0 + T, v1), then hold
-    double t0, T;
-    float v0, v1, g;
-  };
-  struct ExprCurve {
-    std::string name;
-    std::vector<Mapping::Entry> entries;
-    std::vector<ExprSegment> segments;
+  struct MappedCurve {
+    ExpressionCurve curve;
+    std::vector<Mapping::Entry> entries;  // the expression's row of the mapping
   };
 
   Mapping mapping_;
   viseme::VisemeSet set_;
   AnimOptions options_;
   double duration_ = 0, speech_duration_ = 0;
-  std::vector<Key> keys_;
-  std::vector<int> closure_channels_;
-  std::vector<ExprCurve> expressions_;
-  std::vector<double> blinks_;
-  std::vector<std::pair<double, std::array<float, 2>>> gazes_;  // saccade targets (t, {x, y})
-  double head_phase_[3] = {0, 0, 0};
+  std::vector<ChannelKey> keys_;          // step 1
+  std::vector<MappedCurve> expressions_;  // step 3
+  IdleLife idle_;                         // step 4 (empty when options_.idle is off)
 };
 
 /// Weights of a whole performance at a fixed rate: frames x shapes, row-major float32, frame f at
@@ -175,8 +170,8 @@ struct WeightTrack {
 /// otherwise frame_count(fps).
 WeightTrack bake(const Performance& performance, double fps, double until = 0);
 
-/// A smooth return to rest from `from` (e.g. the weights when a stream is cancelled): the Hermite
-/// curve with zero end tangent, `t` seconds into a `duration`-long fade. Writes `out`.
+/// A smooth return to rest from `from` (e.g. the weights when a stream is cancelled): hermite()
+/// with zero tangents, `t` seconds into a `duration`-long fade. Writes `out`.
 void fade_to_rest(std::span<const float> from, double t, double duration, std::span<float> out);
 
 /// JSON {fps, frames, shapes:[...], weights:[[...], ...], head:[[yaw,pitch,roll], ...]}.

@@ -4,11 +4,10 @@
 //
 // Geometry (centimetres, +Y up, the face looks along +Z, origin near the centre of the skull):
 //  - the skin: one closed surface (a topological sphere) on a conformal grid whose pole is the
-//  mouth
-//    (elliptic coordinates around the lip line, mapped onto the head): skull, jaw, cheeks, chin,
-//    brows, simple ears, a nose with nostril pockets, lips that meet along the lip line, and behind
-//    them the inner lips and the mouth cavity (the same surface folded inwards: a real double
-//    layer). Around each eye the skin folds into a socket (a bowl behind the eyeball).
+//    mouth (elliptic coordinates around the lip line, mapped onto the head): skull, jaw, cheeks,
+//    chin, brows, simple ears, a nose with nostril pockets, lips that meet along the lip line, and
+//    behind them the inner lips and the mouth cavity (the same surface folded inwards: a real
+//    double layer). Around each eye the skin folds into a socket (a bowl behind the eyeball).
 //  - upper and lower teeth (closed tubes along the dental arch), a tongue, two eyeballs (sclera,
 //    iris and pupil bands), and four eyelids: thin shells concentric with the eyeballs, so that a
 //    blink rotates them over the eyeball without ever passing through it (the upper lid slides over
@@ -18,6 +17,9 @@
 //
 // The generator is deterministic: the same parameters give the same bytes. Different parameters
 // give other "users" with the same topology (a ready same-topology target for the rig builder).
+// The code: avatar.cpp (parameters, assembly), avatar_geometry.cpp (the head and the parts'
+// assembly; the parts in avatar_skin.cpp, avatar_mouth.cpp, avatar_eyes.cpp), avatar_shapes.cpp.
+// See docs/algorithms.md#avatar.
 #include <cstdint>
 #include <string>
 #include <vector>

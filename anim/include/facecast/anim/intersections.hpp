@@ -6,6 +6,7 @@
 // coplanar case handled by 2-D edge and containment tests). Pairs of triangles that share a vertex
 // index are neighbours, never intersections. Cost: O(F log F) to build plus the candidates; the ICT
 // FaceKit (52k triangles) takes a few tens of milliseconds.
+// See docs/algorithms.md#intersections.
 #include <cstddef>
 #include <functional>
 #include <string>

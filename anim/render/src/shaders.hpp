@@ -1,0 +1,17 @@
+#pragma once
+// Private: OpenGL 3.3 core entry points, GL error checks and the renderer's shader program.
+#define GL_GLEXT_PROTOTYPES 1
+#include <GL/glcorearb.h>
+
+namespace facecast::render::detail {
+
+/// Throws Error(kInternal) "<call> failed: GL error 0x..." when glGetError reports one.
+void check_gl(const char* call);
+
+/// Compiles and links the program on the current context: morph blending from the delta texture
+/// in the vertex shader, soft lighting and sRGB output in the fragment shader. The GPU layout
+/// constants of gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with
+/// the compiler's log.
+GLuint link_program();
+
+}  // namespace facecast::render::detail
