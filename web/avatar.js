@@ -1,39 +1,13 @@
 // The 3D avatar: a rig's GLB in three.js, morph target influences set by name, head rotation about
-// the neck, an orbit camera and studio lighting.
+// the neck, in a Viewport (viewport.js: orbit camera, studio lighting); glTF loading and the
+// helpers the rig builder shares (rest box, part colours, morph meshes).
 //
 // A facecast GLB has one mesh with one primitive per material; GLTFLoader turns it into a Group
 // with one Mesh per primitive, each with the same morphTargetDictionary. Weights go to all of them.
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
-
-export function makeRenderer(canvas) {
-  const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
-  renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
-  renderer.outputColorSpace = THREE.SRGBColorSpace;
-  // Neutral tone mapping keeps the materials' hues (ACES bleaches skin).
-  renderer.toneMapping = THREE.NeutralToneMapping;
-  renderer.toneMappingExposure = 1.0;
-  return renderer;
-}
-
-/** Key, fill and rim lights plus a soft room environment for the standard materials. */
-export function addStudioLights(scene, renderer) {
-  const pmrem = new THREE.PMREMGenerator(renderer);
-  scene.environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
-  scene.environmentIntensity = 0.45;
-  pmrem.dispose();
-  const hemi = new THREE.HemisphereLight(0xdfe8ff, 0x2a2420, 0.6);
-  const key = new THREE.DirectionalLight(0xfff1e0, 2.2);
-  key.position.set(0.6, 0.8, 1.0);
-  const fill = new THREE.DirectionalLight(0xcfe0ff, 0.7);
-  fill.position.set(-1.0, 0.2, 0.6);
-  const rim = new THREE.DirectionalLight(0xffffff, 1.3);
-  rim.position.set(0.0, 0.6, -1.2);
-  scene.add(hemi, key, fill, rim);
-}
+import { Viewport } from './viewport.js';
 
 /** Loads a GLB (URL or ArrayBuffer) with GLTFLoader. */
 export async function loadGlb(source, headers = {}, onProgress = undefined) {
@@ -133,22 +107,13 @@ export function targetNames(root) {
   return names;
 }
 
-export class AvatarView {
+export class AvatarView extends Viewport {
   constructor(canvas, { background = 0x272a33 } = {}) {
-    this.canvas = canvas;
-    this.renderer = makeRenderer(canvas);
+    super(canvas, { fov: 22, near: 0.1, background });
     this.fullPR = this.renderer.getPixelRatio();
     this.motionPR = this.fullPR; // lowered by adapt() when frames come too slowly
-    this.scene = new THREE.Scene();
-    this.scene.background = new THREE.Color(background);
-    this.camera = new THREE.PerspectiveCamera(22, 1, 0.1, 1000);
-    this.controls = new OrbitControls(this.camera, canvas);
-    this.controls.enableDamping = true;
     this.controls.dampingFactor = 0.12;
-    this.controls.addEventListener('change', () => (this.dirty = true));
     this.controls.addEventListener('start', () => (this.userMoved = true));
-    this.dirty = true; // render only when something changed
-    addStudioLights(this.scene, this.renderer);
     this.pivot = new THREE.Group(); // the neck: head rotation is applied here
     this.scene.add(this.pivot);
     this.model = null;
@@ -156,19 +121,13 @@ export class AvatarView {
     this.names = [];
     this.index = new Map(); // name -> morph index
     this.weights = new Float32Array(0); // current influences, by morph index
-    this.resize();
-    new ResizeObserver(() => this.resize()).observe(canvas);
+    this.observeSize();
   }
 
   resize() {
-    const w = Math.max(1, this.canvas.clientWidth);
-    const h = Math.max(1, this.canvas.clientHeight);
-    this.renderer.setSize(w, h, false);
-    this.camera.aspect = w / h;
-    this.camera.updateProjectionMatrix();
+    super.resize();
     // Keep the head framed while the person has not moved the camera.
     if (this.box && !this.userMoved) this.frame(this.box);
-    this.dirty = true;
   }
 
   /** Shows a loaded glTF scene (replacing the previous rig) and frames the camera on it. */
@@ -216,8 +175,7 @@ export class AvatarView {
   frame(box) {
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
-    const tan = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
-    const dist = 1.12 * Math.max((0.5 * size.y) / tan, (0.6 * size.x) / (tan * this.camera.aspect)) + 0.5 * size.z;
+    const dist = this.fitDistance(size, { margin: 1.12, widthShare: 0.6 });
     this.camera.near = dist / 50;
     this.camera.far = dist * 20;
     this.camera.position.set(center.x + dist * 0.12, center.y + size.y * 0.04, center.z + dist);

@@ -126,6 +126,7 @@ export class Timeline {
     return GUTTER + (t / this.duration) * (w - GUTTER - 8);
   }
 
+  /** Redraws everything: axis, one row per track, playhead and hover read-out. */
   draw() {
     const c = this.canvas;
     const dpr = window.devicePixelRatio || 1;
@@ -151,7 +152,38 @@ export class Timeline {
       return;
     }
 
-    // Time axis.
+    this.drawAxis(g, w, h);
+    let y = AXIS + 2;
+    const rows = {};
+    for (const tr of TRACKS) {
+      rows[tr.key] = { y, h: tr.h };
+      g.fillStyle = '#aab3c2';
+      g.fillText(tr.label, 8, y + tr.h / 2);
+      y += tr.h + 4;
+    }
+    const words = u.words || [];
+    const vis = u.visemes || [];
+    const segs = expressionSegments(u.expressions, this.duration);
+    this.drawWords(g, w, rows.words, words, u.syllables || []);
+    this.drawVisemes(g, w, rows.visemes, vis);
+    this.drawExpressions(g, w, rows.expressions, segs);
+    this.drawMouth(g, w, rows.mouth);
+    if (this.t !== null && this.t !== undefined) this.drawPlayhead(g, w, h);
+    if (this.hover !== null && this.hover > GUTTER) this.drawHover(g, w, h, vis, words);
+
+    this.drawn = {
+      id: this.id,
+      visemes: vis.length,
+      expressions: segs.length,
+      words: words.length,
+      draws: this.drawn.draws + 1,
+      playhead: this.t,
+      duration: this.duration,
+    };
+  }
+
+  /** The time axis: a tick and label every 0.25-2 s, depending on the duration. */
+  drawAxis(g, w, h) {
     g.strokeStyle = '#343946';
     g.fillStyle = '#8b95a5';
     const step = this.duration > 12 ? 2 : this.duration > 5 ? 1 : this.duration > 2 ? 0.5 : 0.25;
@@ -163,148 +195,119 @@ export class Timeline {
       g.stroke();
       g.fillText(`${Number(t.toFixed(2))}s`, x + 3, AXIS / 2);
     }
+  }
 
-    let y = AXIS + 2;
-    const rows = {};
-    for (const tr of TRACKS) {
-      rows[tr.key] = { y, h: tr.h };
-      g.fillStyle = '#aab3c2';
-      g.fillText(tr.label, 8, y + tr.h / 2);
-      y += tr.h + 4;
+  /** Words as boxes with their text, and a tick at each Chinese syllable. */
+  drawWords(g, w, { y: ty, h: th }, words, syl) {
+    for (const wd of words) {
+      const x0 = this.x(wd.start, w);
+      const x1 = this.x(wd.end, w);
+      g.fillStyle = '#2c313c';
+      g.fillRect(x0, ty, Math.max(1, x1 - x0 - 1), th);
+      this.label(g, wd.text, x0 + 3, ty + th / 2, x1 - x0 - 5, '#e6e9ef');
     }
-
-    // Words (and Chinese syllables with their pinyin).
-    const words = u.words || [];
-    const syl = u.syllables || [];
-    {
-      const { y: ty, h: th } = rows.words;
-      for (const wd of words) {
-        const x0 = this.x(wd.start, w);
-        const x1 = this.x(wd.end, w);
-        g.fillStyle = '#2c313c';
-        g.fillRect(x0, ty, Math.max(1, x1 - x0 - 1), th);
-        this.label(g, wd.text, x0 + 3, ty + th / 2, x1 - x0 - 5, '#e6e9ef');
-      }
-      for (const s of syl) {
-        const x0 = this.x(s.start, w);
-        g.fillStyle = '#4b5263';
-        g.fillRect(x0, ty + th - 3, 1, 3);
-      }
+    for (const s of syl) {
+      const x0 = this.x(s.start, w);
+      g.fillStyle = '#4b5263';
+      g.fillRect(x0, ty + th - 3, 1, 3);
     }
+  }
 
-    // Visemes.
-    const vis = u.visemes || [];
-    {
-      const { y: ty, h: th } = rows.visemes;
-      for (const v of vis) {
-        const x0 = this.x(v.start, w);
-        const x1 = this.x(v.end, w);
-        g.fillStyle = visemeColor(v.viseme);
-        g.fillRect(x0, ty, Math.max(1, x1 - x0 - 1), th);
-        if (v.viseme !== 'sil') this.label(g, v.viseme, x0 + 2, ty + th / 2, x1 - x0 - 3, '#0f1115');
-      }
+  drawVisemes(g, w, { y: ty, h: th }, vis) {
+    for (const v of vis) {
+      const x0 = this.x(v.start, w);
+      const x1 = this.x(v.end, w);
+      g.fillStyle = visemeColor(v.viseme);
+      g.fillRect(x0, ty, Math.max(1, x1 - x0 - 1), th);
+      if (v.viseme !== 'sil') this.label(g, v.viseme, x0 + 2, ty + th / 2, x1 - x0 - 3, '#0f1115');
     }
+  }
 
-    // Expressions: the level curve, coloured by the tag that drives it.
-    const segs = expressionSegments(u.expressions, this.duration);
-    {
-      const { y: ty, h: th } = rows.expressions;
-      g.fillStyle = '#222631';
-      g.fillRect(GUTTER, ty, w - GUTTER - 8, th);
-      for (const sg of segs) {
-        const x0 = this.x(sg.start, w);
-        const x1 = this.x(Math.min(sg.end, this.duration), w);
-        g.beginPath();
-        g.moveTo(x0, ty + th);
-        const n = Math.max(2, Math.ceil((x1 - x0) / 3));
-        for (let i = 0; i <= n; i++) {
-          const t = sg.start + ((Math.min(sg.end, this.duration) - sg.start) * i) / n;
-          const v = sg.ramp > 0 ? sg.from + (sg.to - sg.from) * smooth((t - sg.start) / sg.ramp) : sg.to;
-          g.lineTo(this.x(t, w), ty + th - v * (th - 2));
-        }
-        g.lineTo(x1, ty + th);
-        g.closePath();
-        g.fillStyle = expressionColor(sg.name);
-        g.globalAlpha = 0.75;
-        g.fill();
-        g.globalAlpha = 1;
-        g.fillStyle = '#ffffff';
-        g.fillRect(x0, ty, 1, th);
-        this.label(g, `${sg.name} ${Math.round(sg.to * 63)}`, x0 + 3, ty + 8, Math.max(40, x1 - x0 - 4), '#e6e9ef');
-      }
-      if (!segs.length) {
-        g.fillStyle = '#6b7483';
-        g.fillText('no expression tags', GUTTER + 6, ty + th / 2);
-      }
-    }
-
-    // The streamed jawOpen curve.
-    {
-      const { y: ty, h: th } = rows.mouth;
-      g.fillStyle = '#222631';
-      g.fillRect(GUTTER, ty, w - GUTTER - 8, th);
-      if (this.mouth.length > 1) {
-        // Received frames: played (bright) and buffered ahead of the playhead (dim).
-        const now = this.t ?? -Infinity;
-        for (const played of [true, false]) {
-          g.beginPath();
-          let started = false;
-          for (const [t, v] of this.mouth) {
-            if (played ? t > now + 1e-6 : t < now - 1e-6) continue;
-            const px = this.x(Math.min(t, this.duration), w);
-            const py = ty + th - Math.max(0, Math.min(1, v)) * (th - 2);
-            if (started) g.lineTo(px, py);
-            else g.moveTo(px, py);
-            started = true;
-          }
-          g.strokeStyle = played ? '#7fd1ae' : 'rgba(127, 209, 174, 0.35)';
-          g.lineWidth = 1.5;
-          g.stroke();
-        }
-        g.lineWidth = 1;
-      } else if (this.t !== null && this.t > 0.3) {
-        g.fillStyle = '#6b7483';
-        g.fillText('the streamed jawOpen appears here in weights mode', GUTTER + 6, ty + th / 2);
-      }
-    }
-
-    // Playhead.
-    if (this.t !== null && this.t !== undefined) {
-      const x = this.x(Math.max(0, Math.min(this.t, this.duration)), w);
-      g.fillStyle = '#ff6b6b';
-      g.fillRect(x - 1, AXIS - 4, 2, h - AXIS + 4);
+  /** Expressions: the level curve, coloured by the tag that drives it. */
+  drawExpressions(g, w, { y: ty, h: th }, segs) {
+    g.fillStyle = '#222631';
+    g.fillRect(GUTTER, ty, w - GUTTER - 8, th);
+    for (const sg of segs) {
+      const x0 = this.x(sg.start, w);
+      const x1 = this.x(Math.min(sg.end, this.duration), w);
       g.beginPath();
-      g.moveTo(x - 5, AXIS - 6);
-      g.lineTo(x + 5, AXIS - 6);
-      g.lineTo(x, AXIS);
+      g.moveTo(x0, ty + th);
+      const n = Math.max(2, Math.ceil((x1 - x0) / 3));
+      for (let i = 0; i <= n; i++) {
+        const t = sg.start + ((Math.min(sg.end, this.duration) - sg.start) * i) / n;
+        const v = sg.ramp > 0 ? sg.from + (sg.to - sg.from) * smooth((t - sg.start) / sg.ramp) : sg.to;
+        g.lineTo(this.x(t, w), ty + th - v * (th - 2));
+      }
+      g.lineTo(x1, ty + th);
+      g.closePath();
+      g.fillStyle = expressionColor(sg.name);
+      g.globalAlpha = 0.75;
       g.fill();
+      g.globalAlpha = 1;
+      g.fillStyle = '#ffffff';
+      g.fillRect(x0, ty, 1, th);
+      this.label(g, `${sg.name} ${Math.round(sg.to * 63)}`, x0 + 3, ty + 8, Math.max(40, x1 - x0 - 4), '#e6e9ef');
     }
-
-    // Hover read-out.
-    if (this.hover !== null && this.hover > GUTTER) {
-      const t = ((this.hover - GUTTER) / (w - GUTTER - 8)) * this.duration;
-      const v = vis.find((e) => t >= e.start && t < e.end);
-      const wd = words.find((e) => t >= e.start && t < e.end);
-      const text = `${t.toFixed(2)} s${v ? `  ${v.viseme}` : ''}${wd ? `  “${wd.text}”` : ''}`;
-      g.fillStyle = 'rgba(255,255,255,0.5)';
-      g.fillRect(this.hover, AXIS, 1, h - AXIS);
-      const tw = g.measureText(text).width + 10;
-      const bx = Math.min(this.hover + 6, w - tw - 2);
-      g.fillStyle = '#0f1115';
-      g.fillRect(bx, h - 20, tw, 18);
-      g.fillStyle = '#e6e9ef';
-      g.fillText(text, bx + 5, h - 11);
+    if (!segs.length) {
+      g.fillStyle = '#6b7483';
+      g.fillText('no expression tags', GUTTER + 6, ty + th / 2);
     }
+  }
 
-    this.drawn = {
-      id: this.id,
-      visemes: vis.length,
-      expressions: segs.length,
-      words: words.length,
-      draws: this.drawn.draws + 1,
-      playhead: this.t,
-      duration: this.duration,
-    };
+  /** The streamed jawOpen curve. */
+  drawMouth(g, w, { y: ty, h: th }) {
+    g.fillStyle = '#222631';
+    g.fillRect(GUTTER, ty, w - GUTTER - 8, th);
+    if (this.mouth.length > 1) {
+      // Received frames: played (bright) and buffered ahead of the playhead (dim).
+      const now = this.t ?? -Infinity;
+      for (const played of [true, false]) {
+        g.beginPath();
+        let started = false;
+        for (const [t, v] of this.mouth) {
+          if (played ? t > now + 1e-6 : t < now - 1e-6) continue;
+          const px = this.x(Math.min(t, this.duration), w);
+          const py = ty + th - Math.max(0, Math.min(1, v)) * (th - 2);
+          if (started) g.lineTo(px, py);
+          else g.moveTo(px, py);
+          started = true;
+        }
+        g.strokeStyle = played ? '#7fd1ae' : 'rgba(127, 209, 174, 0.35)';
+        g.lineWidth = 1.5;
+        g.stroke();
+      }
+      g.lineWidth = 1;
+    } else if (this.t !== null && this.t > 0.3) {
+      g.fillStyle = '#6b7483';
+      g.fillText('the streamed jawOpen appears here in weights mode', GUTTER + 6, ty + th / 2);
+    }
+  }
+
+  drawPlayhead(g, w, h) {
+    const x = this.x(Math.max(0, Math.min(this.t, this.duration)), w);
+    g.fillStyle = '#ff6b6b';
+    g.fillRect(x - 1, AXIS - 4, 2, h - AXIS + 4);
+    g.beginPath();
+    g.moveTo(x - 5, AXIS - 6);
+    g.lineTo(x + 5, AXIS - 6);
+    g.lineTo(x, AXIS);
+    g.fill();
+  }
+
+  /** The time, viseme and word under the mouse. */
+  drawHover(g, w, h, vis, words) {
+    const t = ((this.hover - GUTTER) / (w - GUTTER - 8)) * this.duration;
+    const v = vis.find((e) => t >= e.start && t < e.end);
+    const wd = words.find((e) => t >= e.start && t < e.end);
+    const text = `${t.toFixed(2)} s${v ? `  ${v.viseme}` : ''}${wd ? `  “${wd.text}”` : ''}`;
+    g.fillStyle = 'rgba(255,255,255,0.5)';
+    g.fillRect(this.hover, AXIS, 1, h - AXIS);
+    const tw = g.measureText(text).width + 10;
+    const bx = Math.min(this.hover + 6, w - tw - 2);
+    g.fillStyle = '#0f1115';
+    g.fillRect(bx, h - 20, tw, 18);
+    g.fillStyle = '#e6e9ef';
+    g.fillText(text, bx + 5, h - 11);
   }
 
   label(g, text, x, y, maxW, color) {

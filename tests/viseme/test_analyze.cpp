@@ -103,7 +103,9 @@ TEST_CASE("mixed Chinese and English text is one track in one set", "[viseme][an
   CHECK(english.syllables.empty());
 }
 
-TEST_CASE("the duration model follows the rate and the seed's proportions", "[viseme][timing]") {
+// See docs/algorithms.md#duration-model.
+TEST_CASE("the duration model follows the rate and the configured proportions",
+          "[viseme][timing]") {
   Options slow, fast;
   slow.rate = 4;
   fast.rate = 8;

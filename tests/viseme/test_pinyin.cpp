@@ -52,7 +52,8 @@ TEST_CASE("syllables split into initial, medial, nucleus and coda", "[viseme][pi
   CHECK_FALSE(is_pinyin("hello"));
 }
 
-TEST_CASE("syllables map to the seed's 15 Chinese visemes", "[viseme][pinyin]") {
+// See docs/algorithms.md#viseme-sets.
+TEST_CASE("syllables map to the 15 Chinese visemes (zh15)", "[viseme][pinyin]") {
   CHECK(zh15("zhuang1") == "zhchsh uv a ng");
   CHECK(zh15("xue2") == "jqx uv e");
   CHECK(zh15("shi4") == "zhchsh i");

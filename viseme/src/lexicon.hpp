@@ -1,6 +1,7 @@
 #pragma once
 // The Chinese lexicon: rime's pinyin_simp.dict.yaml (words, toneless pinyin, frequencies) and
 // Unihan_Readings (per-character readings with tones), compiled into one compact text cache.
+// See docs/algorithms.md#chinese-reading.
 //
 // The cache is generated at BUILD time by facecast_viseme_lexgen (viseme/tools/) into the build
 // folder, and found at run time through $FACECAST_ZH_LEXICON or the path compiled in. If it is

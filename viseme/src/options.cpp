@@ -1,21 +1,39 @@
 #include "facecast/viseme/options.hpp"
 
 #include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "names.hpp"
 
 namespace facecast::viseme {
+namespace {
+
+constexpr std::pair<std::string_view, LangMode> kLangModes[] = {
+    {"auto", LangMode::kAuto}, {"zh", LangMode::kZh}, {"en", LangMode::kEn}};
+constexpr std::pair<std::string_view, Timing> kTimings[] = {{"model", Timing::kModel},
+                                                            {"tts", Timing::kTts}};
+
+// An enum option read by its parse function, so the names are listed once (there).
+template <class T>
+void read_named(ConfigReader& c, std::string_view key, T& value, T (*parse)(std::string_view)) {
+  if (!c.has(key)) return;
+  std::string name;
+  c.read(key, name);
+  try {
+    value = parse(name);
+  } catch (const Error& e) {
+    c.fail(key, e.what());
+  }
+}
+
+}  // namespace
 
 LangMode parse_lang_mode(std::string_view name) {
-  if (name == "auto") return LangMode::kAuto;
-  if (name == "zh") return LangMode::kZh;
-  if (name == "en") return LangMode::kEn;
-  throw Error("unknown language '" + std::string(name) + "' (auto, zh or en)");
+  return detail::parse_name(name, kLangModes, "language");
 }
 
 Timing parse_timing(std::string_view name) {
-  if (name == "model") return Timing::kModel;
-  if (name == "tts") return Timing::kTts;
-  throw Error("unknown timing '" + std::string(name) + "' (model or tts)");
+  return detail::parse_name(name, kTimings, "timing");
 }
 
 std::optional<VisemeSet> parse_set_option(std::string_view name) {
@@ -24,27 +42,18 @@ std::optional<VisemeSet> parse_set_option(std::string_view name) {
 }
 
 Options load_options() {
-  const auto path = config_path("viseme/options.json");
-  const nlohmann::json j = load_json(path);
-  const auto where = [&](const char* key) { return path.string() + ": field '" + key + "'"; };
+  ConfigReader c = ConfigReader::open(config_path("viseme/options.json"));
   Options o;
-  try {
-    o.lang = parse_lang_mode(j.at("lang").get<std::string>());
-    o.set = parse_set_option(j.at("set").get<std::string>());
-    o.timing = parse_timing(j.at("timing").get<std::string>());
-    o.rate = j.at("rate").get<double>();
-    o.en_voice = j.at("en_voice").get<std::string>();
-    o.zh_voice = j.at("zh_voice").get<std::string>();
-    o.espeak_speed = j.at("espeak_speed").get<int>();
-    o.phrase_final_lengthening = j.at("phrase_final_lengthening").get<double>();
-    o.neutral_tone_factor = j.at("neutral_tone_factor").get<double>();
-  } catch (const nlohmann::json::out_of_range& e) {
-    throw Error(path.string() + ": " + e.what());
-  } catch (const nlohmann::json::type_error& e) {
-    throw Error(path.string() + ": " + e.what());
-  } catch (const Error& e) {
-    throw Error(where("") + " " + e.what());
-  }
+  read_named(c, "lang", o.lang, parse_lang_mode);
+  read_named(c, "set", o.set, parse_set_option);
+  read_named(c, "timing", o.timing, parse_timing);
+  c.read("rate", o.rate)
+      .read("en_voice", o.en_voice)
+      .read("zh_voice", o.zh_voice)
+      .read("espeak_speed", o.espeak_speed)
+      .read("phrase_final_lengthening", o.phrase_final_lengthening)
+      .read("neutral_tone_factor", o.neutral_tone_factor);
+  c.reject_unknown();
   return o;
 }
 

@@ -56,6 +56,8 @@ struct Plan {
 /// duration-model seconds). Throws Error for tag errors.
 Plan make_plan(std::string_view text, const Options& options);
 
+// The duration model: see docs/algorithms.md#duration-model.
+
 /// English phones of a word through espeak-ng, mapped through phones_espeak_en.json, with
 /// duration-model seconds (stress lengthens vowels). Phones missing from the table are dropped.
 std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_phones,

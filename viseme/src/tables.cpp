@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "utf8.hpp"
 
@@ -12,6 +13,10 @@ namespace {
 
 using nlohmann::json;
 
+std::filesystem::path file(const char* name) {
+  return config_path(std::string("viseme/") + name);
+}
+
 std::vector<std::string> split_words(const std::string& s) {
   std::vector<std::string> out;
   std::istringstream in(s);
@@ -19,170 +24,196 @@ std::vector<std::string> split_words(const std::string& s) {
   return out;
 }
 
-json load(const char* name) {
-  return load_json(config_path(std::string("viseme/") + name));
+// The object `key` (required) as name -> T; each value is type-checked, errors name "key.name".
+template <class T>
+std::unordered_map<std::string, T> read_map(ConfigReader& c, std::string_view key) {
+  json object;
+  c.require(key, object);
+  ConfigReader& entries = c.section(key);
+  std::unordered_map<std::string, T> out;
+  for (const auto& [name, value] : object.items()) entries.read(name, out[name]);
+  return out;
 }
 
-template <class T>
-T field(const json& j, const char* key, const char* file) {
-  if (!j.contains(key))
-    throw Error(std::string("configs/viseme/") + file + ": missing '" + key + "'");
-  try {
-    return j.at(key).get<T>();
-  } catch (const json::exception&) {
-    throw Error(std::string("configs/viseme/") + file + ": '" + key + "' has the wrong type");
+// Takes `name` out of `map` into `value` when it is there (a map's "default" / "newline" entry).
+void take(std::unordered_map<std::string, double>& map, const char* name, double& value) {
+  const auto it = map.find(name);
+  if (it == map.end()) return;
+  value = it->second;
+  map.erase(it);
+}
+
+bool listed(const std::vector<std::string>& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+// Every viseme a phone maps to must be a name of its set.
+void check_names(ConfigReader& c, std::string_view key, const PhoneTable& table, const Tables& t) {
+  for (const auto& [name, m] : table) {
+    const std::string entry = std::string(key) + "." + name;
+    for (const auto& v : m.oculus)
+      if (!listed(t.oculus_names, v)) c.fail(entry, "unknown Oculus viseme '" + v + "'");
+    for (const auto& v : m.zh15)
+      if (!listed(t.zh15_names, v)) c.fail(entry, "unknown zh15 class '" + v + "'");
   }
 }
 
-// {"name": [oculus, zh15, (class)]} -> PhoneTable
-PhoneTable phone_table(const json& j, const char* file) {
+// {"name": ["oculus visemes", "zh15 classes", (duration class)]} -> PhoneTable
+PhoneTable phone_table(ConfigReader& c, std::string_view key, const Tables& t) {
   PhoneTable table;
-  for (const auto& [name, v] : j.items()) {
-    if (!v.is_array() || v.size() < 2)
-      throw Error(std::string("configs/viseme/") + file + ": entry '" + name +
-                  "' must be [oculus, zh15, ...]");
+  for (const auto& [name, v] : read_map<std::vector<std::string>>(c, key)) {
+    if (v.size() < 2) c.fail(std::string(key) + "." + name, "expected [oculus, zh15, ...]");
     PhoneMap m;
-    m.oculus = split_words(v[0].get<std::string>());
-    m.zh15 = split_words(v[1].get<std::string>());
-    if (v.size() > 2) m.duration_class = v[2].get<std::string>();
+    m.oculus = split_words(v[0]);
+    m.zh15 = split_words(v[1]);
+    if (v.size() > 2) m.duration_class = v[2];
     table.emplace(name, std::move(m));
   }
+  check_names(c, key, table, t);
   return table;
 }
 
-void check_names(const PhoneTable& t, const Tables& tb, const char* file) {
-  for (const auto& [name, m] : t) {
-    for (const auto& v : m.oculus)
-      if (std::find(tb.oculus_names.begin(), tb.oculus_names.end(), v) == tb.oculus_names.end())
-        throw Error(std::string("configs/viseme/") + file + ": '" + name +
-                    "' maps to unknown Oculus viseme '" + v + "'");
-    for (const auto& v : m.zh15)
-      if (std::find(tb.zh15_names.begin(), tb.zh15_names.end(), v) == tb.zh15_names.end())
-        throw Error(std::string("configs/viseme/") + file + ": '" + name +
-                    "' maps to unknown zh15 class '" + v + "'");
-  }
+void read_expressions(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("expressions.json"));
+  c.require("expressions", t.expressions);
+  c.reject_unknown();
 }
 
-std::u32string chars_of(const json& j, const char* key) {
+void read_punctuation(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("punctuation.json"));
+  t.pauses = read_map<double>(c, "pauses");
+  take(t.pauses, "newline", t.newline_pause);
+  c.require("abbreviations", t.abbreviations);
+  c.reject_unknown();
+}
+
+void read_viseme_sets(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("viseme_sets.json"));
+  c.require("zh15", t.zh15_names).require("oculus", t.oculus_names);
+  t.mpeg4_from_oculus = read_map<std::string>(c, "mpeg4_from_oculus");
+  c.reject_unknown();
+}
+
+void read_pinyin(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("pinyin.json"));
+  c.require("initials", t.initials);
+  t.finals = read_map<std::array<std::string, 3>>(c, "finals");
+  c.require("syllabic_initials", t.syllabic_initials);
+  for (const auto& [unit, v] : read_map<std::array<std::string, 2>>(c, "units")) {
+    PhoneMap m;
+    m.zh15 = {v[0]};
+    m.oculus = {v[1]};
+    t.pinyin_units.emplace(unit, std::move(m));
+  }
+  check_names(c, "units", t.pinyin_units, t);
+  std::array<std::string, 2> y_rounded;
+  c.require("y_rounded", y_rounded);
+  t.y_rounded.zh15 = {y_rounded[0]};
+  t.y_rounded.oculus = {y_rounded[1]};
+  c.require("apical_after", t.apical_after);
+  ConfigReader& durations = c.section("durations");
+  t.initial_weight = read_map<double>(durations, "initial");
+  t.medial_weight = read_map<double>(durations, "medial");
+  t.nucleus_weight = read_map<double>(durations, "nucleus");
+  take(t.nucleus_weight, "default", t.nucleus_default_weight);
+  durations.read("coda", t.coda_weight);
+  c.reject_unknown();
+}
+
+void read_phone_tables(Tables& t) {
+  for (auto [name, table] :
+       {std::pair{"phones_espeak_en.json", &t.espeak_en},
+        std::pair{"phones_arpabet.json", &t.arpabet}, std::pair{"phones_ipa.json", &t.ipa}}) {
+    ConfigReader c = ConfigReader::open(file(name));
+    *table = phone_table(c, "phones", t);
+    c.reject_unknown();
+  }
+  ConfigReader c = ConfigReader::open(file("visemes_external.json"));
+  t.azure = phone_table(c, "azure", t);
+  t.polly = phone_table(c, "polly", t);
+  t.rhubarb = phone_table(c, "rhubarb", t);
+  c.reject_unknown();
+}
+
+// After read_phone_tables: every English phone's duration class must have a duration.
+void read_durations_en(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("durations_en.json"));
+  c.read("reference_rate", t.en_reference_rate).read("stress_factor", t.en_stress_factor);
+  t.en_class_seconds = read_map<double>(c, "classes");
+  c.reject_unknown();
+  for (const auto& [name, m] : t.espeak_en)
+    if (!t.en_class_seconds.count(m.duration_class))
+      throw Error(file("phones_espeak_en.json").string() + ": phones." + name +
+                  ": unknown duration class '" + m.duration_class + "'");
+}
+
+void read_numbers(NumbersZh& n) {
+  ConfigReader c = ConfigReader::open(file("numbers_zh.json"));
+  c.require("digits", n.digits)
+      .require("point", n.point)
+      .require("percent_prefix", n.percent_prefix)
+      .require("negative", n.negative)
+      .require("range", n.range)
+      .require("fraction", n.fraction)
+      .require("hour", n.hour)
+      .require("minute", n.minute)
+      .require("second", n.second)
+      .require("half", n.half)
+      .require("year", n.year)
+      .require("month", n.month)
+      .require("day", n.day)
+      .read("liang_before_bai", n.liang_before_bai)
+      .read("digit_string_min_length", n.digit_string_min_length)
+      .require("measure_words", n.measure_words);
+  for (auto& [symbol, name] : read_map<std::string>(c, "currency_prefix"))
+    n.currency_prefix.emplace_back(symbol, std::move(name));
+  std::sort(n.currency_prefix.begin(), n.currency_prefix.end(),
+            [](const auto& a, const auto& b) { return a.first.size() > b.first.size(); });
+  c.reject_unknown();
+}
+
+std::u32string chars_of(const std::vector<std::string>& list) {
   std::u32string out;
-  if (j.contains(key))
-    for (const auto& s : j.at(key)) out += to_u32(s.get<std::string>());
+  for (const auto& s : list) out += to_u32(s);
   return out;
+}
+
+void read_polyphones(Tables& t) {
+  const auto path = file("polyphones_zh.json");
+  ConfigReader c = ConfigReader::open(path);
+  std::vector<json> rules;
+  c.require("rules", rules);
+  c.reject_unknown();
+  for (std::size_t i = 0; i < rules.size(); ++i) {
+    ConfigReader r(rules[i], path.string() + ": rules[" + std::to_string(i) + "]");
+    std::string ch;
+    std::vector<std::string> prev, next;
+    PolyphoneRule rule;
+    r.require("char", ch)
+        .require("reading", rule.reading)
+        .read("prev", prev)
+        .read("next", next)
+        .read("prev_repeated", rule.prev_repeated)
+        .read("at_end", rule.at_end);
+    r.reject_unknown();
+    const std::u32string code_points = to_u32(ch);
+    if (code_points.size() != 1) r.fail("char", "must be one character");
+    rule.prev = chars_of(prev);
+    rule.next = chars_of(next);
+    t.polyphones[code_points[0]].push_back(std::move(rule));
+  }
 }
 
 Tables load_tables() {
   Tables t;
-  t.expressions =
-      field<std::vector<std::string>>(load("expressions.json"), "expressions", "expressions.json");
-
-  const json punct = load("punctuation.json");
-  const json pauses = field<json>(punct, "pauses", "punctuation.json");
-  for (const auto& [mark, sec] : pauses.items()) {
-    if (mark == "newline")
-      t.newline_pause = sec.get<double>();
-    else
-      t.pauses[mark] = sec.get<double>();
-  }
-  t.abbreviations = field<std::vector<std::string>>(punct, "abbreviations", "punctuation.json");
-
-  const json sets = load("viseme_sets.json");
-  t.zh15_names = field<std::vector<std::string>>(sets, "zh15", "viseme_sets.json");
-  t.oculus_names = field<std::vector<std::string>>(sets, "oculus", "viseme_sets.json");
-  t.mpeg4_from_oculus = field<std::unordered_map<std::string, std::string>>(
-      sets, "mpeg4_from_oculus", "viseme_sets.json");
-
-  const json py = load("pinyin.json");
-  t.initials = field<std::vector<std::string>>(py, "initials", "pinyin.json");
-  t.finals = field<std::unordered_map<std::string, std::array<std::string, 3>>>(py, "finals",
-                                                                                "pinyin.json");
-  t.syllabic_initials = field<std::vector<std::string>>(py, "syllabic_initials", "pinyin.json");
-  const json units = field<json>(py, "units", "pinyin.json");
-  for (const auto& [unit, v] : units.items()) {
-    PhoneMap m;
-    m.zh15 = {v.at(0).get<std::string>()};
-    m.oculus = {v.at(1).get<std::string>()};
-    t.pinyin_units.emplace(unit, std::move(m));
-  }
-  const auto yr = field<std::array<std::string, 2>>(py, "y_rounded", "pinyin.json");
-  t.y_rounded.zh15 = {yr[0]};
-  t.y_rounded.oculus = {yr[1]};
-  t.apical_after = field<std::vector<std::string>>(py, "apical_after", "pinyin.json");
-  const json dur = field<json>(py, "durations", "pinyin.json");
-  t.initial_weight = dur.at("initial").get<std::unordered_map<std::string, double>>();
-  t.medial_weight = dur.at("medial").get<std::unordered_map<std::string, double>>();
-  for (const auto& [k, w] : dur.at("nucleus").items()) {
-    if (k == "default")
-      t.nucleus_default_weight = w.get<double>();
-    else
-      t.nucleus_weight[k] = w.get<double>();
-  }
-  t.coda_weight = dur.at("coda").get<double>();
-
-  t.espeak_en =
-      phone_table(field<json>(load("phones_espeak_en.json"), "phones", "phones_espeak_en.json"),
-                  "phones_espeak_en.json");
-  t.arpabet = phone_table(field<json>(load("phones_arpabet.json"), "phones", "phones_arpabet.json"),
-                          "phones_arpabet.json");
-  t.ipa = phone_table(field<json>(load("phones_ipa.json"), "phones", "phones_ipa.json"),
-                      "phones_ipa.json");
-  const json ext = load("visemes_external.json");
-  t.azure =
-      phone_table(field<json>(ext, "azure", "visemes_external.json"), "visemes_external.json");
-  t.polly =
-      phone_table(field<json>(ext, "polly", "visemes_external.json"), "visemes_external.json");
-  t.rhubarb =
-      phone_table(field<json>(ext, "rhubarb", "visemes_external.json"), "visemes_external.json");
-  for (const auto* table :
-       {&t.pinyin_units, &t.espeak_en, &t.arpabet, &t.ipa, &t.azure, &t.polly, &t.rhubarb})
-    check_names(*table, t, "phone tables");
-
-  const json den = load("durations_en.json");
-  t.en_reference_rate = field<double>(den, "reference_rate", "durations_en.json");
-  t.en_stress_factor = field<double>(den, "stress_factor", "durations_en.json");
-  t.en_class_seconds =
-      field<std::unordered_map<std::string, double>>(den, "classes", "durations_en.json");
-  for (const auto& [name, m] : t.espeak_en)
-    if (!t.en_class_seconds.count(m.duration_class))
-      throw Error("configs/viseme/phones_espeak_en.json: '" + name + "' has unknown class '" +
-                  m.duration_class + "'");
-
-  const json num = load("numbers_zh.json");
-  const char* nf = "numbers_zh.json";
-  t.numbers.digits = field<std::array<std::string, 10>>(num, "digits", nf);
-  t.numbers.point = field<std::string>(num, "point", nf);
-  t.numbers.percent_prefix = field<std::string>(num, "percent_prefix", nf);
-  t.numbers.negative = field<std::string>(num, "negative", nf);
-  t.numbers.range = field<std::string>(num, "range", nf);
-  t.numbers.fraction = field<std::string>(num, "fraction", nf);
-  t.numbers.hour = field<std::string>(num, "hour", nf);
-  t.numbers.minute = field<std::string>(num, "minute", nf);
-  t.numbers.second = field<std::string>(num, "second", nf);
-  t.numbers.half = field<std::string>(num, "half", nf);
-  t.numbers.year = field<std::string>(num, "year", nf);
-  t.numbers.month = field<std::string>(num, "month", nf);
-  t.numbers.day = field<std::string>(num, "day", nf);
-  t.numbers.liang_before_bai = field<bool>(num, "liang_before_bai", nf);
-  t.numbers.digit_string_min_length = field<std::size_t>(num, "digit_string_min_length", nf);
-  const json currency = field<json>(num, "currency_prefix", nf);
-  for (const auto& [sym, name] : currency.items())
-    t.numbers.currency_prefix.emplace_back(sym, name.get<std::string>());
-  std::sort(t.numbers.currency_prefix.begin(), t.numbers.currency_prefix.end(),
-            [](const auto& a, const auto& b) { return a.first.size() > b.first.size(); });
-  t.numbers.measure_words = field<std::vector<std::string>>(num, "measure_words", nf);
-
-  const json rules = field<json>(load("polyphones_zh.json"), "rules", "polyphones_zh.json");
-  for (const auto& r : rules) {
-    const std::u32string ch = to_u32(r.at("char").get<std::string>());
-    if (ch.size() != 1)
-      throw Error("configs/viseme/polyphones_zh.json: 'char' must be one character");
-    PolyphoneRule rule;
-    rule.reading = r.at("reading").get<std::string>();
-    rule.prev = chars_of(r, "prev");
-    rule.next = chars_of(r, "next");
-    rule.prev_repeated = r.value("prev_repeated", false);
-    rule.at_end = r.value("at_end", false);
-    t.polyphones[ch[0]].push_back(std::move(rule));
-  }
+  read_expressions(t);
+  read_punctuation(t);
+  read_viseme_sets(t);
+  read_pinyin(t);
+  read_phone_tables(t);
+  read_durations_en(t);
+  read_numbers(t.numbers);
+  read_polyphones(t);
   return t;
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // Times for a plan: the duration model, espeak-ng synthesis, or given spans (ElevenLabs), and the
-// assembly of a timed plan into an Utterance.
+// assembly of a timed plan into an Utterance. See docs/algorithms.md#duration-model.
 #include <cstdint>
 #include <utility>
 #include <vector>

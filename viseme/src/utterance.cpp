@@ -3,11 +3,15 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/utterance.hpp"
+#include "names.hpp"
 
 namespace facecast::viseme {
 namespace {
 
 using nlohmann::json;
+
+constexpr std::pair<std::string_view, VisemeSet> kVisemeSets[] = {
+    {"zh15", VisemeSet::kZh15}, {"mpeg4", VisemeSet::kMpeg4}, {"oculus", VisemeSet::kOculus}};
 
 double round_time(double t) {
   return std::round(t * 1e4) / 1e4;
@@ -23,6 +27,15 @@ T get(const json& j, const char* key, const std::string& where) {
   }
 }
 
+// A JSON array with one object per item, made by `object`.
+template <class T, class F>
+json array_of(const std::vector<T>& items, F&& object) {
+  json out = json::array();
+  for (const auto& item : items) out.push_back(object(item));
+  return out;
+}
+
+// The array `key` of `j` (absent: empty), one item per element made by `f(element, "key[i]")`.
 template <class T, class F>
 std::vector<T> list(const json& j, const char* key, F&& f) {
   std::vector<T> out;
@@ -37,22 +50,11 @@ std::vector<T> list(const json& j, const char* key, F&& f) {
 }  // namespace
 
 std::string_view to_string(VisemeSet set) noexcept {
-  switch (set) {
-    case VisemeSet::kZh15:
-      return "zh15";
-    case VisemeSet::kMpeg4:
-      return "mpeg4";
-    case VisemeSet::kOculus:
-      return "oculus";
-  }
-  return "oculus";
+  return detail::name_of(set, kVisemeSets, "oculus");
 }
 
 VisemeSet parse_viseme_set(std::string_view name) {
-  if (name == "zh15") return VisemeSet::kZh15;
-  if (name == "mpeg4") return VisemeSet::kMpeg4;
-  if (name == "oculus") return VisemeSet::kOculus;
-  throw Error("unknown viseme set '" + std::string(name) + "' (zh15, mpeg4 or oculus)");
+  return detail::parse_name(name, kVisemeSets, "viseme set");
 }
 
 json to_json(const Utterance& u) {
@@ -60,32 +62,30 @@ json to_json(const Utterance& u) {
   j["text"] = u.text;
   j["duration"] = round_time(u.duration);
   j["set"] = to_string(u.set);
-  j["phones"] = json::array();
-  for (const auto& p : u.phones)
-    j["phones"].push_back({{"phone", p.phone},
-                           {"start", round_time(p.start)},
-                           {"end", round_time(p.end)},
-                           {"lang", p.lang}});
-  j["syllables"] = json::array();
-  for (const auto& s : u.syllables)
-    j["syllables"].push_back({{"text", s.text},
-                              {"pinyin", s.pinyin},
-                              {"start", round_time(s.start)},
-                              {"end", round_time(s.end)}});
-  j["visemes"] = json::array();
-  for (const auto& v : u.visemes)
-    j["visemes"].push_back(
-        {{"viseme", v.viseme}, {"start", round_time(v.start)}, {"end", round_time(v.end)}});
-  j["expressions"] = json::array();
-  for (const auto& e : u.expressions)
-    j["expressions"].push_back({{"name", e.name},
-                                {"intensity", e.intensity},
-                                {"start", round_time(e.start)},
-                                {"ramp", round_time(e.ramp)}});
-  j["words"] = json::array();
-  for (const auto& w : u.words)
-    j["words"].push_back(
-        {{"text", w.text}, {"start", round_time(w.start)}, {"end", round_time(w.end)}});
+  j["phones"] = array_of(u.phones, [](const Phone& p) {
+    return json{{"phone", p.phone},
+                {"start", round_time(p.start)},
+                {"end", round_time(p.end)},
+                {"lang", p.lang}};
+  });
+  j["syllables"] = array_of(u.syllables, [](const Syllable& s) {
+    return json{{"text", s.text},
+                {"pinyin", s.pinyin},
+                {"start", round_time(s.start)},
+                {"end", round_time(s.end)}};
+  });
+  j["visemes"] = array_of(u.visemes, [](const VisemeEvent& v) {
+    return json{{"viseme", v.viseme}, {"start", round_time(v.start)}, {"end", round_time(v.end)}};
+  });
+  j["expressions"] = array_of(u.expressions, [](const ExpressionEvent& e) {
+    return json{{"name", e.name},
+                {"intensity", e.intensity},
+                {"start", round_time(e.start)},
+                {"ramp", round_time(e.ramp)}};
+  });
+  j["words"] = array_of(u.words, [](const Word& w) {
+    return json{{"text", w.text}, {"start", round_time(w.start)}, {"end", round_time(w.end)}};
+  });
   if (u.sample_rate > 0) j["sample_rate"] = u.sample_rate;
   return j;
 }

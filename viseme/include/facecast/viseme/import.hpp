@@ -1,5 +1,6 @@
 #pragma once
 // Phoneme / viseme timestamps from TTS engines and aligners -> the same Utterance as analyze().
+// See docs/algorithms.md#timestamp-import.
 #include <string>
 #include <string_view>
 

@@ -18,19 +18,20 @@ enum class LangMode { kAuto, kZh, kEn };
 enum class Timing { kModel, kTts };
 
 /// Mixed Chinese/English text in ONE viseme set: every phone is mapped straight into the chosen set
-/// through the config tables, so a mixed utterance never mixes vocabularies:
-///  - zh15: Chinese syllables by the seed rules; English espeak-ng phones through the "zh15" column
-///  of
+/// through the config tables, so a mixed utterance never mixes vocabularies (see
+/// docs/algorithms.md#viseme-sets):
+///  - zh15: Chinese syllables phone by phone through the "units" table of
+///    configs/viseme/pinyin.json; English espeak-ng phones through the "zh15" column of
 ///    configs/viseme/phones_espeak_en.json (p b m -> bpm, s z -> zcs, aI -> a i, ...).
-///  - oculus / mpeg4: English phones through the "oculus" column; Chinese initials, medials, nuclei
-///  and
-///    codas through the "units" table of configs/viseme/pinyin.json (zh ch sh -> CH, -ng -> kk
-///    ...); MPEG-4 names are the Oculus visemes renamed (configs/viseme/viseme_sets.json).
+///  - oculus / mpeg4: English phones through the "oculus" column; Chinese initials, medials,
+///    nuclei and codas through the "units" table (zh ch sh -> CH, -ng -> kk ...); MPEG-4 names are
+///    the Oculus visemes renamed (configs/viseme/viseme_sets.json).
 /// `set` unset ("auto") means: zh15 when the utterance has any Chinese, oculus otherwise.
 struct Options {
   LangMode lang = LangMode::kAuto;
   std::optional<VisemeSet> set;  // nullopt = auto
   Timing timing = Timing::kModel;
+  // rate, phrase_final_lengthening, neutral_tone_factor: docs/algorithms.md#duration-model.
   double rate = 4.5;  // speech rate of the duration model, syllables per second
   std::string en_voice = "en-us";
   std::string zh_voice = "cmn-latn-pinyin";

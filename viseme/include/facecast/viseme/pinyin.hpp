@@ -1,6 +1,7 @@
 #pragma once
 // Mandarin syllables: numbered pinyin split into initial, medial, nucleus, coda and mapped to
 // visemes (tables in configs/viseme/pinyin.json), and text -> pinyin with word context.
+// See docs/algorithms.md#viseme-sets and #chinese-reading.
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,6 +36,7 @@ std::string numbered_pinyin(std::string_view marked);
 
 /// Chinese text (numbers normalized, other scripts skipped) -> numbered pinyin per Han character,
 /// read in word context: max-probability segmentation over rime's pinyin_simp, tones from Unihan.
+/// See docs/algorithms.md#chinese-reading.
 std::vector<std::string> to_pinyin(std::string_view text);
 
 }  // namespace facecast::viseme

@@ -1,6 +1,7 @@
 #pragma once
 // The tagged-text parser: expression tags "(name, intensity, seconds)" (ASCII or full-width
-// parentheses and commas) and punctuation pauses, as character-offset items.
+// parentheses and commas) and punctuation pauses, as character-offset items. What a tag does to
+// the face: docs/algorithms.md#expression-transitions.
 #include <string>
 #include <string_view>
 #include <vector>

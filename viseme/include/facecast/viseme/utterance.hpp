@@ -12,7 +12,8 @@
 namespace facecast::viseme {
 
 /// The viseme vocabulary of an utterance (one per utterance; see options.hpp for mixed text).
-///  zh15:   the seed paper's Chinese classes a bpm dtnl e f gkh i jqx o r uv zcs zhchsh n ng
+/// See docs/algorithms.md#viseme-sets.
+///  zh15:   15 Chinese classes a bpm dtnl e f gkh i jqx o r uv zcs zhchsh n ng
 ///  mpeg4:  MPEG-4 FAP1 visemes 1-14: pbm fv TD td kg tSdZS sz nl r A e I Q U
 ///  oculus: Oculus/ARKit-style 15: PP FF TH DD kk CH SS nn RR aa E I O U (+ sil)
 /// Every set also has a pause viseme: "sil" (zh15, oculus) / "none" (mpeg4).
@@ -40,6 +41,8 @@ struct VisemeEvent {
   double start = 0, end = 0;
 };
 
+/// An expression tag "(name, intensity, seconds)" at its place in the speech; the animation ramps
+/// to it. See docs/algorithms.md#expression-transitions.
 struct ExpressionEvent {
   std::string name;   // from configs/viseme/expressions.json
   int intensity = 0;  // 0..63 as in the tag; 0 resets
