@@ -15,8 +15,6 @@ namespace facecast::anim {
 AnimOptions load_anim_options() {
   ConfigReader c = ConfigReader::open(config_path("anim/animation.json"));
   AnimOptions o;
-  std::string description;
-  c.read("description", description);
   c.read("theta_anticipation", o.theta_anticipation)
       .read("theta_carryover", o.theta_carryover)
       .read("closure_alpha", o.closure_alpha)

@@ -86,8 +86,6 @@ Mapping Mapping::for_rig(const std::vector<std::string>& shape_names) {
 
   const auto table_path = config_path("anim/visemes_" + m.table_ + ".json");
   ConfigReader table = ConfigReader::open(table_path);
-  std::string description;
-  table.read("description", description);
   size_t mapped = 0;
   ConfigReader& visemes = table.section("visemes");
   ConfigReader& closure = table.section("closure");
@@ -120,7 +118,6 @@ Mapping Mapping::for_rig(const std::vector<std::string>& shape_names) {
   table.reject_unknown();
 
   ConfigReader expressions = ConfigReader::open(config_path("anim/expressions_arkit.json"));
-  expressions.read("description", description);
   ConfigReader& rows = expressions.section("expressions");
   for (const auto& name : keys_of(expressions, "expressions"))
     m.expressions_.emplace_back(name, read_row(shape_names, rows, name));

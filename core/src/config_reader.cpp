@@ -42,7 +42,7 @@ ConfigReader& ConfigReader::section(std::string_view key) {
 
 void ConfigReader::reject_unknown() const {
   for (const auto& [key, value] : object_.items()) {
-    if (key.starts_with("_") || used_.count(key)) continue;
+    if (key.starts_with("_") || key == "description" || used_.count(key)) continue;
     throw Error(file_ + ": unknown key '" + prefix_ + key + "'");
   }
   for (const auto& s : sections_) s->reject_unknown();

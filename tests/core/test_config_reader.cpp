@@ -24,9 +24,11 @@ std::string message_of(const std::function<void()>& f) {
 }  // namespace
 
 TEST_CASE("ConfigReader reads present keys and keeps defaults for missing ones", "[core]") {
-  ConfigReader c(json::parse(R"({"n": 3, "x": 2, "s": "a", "v": [1, 2.5], "_note": "comment",
+  ConfigReader c(
+      json::parse(
+          R"({"n": 3, "x": 2, "s": "a", "v": [1, 2.5], "_note": "comment", "description": "also a comment",
                                  "sec": {"b": true}, "mode": "off"})"),
-                 "f.json");
+      "f.json");
   int n = 0, missing = 7;
   double x = 0;
   std::string s;

@@ -18,8 +18,6 @@ struct Options {
 Options load_options() {
   ConfigReader c = ConfigReader::open(config_path("anim/render.json"));
   Options o;
-  std::string description;
-  c.read("description", description);
   RenderOptions& r = o.render;
   std::array<float, 3> background{r.background.x(), r.background.y(), r.background.z()};
   c.read("width", r.width)

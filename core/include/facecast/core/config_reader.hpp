@@ -3,8 +3,8 @@
 //
 // Every field is read into a value that already holds its default (the option structs' defaults,
 // mirrored in configs/), so a file may leave keys out; a key that is present must have the right
-// type, and a key nobody reads is an error (a typo is never silently ignored). Keys starting with
-// '_' are comments. Every error is one line naming the file and the key path:
+// type, and a key nobody reads is an error (a typo is never silently ignored). "description" and
+// keys starting with '_' are comments. Every error is one line naming the file and the key path:
 //
 //   configs/server.json: port: expected an integer
 //   configs/rigbuild/build.json: contacts.rounds: expected a whole number in 0..2147483647
