@@ -24,6 +24,27 @@ class Histogram {
   std::atomic<std::uint64_t> count_{0};
 };
 
+/// One owner's part of a gauge (a connection, a queue, a stream): the gauge is the sum of the
+/// parts, and a part leaves the gauge with its owner, so that no code balances it by hand.
+class GaugeShare {
+ public:
+  explicit GaugeShare(std::atomic<long>& gauge, long value = 0) noexcept : gauge_(gauge) {
+    set(value);
+  }
+  ~GaugeShare() { set(0); }
+  GaugeShare(const GaugeShare&) = delete;
+  GaugeShare& operator=(const GaugeShare&) = delete;
+
+  void set(long value) noexcept {
+    gauge_.fetch_add(value - value_);
+    value_ = value;
+  }
+
+ private:
+  std::atomic<long>& gauge_;
+  long value_ = 0;
+};
+
 struct Metrics {
   Metrics();
 
