@@ -45,6 +45,12 @@ class GaugeShare {
   long value_ = 0;
 };
 
+/// A counter with the label output="weights" | "frames".
+struct PerOutput {
+  std::atomic<std::uint64_t> weights{0}, frames{0};
+  std::atomic<std::uint64_t>& of(bool frames_output) { return frames_output ? frames : weights; }
+};
+
 struct Metrics {
   Metrics();
 
@@ -59,11 +65,10 @@ struct Metrics {
   std::atomic<long> write_queue_depth{0};  // queued outgoing messages, all connections
   std::atomic<std::uint64_t> streams_total{0};
   std::atomic<std::uint64_t> streams_cancelled_total{0};
-  std::atomic<std::uint64_t> weights_frames_sent_total{0};
-  std::atomic<std::uint64_t> jpeg_frames_sent_total{0};
-  std::atomic<std::uint64_t> weights_frames_dropped_total{0};
-  std::atomic<std::uint64_t> jpeg_frames_dropped_total{0};
+  PerOutput frames_sent;
+  PerOutput frames_dropped;  // weights: dropped from the queue; frames: skipped
   std::atomic<std::uint64_t> audio_samples_sent_total{0};
+  // WebSocket traffic
   std::atomic<std::uint64_t> ws_messages_received_total{0};
   std::atomic<std::uint64_t> ws_bytes_sent_total{0};
   std::atomic<std::uint64_t> slow_clients_closed_total{0};

@@ -15,46 +15,39 @@ bool is_loopback_host(const std::string& host) {
 }
 
 ServerOptions load_server_options(const std::filesystem::path& path) {
-  // Every key is optional (the defaults are ServerOptions'); the groups follow options.hpp.
+  // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
   ServerOptions o;
   ConfigReader c = ConfigReader::open(path);
-  c.read("host", o.host).read("port", o.port).read("data", o.data).read("token", o.token);
+  c.read("host", o.host).read("port", o.port);
+  c.read("data", o.data);
+  c.read("token", o.token);
   c.read("web_root", o.web_root).read("three_root", o.three_root);
   c.read("default_rig", o.default_rig);
-  // Threads.
   c.read("io_threads", o.io_threads).read("workers", o.workers).read("job_workers", o.job_workers);
-  // Limits.
-  c.read("max_connections", o.max_connections)
-      .read("max_message", o.max_message)
-      .read("max_text", o.max_text)
-      .read("max_body", o.max_body)
-      .read("max_upload", o.max_upload)
-      .read("speak_per_minute", o.speak_per_minute)
-      .read("speak_burst", o.speak_burst)
-      .read("max_queued_speaks", o.max_queued_speaks)
-      .read("max_fps", o.max_fps)
-      .read("max_frame_side", o.max_frame_side)
-      .read("max_jobs", o.max_jobs)
-      .read("max_render_seconds", o.max_render_seconds);
-  // Streaming.
-  c.read("lead", o.lead)
-      .read("min_tick", o.min_tick)
-      .read("audio_chunk", o.audio_chunk)
-      .read("cancel_fade", o.cancel_fade)
-      .read("write_queue", o.write_queue)
-      .read("slow_client_grace", o.slow_client_grace)
-      .read("close_timeout", o.close_timeout)
-      .read("frames_in_flight", o.frames_in_flight)
-      .read("jpeg_quality", o.jpeg_quality)
-      .read("render_contexts", o.render_contexts)
-      .read("max_renderers", o.max_renderers)
-      .read("send_buffer", o.send_buffer);
-  // Timeouts.
-  c.read("http_timeout", o.http_timeout)
-      .read("ws_handshake_timeout", o.ws_handshake_timeout)
-      .read("ws_idle_timeout", o.ws_idle_timeout)
-      .read("shutdown_timeout", o.shutdown_timeout);
-  c.read("allowed_origins", o.allowed_origins).read("log_level", o.log_level);
+  c.read("max_connections", o.max_connections);
+  c.read("max_message", o.max_message);
+  c.read("max_text", o.max_text);
+  c.read("max_body", o.max_body).read("max_upload", o.max_upload);
+  c.read("speak_per_minute", o.speak_per_minute).read("speak_burst", o.speak_burst);
+  c.read("max_queued_speaks", o.max_queued_speaks);
+  c.read("max_fps", o.max_fps).read("max_frame_side", o.max_frame_side);
+  c.read("max_jobs", o.max_jobs).read("max_render_seconds", o.max_render_seconds);
+  c.read("lead", o.lead);
+  c.read("min_tick", o.min_tick);
+  c.read("audio_chunk", o.audio_chunk);
+  c.read("cancel_fade", o.cancel_fade);
+  c.read("write_queue", o.write_queue);
+  c.read("slow_client_grace", o.slow_client_grace);
+  c.read("close_timeout", o.close_timeout);
+  c.read("frames_in_flight", o.frames_in_flight);
+  c.read("jpeg_quality", o.jpeg_quality);
+  c.read("render_contexts", o.render_contexts).read("max_renderers", o.max_renderers);
+  c.read("send_buffer", o.send_buffer);
+  c.read("http_timeout", o.http_timeout);
+  c.read("ws_handshake_timeout", o.ws_handshake_timeout).read("ws_idle_timeout", o.ws_idle_timeout);
+  c.read("shutdown_timeout", o.shutdown_timeout);
+  c.read("allowed_origins", o.allowed_origins);
+  c.read("log_level", o.log_level);
   c.reject_unknown();
   validate(o);
   return o;

@@ -54,9 +54,7 @@ void SpeakQueue::speak(SpeakRequest&& request) {
   if ((active_ && active_->id() == request.id) ||
       std::any_of(pending_.begin(), pending_.end(), same_id))
     throw Error("id: '" + request.id + "' is already playing or queued");
-  const std::string rig = state_->rigs.resolve(request.rig);
-  if (!state_->rigs.find(rig))
-    throw Error("rig '" + rig + "' does not exist", ErrorCode::kNotFound);
+  const std::string rig = state_->existing_rig(request.rig).id;
   tokens_ -= 1.0;
 
   auto item = std::make_shared<Item>();

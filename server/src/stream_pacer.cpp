@@ -174,7 +174,7 @@ void StreamPacer::send_weights(double horizon) {
       sink_->send(OutMessage{std::move(msg), OutKind::kWeights, stream_, count});
   sent_ += static_cast<int>(count - dropped);
   dropped_ += static_cast<int>(dropped);
-  state_->metrics.weights_frames_dropped_total.fetch_add(dropped);
+  state_->metrics.frames_dropped.weights.fetch_add(dropped);
 }
 
 void StreamPacer::count_first_frame() {
@@ -207,7 +207,7 @@ void StreamPacer::launch_renders(double elapsed) {
 void StreamPacer::skip_frame() {
   ++dropped_;
   ++next_frame_;
-  state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
+  state_->metrics.frames_dropped.frames.fetch_add(1);
 }
 
 // Renders `frame` on the worker pool; on_rendered gets the JPEG message on the strand.
@@ -255,7 +255,7 @@ void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> mess
     if (!r.message) continue;
     if (sink_->media_full()) {
       ++dropped_;
-      state_->metrics.jpeg_frames_dropped_total.fetch_add(1);
+      state_->metrics.frames_dropped.frames.fetch_add(1);
       continue;
     }
     count_first_frame();
@@ -298,10 +298,8 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
 void StreamPacer::finish() {
   const StreamEnd end{request_.id, stream_, sent_, dropped_, cancelling_};
   sink_->send(OutMessage::control(stream_end_message(end)));
-  auto& m = state_->metrics;
-  (frames_mode_ ? m.jpeg_frames_sent_total : m.weights_frames_sent_total)
-      .fetch_add(static_cast<std::uint64_t>(sent_));
-  if (cancelling_) m.streams_cancelled_total.fetch_add(1);
+  state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
+  if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
   log::info("stream_end", {{"conn", conn_},
                            {"id", request_.id},
                            {"stream", stream_},
