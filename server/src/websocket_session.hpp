@@ -5,9 +5,10 @@
 // handed to the connection's SpeakQueue (speak, cancel) or answered (ping); the streams it plays
 // send through this session as their StreamSink.
 //
-// Slow clients (docs/algorithms.md#stream-pacing): a queue that has held write_queue media
-// messages (or write_queue control messages) and is not drained for slow_client_grace closes the
-// connection with 1008, as does one that piles up 16 x write_queue unread control messages.
+// Slow clients (docs/algorithms.md#stream-pacing): once its queue overflows (write_queue media
+// messages, or write_queue unread control messages), a client has slow_client_grace to drain the
+// queue completely, or it is closed with 1008; 16 x write_queue unread control messages close it
+// at once.
 #include <memory>
 #include <optional>
 #include <string>
