@@ -11,12 +11,7 @@
 //                     [--frames-clients 2] [--frames-seconds 15] [--frames-fps 30]
 //                     [--frames-size 640x480] [--client-threads 1] [--exe path/to/facecast]
 //                     [--set key=json ...] (server config values, e.g. --set frames_in_flight=3)
-#include <fcntl.h>
-#include <poll.h>
-#include <signal.h>
-#include <sys/prctl.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,10 +27,12 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <random>
-#include <regex>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,6 +42,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
+#include "serve_process.hpp"
 
 namespace {
 
@@ -57,6 +55,10 @@ using nlohmann::json;
 
 double secs(Clock::duration d) {
   return std::chrono::duration<double>(d).count();
+}
+
+Clock::duration from_secs(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
 
 struct Args {
@@ -72,81 +74,38 @@ struct Args {
 
 // ---- the server process -------------------------------------------------------------------------
 
-struct ServerProcess {
-  pid_t pid = -1;
-  unsigned short port = 0;
+// Resident set size and its peak (VmHWM) of process `pid`, MB.
+std::pair<double, double> rss(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  double rss = 0, hwm = 0;
+  while (std::getline(in, line)) {
+    if (line.starts_with("VmRSS:")) rss = std::stod(line.substr(6)) / 1024.0;
+    if (line.starts_with("VmHWM:")) hwm = std::stod(line.substr(6)) / 1024.0;
+  }
+  return {rss, hwm};
+}
 
-  ServerProcess(const std::string& exe, const std::filesystem::path& config,
-                const std::filesystem::path& data) {
-    int out[2];
-    if (pipe(out) != 0) throw std::runtime_error("pipe");
-    const std::string log = (config.parent_path() / "server.log").string();
-    std::vector<std::string> args = {exe,      "serve", "--config", config,
-                                     "--port", "0",     "--data",   data.string()};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    // fork + exec (this process has one thread here): the server dies with the benchmark.
-    pid = fork();
-    if (pid < 0) throw std::runtime_error("fork");
-    if (pid == 0) {
-      prctl(PR_SET_PDEATHSIG, SIGTERM);
-      dup2(out[1], 1);
-      const int err = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (err >= 0) dup2(err, 2);
-      close(out[0]);
-      execv(exe.c_str(), argv.data());
-      _exit(127);
-    }
-    close(out[1]);
-    std::string line;
-    const auto t0 = Clock::now();
-    while (line.find('\n') == std::string::npos && secs(Clock::now() - t0) < 60) {
-      pollfd p{out[0], POLLIN, 0};
-      if (poll(&p, 1, 200) > 0) {
-        char buf[256];
-        const ssize_t n = read(out[0], buf, sizeof buf);
-        if (n <= 0) break;
-        line.append(buf, static_cast<std::size_t>(n));
-      }
-    }
-    close(out[0]);
-    std::smatch m;
-    if (!std::regex_search(line, m, std::regex(R"(listening on http://[0-9.]+:([0-9]+))")))
-      throw std::runtime_error("server did not start: " + line);
-    port = static_cast<unsigned short>(std::stoi(m[1]));
-  }
-  ~ServerProcess() {
-    if (pid > 0) {
-      kill(pid, SIGTERM);
-      int status = 0;
-      waitpid(pid, &status, 0);
-    }
-  }
-  // Resident set size and its peak, MB.
-  std::pair<double, double> rss() const {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-    std::string line;
-    double rss = 0, hwm = 0;
-    while (std::getline(in, line)) {
-      if (line.starts_with("VmRSS:")) rss = std::stod(line.substr(6)) / 1024.0;
-      if (line.starts_with("VmHWM:")) hwm = std::stod(line.substr(6)) / 1024.0;
-    }
-    return {rss, hwm};
-  }
-  // user + system CPU seconds
-  double cpu() const {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-    std::string s((std::istreambuf_iterator<char>(in)), {});
-    const auto close = s.rfind(')');
-    std::istringstream rest(s.substr(close + 2));
-    std::string field;
-    std::vector<std::string> f;
-    while (rest >> field) f.push_back(field);
-    // fields after ")": state(0) ... utime(11) stime(12)
-    return (std::stod(f[11]) + std::stod(f[12])) / static_cast<double>(sysconf(_SC_CLK_TCK));
-  }
-};
+// User + system CPU seconds of process `pid`.
+double cpu(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(in)), {});
+  const auto close = s.rfind(')');
+  std::istringstream rest(s.substr(close + 2));
+  std::string field;
+  std::vector<std::string> f;
+  while (rest >> field) f.push_back(field);
+  // fields after ")": state(0) ... utime(11) stime(12)
+  return (std::stod(f[11]) + std::stod(f[12])) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+// CPU seconds of this process (the load generator).
+double self_cpu() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec +
+         1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
 
 // ---- the load generator -------------------------------------------------------------------------
 
@@ -170,12 +129,9 @@ struct Stats {
   std::vector<float> lateness;  // seconds, sampled (every frame)
   std::vector<std::string> error_messages;
   void merge(const Stats& o) {
-    frames += o.frames;
-    on_time += o.on_time;
-    late_presentation += o.late_presentation;
-    dropped += o.dropped;
-    streams += o.streams;
-    errors += o.errors;
+    for (auto count : {&Stats::frames, &Stats::on_time, &Stats::late_presentation, &Stats::dropped,
+                       &Stats::streams, &Stats::errors})
+      this->*count += o.*count;
     ttff.insert(ttff.end(), o.ttff.begin(), o.ttff.end());
     lateness.insert(lateness.end(), o.lateness.begin(), o.lateness.end());
     if (error_messages.size() < 5)
@@ -185,9 +141,9 @@ struct Stats {
 
 struct ClientResult {
   Stats stats;
-  bool failed = false;
   std::uint64_t jpeg_frames = 0, jpeg_bytes = 0;
   Clock::time_point first_stream_at{}, last_frame_at{};
+  bool failed = false;
 };
 
 class Client : public std::enable_shared_from_this<Client> {
@@ -208,10 +164,8 @@ class Client : public std::enable_shared_from_this<Client> {
         tcp::endpoint(net::ip::make_address("127.0.0.1"), c_.port),
         [self = shared_from_this()](beast::error_code ec) { self->on_connect(ec); });
   }
-  Stats stats;
+  ClientResult result;
   std::atomic<bool> done{false}, failed{false};
-  std::uint64_t jpeg_frames = 0, jpeg_bytes = 0;
-  Clock::time_point first_stream_at{}, last_frame_at{};
 
  private:
   void on_connect(beast::error_code ec) {
@@ -272,21 +226,21 @@ class Client : public std::enable_shared_from_this<Client> {
       const auto h = facecast::server::read_header(msg);
       if (!got_first_) {
         got_first_ = true;
-        stats.ttff.push_back(secs(now - sent_at_));
+        result.stats.ttff.push_back(secs(now - sent_at_));
       }
       if (h.kind == facecast::server::MediaKind::kJpeg) {
-        ++jpeg_frames;
-        jpeg_bytes += msg.size();
-        last_frame_at = now;
+        ++result.jpeg_frames;
+        result.jpeg_bytes += msg.size();
+        result.last_frame_at = now;
       }
       for (std::uint32_t k = 0; k < h.count && h.kind != facecast::server::MediaKind::kAudio; ++k) {
         const double pts = h.pts + k / fps_;
         // The schedule: sent at stream start + pts - lead, but not before the stream starts.
         const double late = secs(now - stream_start_) - std::max(0.0, pts - lead_);
-        ++stats.frames;
-        stats.on_time += late <= 0.050;
-        stats.late_presentation += late > lead_;
-        stats.lateness.push_back(static_cast<float>(late));
+        ++result.stats.frames;
+        result.stats.on_time += late <= 0.050;
+        result.stats.late_presentation += late > lead_;
+        result.stats.lateness.push_back(static_cast<float>(late));
       }
     }
     buf_.consume(buf_.size());
@@ -296,23 +250,23 @@ class Client : public std::enable_shared_from_this<Client> {
     const std::string type = j.value("type", "");
     if (type == "stream_start") {
       stream_start_ = now;
-      if (first_stream_at.time_since_epoch().count() == 0) first_stream_at = now;
+      if (result.first_stream_at.time_since_epoch().count() == 0) result.first_stream_at = now;
       fps_ = j["fps"];
       lead_ = j.value("lead", 0.1);
     } else if (type == "stream_end") {
-      ++stats.streams;
-      stats.dropped += j["dropped"].get<std::uint64_t>();
+      ++result.stats.streams;
+      result.stats.dropped += j["dropped"].get<std::uint64_t>();
       speak();
     } else if (type == "error") {
-      ++stats.errors;
-      if (stats.error_messages.size() < 3) stats.error_messages.push_back(j.dump());
+      ++result.stats.errors;
+      if (result.stats.error_messages.size() < 3) result.stats.error_messages.push_back(j.dump());
       speak();
     }
   }
   void fail(const std::string& why) {
-    if (!failed) stats.error_messages.push_back(why);
+    if (!failed) result.stats.error_messages.push_back(why);
     failed = true;
-    ++stats.errors;
+    ++result.stats.errors;
   }
 
   websocket::stream<beast::tcp_stream> ws_;
@@ -371,67 +325,59 @@ double percentile(std::vector<double> v, double p) {
 
 Args parse_args(int argc, char** argv) {
   Args a;
+  const std::map<std::string, int*> ints = {{"--clients", &a.clients},
+                                            {"--frames-clients", &a.frames_clients},
+                                            {"--client-threads", &a.client_threads}};
+  const std::map<std::string, double*> reals = {{"--seconds", &a.seconds},
+                                                {"--ramp", &a.ramp},
+                                                {"--fps", &a.fps},
+                                                {"--min-tick", &a.min_tick},
+                                                {"--frames-seconds", &a.frames_seconds},
+                                                {"--frames-fps", &a.frames_fps}};
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
-    const auto next = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::runtime_error(k + ": missing value");
-      return argv[++i];
-    };
-    if (k == "--clients")
-      a.clients = std::stoi(next());
-    else if (k == "--seconds")
-      a.seconds = std::stod(next());
-    else if (k == "--ramp")
-      a.ramp = std::stod(next());
-    else if (k == "--fps")
-      a.fps = std::stod(next());
-    else if (k == "--min-tick")
-      a.min_tick = std::stod(next());
-    else if (k == "--frames-clients")
-      a.frames_clients = std::stoi(next());
-    else if (k == "--frames-seconds")
-      a.frames_seconds = std::stod(next());
-    else if (k == "--frames-fps")
-      a.frames_fps = std::stod(next());
-    else if (k == "--frames-size") {
-      const std::string s = next();
-      if (std::sscanf(s.c_str(), "%dx%d", &a.width, &a.height) != 2)
+    if (i + 1 >= argc) throw std::runtime_error(k + ": missing value");
+    const std::string v = argv[++i];
+    if (ints.count(k)) {
+      *ints.at(k) = std::stoi(v);
+    } else if (reals.count(k)) {
+      *reals.at(k) = std::stod(v);
+    } else if (k == "--frames-size") {
+      if (std::sscanf(v.c_str(), "%dx%d", &a.width, &a.height) != 2)
         throw std::runtime_error("--frames-size WxH");
-    } else if (k == "--client-threads")
-      a.client_threads = std::stoi(next());
-    else if (k == "--set") {
-      const std::string kv = next();
-      const auto eq = kv.find('=');
+    } else if (k == "--set") {
+      const auto eq = v.find('=');
       if (eq == std::string::npos) throw std::runtime_error("--set key=value");
-      a.set.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-    } else if (k == "--exe")
-      a.exe = next();
-    else
+      a.set.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    } else if (k == "--exe") {
+      a.exe = v;
+    } else {
       throw std::runtime_error("unknown option " + k);
+    }
   }
   return a;
 }
 
-// Runs `clients` clients until all are done; returns merged stats.
-std::vector<ClientResult> run_clients(const Args& a, unsigned short port, int n, double seconds,
-                                      double ramp, double fps, const std::string& output,
+// One part of the benchmark: `clients` clients speaking for `seconds` each in `output` mode, their
+// starts spread over `ramp` seconds.
+struct Phase {
+  int clients;
+  double seconds, ramp, fps;
+  std::string output;
+};
+
+// Runs the clients of `phase` until all are done.
+std::vector<ClientResult> run_clients(const Args& a, unsigned short port, const Phase& phase,
                                       const std::function<void()>& every_second) {
   net::io_context ioc;
   std::vector<std::shared_ptr<Client>> clients;
   const auto t0 = Clock::now() + std::chrono::seconds(2);  // time to connect everyone
-  for (int i = 0; i < n; ++i) {
-    Client::Config c;
-    c.port = port;
-    c.start_at = t0 + std::chrono::duration_cast<Clock::duration>(
-                          std::chrono::duration<double>(ramp * i / std::max(1, n)));
-    c.stop_at = c.start_at +
-                std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-    c.fps = fps;
-    c.output = output;
-    c.width = a.width;
-    c.height = a.height;
-    c.seed = static_cast<std::uint32_t>(i * 7919 + 17);
-    clients.push_back(std::make_shared<Client>(ioc, c));
+  for (int i = 0; i < phase.clients; ++i) {
+    const auto start_at = t0 + from_secs(phase.ramp * i / std::max(1, phase.clients));
+    clients.push_back(std::make_shared<Client>(
+        ioc,
+        Client::Config{port, start_at, start_at + from_secs(phase.seconds), phase.fps, phase.output,
+                       a.width, a.height, static_cast<std::uint32_t>(i * 7919 + 17)}));
   }
   for (auto& c : clients) c->start();
   net::steady_timer tick(ioc);
@@ -451,10 +397,109 @@ std::vector<ClientResult> run_clients(const Args& a, unsigned short port, int n,
   ioc.run();
   for (auto& t : threads) t.join();
   std::vector<ClientResult> out;
-  for (const auto& c : clients)
-    out.push_back(
-        {c->stats, c->failed, c->jpeg_frames, c->jpeg_bytes, c->first_stream_at, c->last_frame_at});
+  for (const auto& c : clients) {
+    out.push_back(c->result);
+    out.back().failed = c->failed;
+  }
   return out;  // the clients (and their sockets) go before the io_context
+}
+
+// 1. Weights: on-time frames, time to first frame, the server's RSS and CPU.
+void run_weights(const Args& a, const fctest::ServeProcess& server) {
+  double peak_rss = 0;
+  const double cpu0 = cpu(server.pid());
+  const double client_cpu0 = self_cpu();
+  const auto t0 = Clock::now();
+  int second = 0;
+  const Phase phase{a.clients, a.seconds, a.ramp, a.fps, "weights"};
+  const auto clients = run_clients(a, server.port(), phase, [&] {
+    const auto r = rss(server.pid());
+    peak_rss = std::max(peak_rss, r.first);
+    if (++second % 10 == 0) {
+      std::printf("  t=%3d s  server RSS %.0f MB\n", second, r.first);
+      std::fflush(stdout);
+    }
+  });
+  const double wall = secs(Clock::now() - t0);
+  const double server_cpu = cpu(server.pid()) - cpu0;
+  const double client_cpu = self_cpu() - client_cpu0;
+  Stats s;
+  int failed = 0;
+  for (const auto& c : clients) {
+    s.merge(c.stats);
+    failed += c.failed;
+  }
+  std::vector<double> late(s.lateness.begin(), s.lateness.end());
+  std::printf(
+      "\nweights: %d clients, %.1f s wall, %llu streams, %llu frames received, %llu dropped, "
+      "%llu errors, %d clients failed\n",
+      a.clients, wall, static_cast<unsigned long long>(s.streams),
+      static_cast<unsigned long long>(s.frames), static_cast<unsigned long long>(s.dropped),
+      static_cast<unsigned long long>(s.errors), failed);
+  for (const auto& m : s.error_messages) std::printf("  error: %s\n", m.c_str());
+  std::printf(
+      "  frames within 50 ms of schedule: %.3f %%  (after their presentation time: %.3f %%)\n",
+      100.0 * s.on_time / std::max<std::uint64_t>(1, s.frames),
+      100.0 * s.late_presentation / std::max<std::uint64_t>(1, s.frames));
+  std::printf("  lateness vs schedule: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
+              1e3 * percentile(late, 50), 1e3 * percentile(late, 99), 1e3 * percentile(late, 99.9),
+              1e3 * percentile(late, 100));
+  std::printf(
+      "  time to first frame after speak (no audio): p50 %.1f ms, p99 %.1f ms, max %.1f ms "
+      "(n=%zu)\n",
+      1e3 * percentile(s.ttff, 50), 1e3 * percentile(s.ttff, 99), 1e3 * percentile(s.ttff, 100),
+      s.ttff.size());
+  std::printf(
+      "  server RSS: peak %.0f MB sampled, VmHWM %.0f MB; server CPU %.1f s (%.0f %% of one "
+      "core); load generator CPU %.0f %% of one core\n",
+      peak_rss, rss(server.pid()).second, server_cpu, 100.0 * server_cpu / wall,
+      100.0 * client_cpu / wall);
+  double load[3] = {0, 0, 0};
+  if (getloadavg(load, 3) == 3)
+    std::printf("  machine load average (1 min) at the end: %.2f\n", load[0]);
+  const std::string m = http_get(server.port(), "/metrics");
+  const auto ttff = histogram(m, "facecast_time_to_first_frame_seconds", 0.99);
+  const auto analysis = histogram(m, "facecast_analysis_seconds", 0.99);
+  std::printf(
+      "  server side: time to first frame mean %.1f ms, p99 <= %.0f ms; analysis mean %.1f ms, "
+      "p99 <= %.0f ms\n",
+      1e3 * ttff.first, 1e3 * ttff.second, 1e3 * analysis.first, 1e3 * analysis.second);
+  std::fflush(stdout);
+}
+
+// 2. Frames: JPEG frames delivered per second to each client.
+void run_frames(const Args& a, const fctest::ServeProcess& server) {
+  const Phase phase{a.frames_clients, a.frames_seconds, 0, a.frames_fps, "frames"};
+  const auto clients = run_clients(a, server.port(), phase, [] {});
+  std::printf("\nframes: %d clients at %dx%d, %.0f fps requested, %.0f s\n", a.frames_clients,
+              a.width, a.height, a.frames_fps, a.frames_seconds);
+  for (std::size_t i = 0; i < clients.size(); ++i) {
+    const auto& c = clients[i];
+    const double span = secs(c.last_frame_at - c.first_stream_at);
+    std::printf(
+        "  client %zu: %llu frames in %.1f s = %.1f fps delivered, %llu dropped, %.1f "
+        "KB/frame, %llu errors\n",
+        i, static_cast<unsigned long long>(c.jpeg_frames), span,
+        c.jpeg_frames / std::max(1e-9, span), static_cast<unsigned long long>(c.stats.dropped),
+        c.jpeg_bytes / 1024.0 / std::max<std::uint64_t>(1, c.jpeg_frames),
+        static_cast<unsigned long long>(c.stats.errors));
+    for (const auto& m : c.stats.error_messages) std::printf("    error: %s\n", m.c_str());
+  }
+  const auto render =
+      histogram(http_get(server.port(), "/metrics"), "facecast_render_seconds", 0.5);
+  std::printf("  render + JPEG per frame on the server: mean %.1f ms (median <= %.0f ms)\n",
+              1e3 * render.first, 1e3 * render.second);
+}
+
+// The shipped config with room for the load and the --set values, written to `dir`.
+void write_config(Args& a, const std::filesystem::path& dir) {
+  json config = facecast::load_json(facecast::config_path("server.json"));
+  config["max_connections"] = std::max(config["max_connections"].get<int>(), a.clients + 100);
+  config["log_level"] = "warn";
+  if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
+  for (const auto& [key, value] : a.set) config[key] = json::parse(value);
+  a.min_tick = config["min_tick"];
+  facecast::write_file_atomic(dir / "server.json", config.dump(2));
 }
 
 }  // namespace
@@ -472,18 +517,10 @@ int main(int argc, char** argv) {
   rl.rlim_cur = rl.rlim_max;
   setrlimit(RLIMIT_NOFILE, &rl);
 
-  // The shipped config, with room for the load.
   const auto dir =
       std::filesystem::temp_directory_path() / ("bench-server-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
-  json config = facecast::load_json(facecast::config_path("server.json"));
-  config["max_connections"] = std::max(config["max_connections"].get<int>(), a.clients + 100);
-  config["log_level"] = "warn";
-  if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
-  for (const auto& [key, value] : a.set) config[key] = json::parse(value);
-  a.min_tick = config["min_tick"];
-  facecast::write_file_atomic(dir / "server.json", config.dump(2));
-
+  write_config(a, dir);
   std::printf(
       "bench_server: %d clients x %.0f s of %.0f fps weights (ramp %.0f s, min_tick %g), "
       "then %d clients in frames mode at %dx%d %.0f fps for %.0f s; %u CPUs\n",
@@ -492,102 +529,13 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   int rc = 0;
   try {
-    ServerProcess server(a.exe, dir / "server.json", dir / "data");
-    const auto rss0 = server.rss();
-    std::printf("server pid %d on port %u, RSS at start %.0f MB\n", server.pid, server.port,
-                rss0.first);
-
-    // ---- 1. weights -----------------------------------------------------------------------------
-    double peak_rss = 0;
-    const double cpu0 = server.cpu();
-    const auto self_cpu = [] {
-      rusage ru{};
-      getrusage(RUSAGE_SELF, &ru);
-      return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec +
-             1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-    };
-    const double client_cpu0 = self_cpu();
-    const auto t0 = Clock::now();
-    int second = 0;
-    auto clients = run_clients(a, server.port, a.clients, a.seconds, a.ramp, a.fps, "weights", [&] {
-      const auto r = server.rss();
-      peak_rss = std::max(peak_rss, r.first);
-      if (++second % 10 == 0) {
-        std::printf("  t=%3d s  server RSS %.0f MB\n", second, r.first);
-        std::fflush(stdout);
-      }
-    });
-    const double wall = secs(Clock::now() - t0);
-    const double cpu = server.cpu() - cpu0;
-    const double client_cpu = self_cpu() - client_cpu0;
-    Stats s;
-    int failed = 0;
-    for (auto& c : clients) {
-      s.merge(c.stats);
-      failed += c.failed;
-    }
-    std::vector<double> late(s.lateness.begin(), s.lateness.end());
-    const auto hwm = server.rss().second;
-    std::printf(
-        "\nweights: %d clients, %.1f s wall, %llu streams, %llu frames received, %llu dropped, "
-        "%llu errors, %d clients failed\n",
-        a.clients, wall, static_cast<unsigned long long>(s.streams),
-        static_cast<unsigned long long>(s.frames), static_cast<unsigned long long>(s.dropped),
-        static_cast<unsigned long long>(s.errors), failed);
-    for (const auto& m : s.error_messages) std::printf("  error: %s\n", m.c_str());
-    std::printf(
-        "  frames within 50 ms of schedule: %.3f %%  (after their presentation time: %.3f %%)\n",
-        100.0 * s.on_time / std::max<std::uint64_t>(1, s.frames),
-        100.0 * s.late_presentation / std::max<std::uint64_t>(1, s.frames));
-    std::printf("  lateness vs schedule: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
-                1e3 * percentile(late, 50), 1e3 * percentile(late, 99),
-                1e3 * percentile(late, 99.9), 1e3 * percentile(late, 100));
-    std::printf(
-        "  time to first frame after speak (no audio): p50 %.1f ms, p99 %.1f ms, max %.1f ms "
-        "(n=%zu)\n",
-        1e3 * percentile(s.ttff, 50), 1e3 * percentile(s.ttff, 99), 1e3 * percentile(s.ttff, 100),
-        s.ttff.size());
-    std::printf(
-        "  server RSS: peak %.0f MB sampled, VmHWM %.0f MB; server CPU %.1f s (%.0f %% of one "
-        "core); load generator CPU %.0f %% of one core\n",
-        peak_rss, hwm, cpu, 100.0 * cpu / wall, 100.0 * client_cpu / wall);
-    double load[3] = {0, 0, 0};
-    if (getloadavg(load, 3) == 3)
-      std::printf("  machine load average (1 min) at the end: %.2f\n", load[0]);
-    {
-      const std::string m = http_get(server.port, "/metrics");
-      const auto ttff = histogram(m, "facecast_time_to_first_frame_seconds", 0.99);
-      const auto analysis = histogram(m, "facecast_analysis_seconds", 0.99);
-      std::printf(
-          "  server side: time to first frame mean %.1f ms, p99 <= %.0f ms; analysis mean %.1f ms, "
-          "p99 <= %.0f ms\n",
-          1e3 * ttff.first, 1e3 * ttff.second, 1e3 * analysis.first, 1e3 * analysis.second);
-    }
-    std::fflush(stdout);
-
-    // ---- 2. frames ------------------------------------------------------------------------------
-    if (a.frames_clients > 0) {
-      auto fc = run_clients(a, server.port, a.frames_clients, a.frames_seconds, 0, a.frames_fps,
-                            "frames", [] {});
-      std::printf("\nframes: %d clients at %dx%d, %.0f fps requested, %.0f s\n", a.frames_clients,
-                  a.width, a.height, a.frames_fps, a.frames_seconds);
-      for (std::size_t i = 0; i < fc.size(); ++i) {
-        const auto& c = fc[i];
-        const double span = secs(c.last_frame_at - c.first_stream_at);
-        std::printf(
-            "  client %zu: %llu frames in %.1f s = %.1f fps delivered, %llu dropped, %.1f "
-            "KB/frame, %llu errors\n",
-            i, static_cast<unsigned long long>(c.jpeg_frames), span,
-            c.jpeg_frames / std::max(1e-9, span), static_cast<unsigned long long>(c.stats.dropped),
-            c.jpeg_bytes / 1024.0 / std::max<std::uint64_t>(1, c.jpeg_frames),
-            static_cast<unsigned long long>(c.stats.errors));
-        for (const auto& m : c.stats.error_messages) std::printf("    error: %s\n", m.c_str());
-      }
-      const auto render =
-          histogram(http_get(server.port, "/metrics"), "facecast_render_seconds", 0.5);
-      std::printf("  render + JPEG per frame on the server: mean %.1f ms (median <= %.0f ms)\n",
-                  1e3 * render.first, 1e3 * render.second);
-    }
+    const fctest::ServeProcess server(
+        a.exe, {"--config", (dir / "server.json").string(), "--data", (dir / "data").string()}, 60,
+        (dir / "server.log").string());
+    std::printf("server pid %d on port %u, RSS at start %.0f MB\n", server.pid(), server.port(),
+                rss(server.pid()).first);
+    run_weights(a, server);
+    if (a.frames_clients > 0) run_frames(a, server);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_server: %s\n", e.what());
     rc = 3;

@@ -2,17 +2,13 @@
 
 #include <array>
 
+#include "clock.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 #include "websocket_session.hpp"
 
 namespace facecast::server {
 namespace {
-
-std::chrono::steady_clock::duration from_seconds(double s) {
-  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(s));
-}
 
 std::string endpoint_string(const tcp::socket& socket) {
   beast::error_code ec;
@@ -95,7 +91,7 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
          false);
     return;
   }
-  started_ = std::chrono::steady_clock::now();
+  started_ = Clock::now();
   state_->metrics.http_requests_total.fetch_add(1);
   auto& req = parser_->get();
   if (websocket::is_upgrade(req)) {
@@ -225,8 +221,7 @@ void HttpSession::send(http::message_generator message, bool keep_alive) {
 
 void HttpSession::on_write(bool keep_alive, beast::error_code ec, std::size_t) {
   if (started_.time_since_epoch().count()) {
-    state_->metrics.http_request_seconds.observe(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count());
+    state_->metrics.http_request_seconds.observe(seconds(Clock::now() - started_));
   }
   if (ec) {
     log::debug("http_write_failed", {{"conn", conn_}, {"error", ec.message()}});

@@ -13,23 +13,6 @@ std::string num(double v) {
   return buf;
 }
 
-template <class T>
-void metric(std::string& out, const char* name, const char* type, const char* help, T value) {
-  out += "# HELP ";
-  out += name;
-  out += ' ';
-  out += help;
-  out += "\n# TYPE ";
-  out += name;
-  out += ' ';
-  out += type;
-  out += '\n';
-  out += name;
-  out += ' ';
-  out += num(static_cast<double>(value));
-  out += '\n';
-}
-
 void header(std::string& out, const char* name, const char* type, const char* help) {
   out += "# HELP ";
   out += name;
@@ -40,6 +23,35 @@ void header(std::string& out, const char* name, const char* type, const char* he
   out += ' ';
   out += type;
   out += '\n';
+}
+
+// One line "name{labels} value" (`labels` may be empty).
+void sample(std::string& out, const char* name, const std::string& labels,
+            const std::string& value) {
+  out += name;
+  if (!labels.empty()) out += "{" + labels + "}";
+  out += ' ';
+  out += value;
+  out += '\n';
+}
+
+template <class T>
+void metric(std::string& out, const char* name, const char* type, const char* help, T value) {
+  header(out, name, type, help);
+  sample(out, name, {}, num(static_cast<double>(value)));
+}
+
+void per_output(std::string& out, const char* name, const char* help, const PerOutput& counter) {
+  header(out, name, "counter", help);
+  sample(out, name, "output=\"weights\"",
+         std::to_string(counter.weights.load(std::memory_order_relaxed)));
+  sample(out, name, "output=\"frames\"",
+         std::to_string(counter.frames.load(std::memory_order_relaxed)));
+}
+
+void histogram(std::string& out, const char* name, const char* help, const Histogram& h) {
+  header(out, name, "histogram", help);
+  h.render(out, name);
 }
 
 }  // namespace
@@ -103,17 +115,10 @@ std::string Metrics::render(double uptime_seconds) const {
   metric(out, "facecast_streams_total", "counter", "Streams started.", g(streams_total));
   metric(out, "facecast_streams_cancelled_total", "counter", "Streams ended by cancel.",
          g(streams_cancelled_total));
-  header(out, "facecast_frames_sent_total", "counter", "Frames sent, by output.");
-  out += "facecast_frames_sent_total{output=\"weights\"} " +
-         std::to_string(g(weights_frames_sent_total)) + "\n";
-  out += "facecast_frames_sent_total{output=\"frames\"} " +
-         std::to_string(g(jpeg_frames_sent_total)) + "\n";
-  header(out, "facecast_frames_dropped_total", "counter",
-         "Frames dropped (weights: oldest queued) or skipped (frames), by output.");
-  out += "facecast_frames_dropped_total{output=\"weights\"} " +
-         std::to_string(g(weights_frames_dropped_total)) + "\n";
-  out += "facecast_frames_dropped_total{output=\"frames\"} " +
-         std::to_string(g(jpeg_frames_dropped_total)) + "\n";
+  per_output(out, "facecast_frames_sent_total", "Frames sent, by output.", frames_sent);
+  per_output(out, "facecast_frames_dropped_total",
+             "Frames dropped (weights: oldest queued) or skipped (frames), by output.",
+             frames_dropped);
   metric(out, "facecast_audio_samples_sent_total", "counter", "PCM samples sent.",
          g(audio_samples_sent_total));
   metric(out, "facecast_websocket_messages_received_total", "counter",
@@ -128,30 +133,26 @@ std::string Metrics::render(double uptime_seconds) const {
          g(http_requests_total));
   header(out, "facecast_http_responses_total", "counter", "HTTP responses by status class.");
   for (int c = 1; c <= 5; ++c) {
-    out += "facecast_http_responses_total{class=\"" + std::to_string(c) + "xx\"} " +
-           std::to_string(g(http_responses_by_class[static_cast<std::size_t>(c)])) + "\n";
+    sample(out, "facecast_http_responses_total", "class=\"" + std::to_string(c) + "xx\"",
+           std::to_string(g(http_responses_by_class[static_cast<std::size_t>(c)])));
   }
   header(out, "facecast_jobs", "gauge", "Jobs (rig builds, video renders) by state.");
-  out += "facecast_jobs{state=\"queued\"} " + std::to_string(g(jobs_queued)) + "\n";
-  out += "facecast_jobs{state=\"running\"} " + std::to_string(g(jobs_running)) + "\n";
+  sample(out, "facecast_jobs", "state=\"queued\"", std::to_string(g(jobs_queued)));
+  sample(out, "facecast_jobs", "state=\"running\"", std::to_string(g(jobs_running)));
   metric(out, "facecast_jobs_done_total", "counter", "Jobs finished.", g(jobs_done_total));
   metric(out, "facecast_jobs_failed_total", "counter", "Jobs failed or cancelled.",
          g(jobs_failed_total));
-  header(out, "facecast_http_request_seconds", "histogram",
-         "HTTP request latency (request read to response written).");
-  http_request_seconds.render(out, "facecast_http_request_seconds");
-  header(out, "facecast_time_to_first_frame_seconds", "histogram",
-         "From a speak reaching the front of its queue to its first frame being queued.");
-  time_to_first_frame_seconds.render(out, "facecast_time_to_first_frame_seconds");
-  header(out, "facecast_analysis_seconds", "histogram",
-         "Speech analysis and animation set-up per utterance.");
-  analysis_seconds.render(out, "facecast_analysis_seconds");
-  header(out, "facecast_render_seconds", "histogram", "Rendering and JPEG encoding of one frame.");
-  render_seconds.render(out, "facecast_render_seconds");
-  header(out, "facecast_rig_build_seconds", "histogram", "Rig build jobs.");
-  rig_build_seconds.render(out, "facecast_rig_build_seconds");
-  header(out, "facecast_video_render_seconds", "histogram", "Video render jobs.");
-  video_render_seconds.render(out, "facecast_video_render_seconds");
+  histogram(out, "facecast_http_request_seconds",
+            "HTTP request latency (request read to response written).", http_request_seconds);
+  histogram(out, "facecast_time_to_first_frame_seconds",
+            "From a speak reaching the front of its queue to its first frame being queued.",
+            time_to_first_frame_seconds);
+  histogram(out, "facecast_analysis_seconds", "Speech analysis and animation set-up per utterance.",
+            analysis_seconds);
+  histogram(out, "facecast_render_seconds", "Rendering and JPEG encoding of one frame.",
+            render_seconds);
+  histogram(out, "facecast_rig_build_seconds", "Rig build jobs.", rig_build_seconds);
+  histogram(out, "facecast_video_render_seconds", "Video render jobs.", video_render_seconds);
   return out;
 }
 

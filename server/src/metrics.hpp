@@ -24,6 +24,33 @@ class Histogram {
   std::atomic<std::uint64_t> count_{0};
 };
 
+/// One owner's part of a gauge (a connection, a queue, a stream): the gauge is the sum of the
+/// parts, and a part leaves the gauge with its owner, so that no code balances it by hand.
+class GaugeShare {
+ public:
+  explicit GaugeShare(std::atomic<long>& gauge, long value = 0) noexcept : gauge_(gauge) {
+    set(value);
+  }
+  ~GaugeShare() { set(0); }
+  GaugeShare(const GaugeShare&) = delete;
+  GaugeShare& operator=(const GaugeShare&) = delete;
+
+  void set(long value) noexcept {
+    gauge_.fetch_add(value - value_);
+    value_ = value;
+  }
+
+ private:
+  std::atomic<long>& gauge_;
+  long value_ = 0;
+};
+
+/// A counter with the label output="weights" | "frames".
+struct PerOutput {
+  std::atomic<std::uint64_t> weights{0}, frames{0};
+  std::atomic<std::uint64_t>& of(bool frames_output) { return frames_output ? frames : weights; }
+};
+
 struct Metrics {
   Metrics();
 
@@ -38,11 +65,10 @@ struct Metrics {
   std::atomic<long> write_queue_depth{0};  // queued outgoing messages, all connections
   std::atomic<std::uint64_t> streams_total{0};
   std::atomic<std::uint64_t> streams_cancelled_total{0};
-  std::atomic<std::uint64_t> weights_frames_sent_total{0};
-  std::atomic<std::uint64_t> jpeg_frames_sent_total{0};
-  std::atomic<std::uint64_t> weights_frames_dropped_total{0};
-  std::atomic<std::uint64_t> jpeg_frames_dropped_total{0};
+  PerOutput frames_sent;
+  PerOutput frames_dropped;  // weights: dropped from the queue; frames: skipped
   std::atomic<std::uint64_t> audio_samples_sent_total{0};
+  // WebSocket traffic
   std::atomic<std::uint64_t> ws_messages_received_total{0};
   std::atomic<std::uint64_t> ws_bytes_sent_total{0};
   std::atomic<std::uint64_t> slow_clients_closed_total{0};

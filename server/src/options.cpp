@@ -1,43 +1,11 @@
 #include "facecast/server/options.hpp"
 
 #include <boost/asio/ip/address.hpp>
-#include <cmath>
-#include <functional>
-#include <map>
 
-#include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 
 namespace facecast::server {
-namespace {
-
-using nlohmann::json;
-
-template <class T>
-void read_int(const json& v, const std::string& where, T& out) {
-  if (!v.is_number_integer()) throw Error(where + ": expected an integer");
-  const auto x = v.get<long long>();
-  if (x < 0) throw Error(where + ": must not be negative");
-  out = static_cast<T>(x);
-}
-
-void read_double(const json& v, const std::string& where, double& out) {
-  if (!v.is_number()) throw Error(where + ": expected a number");
-  out = v.get<double>();
-}
-
-void read_string(const json& v, const std::string& where, std::string& out) {
-  if (!v.is_string()) throw Error(where + ": expected a string");
-  out = v.get<std::string>();
-}
-
-void read_path(const json& v, const std::string& where, std::filesystem::path& out) {
-  std::string s;
-  read_string(v, where, s);
-  out = s;
-}
-
-}  // namespace
 
 bool is_loopback_host(const std::string& host) {
   if (host == "localhost") return true;
@@ -47,85 +15,40 @@ bool is_loopback_host(const std::string& host) {
 }
 
 ServerOptions load_server_options(const std::filesystem::path& path) {
-  const json j = load_json(path);
-  const std::string file = path.filename().string();
-  if (!j.is_object()) throw Error(file + ": expected a JSON object");
+  // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
   ServerOptions o;
-  using Setter = std::function<void(const json&, const std::string&)>;
-  const std::map<std::string, Setter> setters = {
-      {"host", [&](const json& v, const std::string& w) { read_string(v, w, o.host); }},
-      {"port", [&](const json& v, const std::string& w) { read_int(v, w, o.port); }},
-      {"data", [&](const json& v, const std::string& w) { read_path(v, w, o.data); }},
-      {"token", [&](const json& v, const std::string& w) { read_string(v, w, o.token); }},
-      {"web_root", [&](const json& v, const std::string& w) { read_path(v, w, o.web_root); }},
-      {"three_root", [&](const json& v, const std::string& w) { read_path(v, w, o.three_root); }},
-      {"default_rig",
-       [&](const json& v, const std::string& w) { read_string(v, w, o.default_rig); }},
-      {"io_threads", [&](const json& v, const std::string& w) { read_int(v, w, o.io_threads); }},
-      {"workers", [&](const json& v, const std::string& w) { read_int(v, w, o.workers); }},
-      {"job_workers", [&](const json& v, const std::string& w) { read_int(v, w, o.job_workers); }},
-      {"max_connections",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.max_connections); }},
-      {"max_message", [&](const json& v, const std::string& w) { read_int(v, w, o.max_message); }},
-      {"max_text", [&](const json& v, const std::string& w) { read_int(v, w, o.max_text); }},
-      {"max_body", [&](const json& v, const std::string& w) { read_int(v, w, o.max_body); }},
-      {"max_upload", [&](const json& v, const std::string& w) { read_int(v, w, o.max_upload); }},
-      {"speak_per_minute",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.speak_per_minute); }},
-      {"speak_burst", [&](const json& v, const std::string& w) { read_int(v, w, o.speak_burst); }},
-      {"max_queued_speaks",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.max_queued_speaks); }},
-      {"max_fps", [&](const json& v, const std::string& w) { read_int(v, w, o.max_fps); }},
-      {"max_frame_side",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.max_frame_side); }},
-      {"max_jobs", [&](const json& v, const std::string& w) { read_int(v, w, o.max_jobs); }},
-      {"max_render_seconds",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.max_render_seconds); }},
-      {"lead", [&](const json& v, const std::string& w) { read_double(v, w, o.lead); }},
-      {"min_tick", [&](const json& v, const std::string& w) { read_double(v, w, o.min_tick); }},
-      {"audio_chunk",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.audio_chunk); }},
-      {"cancel_fade",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.cancel_fade); }},
-      {"write_queue", [&](const json& v, const std::string& w) { read_int(v, w, o.write_queue); }},
-      {"slow_client_grace",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.slow_client_grace); }},
-      {"close_timeout",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.close_timeout); }},
-      {"frames_in_flight",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.frames_in_flight); }},
-      {"jpeg_quality",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.jpeg_quality); }},
-      {"render_contexts",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.render_contexts); }},
-      {"max_renderers",
-       [&](const json& v, const std::string& w) { read_int(v, w, o.max_renderers); }},
-      {"send_buffer", [&](const json& v, const std::string& w) { read_int(v, w, o.send_buffer); }},
-      {"http_timeout",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.http_timeout); }},
-      {"ws_handshake_timeout",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.ws_handshake_timeout); }},
-      {"ws_idle_timeout",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.ws_idle_timeout); }},
-      {"shutdown_timeout",
-       [&](const json& v, const std::string& w) { read_double(v, w, o.shutdown_timeout); }},
-      {"allowed_origins",
-       [&](const json& v, const std::string& w) {
-         if (!v.is_array()) throw Error(w + ": expected an array of origins");
-         o.allowed_origins.clear();
-         for (const auto& x : v) {
-           if (!x.is_string()) throw Error(w + ": expected an array of origins");
-           o.allowed_origins.push_back(x.get<std::string>());
-         }
-       }},
-      {"log_level", [&](const json& v, const std::string& w) { read_string(v, w, o.log_level); }},
-  };
-  for (const auto& [key, value] : j.items()) {
-    if (key.starts_with("_")) continue;  // comments
-    const auto it = setters.find(key);
-    if (it == setters.end()) throw Error(file + ": unknown key '" + key + "'");
-    it->second(value, file + ": " + key);
-  }
+  ConfigReader c = ConfigReader::open(path);
+  c.read("host", o.host).read("port", o.port);
+  c.read("data", o.data);
+  c.read("token", o.token);
+  c.read("web_root", o.web_root).read("three_root", o.three_root);
+  c.read("default_rig", o.default_rig);
+  c.read("io_threads", o.io_threads).read("workers", o.workers).read("job_workers", o.job_workers);
+  c.read("max_connections", o.max_connections);
+  c.read("max_message", o.max_message);
+  c.read("max_text", o.max_text);
+  c.read("max_body", o.max_body).read("max_upload", o.max_upload);
+  c.read("speak_per_minute", o.speak_per_minute).read("speak_burst", o.speak_burst);
+  c.read("max_queued_speaks", o.max_queued_speaks);
+  c.read("max_fps", o.max_fps).read("max_frame_side", o.max_frame_side);
+  c.read("max_jobs", o.max_jobs).read("max_render_seconds", o.max_render_seconds);
+  c.read("lead", o.lead);
+  c.read("min_tick", o.min_tick);
+  c.read("audio_chunk", o.audio_chunk);
+  c.read("cancel_fade", o.cancel_fade);
+  c.read("write_queue", o.write_queue);
+  c.read("slow_client_grace", o.slow_client_grace);
+  c.read("close_timeout", o.close_timeout);
+  c.read("frames_in_flight", o.frames_in_flight);
+  c.read("jpeg_quality", o.jpeg_quality);
+  c.read("render_contexts", o.render_contexts).read("max_renderers", o.max_renderers);
+  c.read("send_buffer", o.send_buffer);
+  c.read("http_timeout", o.http_timeout);
+  c.read("ws_handshake_timeout", o.ws_handshake_timeout).read("ws_idle_timeout", o.ws_idle_timeout);
+  c.read("shutdown_timeout", o.shutdown_timeout);
+  c.read("allowed_origins", o.allowed_origins);
+  c.read("log_level", o.log_level);
+  c.reject_unknown();
   validate(o);
   return o;
 }

@@ -195,9 +195,7 @@ http::message_generator api(State& state, Request& req, const Target& t) {
   if (std::regex_match(path, m, kRigGlb)) {
     require_method(req, {http::verb::get, http::verb::head});
     const std::string id = m[1];
-    const auto info = state.rigs.find(id);
-    if (!info) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
-    if (!info->builtin)
+    if (!state.existing_rig(id).builtin)
       return send_path(state, req, state.rigs.glb_path(id), "model/gltf-binary", "no-cache");
     const auto bytes = state.rigs.builtin_glb();
     const std::string etag =
@@ -225,9 +223,7 @@ http::message_generator api(State& state, Request& req, const Target& t) {
   if (std::regex_match(path, m, kRigEdges)) {
     require_method(req, {http::verb::get, http::verb::head});
     const std::string id = m[1];
-    const auto info = state.rigs.find(id);
-    if (!info) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
-    if (!info->virtual_edges)
+    if (!state.existing_rig(id).virtual_edges)
       throw Error("rig '" + id + "' has no virtual edges", ErrorCode::kNotFound);
     return send_path(state, req, state.rigs.virtual_edges_path(id), "application/json", "no-cache");
   }

@@ -1,6 +1,7 @@
 #include "state.hpp"
 
 #include "facecast/core/config.hpp"
+#include "facecast/core/error.hpp"
 
 namespace facecast::server {
 namespace {
@@ -25,6 +26,13 @@ State::State(ServerOptions opts)
       limits{options.max_text, options.max_fps, options.max_frame_side},
       workers(static_cast<std::size_t>(options.workers)),
       jobs(metrics, options.job_workers, options.max_jobs) {}
+
+RigInfo State::existing_rig(const std::string& id) const {
+  const std::string rig = rigs.resolve(id);
+  auto info = rigs.find(rig);
+  if (!info) throw Error("rig '" + rig + "' does not exist", ErrorCode::kNotFound);
+  return std::move(*info);
+}
 
 void State::add_session(std::uint64_t id, std::weak_ptr<Closable> session) {
   std::lock_guard lock(sessions_mutex_);

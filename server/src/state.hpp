@@ -57,6 +57,9 @@ struct State {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   }
 
+  /// The rig `id` ("" for the default rig); throws Error (not found) naming it when there is none.
+  RigInfo existing_rig(const std::string& id) const;
+
   void add_session(std::uint64_t id, std::weak_ptr<Closable> session);
   void remove_session(std::uint64_t id);
   std::size_t session_count();

@@ -42,7 +42,7 @@ struct ServerOptions {
   int max_jobs = 8;                   // rig builds and renders queued or running
   double max_render_seconds = 120;    // longest video POST /api/render makes
 
-  // Streaming.
+  // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;         // frames are sent this many seconds before their presentation time
   double min_tick = 0.034;   // at least this long between two sends of one stream (s)
   double audio_chunk = 0.2;  // seconds of PCM per audio message

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facecast/core/error.hpp"
+#include "facecast/server/options.hpp"
 #include "facecast/viseme/import.hpp"
 #include "facecast/viseme/options.hpp"
 
@@ -120,6 +121,41 @@ void check_json_depth(std::string_view text, int max_depth = 32);
 std::size_t utf8_length(std::string_view text) noexcept;
 
 // ---- server -> client -------------------------------------------------------------------------
+// Every JSON message the server sends is built here (docs/protocol.md, "Server -> client").
+
+/// `hello`, on connect: the protocol, `server` ("facecast 1.2.0"), the rig ids, the limits a
+/// client must keep to and `lead`.
+std::string hello_message(std::string_view server, const std::vector<std::string>& rigs,
+                          const ServerOptions& options);
+
+struct StreamStart {
+  std::string id;
+  std::uint32_t stream = 0;
+  Output output = Output::kWeights;
+  double fps = 60;
+  int frames = 0;
+  double duration = 0, speech_duration = 0;  // seconds
+  int sample_rate = 0;                       // 0: no audio
+  std::size_t samples = 0;
+  int width = 0, height = 0;  // frames output
+  std::string rig;
+  double lead = 0;
+};
+/// `stream_start`: `names` are the blendshapes of each frame (headYaw, headPitch, headRoll follow
+/// as "extra"), `utterance` the viseme engine's timeline.
+std::string stream_start_message(const StreamStart& start, const std::vector<std::string>& names,
+                                 const nlohmann::json& utterance);
+
+struct StreamEnd {
+  std::string id;
+  std::optional<std::uint32_t> stream;  // none: cancelled while waiting, never started
+  int frames = 0, dropped = 0;
+  bool cancelled = false;
+};
+std::string stream_end_message(const StreamEnd& end);
+
+/// `pong`: echoes the ping's `t`, with the server's uptime in seconds.
+std::string pong_message(const nlohmann::json& t, double server_time);
 
 std::string error_message(const std::optional<std::string>& id, const Problem& problem);
 /// {"error": {"code", "message"}} for HTTP bodies.

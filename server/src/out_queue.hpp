@@ -1,0 +1,71 @@
+#pragma once
+// The outgoing messages of one WebSocket connection, in order (Beast chat-multi's write queue): one
+// message at a time is written, the rest wait here. The queue owns its share of the
+// write_queue_depth gauge and applies the drop-oldest rule for weights (see
+// docs/algorithms.md#stream-pacing):
+//
+//   when `media_limit` media messages are waiting, a new weights message replaces the oldest
+//   queued weights message of its stream (never the one being written), or is dropped itself
+//   when there is none. Control messages, audio and JPEG frames are never dropped here.
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+
+#include "metrics.hpp"
+
+namespace facecast::server {
+
+enum class OutKind { kControl, kAudio, kWeights, kJpeg };
+
+/// One message to send: a control message (JSON text) or a binary media message.
+struct OutMessage {
+  std::shared_ptr<const std::string> data;
+  OutKind kind = OutKind::kControl;
+  std::uint32_t stream = 0;
+  std::uint32_t frames = 0;  // media frames in it (weights, JPEG)
+
+  bool media() const noexcept { return kind != OutKind::kControl; }
+  static OutMessage control(std::string text) {
+    return OutMessage{std::make_shared<const std::string>(std::move(text)), OutKind::kControl, 0,
+                      0};
+  }
+};
+
+class OutQueue {
+ public:
+  OutQueue(std::atomic<long>& depth_gauge, int media_limit);
+
+  bool empty() const noexcept { return queue_.empty(); }
+  std::size_t size() const noexcept { return queue_.size(); }
+  int control() const noexcept { return static_cast<int>(queue_.size()) - media_; }
+  /// True when `media_limit` media messages are waiting.
+  bool media_full() const noexcept { return media_ >= limit_; }
+
+  struct Pushed {
+    bool queued = true;                // false: `message` itself was dropped
+    std::uint32_t dropped_frames = 0;  // of `message` or of the older weights message it replaced
+  };
+  /// Appends `message`, applying the drop-oldest rule to weights.
+  Pushed push(OutMessage message);
+
+  bool writing() const noexcept { return writing_; }
+  /// The next message to write; it stays at the front until finish_write().
+  const OutMessage& start_write();
+  /// Removes the message that was being written.
+  void finish_write();
+  /// Forgets every message but the one being written (the connection is closing).
+  void drop_unsent();
+
+ private:
+  void remove(std::deque<OutMessage>::iterator it);
+
+  std::deque<OutMessage> queue_;
+  bool writing_ = false;
+  int media_ = 0;
+  int limit_;
+  GaugeShare depth_;  // = queue_.size()
+};
+
+}  // namespace facecast::server

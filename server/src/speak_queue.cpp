@@ -1,0 +1,165 @@
+#include "speak_queue.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "log.hpp"
+
+namespace facecast::server {
+
+struct SpeakQueue::Item {
+  SpeakRequest request;
+  Clock::time_point received;
+  std::optional<Clock::time_point> front_at;  // reached the front with nothing playing
+  std::uint32_t seed = 1;
+  bool cancelled = false;
+  std::shared_ptr<PreparedSpeech> prepared;
+};
+
+SpeakQueue::SpeakQueue(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
+                       std::string conn, std::uint64_t conn_id)
+    : state_(std::move(state)),
+      strand_(std::move(strand)),
+      sink_(sink),
+      conn_(std::move(conn)),
+      conn_id_(conn_id),
+      waiting_(state_->metrics.speak_queue_depth),
+      tokens_(state_->options.speak_burst) {}
+
+SpeakQueue::~SpeakQueue() {
+  close();
+}
+
+void SpeakQueue::take_tokens(Clock::time_point now) {
+  const auto& o = state_->options;
+  tokens_ = std::min<double>(o.speak_burst,
+                             tokens_ + seconds(now - tokens_at_) * o.speak_per_minute / 60.0);
+  tokens_at_ = now;
+  if (tokens_ < 1.0) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "speak: more than %g per minute (burst %d); wait and retry",
+                  o.speak_per_minute, o.speak_burst);
+    throw RequestError(Code::kRateLimited, buf);
+  }
+}
+
+void SpeakQueue::speak(SpeakRequest&& request) {
+  const auto now = Clock::now();
+  take_tokens(now);
+  if (const auto n = queued(); static_cast<int>(n) >= state_->options.max_queued_speaks) {
+    throw RequestError(Code::kLimit, "speak: " + std::to_string(n) +
+                                         " utterances are playing or queued (max_queued_speaks)");
+  }
+  const auto same_id = [&](const std::shared_ptr<Item>& i) { return i->request.id == request.id; };
+  if ((active_ && active_->id() == request.id) ||
+      std::any_of(pending_.begin(), pending_.end(), same_id))
+    throw Error("id: '" + request.id + "' is already playing or queued");
+  const std::string rig = state_->existing_rig(request.rig).id;
+  tokens_ -= 1.0;
+
+  auto item = std::make_shared<Item>();
+  item->request = std::move(request);
+  item->received = now;
+  item->seed = state_->next_stream.load() ^ static_cast<std::uint32_t>(conn_id_ * 2654435761u);
+  pending_.push_back(item);
+  waiting_.set(static_cast<long>(pending_.size()));
+  log::info("speak", {{"conn", conn_},
+                      {"id", item->request.id},
+                      {"rig", rig},
+                      {"output", item->request.output == Output::kFrames ? "frames" : "weights"},
+                      {"fps", item->request.fps},
+                      {"audio", item->request.audio},
+                      {"queued", queued() - 1}});
+  prepare(item);
+  start_next();
+}
+
+void SpeakQueue::cancel(const CancelRequest& request) {
+  if (active_ && active_->id() == request.id) {
+    active_->cancel();
+    return;
+  }
+  const auto it = std::find_if(pending_.begin(), pending_.end(),
+                               [&](const auto& i) { return i->request.id == request.id; });
+  if (it == pending_.end())
+    throw Error("cancel: no utterance '" + request.id + "' is playing or queued",
+                ErrorCode::kNotFound);
+  (*it)->cancelled = true;
+  remove(it);
+  log::info("cancelled_queued", {{"conn", conn_}, {"id", request.id}});
+  sink_.send(
+      OutMessage::control(stream_end_message(StreamEnd{request.id, std::nullopt, 0, 0, true})));
+}
+
+void SpeakQueue::close() {
+  if (closed_) return;
+  closed_ = true;
+  if (active_) {
+    active_->stop();
+    active_.reset();
+  }
+  for (auto& i : pending_) i->cancelled = true;
+  pending_.clear();
+  waiting_.set(0);
+}
+
+void SpeakQueue::remove(std::deque<std::shared_ptr<Item>>::iterator it) {
+  pending_.erase(it);
+  waiting_.set(static_cast<long>(pending_.size()));
+}
+
+// ---- preparation (worker pool) ----------------------------------------------------------------
+
+void SpeakQueue::prepare(const std::shared_ptr<Item>& item) {
+  net::post(state_->workers, [self = shared_from_this(), item] {
+    std::shared_ptr<PreparedSpeech> prepared;
+    std::optional<Problem> problem;
+    try {
+      prepared = prepare_speech(*self->state_, item->request, item->seed);
+    } catch (...) {
+      problem = describe(std::current_exception());
+    }
+    net::post(self->strand_, [self, item, prepared = std::move(prepared), problem] {
+      self->on_prepared(item, prepared, problem);
+    });
+  });
+}
+
+void SpeakQueue::on_prepared(const std::shared_ptr<Item>& item,
+                             std::shared_ptr<PreparedSpeech> prepared,
+                             std::optional<Problem> problem) {
+  if (closed_ || item->cancelled) return;
+  if (problem) {
+    if (const auto it = std::find(pending_.begin(), pending_.end(), item); it != pending_.end())
+      remove(it);
+    sink_.send_error(item->request.id, *problem);
+    start_next();
+    return;
+  }
+  item->prepared = std::move(prepared);
+  start_next();
+}
+
+// ---- streaming ----------------------------------------------------------------------------------
+
+// Streams the front utterance once nothing plays and it is prepared.
+void SpeakQueue::start_next() {
+  if (active_ || closed_ || pending_.empty()) return;
+  auto& front = pending_.front();
+  if (!front->front_at) front->front_at = Clock::now();
+  if (!front->prepared) return;  // on_prepared calls again
+  const std::shared_ptr<Item> item = std::move(front);
+  remove(pending_.begin());
+  const auto asked_at = std::max(item->received, *item->front_at);
+  active_ = std::make_shared<StreamPacer>(state_, strand_, sink_, conn_, std::move(item->request),
+                                          std::move(item->prepared), asked_at,
+                                          [this] { on_stream_end(); });
+  active_->start();
+}
+
+void SpeakQueue::on_stream_end() {
+  active_.reset();
+  start_next();
+}
+
+}  // namespace facecast::server

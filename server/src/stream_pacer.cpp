@@ -1,0 +1,314 @@
+#include "stream_pacer.hpp"
+
+#include <cmath>
+
+#include "clock.hpp"
+#include "facecast/render/image.hpp"
+#include "log.hpp"
+
+namespace facecast::server {
+namespace {
+
+// Frames whose send time is within this of "now" go out in this wake-up.
+constexpr double kSlack = 0.0005;
+
+}  // namespace
+
+StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor strand,
+                         StreamSink& sink, std::string conn, SpeakRequest request,
+                         std::shared_ptr<PreparedSpeech> prepared, Clock::time_point asked_at,
+                         std::function<void()> on_end)
+    : state_(std::move(state)),
+      o_(state_->options),
+      strand_(std::move(strand)),
+      timer_(strand_),
+      sink_(&sink),
+      conn_(std::move(conn)),
+      request_(std::move(request)),
+      p_(std::move(prepared)),
+      asked_at_(asked_at),
+      on_end_(std::move(on_end)),
+      playing_(state_->metrics.active_streams),
+      stream_(state_->next_stream.fetch_add(1)),
+      fps_(request_.fps),
+      frames_mode_(request_.output == Output::kFrames),
+      names_(static_cast<int>(p_->rig->mapping.shape_names().size())),
+      end_frame_(p_->frames),
+      last_(static_cast<std::size_t>(names_ + 3), 0.0f) {
+  if (p_->sample_rate > 0)
+    audio_chunk_ =
+        std::max<std::size_t>(1, static_cast<std::size_t>(o_.audio_chunk * p_->sample_rate));
+}
+
+void StreamPacer::start() {
+  const auto keep = shared_from_this();  // on_end may drop the owner's reference
+  StreamStart s;
+  s.id = request_.id;
+  s.stream = stream_;
+  s.output = request_.output;
+  s.fps = fps_;
+  s.frames = p_->frames;
+  s.duration = p_->duration;
+  s.speech_duration = p_->speech_duration;
+  s.sample_rate = p_->sample_rate;
+  s.samples = p_->pcm.size();
+  s.width = request_.width;
+  s.height = request_.height;
+  s.rig = p_->rig->id;
+  s.lead = o_.lead;
+  sink_->send(
+      OutMessage::control(stream_start_message(s, p_->rig->mapping.shape_names(), p_->utterance)));
+  if (stopped_) return;
+  start_ = Clock::now();
+  playing_.set(1);
+  state_->metrics.streams_total.fetch_add(1);
+  log::info("stream_start", {{"conn", conn_},
+                             {"id", request_.id},
+                             {"stream", stream_},
+                             {"frames", p_->frames},
+                             {"duration", p_->duration}});
+  tick();
+}
+
+void StreamPacer::cancel() {
+  if (cancelling_ || stopped_) return;
+  const auto keep = shared_from_this();
+  cancelling_ = true;
+  fade_start_ = next_frame_;
+  fade_from_ = last_;
+  const int fade_frames =
+      have_last_ ? static_cast<int>(std::ceil(o_.cancel_fade * fps_ - 1e-9)) : 0;
+  end_frame_ = next_frame_ + fade_frames;
+  log::info("cancel",
+            {{"conn", conn_}, {"id", request_.id}, {"stream", stream_}, {"at_frame", next_frame_}});
+  tick();
+}
+
+void StreamPacer::stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  ++timer_generation_;  // a pending wake-up is for nothing
+  timer_.cancel();
+  playing_.set(0);
+}
+
+// ---- timing ------------------------------------------------------------------------------------
+
+// Send times, in seconds since the stream's start: frame f at f / fps - lead, the audio chunk that
+// starts at sample i one chunk earlier than the frames it belongs to.
+double StreamPacer::frame_due(int frame) const {
+  return frame / fps_ - o_.lead;
+}
+
+double StreamPacer::audio_due() const {
+  return audio_next_ / static_cast<double>(p_->sample_rate) - o_.lead - o_.audio_chunk;
+}
+
+void StreamPacer::tick() {
+  if (stopped_) return;
+  const double elapsed = seconds(Clock::now() - start_);
+  // With min_tick > 0 a wake-up also sends what falls due before the next one (never late, at
+  // most min_tick early), so a stream writes one message per min_tick instead of one per frame.
+  const double ahead = frames_mode_ ? 0.0 : o_.min_tick;
+  if (!cancelling_) send_audio(elapsed + ahead);
+  if (frames_mode_) {
+    launch_renders(elapsed);
+  } else {
+    send_weights(elapsed + ahead);
+  }
+  if (stopped_) return;
+  if (next_frame_ >= end_frame_ && in_flight_.empty()) {
+    finish();
+    return;
+  }
+  double next = INFINITY;
+  const bool renders_full =
+      frames_mode_ && static_cast<int>(in_flight_.size()) >= o_.frames_in_flight;
+  if (next_frame_ < end_frame_ && !renders_full) next = frame_due(next_frame_) - ahead;
+  if (!cancelling_ && audio_next_ < p_->pcm.size()) next = std::min(next, audio_due() - ahead);
+  if (std::isinf(next)) return;  // waiting for renders; on_rendered ticks
+  arm_timer(std::max(next, elapsed + o_.min_tick));
+}
+
+void StreamPacer::arm_timer(double at) {
+  const unsigned generation = ++timer_generation_;
+  timer_.expires_at(start_ + from_seconds(at));
+  timer_.async_wait([self = shared_from_this(), generation](beast::error_code ec) {
+    if (ec || generation != self->timer_generation_) return;
+    self->tick();
+  });
+}
+
+// ---- sending -----------------------------------------------------------------------------------
+
+// Sends every audio chunk whose send time is at or before `horizon` (seconds since start).
+void StreamPacer::send_audio(double horizon) {
+  const auto& pcm = p_->pcm;
+  while (audio_next_ < pcm.size() && audio_due() <= horizon + kSlack) {
+    const std::size_t n = std::min(audio_chunk_, pcm.size() - audio_next_);
+    auto msg = std::make_shared<const std::string>(
+        audio_message(stream_, static_cast<std::uint32_t>(audio_next_), p_->sample_rate,
+                      pcm.data() + audio_next_, n));
+    sink_->send(OutMessage{std::move(msg), OutKind::kAudio, stream_, 0});
+    state_->metrics.audio_samples_sent_total.fetch_add(n);
+    audio_next_ += n;
+  }
+}
+
+// Sends every frame whose send time is at or before `horizon`, in one message.
+void StreamPacer::send_weights(double horizon) {
+  const int first = next_frame_;
+  thread_local std::vector<float> values, frame;
+  values.clear();
+  while (next_frame_ < end_frame_ && frame_due(next_frame_) <= horizon + kSlack) {
+    frame_values(next_frame_, frame);
+    values.insert(values.end(), frame.begin(), frame.end());
+    ++next_frame_;
+  }
+  const auto count = static_cast<std::uint32_t>(next_frame_ - first);
+  if (count == 0) return;
+  auto msg = std::make_shared<const std::string>(weights_message(
+      stream_, static_cast<std::uint32_t>(first), fps_, count, values.data(), values.size()));
+  count_first_frame();
+  const std::uint32_t dropped =
+      sink_->send(OutMessage{std::move(msg), OutKind::kWeights, stream_, count});
+  sent_ += static_cast<int>(count - dropped);
+  dropped_ += static_cast<int>(dropped);
+  state_->metrics.frames_dropped.weights.fetch_add(dropped);
+}
+
+void StreamPacer::count_first_frame() {
+  if (first_sent_) return;
+  first_sent_ = true;
+  state_->metrics.time_to_first_frame_seconds.observe(seconds(Clock::now() - asked_at_));
+}
+
+// Starts the renders of the frames due by `elapsed`, skipping those nobody would see in time.
+void StreamPacer::launch_renders(double elapsed) {
+  while (next_frame_ < end_frame_ && static_cast<int>(in_flight_.size()) < o_.frames_in_flight &&
+         frame_due(next_frame_) <= elapsed + kSlack) {
+    if (sink_->media_full()) {  // the client is not reading: skip (late or not)
+      skip_frame();
+      continue;
+    }
+    // A frame is useless once the next frame's presentation time has passed: skip it.
+    if ((next_frame_ + 1) / fps_ < elapsed && next_frame_ + 1 < end_frame_) {
+      log::debug("frame_skipped", {{"conn", conn_},
+                                   {"stream", stream_},
+                                   {"frame", next_frame_},
+                                   {"late_s", elapsed - next_frame_ / fps_}});
+      skip_frame();
+      continue;
+    }
+    render(next_frame_++);
+  }
+}
+
+void StreamPacer::skip_frame() {
+  ++dropped_;
+  ++next_frame_;
+  state_->metrics.frames_dropped.frames.fetch_add(1);
+}
+
+// Renders `frame` on the worker pool; on_rendered gets the JPEG message on the strand.
+void StreamPacer::render(int frame) {
+  std::vector<float> values;
+  frame_values(frame, values);
+  const std::size_t n = static_cast<std::size_t>(names_);
+  const anim::HeadPose head{values[n], values[n + 1], values[n + 2]};
+  values.resize(n);  // the renderer takes the shapes, and the head pose apart
+  in_flight_.push_back(Render{frame, false, nullptr});
+  net::post(state_->workers, [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
+                              values = std::move(values), head, stream = stream_, frame, fps = fps_,
+                              quality = o_.jpeg_quality] {
+    std::shared_ptr<const std::string> msg;
+    std::optional<Problem> problem;
+    try {
+      const auto t0 = Clock::now();
+      const render::Image image = renderer->render(values, head);
+      const std::string jpeg = render::encode_jpeg(image, quality);
+      msg = std::make_shared<const std::string>(
+          jpeg_message(stream, static_cast<std::uint32_t>(frame), fps, jpeg));
+      self->state_->metrics.render_seconds.observe(seconds(Clock::now() - t0));
+    } catch (...) {
+      problem = describe(std::current_exception());
+    }
+    net::post(strand, [self, frame, msg = std::move(msg), problem] {
+      self->on_rendered(frame, msg, problem);
+    });
+  });
+}
+
+void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> message,
+                              std::optional<Problem> problem) {
+  if (stopped_) return;
+  for (auto& r : in_flight_) {
+    if (r.frame == frame) {
+      r.done = true;
+      r.message = std::move(message);
+    }
+  }
+  if (problem && !render_error_) render_error_ = problem;
+  while (!in_flight_.empty() && in_flight_.front().done) {
+    auto r = std::move(in_flight_.front());
+    in_flight_.pop_front();
+    if (!r.message) continue;
+    if (sink_->media_full()) {
+      ++dropped_;
+      state_->metrics.frames_dropped.frames.fetch_add(1);
+      continue;
+    }
+    count_first_frame();
+    ++sent_;
+    sink_->send(OutMessage{std::move(r.message), OutKind::kJpeg, stream_, 1});
+  }
+  if (render_error_) {
+    // Rendering failed (GL): report it and end the stream with what was sent.
+    const Problem p = *render_error_;
+    render_error_.reset();
+    sink_->send_error(request_.id, p);
+    if (stopped_) return;
+    end_frame_ = next_frame_;
+    if (in_flight_.empty()) {
+      finish();
+      return;
+    }
+  }
+  tick();
+}
+
+// The blendshape weights of `frame`, then headYaw, headPitch, headRoll.
+void StreamPacer::frame_values(int frame, std::vector<float>& out) {
+  out.resize(last_.size());
+  if (cancelling_ && frame >= fade_start_) {
+    // Frame fade_start_ is one step into the fade, the last fade frame is at rest.
+    anim::fade_to_rest(fade_from_, (frame - fade_start_ + 1) / fps_, o_.cancel_fade, out);
+  } else {
+    const auto n = static_cast<std::size_t>(names_);
+    anim::HeadPose head;
+    p_->performance->sample(frame / fps_, std::span<float>(out.data(), n), &head);
+    out[n] = head.yaw;
+    out[n + 1] = head.pitch;
+    out[n + 2] = head.roll;
+  }
+  last_ = out;
+  have_last_ = true;
+}
+
+void StreamPacer::finish() {
+  const StreamEnd end{request_.id, stream_, sent_, dropped_, cancelling_};
+  sink_->send(OutMessage::control(stream_end_message(end)));
+  state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
+  if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
+  log::info("stream_end", {{"conn", conn_},
+                           {"id", request_.id},
+                           {"stream", stream_},
+                           {"frames", sent_},
+                           {"dropped", dropped_},
+                           {"cancelled", cancelling_}});
+  const bool ended_here = !stopped_;
+  stop();
+  if (ended_here) on_end_();
+}
+
+}  // namespace facecast::server
