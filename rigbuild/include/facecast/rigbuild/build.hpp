@@ -20,6 +20,7 @@
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,8 @@
 
 namespace facecast::rigbuild {
 
+/// kAuto: detected on the target neutral; kOff: none in the system (still detected, for the
+/// report's gap measure); kFile: BuildOptions::given_edges (the CLI reads them from a file).
 enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
 /// Contacts (rigbuild/src/contacts.hpp): triangle pairs near each other in the target neutral are
@@ -47,10 +50,11 @@ struct ContactOptions {
 };
 
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
-/// that the two agree).
+/// that the two agree). Data only: callers read files (markers, a saved correspondence, virtual
+/// edges) and put what they hold here.
 struct BuildOptions {
   VirtualEdgeMode virtual_edges = VirtualEdgeMode::kAuto;
-  std::filesystem::path virtual_edges_file;  // with kFile: JSON written by write_virtual_edges_json
+  std::vector<VirtualEdge> given_edges;  // with kFile: the edges (read_virtual_edges_json)
   VirtualEdgeOptions ve;
   double lambda = 4.0;  // weight of the virtual-edge term
   ContactOptions contacts;
@@ -59,9 +63,11 @@ struct BuildOptions {
   double rigid_tolerance = 0.01;  // a component is rigid if its rigid-fit RMS residual is below
                                   // this * the component's size in every shape
   SolverKind solver = SolverKind::kCholmod;
-  // Other topology (see correspondence.hpp).
-  std::filesystem::path markers;         // marker pairs JSON; required when topologies differ
-  std::filesystem::path correspondence;  // reuse a saved correspondence if it exists, else save it
+  // Another topology (see correspondence.hpp).
+  std::vector<MarkerPair> markers;  // required when the topologies differ (read_markers)
+  /// With markers: a correspondence computed before (load_correspondence) to use instead of
+  /// computing it; BuildResult::correspondence holds the one used, to save.
+  std::optional<Correspondence> correspondence;
   RegistrationOptions registration;
 };
 
@@ -101,8 +107,7 @@ struct BuildResult {
   std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
   std::vector<ComponentInfo> components;
-  TriangleMap
-      triangle_map;  // per target triangle, its template triangles (identity if same topology)
+  Correspondence correspondence;  // its map: per target triangle, its template triangles
   int fixed_vertices = 0;
   std::size_t watched_pairs = 0;  // triangle pairs the contact guard watches
   long factor_nonzeros = 0;
@@ -121,6 +126,7 @@ BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
 nlohmann::json build_report_json(const BuildResult& result, const BuildOptions& options);
 
 /// Virtual edges as JSON ({"d":..,"edges":[[a,b],...]}) and as OBJ line elements over the mesh.
+/// Reading checks the indices against `vertex_count`.
 void write_virtual_edges_json(const std::filesystem::path& path,
                               const std::vector<VirtualEdge>& edges, const VirtualEdgeStats& stats);
 std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& path,

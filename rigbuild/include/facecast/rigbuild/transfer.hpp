@@ -20,11 +20,11 @@
 #include <memory>
 #include <vector>
 
+#include "facecast/rigbuild/geometry.hpp"
+
 namespace facecast::rigbuild {
 
-using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;  // #V by 3
-using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;      // #F by 3
-using Gradients = std::vector<Eigen::Matrix3d>;                            // one per triangle
+using Gradients = std::vector<Eigen::Matrix3d>;  // one per triangle
 
 /// The inverse rest frames V^-1 of a mesh's triangles (with the fourth vertex). Throws Error naming
 /// the first triangle whose area is zero.
