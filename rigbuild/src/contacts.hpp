@@ -1,6 +1,7 @@
 #pragma once
 // Contacts: where the transfer makes the target's surface cross itself at a place where the
-// template's shape does not cross. Private to rigbuild (build.cpp runs it around the block solve).
+// template's shape does not cross (docs/algorithms.md#contacts). Private to rigbuild (the contact
+// stages of build_rig, contact_stage.cpp, run it around the block solve).
 //
 // Virtual edges hold gaps that are long along the surface; at a mouth corner the two lips meet a
 // few triangles from the corner, so those gaps fail the geodesic test, yet they are thinner

@@ -62,7 +62,8 @@ Eigen::RowVector3d placed_at(const Points& rest, const Correspondence& c,
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
                                 const TemplateShapes& source, const Placement& placement) {
   // Each virtual edge follows the copy: the target gap e changes as the template gap r does,
-  // e' = e + (r' - r) = copy_a - copy_b (docs/algorithms.md#virtual-edges).
+  // e' = e + (r' - r) = copy_a - copy_b (docs/algorithms.md#virtual-edges); the change is not
+  // scaled by |e| / |r|, which breaks translations such as jawForward at thin mouth corners.
   const std::vector<int> prescribed = placement.prescribed();
   std::vector<Points> copied(source.size(), rest);
   parallel_for(source.size(), [&](std::size_t k) {

@@ -1,22 +1,24 @@
 #pragma once
-// Building a user's rig: the template's blendshapes transferred onto the user's neutral head.
+// Building a user's rig: the template's blendshapes transferred onto the user's neutral head
+// (docs/algorithms.md#deformation-transfer). The stages, in rigbuild/src/stages.hpp:
 //
 //   template rig + target neutral (+ markers for another topology)
-//     -> correspondence (identity, or registration + triangle map; see correspondence.hpp)
-//     -> anchoring: vertices that move in no template shape and --fixed vertices stay put; every
-//        separate component is placed: a component that the template moves rigidly (teeth,
-//        eyeballs; for another topology also one whose points lie mostly on one of the template's
-//        rigid parts, e.g. its lower teeth row) gets that rigid motion about its own pivot; other
-//        separate components (lashes, tongue) are transferred with one anchor vertex that follows
-//        the same rigid fit, and for another topology those lying on the skin (lashes) are then
-//        carried by the skin triangles under them
-//     -> virtual edges on the target neutral
+//     -> correspondence: identity, or registration + triangle map (correspondence.hpp)
+//     -> which target vertices each template shape moves
+//     -> placement (docs/algorithms.md#rigid-parts): vertices that move in no template shape and
+//        `fixed` vertices stay put; every separate component is placed: one that the template
+//        moves rigidly (teeth, eyeballs; for another topology also one whose points lie mostly on
+//        one of the template's rigid parts, e.g. its lower teeth row) gets that rigid motion about
+//        its own pivot; other separate components (lashes, tongue) are transferred with one anchor
+//        vertex that follows the same rigid fit, and for another topology those lying on the skin
+//        (lashes) are then carried by the skin triangles under them
+//     -> virtual edges on the target neutral (docs/algorithms.md#virtual-edges)
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
 //     -> the template's motion copied vertex by vertex (the virtual edges' targets), and the
 //        contacts' reference: that copy moved out of the rigid parts and smoothed where it
 //        crosses itself, where the template does not
-//     -> contacts: where a shape crosses itself or a rigid part and the reference does not,
-//        vertex-to-triangle constraints, solved again on a patch (contacts.hpp)
+//     -> contacts (docs/algorithms.md#contacts): where a shape crosses itself or a rigid part and
+//        the reference does not, vertex-to-triangle constraints, solved again on a patch
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -36,7 +38,7 @@ namespace facecast::rigbuild {
 /// report's gap measure); kFile: BuildOptions::given_edges (the CLI reads them from a file).
 enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
-/// Contacts (rigbuild/src/contacts.hpp): triangle pairs near each other in the target neutral are
+/// Contacts (docs/algorithms.md#contacts): triangle pairs near each other in the target neutral are
 /// watched; where a built shape crosses there and the reference (the template's displacement
 /// copied vertex by vertex, smoothed where that copy crosses itself and the template does not)
 /// does not, contacts that keep the reference's offsets are added and the shape is solved again
@@ -85,8 +87,8 @@ struct BuildTimings {
 };
 
 /// Per shape: how well the gaps that virtual edges span keep the template's behaviour. For each
-/// virtual edge the gap is normalised so the neutral gap is 10 (the seed paper's measure); the
-/// change is the mean |built gap - the gap the template shape asks for| over the edges.
+/// virtual edge the gap is normalised so the neutral gap is 10 (docs/algorithms.md#virtual-edges);
+/// the change is the mean |built gap - the gap the template shape asks for| over the edges.
 struct ShapeQuality {
   std::string shape;
   double max_displacement = 0;

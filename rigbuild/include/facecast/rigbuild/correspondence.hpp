@@ -1,16 +1,18 @@
 #pragma once
-// Correspondence between a template and a target of another topology (Sumner & Popovic 2004, s. 5;
-// seed notes 002):
+// Correspondence between a template and a target of another topology
+// (docs/algorithms.md#correspondence):
 //   1. similarity alignment (scale, rotation, translation) of the template onto the target from the
-//      marker pairs (Umeyama);
+//      marker pairs (procrustes with scale, docs/algorithms.md#procrustes);
 //   2. non-rigid registration of the template neutral onto the target: minimise
-//        w_S E_S (neighbouring triangles deform alike) + w_I E_I (triangles stay undeformed)
+//        w_S E_S (the displacement's Laplacian is zero) + w_I E_I (edges keep their vectors)
 //        + w_C E_C (vertices reach their closest valid target point: normals within 90 degrees)
-//      with the markers as hard constraints, raising w_C in steps; closest points by nanoflann;
-//   3. triangle correspondence: each target triangle pairs with its closest compatible registered
+//      with the markers as hard constraints, raising w_C in steps;
+//   3. part pairs: a target component may pair with the template parts that 10% of its vertices
+//      land on;
+//   4. triangle correspondence: each target triangle pairs with its closest compatible registered
 //      template triangle and each template triangle with its closest target triangle; a target
 //      triangle's source gradient is the mean over its pairs.
-// The result can be saved and reused (--correspondence FILE).
+// The result can be saved and reused (save_correspondence, load_correspondence).
 #include <array>
 #include <filesystem>
 #include <nlohmann/json.hpp>

@@ -1,5 +1,6 @@
 #pragma once
-// Deformation transfer (Sumner & Popovic 2004) with virtual-edge constraints (seed paper 000).
+// Deformation transfer with virtual-edge constraints. See docs/algorithms.md#deformation-transfer
+// and docs/algorithms.md#virtual-edges.
 //
 // Source side: every template triangle's deformation gradient S = V~ V^-1, with the fourth vertex
 // v4 = v1 + (v2-v1)x(v3-v1)/sqrt(|(v2-v1)x(v3-v1)|) (source_gradients()).
@@ -13,7 +14,8 @@
 // z), and many shapes are solved as one block of right-hand sides.
 //
 // Anchoring: translation is free per connected component, so some vertices are Dirichlet
-// (prescribed) vertices: their positions go to the right-hand side, the matrix does not change.
+// (prescribed) vertices: their positions go to the right-hand side, the matrix does not change
+// (docs/algorithms.md#rigid-parts).
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <array>
