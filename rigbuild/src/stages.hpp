@@ -1,18 +1,19 @@
 #pragma once
 // The stages of build_rig (build.hpp), private to rigbuild. Each takes values and returns one:
 //
-//   correspond         template <-> target (build.cpp)
-//   template_shapes    the template's shapes and their deformation gradients (motion.cpp)
-//   classify_motion    which target vertices each shape moves (motion.cpp)
-//   place_components   each target vertex's role and the parts' rigid motions (placement.cpp)
-//   virtual_edges      on the target neutral (solve.cpp)
-//   factor             the transfer's normal matrix, once (solve.cpp)
-//   copy_motion        the template's displacement copied vertex by vertex (motion.cpp)
-//   contact_reference  the copy uncrossed: what the contacts keep (contact_stage.cpp)
-//   solve_shapes       every shape as one block of right-hand sides (solve.cpp)
-//   hold_contacts      contact rounds where a shape crosses and the reference does not
-//   carry_attached     parts lying on the skin ride on it (placement.cpp)
-//   with_shapes, measure_gaps   the deltas and the report's measures (solve.cpp)
+//   correspond                 template <-> target (build.cpp)
+//   template_shapes            the template's shapes and their gradients (motion.cpp)
+//   classify_motion            which target vertices each shape moves (motion.cpp)
+//   place_components           each target vertex's Role, the placed parts' rigid motions
+//                              (placement.cpp; the template's rigid parts: parts.cpp)
+//   virtual_edges              on the target neutral (solve.cpp)
+//   factor                     the normal matrix, factored once (solve.cpp)
+//   copy_motion, edge_vectors  the template's displacement copied vertex by vertex (motion.cpp)
+//   ContactStage::reference    the copy uncrossed: what the contacts keep (contact_stage.cpp)
+//   solve_shapes               every shape, as one block of right-hand sides (solve.cpp)
+//   ContactStage::hold         contact rounds where a shape crosses and the reference does not
+//   carry_attached             parts lying on the skin ride on it (placement.cpp)
+//   with_shapes, measure_gaps  the deltas and the report's measures (solve.cpp)
 #include <array>
 #include <cstdint>
 #include <optional>
