@@ -122,29 +122,46 @@ Components connected_components(int vertex_count, const Triangles& triangles) {
   return out;
 }
 
-void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals) {
+namespace {
+
+// Area-weighted unit vertex normals in the precision of `Matrix` (#V by 3, row-major).
+template <class Matrix>
+void area_weighted_normals(const Matrix& positions, const Triangles& triangles, Matrix& normals) {
+  using Scalar = typename Matrix::Scalar;
   normals.setZero(positions.rows(), 3);
   for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
     const int a = triangles(f, 0), b = triangles(f, 1), c = triangles(f, 2);
-    const Eigen::Vector3f n =
+    const Eigen::Matrix<Scalar, 3, 1> n =
         (positions.row(b) - positions.row(a)).cross(positions.row(c) - positions.row(a));
     normals.row(a) += n;  // |n| = 2 * area: area weighting for free
     normals.row(b) += n;
     normals.row(c) += n;
   }
   for (Eigen::Index v = 0; v < normals.rows(); ++v) {
-    const float len = normals.row(v).norm();
-    if (len > 1e-20f && std::isfinite(len)) {
+    const Scalar len = normals.row(v).norm();
+    if (len > static_cast<Scalar>(1e-20) && std::isfinite(len)) {
       normals.row(v) /= len;
     } else {
-      normals.row(v) = Eigen::RowVector3f(0, 0, 1);
+      normals.row(v) = Eigen::Matrix<Scalar, 1, 3>(0, 0, 1);
     }
   }
+}
+
+}  // namespace
+
+void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals) {
+  area_weighted_normals(positions, triangles, normals);
 }
 
 Positions vertex_normals(const Positions& positions, const Triangles& triangles) {
   Positions n;
   vertex_normals(positions, triangles, n);
+  return n;
+}
+
+PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles) {
+  PositionsD n;
+  area_weighted_normals(positions, triangles, n);
   return n;
 }
 

@@ -45,12 +45,9 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 }  // namespace
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
-                           const std::vector<int>& component, const std::vector<char>& held,
-                           double margin, double part_margin)
-    : rest_(target_rest),
-      faces_(target_faces),
-      component_(component),
-      graph_(target_rest, target_faces) {
+                           const MeshParts& parts, const std::vector<char>& held, double margin,
+                           double part_margin)
+    : rest_(target_rest), faces_(target_faces), parts_(parts), graph_(target_rest, target_faces) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
   const auto held_corners = [&](int t) {
@@ -73,16 +70,8 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
     return part_of(a) == part_of(b) && corner_distance(target_rest, target_faces, a, b) <= margin &&
            !cross(target_rest, target_faces, a, b);  // not the neutral's own
   });
-  // A placed triangle against a free one of the skin (the largest part), in that order.
-  std::vector<int> size_of;
-  for (const int c : component) {
-    if (c < 0) continue;
-    if (static_cast<std::size_t>(c) >= size_of.size())
-      size_of.resize(static_cast<std::size_t>(c) + 1);
-    ++size_of[static_cast<std::size_t>(c)];
-  }
-  const int skin =
-      static_cast<int>(std::max_element(size_of.begin(), size_of.end()) - size_of.begin());
+  // A placed triangle against a free one of the skin, in that order.
+  const int skin = parts.skin;
   std::vector<char> placed(static_cast<std::size_t>(target_faces.rows()), 0);
   for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
     placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
@@ -95,26 +84,22 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
            corner_distance(target_rest, target_faces, a, b) <= part_margin &&
            !cross(target_rest, target_faces, a, b);
   });
-  // The placed parts' vertices, and which parts are round: the distances of their vertices from
-  // their centre vary by less than 15 % of the mean (one standard deviation).
+  // Which placed parts are round: the distances of their vertices from their centre vary by less
+  // than 15 % of the mean (one standard deviation).
+  round_.assign(parts.members.size(), 0);
+  std::vector<char> seen(parts.members.size(), 0);
   for (const auto& pair : part_pairs_) {
     const auto c = static_cast<std::size_t>(part_of(pair.first));
-    if (c >= members_.size()) members_.resize(c + 1);
-    if (!members_[c].empty()) continue;
-    for (int v = 0; v < target_rest.rows(); ++v)
-      if (component[static_cast<std::size_t>(v)] == static_cast<int>(c)) members_[c].push_back(v);
-  }
-  round_.assign(members_.size(), 0);
-  for (std::size_t c = 0; c < members_.size(); ++c) {
-    if (members_[c].empty()) continue;
+    if (seen[c]) continue;
+    seen[c] = 1;
     const Eigen::RowVector3d centre = centre_of(target_rest, static_cast<int>(c));
     double sum = 0, sum2 = 0;
-    for (int v : members_[c]) {
+    for (int v : parts.members[c]) {
       const double r = (target_rest.row(v) - centre).norm();
       sum += r;
       sum2 += r * r;
     }
-    const double n = static_cast<double>(members_[c].size()), mean = sum / n;
+    const double n = static_cast<double>(parts.members[c].size()), mean = sum / n;
     round_[c] = sum2 / n - mean * mean < 0.15 * 0.15 * mean * mean;
   }
   // Per vertex, the watched pairs with a triangle at it (compressed rows).
@@ -135,13 +120,14 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
 }
 
 int ContactGuard::part_of(int t) const {
-  return component_[static_cast<std::size_t>(faces_(t, 0))];
+  return parts_.of(faces_(t, 0));
 }
 
 Eigen::RowVector3d ContactGuard::centre_of(const Points& p, int part) const {
+  const auto& members = parts_.members[static_cast<std::size_t>(part)];
   Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
-  for (int v : members_[static_cast<std::size_t>(part)]) sum += p.row(v);
-  return sum / static_cast<double>(members_[static_cast<std::size_t>(part)].size());
+  for (int v : members) sum += p.row(v);
+  return sum / static_cast<double>(members.size());
 }
 
 void ContactGuard::smooth(Points& d, const std::vector<int>& region, int sweeps) const {
@@ -364,6 +350,17 @@ std::pair<int, int> ContactGuard::untangle(
       reference.row(region[i]) = i < best.size() ? best[i] : copied.row(region[i]);
   }
   return {found, static_cast<int>(fewest)};
+}
+
+TemplateCrossings::TemplateCrossings(const anim::Rig& tmpl, const TriangleMap& map,
+                                     const std::vector<Points>& shapes)
+    : sites_(tmpl, map, 3), shapes_(shapes), answers_(shapes.size()) {}
+
+bool TemplateCrossings::crosses(std::size_t k, int a, int b) {
+  const auto key = (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
+  const auto [it, fresh] = answers_[k].try_emplace(key, false);
+  if (fresh) it->second = sites_.crosses_at(shapes_[k], a, b);
+  return it->second;
 }
 
 }  // namespace facecast::rigbuild

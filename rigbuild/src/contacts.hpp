@@ -1,6 +1,7 @@
 #pragma once
 // Contacts: where the transfer makes the target's surface cross itself at a place where the
-// template's shape does not cross. Private to rigbuild (build.cpp runs it around the block solve).
+// template's shape does not cross (docs/algorithms.md#contacts). Private to rigbuild (the contact
+// stages of build_rig, contact_stage.cpp, run it around the block solve).
 //
 // Virtual edges hold gaps that are long along the surface; at a mouth corner the two lips meet a
 // few triangles from the corner, so those gaps fail the geodesic test, yet they are thinner
@@ -30,11 +31,15 @@
 // as the part turns -- and smooths two rings around. Contacts at a part then keep the reference's
 // offsets like the others, or the neutral's turned with the part where the reference still
 // crosses there.
+#include <cstdint>
 #include <functional>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include "facecast/rigbuild/quality.hpp"
 #include "facecast/rigbuild/transfer.hpp"
+#include "geometry.hpp"
 #include "mesh_graph.hpp"
 
 namespace facecast::rigbuild {
@@ -49,14 +54,13 @@ struct GuardContacts {
 
 class ContactGuard {
  public:
-  /// Watches the pairs of triangles of one connected component (`component`: per target vertex)
-  /// that come within `margin` of each other in the neutral and do not cross there (margin <= 0:
-  /// half the median edge length), and the pairs of a triangle with all corners in `held` and a
-  /// triangle of the largest component with none, within `part_margin` (<= 0: two median edges).
-  /// Keeps references to the positions, faces and components.
-  ContactGuard(const Points& target_rest, const Faces& target_faces,
-               const std::vector<int>& component, const std::vector<char>& held, double margin,
-               double part_margin);
+  /// Watches the pairs of triangles of one connected component that come within `margin` of each
+  /// other in the neutral and do not cross there (margin <= 0: half the median edge length), and
+  /// the pairs of a triangle with all corners in `held` and a triangle of the skin with none,
+  /// within `part_margin` (<= 0: two median edges). Keeps references to the positions, faces and
+  /// parts.
+  ContactGuard(const Points& target_rest, const Faces& target_faces, const MeshParts& parts,
+               const std::vector<char>& held, double margin, double part_margin);
 
   /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions): pairs
   /// of one part where `reference` does not cross, pairs of parts where the template does not
@@ -100,13 +104,33 @@ class ContactGuard {
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
   const Points& rest_;
   const Faces& faces_;
-  const std::vector<int>& component_;
+  const MeshParts& parts_;
   MeshGraph graph_;
   std::vector<std::pair<int, int>> watched_;     // of one part
   std::vector<std::pair<int, int>> part_pairs_;  // (placed triangle, free triangle)
-  std::vector<std::vector<int>> members_;        // per component with placed triangles
-  std::vector<char> round_;                      // per component: within 15 % of one radius
-  std::vector<int> pair_start_, pair_index_;     // per vertex, the watched pairs touching it
+  std::vector<char> round_;  // per component with placed triangles: within 15 % of one radius
+  std::vector<int> pair_start_, pair_index_;  // per vertex, the watched pairs touching it
+};
+
+/// Does the template's shape k cross itself where built triangles a and b sit
+/// (ReferenceCrossings)? Asked again and again for the same pairs while the reference is cleared
+/// and the contacts are solved, so the answers are kept per shape; each shape must be asked from
+/// one thread at a time.
+class TemplateCrossings {
+ public:
+  /// `shapes`: the template's positions per shape. Keeps references to its arguments.
+  TemplateCrossings(const anim::Rig& tmpl, const TriangleMap& map,
+                    const std::vector<Points>& shapes);
+  bool crosses(std::size_t k, int a, int b);
+  /// crosses() for shape k, as ContactGuard asks it.
+  std::function<bool(int, int)> of_shape(std::size_t k) {
+    return [this, k](int a, int b) { return crosses(k, a, b); };
+  }
+
+ private:
+  ReferenceCrossings sites_;
+  const std::vector<Points>& shapes_;
+  std::vector<std::unordered_map<std::uint64_t, bool>> answers_;  // per shape
 };
 
 }  // namespace facecast::rigbuild

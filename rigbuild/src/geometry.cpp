@@ -1,6 +1,9 @@
 #include "geometry.hpp"
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
 
 namespace facecast::rigbuild {
 
@@ -62,6 +65,122 @@ Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::R
   }
   const Eigen::Matrix3d turn = triangle_frame(now, t) * triangle_frame(rest, t).transpose();
   return on_now + (point - on_rest) * turn.transpose();
+}
+
+double diagonal(const Points& p) {
+  return p.rows() ? (p.colwise().maxCoeff() - p.colwise().minCoeff()).norm() : 0.0;
+}
+
+Points Similarity::apply(const Points& p) const {
+  return ((scale * p) * R.transpose()).rowwise() + t.transpose();
+}
+
+Eigen::RowVector3d Similarity::apply(const Eigen::RowVector3d& p) const {
+  return (scale * R * p.transpose() + t).transpose();
+}
+
+Similarity procrustes(const Points& from, const Points& to, bool with_scale) {
+  const Eigen::RowVector3d cf = from.colwise().mean(), ct = to.colwise().mean();
+  const Points a = from.rowwise() - cf;
+  Eigen::Matrix3d H = a.transpose() * (to.rowwise() - ct);
+  // Umeyama's covariance is H / N; the rotation does not depend on the factor, the scale does.
+  if (with_scale) H /= static_cast<double>(from.rows());
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1;
+  Similarity s;
+  s.R = svd.matrixV() * D * svd.matrixU().transpose();
+  if (with_scale)
+    s.scale = (svd.singularValues().asDiagonal() * D).trace() / a.rowwise().squaredNorm().mean();
+  s.t = ct.transpose() - s.scale * s.R * cf.transpose();
+  s.rms = std::sqrt((s.apply(from) - to).rowwise().squaredNorm().mean());
+  return s;
+}
+
+Points centroids(const Points& p, const Faces& f) {
+  Points c(f.rows(), 3);
+  for (Eigen::Index t = 0; t < f.rows(); ++t)
+    c.row(t) = (p.row(f(t, 0)) + p.row(f(t, 1)) + p.row(f(t, 2))) / 3.0;
+  return c;
+}
+
+Points face_normals(const Points& p, const Faces& f) {
+  Points n(f.rows(), 3);
+  for (Eigen::Index t = 0; t < f.rows(); ++t) {
+    const Eigen::Vector3d a = p.row(f(t, 0)), b = p.row(f(t, 1)), c = p.row(f(t, 2));
+    n.row(t) = (b - a).cross(c - a).normalized().transpose();
+  }
+  return n;
+}
+
+namespace {
+
+// The rows of per-triangle values `all` at `triangles` (all of them when empty).
+Points rows_at(Points all, const std::vector<int>& triangles) {
+  if (triangles.empty()) return all;
+  Points out(static_cast<Eigen::Index>(triangles.size()), 3);
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    out.row(static_cast<Eigen::Index>(i)) = all.row(triangles[i]);
+  return out;
+}
+
+}  // namespace
+
+SurfaceQuery::SurfaceQuery(const Points& p, const Faces& f, std::vector<int> triangles)
+    : p_(p),
+      f_(f),
+      triangles_(std::move(triangles)),
+      centroids_(rows_at(centroids(p, f), triangles_)),
+      normals_(rows_at(face_normals(p, f), triangles_)) {
+  // Boundary edges: those that exactly one of the triangles has.
+  std::vector<std::pair<int, int>> edges;
+  const auto add = [&](Eigen::Index t) {
+    for (int k = 0; k < 3; ++k) edges.push_back(std::minmax(f(t, k), f(t, (k + 1) % 3)));
+  };
+  if (triangles_.empty())
+    for (Eigen::Index t = 0; t < f.rows(); ++t) add(t);
+  for (const int t : triangles_) add(t);
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) boundary_.push_back(edges[i]);
+    i = j;
+  }
+}
+
+void SurfaceQuery::consider(const Eigen::Vector3d& q, int t, Hit& best) const {
+  const Eigen::Vector3d a = p_.row(f_(t, 0)), b = p_.row(f_(t, 1)), c = p_.row(f_(t, 2));
+  const Eigen::Vector3d w = closest_on_triangle(q, a, b, c);
+  const Eigen::Vector3d x = w[0] * a + w[1] * b + w[2] * c;
+  const double d = (x - q).norm();
+  if (d < best.dist) {
+    best.triangle = t;
+    best.bary = w;
+    best.point = x;
+    best.dist = d;
+  }
+}
+
+bool SurfaceQuery::on_boundary(const Hit& hit) const {
+  for (int k = 0; k < 3; ++k) {
+    if (hit.bary[k] >= 1e-9) continue;  // on the edge opposite corner k
+    const std::pair<int, int> edge =
+        std::minmax(f_(hit.triangle, (k + 1) % 3), f_(hit.triangle, (k + 2) % 3));
+    if (std::binary_search(boundary_.begin(), boundary_.end(), edge)) return true;
+  }
+  return false;
+}
+
+MeshParts::MeshParts(int vertex_count, const Faces& faces)
+    : components(anim::connected_components(vertex_count, faces)),
+      members(static_cast<std::size_t>(components.count)) {
+  for (int v = 0; v < vertex_count; ++v)
+    if (const int c = of(v); c >= 0) members[static_cast<std::size_t>(c)].push_back(v);
+  for (int c = 1; c < components.count; ++c)
+    if (members[static_cast<std::size_t>(c)].size() >
+        members[static_cast<std::size_t>(skin)].size())
+      skin = c;
 }
 
 }  // namespace facecast::rigbuild

@@ -1,11 +1,17 @@
 #pragma once
-// Small geometric helpers private to rigbuild: closest point on a triangle, a point carried by a
-// triangle, k-d trees over points.
+// The rig builder's geometric toolbox, private to rigbuild: closest points on a triangle and on a
+// mesh, a point carried by a triangle, k-d trees over points, a mesh's parts. The least-squares fit
+// of point sets (procrustes) is public: facecast/rigbuild/geometry.hpp.
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
+#include <limits>
 #include <nanoflann.hpp>
+#include <utility>
+#include <vector>
 
-#include "facecast/rigbuild/transfer.hpp"
+#include "facecast/anim/rig.hpp"
+#include "facecast/rigbuild/geometry.hpp"
 
 namespace facecast::rigbuild {
 
@@ -19,6 +25,13 @@ Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vecto
 /// there turns with the triangle's frame (first edge, in-plane, normal).
 Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::RowVector3d& point,
                            const std::array<int, 3>& t);
+
+/// The length of the diagonal of the points' bounding box (0 for no points).
+double diagonal(const Points& p);
+
+/// Per triangle (#F by 3): its centroid; its unit normal.
+Points centroids(const Points& p, const Faces& f);
+Points face_normals(const Points& p, const Faces& f);
 
 /// Rows of a #N by 3 matrix as a nanoflann point cloud.
 struct PointRows {
@@ -68,6 +81,70 @@ class PointIndex {
   Points points_;
   PointRows rows_;
   KdTree tree_;
+};
+
+/// Closest points on a mesh, or on some of its triangles: a k-d tree over the triangles'
+/// centroids, then the exact closest point on each of the nearest few.
+class SurfaceQuery {
+ public:
+  /// Over every triangle of (p, f), or only over `triangles` when given. Keeps references to p
+  /// and f.
+  SurfaceQuery(const Points& p, const Faces& f, std::vector<int> triangles = {});
+
+  struct Hit {
+    int triangle = -1;  // -1: none found
+    Eigen::Vector3d bary = Eigen::Vector3d::Zero();
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    double dist = std::numeric_limits<double>::infinity();
+    bool on_boundary = false;  // on an edge that only one of the triangles has
+  };
+
+  /// The closest point among the triangles with the k nearest centroids that `accept(triangle)`
+  /// allows and whose normal is within 90 degrees of `normal` (a zero normal accepts every
+  /// direction). When none qualifies, the search widens (4k, 16k, ...) before it gives up.
+  template <typename Accept>
+  Hit closest(const Eigen::Vector3d& q, const Eigen::Vector3d& normal, std::size_t k,
+              const Accept& accept) const {
+    thread_local std::vector<std::uint32_t> idx;
+    thread_local std::vector<double> d2;
+    Hit best;
+    const std::size_t all = static_cast<std::size_t>(centroids_.points().rows());
+    for (; best.triangle < 0; k *= 4) {
+      centroids_.nearest(q.data(), std::min(k, all), idx, d2);
+      for (const std::uint32_t i : idx) {
+        const int t = triangles_.empty() ? static_cast<int>(i) : triangles_[i];
+        if (!accept(t)) continue;
+        if (normal.squaredNorm() > 0 && normals_.row(i).dot(normal.transpose()) <= 0.0) continue;
+        consider(q, t, best);
+      }
+      if (k >= all) break;
+    }
+    if (best.triangle >= 0) best.on_boundary = on_boundary(best);
+    return best;
+  }
+  Hit closest(const Eigen::Vector3d& q, const Eigen::Vector3d& normal, std::size_t k) const {
+    return closest(q, normal, k, [](int) { return true; });
+  }
+
+ private:
+  void consider(const Eigen::Vector3d& q, int triangle, Hit& best) const;
+  bool on_boundary(const Hit& hit) const;
+  const Points& p_;
+  const Faces& f_;
+  std::vector<int> triangles_;  // the triangle of each centroid; empty: all, in order
+  PointIndex centroids_;
+  Points normals_;                             // per centroid, its triangle's unit normal
+  std::vector<std::pair<int, int>> boundary_;  // edges (low, high) of one triangle, sorted
+};
+
+/// A mesh's connected components and their vertices. The largest is the skin (the face; this is
+/// the one place that decides it); the others are parts: teeth, eyeballs, lashes, a tongue.
+struct MeshParts {
+  MeshParts(int vertex_count, const Faces& faces);
+  anim::Components components;            // per vertex its component, -1 in no triangle
+  std::vector<std::vector<int>> members;  // per component its vertices, ascending
+  int skin = 0;                           // the largest component (the first of equal ones)
+  int of(int vertex) const { return components.label[static_cast<std::size_t>(vertex)]; }
 };
 
 }  // namespace facecast::rigbuild

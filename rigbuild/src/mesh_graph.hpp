@@ -1,6 +1,8 @@
 #pragma once
 // The edge graph of a triangle mesh in compressed rows: neighbours of every vertex with the edge
-// lengths. Private to rigbuild.
+// lengths. Private to rigbuild. Compressed rows rather than a half-edge mesh (OpenMesh): the
+// geodesic searches of the virtual edges walk contiguous rows, and any triangle soup, manifold or
+// not, is a graph.
 #include <algorithm>
 #include <span>
 #include <utility>

@@ -11,6 +11,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/picture.hpp"
 #include "facecast/rigbuild/quality.hpp"
 #include "progress.hpp"
@@ -92,6 +93,29 @@ nlohmann::json report_json(const rigbuild::BuildResult& r, const BuildArgs& a,
   return j;
 }
 
+// The options' data from the files the flags name (markers, virtual edges, fixed vertices) and
+// the correspondence cache: a saved correspondence is reused, else the one computed is saved.
+std::filesystem::path read_build_files(BuildArgs& a, const anim::Rig& tmpl,
+                                       const anim::Rig& target) {
+  auto& opt = a.opt;
+  if (a.ve_mode != "auto" && a.ve_mode != "off") {
+    opt.virtual_edges = rigbuild::VirtualEdgeMode::kFile;
+    opt.given_edges = rigbuild::read_virtual_edges_json(a.ve_mode, target.vertex_count());
+  }
+  if (!a.fixed.empty()) opt.fixed = read_fixed(a.fixed);
+  if (a.markers.empty()) return {};
+  opt.markers = rigbuild::read_markers(a.markers, tmpl.vertex_count(), target.vertex_count());
+  const std::filesystem::path cache =
+      a.correspondence.empty() ? std::filesystem::path(a.out).replace_extension(".correspondence")
+                               : std::filesystem::path(a.correspondence);
+  if (std::filesystem::exists(cache)) {
+    opt.correspondence =
+        rigbuild::load_correspondence(cache, tmpl.vertex_count(), tmpl.triangle_count(),
+                                      target.vertex_count(), target.triangle_count());
+  }
+  return cache;
+}
+
 void run_build(BuildArgs& a) {
   if (a.tmpl.empty() == (a.tmpl_neutral.empty() || a.tmpl_shapes.empty())) {
     throw Error("give --template rig.glb, or --template-neutral N.obj with --template-shapes DIR");
@@ -99,28 +123,16 @@ void run_build(BuildArgs& a) {
   auto& opt = a.opt;
   opt.solver =
       a.solver == "eigen" ? rigbuild::SolverKind::kEigenLDLT : rigbuild::SolverKind::kCholmod;
-  if (a.ve_mode == "auto") {
-    opt.virtual_edges = rigbuild::VirtualEdgeMode::kAuto;
-  } else if (a.ve_mode == "off") {
-    opt.virtual_edges = rigbuild::VirtualEdgeMode::kOff;
-  } else {
-    opt.virtual_edges = rigbuild::VirtualEdgeMode::kFile;
-    opt.virtual_edges_file = a.ve_mode;
-  }
+  opt.virtual_edges =
+      a.ve_mode == "off" ? rigbuild::VirtualEdgeMode::kOff : rigbuild::VirtualEdgeMode::kAuto;
   opt.contacts.enabled = a.contacts == "on";
-  opt.markers = a.markers;
-  if (!a.fixed.empty()) opt.fixed = read_fixed(a.fixed);
-  if (!a.markers.empty()) {
-    opt.correspondence = a.correspondence.empty()
-                             ? std::filesystem::path(a.out).replace_extension(".correspondence")
-                             : std::filesystem::path(a.correspondence);
-  }
 
   std::cerr << "reading template and target...\n";
   const anim::Rig tmpl = a.tmpl.empty()
                              ? anim::read_obj_shapes(a.tmpl_neutral, a.tmpl_shapes, {"identity*"})
                              : anim::load_rig(a.tmpl);
   const anim::Rig target = anim::load_rig(a.target);
+  const std::filesystem::path cache = read_build_files(a, tmpl, target);
   if (!a.ve_pair.empty()) {
     int i = -1, j = -1;
     if (std::sscanf(a.ve_pair.c_str(), "%d,%d", &i, &j) != 2)
@@ -128,6 +140,7 @@ void run_build(BuildArgs& a) {
     opt.ve.d = rigbuild::ve_distance_from_pair(target.positions.cast<double>(), i, j);
   }
   const auto r = rigbuild::build_rig(tmpl, target, opt, terminal_progress());
+  if (!cache.empty() && !opt.correspondence) rigbuild::save_correspondence(cache, r.correspondence);
 
   anim::write_glb(a.out, r.rig);
   if (!a.obj_out.empty()) anim::write_obj_folder(a.obj_out, r.rig);
@@ -141,7 +154,7 @@ void run_build(BuildArgs& a) {
     rigbuild::write_virtual_edge_picture(a.ve_png, r.rig, r.rig.positions, r.virtual_edges);
   if (!a.report.empty() || !a.crossings_png.empty()) {
     std::cerr << "checking self-intersections of every shape...\n";
-    const auto inter = rigbuild::shape_intersections(r.rig, &tmpl, r.triangle_map, kCheck);
+    const auto inter = rigbuild::shape_intersections(r.rig, &tmpl, r.correspondence.map, kCheck);
     const auto with_new = static_cast<int>(std::count_if(inter.shapes.begin(), inter.shapes.end(),
                                                          [](auto& x) { return x.fresh > 0; }));
     if (!a.report.empty()) {

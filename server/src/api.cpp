@@ -1,8 +1,5 @@
 #include "api.hpp"
 
-#include <map>
-#include <random>
-
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -15,7 +12,6 @@
 namespace facecast::server {
 namespace {
 
-namespace fs = std::filesystem;
 using nlohmann::json;
 
 json parse_body(const Request& req) {
@@ -44,22 +40,6 @@ double number(const json& v, const std::string& field, double lo, double hi) {
   }
   return x;
 }
-
-// A folder under <data>/tmp removed when the last owner lets go.
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const fs::path& data) {
-    thread_local std::mt19937_64 rng{std::random_device{}()};
-    char name[40];
-    std::snprintf(name, sizeof name, "upload-%016llx", static_cast<unsigned long long>(rng()));
-    path = data / "tmp" / name;
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 }  // namespace
 
@@ -95,45 +75,6 @@ std::string base64_decode(std::string_view text, std::string_view field) {
   }
   if (bits >= 6) throw Error(std::string(field) + ": truncated base64");
   return out;
-}
-
-bool match_triangle_order(const anim::Rig& tmpl, anim::Rig& target) {
-  if (tmpl.vertex_count() != target.vertex_count() ||
-      tmpl.triangle_count() != target.triangle_count())
-    return false;
-  if (tmpl.triangles == target.triangles) return true;
-  // Key: the triangle rotated so its smallest index comes first (orientation kept).
-  const auto key = [](int a, int b, int c) {
-    if (b < a && b <= c)
-      std::tie(a, b, c) = std::make_tuple(b, c, a);
-    else if (c < a && c < b)
-      std::tie(a, b, c) = std::make_tuple(c, a, b);
-    return std::array<int, 3>{a, b, c};
-  };
-  std::map<std::array<int, 3>, int> index;
-  for (int t = 0; t < tmpl.triangle_count(); ++t)
-    index[key(tmpl.triangles(t, 0), tmpl.triangles(t, 1), tmpl.triangles(t, 2))] = t;
-  std::vector<int> order(static_cast<std::size_t>(target.triangle_count()), -1);
-  for (int t = 0; t < target.triangle_count(); ++t) {
-    const auto it =
-        index.find(key(target.triangles(t, 0), target.triangles(t, 1), target.triangles(t, 2)));
-    if (it == index.end() || order[static_cast<std::size_t>(it->second)] >= 0) return false;
-    order[static_cast<std::size_t>(it->second)] = t;  // template slot -> target triangle
-  }
-  anim::Triangles tris(target.triangle_count(), 3);
-  std::vector<int> mats(order.size(), 0), groups;
-  if (!target.triangle_group.empty()) groups.resize(order.size());
-  for (std::size_t s = 0; s < order.size(); ++s) {
-    const int t = order[s];
-    tris.row(static_cast<Eigen::Index>(s)) = tmpl.triangles.row(static_cast<Eigen::Index>(s));
-    if (!target.triangle_material.empty())
-      mats[s] = target.triangle_material[static_cast<std::size_t>(t)];
-    if (!groups.empty()) groups[s] = target.triangle_group[static_cast<std::size_t>(t)];
-  }
-  target.triangles = std::move(tris);
-  if (!target.triangle_material.empty()) target.triangle_material = std::move(mats);
-  if (!groups.empty()) target.triangle_group = std::move(groups);
-  return true;
 }
 
 http::message_generator post_rig(State& state, const Request& req) {
@@ -192,20 +133,10 @@ http::message_generator post_rig(State& state, const Request& req) {
   target.validate("mesh");
   const auto tmpl = state.rigs.load(template_id);
 
-  auto tmp = std::make_shared<TempDir>(state.options.data);
   if (markers) {
-    const fs::path path = tmp->path / "markers.json";
-    write_file_atomic(path, markers->dump());
-    try {
-      (void)rigbuild::read_markers(path, tmpl->rig->vertex_count(), target.vertex_count());
-    } catch (const Error& e) {
-      std::string what = e.what();
-      if (what.starts_with(path.string())) what = "markers" + what.substr(path.string().size());
-      throw Error(what, e.code());
-    }
-    opt.markers = path;
-    opt.correspondence = tmp->path / "correspondence.bin";
-  } else if (!match_triangle_order(*tmpl->rig, target)) {
+    opt.markers = rigbuild::parse_markers(*markers, tmpl->rig->vertex_count(),
+                                          target.vertex_count(), "markers");
+  } else if (!rigbuild::reorder_triangles_like(*tmpl->rig, target)) {
     throw Error("mesh: " + std::to_string(target.vertex_count()) + " vertices and " +
                 std::to_string(target.triangle_count()) +
                 " triangles do not match the template's topology (" +
@@ -214,8 +145,8 @@ http::message_generator post_rig(State& state, const Request& req) {
                 " triangles); give markers for another topology");
   }
   auto shared_target = std::make_shared<const anim::Rig>(std::move(target));
-  const std::string job = state.jobs.submit(
-      "rig", [&state, shared_target, tmpl, opt, name, tmp](JobContext& ctx) -> json {
+  const std::string job =
+      state.jobs.submit("rig", [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {
         const auto t0 = std::chrono::steady_clock::now();
         const auto r = rigbuild::build_rig(*tmpl->rig, *shared_target, opt, ctx.progress_fn());
         const json report = rigbuild::build_report_json(r, opt);

@@ -12,9 +12,4 @@ http::message_generator post_render(State& state, const Request& req);
 /// Standard base64 (whitespace ignored, padding optional); throws Error naming `field`.
 std::string base64_decode(std::string_view text, std::string_view field);
 
-/// When `target` has the template's triangles in another order (a GLB groups them by
-/// material), reorders them (and their materials/groups) to the template's order. Returns true if
-/// the two meshes share their triangles.
-bool match_triangle_order(const anim::Rig& tmpl, anim::Rig& target);
-
 }  // namespace facecast::server

@@ -107,13 +107,15 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
       anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   const anim::Rig target = anim::read_obj(mh);
   BuildOptions opt;
-  opt.markers = markers;
-  opt.correspondence = test::scratch_dir() / "mh.correspondence";
+  opt.markers = read_markers(markers, tmpl.vertex_count(), target.vertex_count());
   const auto r = build_rig(tmpl, target, opt);
   CHECK(r.timings.correspondence <= 10.0);
   REQUIRE(r.rig.shapes.size() == 57);
-  REQUIRE(std::filesystem::exists(opt.correspondence));
-  // The cached correspondence is reused (here for a build without contacts).
+  // The correspondence saved and loaded again is reused (here for a build without contacts).
+  const auto saved = test::scratch_dir() / "mh.correspondence";
+  save_correspondence(saved, r.correspondence);
+  opt.correspondence = load_correspondence(saved, tmpl.vertex_count(), tmpl.triangle_count(),
+                                           target.vertex_count(), target.triangle_count());
   opt.contacts.enabled = false;
   const auto again = build_rig(tmpl, target, opt);
   CHECK(again.timings.correspondence < 0.5);
@@ -133,7 +135,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   }
   const auto new_pairs = [&](const BuildResult& b) {
     std::map<std::string, std::size_t> by_parts;
-    for (const auto& x : shape_intersections(b.rig, &tmpl, b.triangle_map, check).shapes)
+    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, check).shapes)
       for (const auto& [parts, n] : x.fresh_by_parts) by_parts[parts] += n;
     return by_parts;
   };
@@ -245,7 +247,8 @@ TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker fil
       anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   const anim::Rig target = anim::read_obj(mp);
   BuildOptions opt;
-  opt.markers = test::shared_data() / "markers/mediapipe_to_ict.json";
+  opt.markers = read_markers(test::shared_data() / "markers/mediapipe_to_ict.json",
+                             tmpl.vertex_count(), target.vertex_count());
   const auto r = build_rig(tmpl, target, opt);
   REQUIRE(r.rig.shapes.size() == 57);
   CHECK(r.timings.correspondence <= 10.0);

@@ -77,5 +77,8 @@ Components connected_components(int vertex_count, const Triangles& triangles);
 Positions vertex_normals(const Positions& positions, const Triangles& triangles);
 /// The same, written into `normals` (resized) so a per-frame caller can reuse the memory.
 void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals);
+/// The same in double precision (the rig builder's geometry).
+using PositionsD = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles);
 
 }  // namespace facecast::anim

@@ -1,25 +1,28 @@
 #pragma once
-// Building a user's rig: the template's blendshapes transferred onto the user's neutral head.
+// Building a user's rig: the template's blendshapes transferred onto the user's neutral head
+// (docs/algorithms.md#deformation-transfer). The stages, in rigbuild/src/stages.hpp:
 //
 //   template rig + target neutral (+ markers for another topology)
-//     -> correspondence (identity, or registration + triangle map; see correspondence.hpp)
-//     -> anchoring: vertices that move in no template shape and --fixed vertices stay put; every
-//        separate component is placed: a component that the template moves rigidly (teeth,
-//        eyeballs; for another topology also one whose points lie mostly on one of the template's
-//        rigid parts, e.g. its lower teeth row) gets that rigid motion about its own pivot; other
-//        separate components (lashes, tongue) are transferred with one anchor vertex that follows
-//        the same rigid fit, and for another topology those lying on the skin (lashes) are then
-//        carried by the skin triangles under them
-//     -> virtual edges on the target neutral
+//     -> correspondence: identity, or registration + triangle map (correspondence.hpp)
+//     -> which target vertices each template shape moves
+//     -> placement (docs/algorithms.md#rigid-parts): vertices that move in no template shape and
+//        `fixed` vertices stay put; every separate component is placed: one that the template
+//        moves rigidly (teeth, eyeballs; for another topology also one whose points lie mostly on
+//        one of the template's rigid parts, e.g. its lower teeth row) gets that rigid motion about
+//        its own pivot; other separate components (lashes, tongue) are transferred with one anchor
+//        vertex that follows the same rigid fit, and for another topology those lying on the skin
+//        (lashes) are then carried by the skin triangles under them
+//     -> virtual edges on the target neutral (docs/algorithms.md#virtual-edges)
 //     -> deformation transfer, factored once, all shapes solved as one block of right-hand sides
 //     -> the template's motion copied vertex by vertex (the virtual edges' targets), and the
 //        contacts' reference: that copy moved out of the rigid parts and smoothed where it
 //        crosses itself, where the template does not
-//     -> contacts: where a shape crosses itself or a rigid part and the reference does not,
-//        vertex-to-triangle constraints, solved again on a patch (contacts.hpp)
+//     -> contacts (docs/algorithms.md#contacts): where a shape crosses itself or a rigid part and
+//        the reference does not, vertex-to-triangle constraints, solved again on a patch
 //     -> deltas, with every vertex the template shape leaves still set exactly still.
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,9 +34,11 @@
 
 namespace facecast::rigbuild {
 
+/// kAuto: detected on the target neutral; kOff: none in the system (still detected, for the
+/// report's gap measure); kFile: BuildOptions::given_edges (the CLI reads them from a file).
 enum class VirtualEdgeMode { kAuto, kOff, kFile };
 
-/// Contacts (rigbuild/src/contacts.hpp): triangle pairs near each other in the target neutral are
+/// Contacts (docs/algorithms.md#contacts): triangle pairs near each other in the target neutral are
 /// watched; where a built shape crosses there and the reference (the template's displacement
 /// copied vertex by vertex, smoothed where that copy crosses itself and the template does not)
 /// does not, contacts that keep the reference's offsets are added and the shape is solved again
@@ -47,10 +52,11 @@ struct ContactOptions {
 };
 
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
-/// that the two agree).
+/// that the two agree). Data only: callers read files (markers, a saved correspondence, virtual
+/// edges) and put what they hold here.
 struct BuildOptions {
   VirtualEdgeMode virtual_edges = VirtualEdgeMode::kAuto;
-  std::filesystem::path virtual_edges_file;  // with kFile: JSON written by write_virtual_edges_json
+  std::vector<VirtualEdge> given_edges;  // with kFile: the edges (read_virtual_edges_json)
   VirtualEdgeOptions ve;
   double lambda = 4.0;  // weight of the virtual-edge term
   ContactOptions contacts;
@@ -59,9 +65,11 @@ struct BuildOptions {
   double rigid_tolerance = 0.01;  // a component is rigid if its rigid-fit RMS residual is below
                                   // this * the component's size in every shape
   SolverKind solver = SolverKind::kCholmod;
-  // Other topology (see correspondence.hpp).
-  std::filesystem::path markers;         // marker pairs JSON; required when topologies differ
-  std::filesystem::path correspondence;  // reuse a saved correspondence if it exists, else save it
+  // Another topology (see correspondence.hpp).
+  std::vector<MarkerPair> markers;  // required when the topologies differ (read_markers)
+  /// With markers: a correspondence computed before (load_correspondence) to use instead of
+  /// computing it; BuildResult::correspondence holds the one used, to save.
+  std::optional<Correspondence> correspondence;
   RegistrationOptions registration;
 };
 
@@ -79,8 +87,8 @@ struct BuildTimings {
 };
 
 /// Per shape: how well the gaps that virtual edges span keep the template's behaviour. For each
-/// virtual edge the gap is normalised so the neutral gap is 10 (the seed paper's measure); the
-/// change is the mean |built gap - the gap the template shape asks for| over the edges.
+/// virtual edge the gap is normalised so the neutral gap is 10 (docs/algorithms.md#virtual-edges);
+/// the change is the mean |built gap - the gap the template shape asks for| over the edges.
 struct ShapeQuality {
   std::string shape;
   double max_displacement = 0;
@@ -101,8 +109,7 @@ struct BuildResult {
   std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
   std::vector<ComponentInfo> components;
-  TriangleMap
-      triangle_map;  // per target triangle, its template triangles (identity if same topology)
+  Correspondence correspondence;  // its map: per target triangle, its template triangles
   int fixed_vertices = 0;
   std::size_t watched_pairs = 0;  // triangle pairs the contact guard watches
   long factor_nonzeros = 0;
@@ -121,6 +128,7 @@ BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
 nlohmann::json build_report_json(const BuildResult& result, const BuildOptions& options);
 
 /// Virtual edges as JSON ({"d":..,"edges":[[a,b],...]}) and as OBJ line elements over the mesh.
+/// Reading checks the indices against `vertex_count`.
 void write_virtual_edges_json(const std::filesystem::path& path,
                               const std::vector<VirtualEdge>& edges, const VirtualEdgeStats& stats);
 std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& path,

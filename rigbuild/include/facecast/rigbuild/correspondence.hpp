@@ -1,23 +1,28 @@
 #pragma once
-// Correspondence between a template and a target of another topology (Sumner & Popovic 2004, s. 5;
-// seed notes 002):
+// Correspondence between a template and a target of another topology
+// (docs/algorithms.md#correspondence):
 //   1. similarity alignment (scale, rotation, translation) of the template onto the target from the
-//      marker pairs (Umeyama);
+//      marker pairs (procrustes with scale, docs/algorithms.md#procrustes);
 //   2. non-rigid registration of the template neutral onto the target: minimise
-//        w_S E_S (neighbouring triangles deform alike) + w_I E_I (triangles stay undeformed)
+//        w_S E_S (the displacement's Laplacian is zero) + w_I E_I (edges keep their vectors)
 //        + w_C E_C (vertices reach their closest valid target point: normals within 90 degrees)
-//      with the markers as hard constraints, raising w_C in steps; closest points by nanoflann;
-//   3. triangle correspondence: each target triangle pairs with its closest compatible registered
+//      with the markers as hard constraints, raising w_C in steps;
+//   3. part pairs: a target component may pair with the template parts that 10% of its vertices
+//      land on;
+//   4. triangle correspondence: each target triangle pairs with its closest compatible registered
 //      template triangle and each template triangle with its closest target triangle; a target
 //      triangle's source gradient is the mean over its pairs.
-// The result can be saved and reused (--correspondence FILE).
+// The result can be saved and reused (save_correspondence, load_correspondence).
 #include <array>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "facecast/anim/rig.hpp"
 #include "facecast/core/progress.hpp"
+#include "facecast/rigbuild/geometry.hpp"
 #include "facecast/rigbuild/transfer.hpp"
 
 namespace facecast::rigbuild {
@@ -28,15 +33,30 @@ struct MarkerPair {
   int target_vertex = 0;
 };
 
-/// Reads the marker JSON format of ../shared/data/markers (pairs of template/target vertex indices,
-/// index_base 0 or 1). Errors name the file, the pair and the index out of range.
+/// Marker pairs from the JSON format of ../shared/data/markers ({"index_base": 0 or 1, "pairs":
+/// [{"name":.., "template": i, "target": j}, ...]}). Errors start with `where` and name the pair
+/// and the index out of range: "markers: pairs[3] (nose_tip): target vertex 99 out of range (5
+/// vertices)".
+std::vector<MarkerPair> parse_markers(const nlohmann::json& markers, int template_vertices,
+                                      int target_vertices, const std::string& where = "markers");
+
+/// parse_markers() of a file; errors start with the file's path.
 std::vector<MarkerPair> read_markers(const std::filesystem::path& path, int template_vertices,
                                      int target_vertices);
+
+/// Throws naming `where` and the pair when a marker's vertex is out of range, or when there are
+/// fewer than 3 pairs.
+void check_markers(const std::vector<MarkerPair>& markers, int template_vertices,
+                   int target_vertices, const std::string& where = "markers");
 
 /// A point on the template surface: three template vertices and barycentric weights.
 struct SurfacePoint {
   std::array<int, 3> v{0, 0, 0};
   Eigen::Vector3d w{1, 0, 0};
+  /// The point on the template with its vertices at `p` (#V by 3).
+  Eigen::RowVector3d on(const Points& p) const {
+    return w[0] * p.row(v[0]) + w[1] * p.row(v[1]) + w[2] * p.row(v[2]);
+  }
 };
 
 struct RegistrationOptions {
@@ -53,11 +73,8 @@ struct Correspondence {
   int target_vertices = 0, target_triangles = 0;
   TriangleMap map;                       // per target triangle: its template triangles
   std::vector<SurfacePoint> vertex_map;  // per target vertex: where it sits on the template
-  // The similarity x -> scale * rotation * x + translation that aligns the template with the target
-  // (identity for the same topology).
-  double scale = 1.0;
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  // The similarity that aligns the template with the target (identity for the same topology).
+  Similarity alignment;
   Points registered;  // the template neutral registered onto the target
   double seconds = 0;
   double mean_marker_error = 0;  // after registration, in target units
@@ -66,13 +83,23 @@ struct Correspondence {
 /// Same topology: triangle t <-> t, vertex v <-> v.
 Correspondence identity_correspondence(int vertex_count, const Faces& faces);
 
-/// Same vertices and the same triangles in another order (a GLB groups triangles by material, so
-/// a user's material split reorders them): vertex v <-> v, each target triangle <-> the template
-/// triangle with the same corners in the same cyclic order. nullopt when the topologies differ.
+/// When `target` holds the triangles of `tmpl` in another order (a GLB groups triangles by
+/// material, so a user's material split reorders them), per target triangle the template triangle
+/// with the same corners in the same cyclic order, each template triangle once; nullopt when the
+/// triangles differ.
+std::optional<std::vector<int>> match_triangle_order(const Faces& tmpl, const Faces& target);
+
+/// Same vertices and the same triangles, maybe in another order (match_triangle_order): vertex
+/// v <-> v, each target triangle <-> its template triangle. nullopt when the topologies differ.
 std::optional<Correspondence> same_topology_correspondence(int template_vertices,
                                                            const Faces& template_faces,
                                                            int target_vertices,
                                                            const Faces& target_faces);
+
+/// Puts the target's triangles (with their materials and groups) in the template's order when
+/// they are the template's triangles in another order (match_triangle_order); false, and the
+/// target unchanged, when the topologies differ.
+bool reorder_triangles_like(const anim::Rig& tmpl, anim::Rig& target);
 
 /// `template_parts` (per template triangle, may be empty) groups the template into parts that a
 /// target component may correspond to, e.g. materials (all teeth are one part); empty: components.

@@ -1,5 +1,6 @@
 #pragma once
-// Measures of a built rig: error against ground-truth shapes, and the seed paper's gap measure.
+// Measures of a built rig: error against ground-truth shapes, and self-intersections against a
+// reference rig.
 #include <functional>
 #include <map>
 #include <string>

@@ -1,5 +1,6 @@
 #pragma once
-// Deformation transfer (Sumner & Popovic 2004) with virtual-edge constraints (seed paper 000).
+// Deformation transfer with virtual-edge constraints. See docs/algorithms.md#deformation-transfer
+// and docs/algorithms.md#virtual-edges.
 //
 // Source side: every template triangle's deformation gradient S = V~ V^-1, with the fourth vertex
 // v4 = v1 + (v2-v1)x(v3-v1)/sqrt(|(v2-v1)x(v3-v1)|) (source_gradients()).
@@ -13,18 +14,19 @@
 // z), and many shapes are solved as one block of right-hand sides.
 //
 // Anchoring: translation is free per connected component, so some vertices are Dirichlet
-// (prescribed) vertices: their positions go to the right-hand side, the matrix does not change.
+// (prescribed) vertices: their positions go to the right-hand side, the matrix does not change
+// (docs/algorithms.md#rigid-parts).
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <array>
 #include <memory>
 #include <vector>
 
+#include "facecast/rigbuild/geometry.hpp"
+
 namespace facecast::rigbuild {
 
-using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;  // #V by 3
-using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;      // #F by 3
-using Gradients = std::vector<Eigen::Matrix3d>;                            // one per triangle
+using Gradients = std::vector<Eigen::Matrix3d>;  // one per triangle
 
 /// The inverse rest frames V^-1 of a mesh's triangles (with the fourth vertex). Throws Error naming
 /// the first triangle whose area is zero.

@@ -1,7 +1,7 @@
 #pragma once
-// Automatic virtual edges (seed paper 000, algorithm 1): vertex pairs that are close in space but
-// far apart along the surface (lips, eyelids over eyeballs, nostrils, the mouth cavity behind the
-// cheeks), where a deformation on one side would otherwise pass through the other side.
+// Automatic virtual edges (docs/algorithms.md#virtual-edges): vertex pairs that are close in space
+// but far apart along the surface (lips, eyelids over eyeballs, nostrils, the mouth cavity behind
+// the cheeks), where a deformation on one side would otherwise pass through the other side.
 //
 // A pair (i, j) qualifies when |p_i - p_j| < d and geodesic(i, j) / |p_i - p_j| > f, the geodesic
 // being the shortest edge path (Dijkstra, stopped once every candidate is settled or the frontier
@@ -10,9 +10,9 @@
 // radius search (nanoflann), so the cost is linear in the vertex count. Each vertex keeps its
 // `per_vertex` shortest pairs; density control then walks the sources shortest-first and, after
 // placing a source's edges, skips every vertex within `spacing` of the edges' ends. The default
-// spacing is half a median edge, so nearly every vertex at a gap keeps its edges: with spacing d
-// each eye of the MakeHuman head got one or two edges, all to the eyelashes (the nearest part),
-// and none joined the two lids, which then stopped at 0.31-0.39 of the gap in eyeBlink.
+// spacing is half a median edge, so nearly every vertex at a gap keeps its edges: a spacing as
+// wide as d leaves an eye a few edges, all to its nearest part (the lashes), and none joining
+// the two lids.
 #include <vector>
 
 #include "facecast/rigbuild/transfer.hpp"
@@ -22,7 +22,7 @@ namespace facecast::rigbuild {
 struct VirtualEdgeOptions {
   double d = 0.0;        // Euclidean threshold; <= 0: estimate_ve_distance()
   double f = 3.0;        // geodesic / Euclidean ratio threshold, >= 2
-  int per_vertex = 4;    // edges kept per source vertex (the paper: 3 to 5)
+  int per_vertex = 4;    // edges kept per source vertex (3 to 5 work)
   double spacing = 0.0;  // density-control radius; <= 0: half the median edge length
 };
 
@@ -41,7 +41,7 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
                                               const VirtualEdgeOptions& options,
                                               VirtualEdgeStats* stats = nullptr);
 
-/// d from one vertex pair across a region (the paper's interactive choice): their distance * 1.05.
+/// d from one vertex pair across a region (an interactive choice): their distance * 1.05.
 double ve_distance_from_pair(const Points& points, int i, int j);
 
 }  // namespace facecast::rigbuild

@@ -1,0 +1,106 @@
+// The transfer's stages: virtual edges, the factor, every shape solved, the deltas and their
+// measures. See docs/algorithms.md#deformation-transfer and #virtual-edges.
+#include <cmath>
+#include <limits>
+
+#include "parallel.hpp"
+#include "stages.hpp"
+
+namespace facecast::rigbuild {
+
+std::vector<VirtualEdge> virtual_edges(const Points& rest, const Faces& faces,
+                                       const BuildOptions& options, VirtualEdgeStats& stats) {
+  if (options.virtual_edges == VirtualEdgeMode::kFile) return options.given_edges;
+  return detect_virtual_edges(rest, faces, options.ve, &stats);
+}
+
+Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
+                const std::vector<VirtualEdge>& edges, const Placement& placement,
+                const BuildOptions& options) {
+  TransferSetup setup;
+  setup.target_rest = rest;
+  setup.target_faces = faces;
+  setup.map = map;
+  setup.virtual_edges = edges;
+  setup.lambda = options.lambda;
+  setup.dirichlet = placement.prescribed();
+  setup.solver = options.solver;
+  return Transfer(std::move(setup));
+}
+
+std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,
+                                 const std::vector<Gradients>& gradients,
+                                 const std::vector<Points>& copied,
+                                 const std::vector<Points>& edge_targets,
+                                 const Placement& placement, const Moved& moved,
+                                 const ProgressFn& progress) {
+  const std::size_t n = gradients.size();
+  const std::vector<int> dirichlet = placement.prescribed();
+  // In blocks, so the right-hand sides stay small; progress per block.
+  std::vector<Points> solved(n);
+  const std::size_t block = 20;
+  for (std::size_t b = 0; b < n; b += block) {
+    const std::size_t e = std::min(n, b + block);
+    std::vector<const Gradients*> source;
+    std::vector<Points> prescribed, edges;
+    for (std::size_t k = b; k < e; ++k) {
+      source.push_back(&gradients[k]);
+      Points& P = prescribed.emplace_back(static_cast<Eigen::Index>(dirichlet.size()), 3);
+      for (std::size_t i = 0; i < dirichlet.size(); ++i)
+        P.row(static_cast<Eigen::Index>(i)) = copied[k].row(dirichlet[i]);
+      if (!edge_targets.empty()) edges.push_back(edge_targets[k]);
+    }
+    auto out = transfer.solve(source, prescribed, edges);
+    for (std::size_t k = b; k < e; ++k) solved[k] = std::move(out[k - b]);
+    report(progress, "solve", static_cast<double>(e) / static_cast<double>(n));
+  }
+  // Vertices the template shape leaves still stay exactly still (the contacts hold them too).
+  parallel_for(n, [&](std::size_t k) {
+    for (Eigen::Index v = 0; v < solved[k].rows(); ++v)
+      if (placement.stays(moved[k], static_cast<int>(v))) solved[k].row(v) = rest.row(v);
+  });
+  return solved;
+}
+
+anim::Rig with_shapes(const anim::Rig& tmpl, const anim::Rig& target, const Points& rest,
+                      const std::vector<Points>& solved) {
+  anim::Rig rig = target;
+  rig.shapes.clear();
+  const float keep = static_cast<float>(1e-7 * diagonal(rest));
+  for (std::size_t k = 0; k < solved.size(); ++k) {
+    const anim::Positions d = (solved[k] - rest).cast<float>();
+    rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
+  }
+  return rig;
+}
+
+void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<Points>& solved,
+                  const std::vector<VirtualEdge>& edges, const std::vector<Points>& edge_targets,
+                  std::vector<ShapeQuality>& quality) {
+  // Each gap normalised so the neutral gap is 10 (docs/algorithms.md#virtual-edges).
+  const double diag = diagonal(rest);
+  const std::size_t ne = edges.size();
+  for (std::size_t k = 0; k < solved.size(); ++k) {
+    ShapeQuality& q = quality[k];
+    q.shape = built.shapes[k].name;
+    q.max_displacement = built.shapes[k].max_displacement();
+    q.min_gap = ne ? std::numeric_limits<double>::max() : 0.0;
+    const anim::Positions d = (solved[k] - rest).cast<float>();
+    for (std::size_t i = 0; i < ne; ++i) {
+      const auto& ve = edges[i];
+      const double neutral = (rest.row(ve.a) - rest.row(ve.b)).norm();
+      if (neutral < 1e-9 * diag) continue;  // coincident vertices: no gap to measure
+      const Eigen::RowVector3f got =
+          built.positions.row(ve.a) + d.row(ve.a) - built.positions.row(ve.b) - d.row(ve.b);
+      const double gap = 10.0 * got.cast<double>().norm() / neutral;
+      const double wanted =
+          10.0 * edge_targets[k].row(static_cast<Eigen::Index>(i)).norm() / neutral;
+      q.gap_change += std::abs(gap - wanted) / static_cast<double>(ne);
+      // A gap that flips direction has crossed: count it as closed.
+      const double sign = got.cast<double>().dot(rest.row(ve.a) - rest.row(ve.b)) < 0 ? 0.0 : 1.0;
+      q.min_gap = std::min(q.min_gap, sign * gap);
+    }
+  }
+}
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,166 @@
+#pragma once
+// The stages of build_rig (build.hpp), private to rigbuild. Each takes values and returns one:
+//
+//   correspond                 template <-> target (build.cpp)
+//   template_shapes            the template's shapes and their gradients (motion.cpp)
+//   classify_motion            which target vertices each shape moves (motion.cpp)
+//   place_components           each target vertex's Role, the placed parts' rigid motions
+//                              (placement.cpp; the template's rigid parts: parts.cpp)
+//   virtual_edges              on the target neutral (solve.cpp)
+//   factor                     the normal matrix, factored once (solve.cpp)
+//   copy_motion, edge_vectors  the template's displacement copied vertex by vertex (motion.cpp)
+//   ContactStage::reference    the copy uncrossed: what the contacts keep (contact_stage.cpp)
+//   solve_shapes               every shape, as one block of right-hand sides (solve.cpp)
+//   ContactStage::hold         contact rounds where a shape crosses and the reference does not
+//   carry_attached             parts lying on the skin ride on it (placement.cpp)
+//   with_shapes, measure_gaps  the deltas and the report's measures (solve.cpp)
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "contacts.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "geometry.hpp"
+
+namespace facecast::rigbuild {
+
+/// The template's side: rest positions and, per shape, positions and deformation gradients.
+struct TemplateShapes {
+  Points rest;
+  Faces faces;
+  std::vector<Points> shapes;
+  std::vector<Gradients> gradients;
+  std::size_t size() const { return shapes.size(); }
+};
+
+/// Per shape, per target vertex: does the template move the point that the vertex maps to?
+using Moved = std::vector<std::vector<char>>;
+
+/// What becomes of a target vertex (docs/algorithms.md#rigid-parts).
+enum class Role : std::uint8_t {
+  kFree,      // solved by the transfer
+  kFixed,     // stays where it is: moved by no shape, listed in BuildOptions::fixed, or in no
+              // triangle
+  kRigid,     // moves with its part's rigid motion (teeth, eyeballs)
+  kAnchor,    // the one vertex of a floating part that follows the part's rigid fit
+  kFloating,  // the other vertices of a floating part (lashes, a tongue): solved
+};
+
+/// A connected component that no still vertex holds: it is placed as a whole.
+struct PlacedPart {
+  enum class Kind { kRigid, kFloating, kAttached };
+  Kind kind = Kind::kFloating;
+  int component = 0;
+  int anchor = 0;                           // the member nearest the pivot
+  Eigen::RowVector3d pivot;                 // the members' mean in the target neutral
+  Eigen::RowVector3d src_pivot;             // the mean of the template points they map to
+  std::vector<Similarity> motion;           // per shape, the rigid motion in template coordinates
+  std::vector<std::array<int, 3>> carrier;  // kAttached: per member, the skin triangle under it
+};
+
+/// Each target vertex's role, and the placed parts.
+struct Placement {
+  std::vector<Role> role;  // per target vertex
+  std::vector<int> part;   // per target vertex: its index in `parts`, or -1
+  std::vector<PlacedPart> parts;
+  std::vector<ComponentInfo> components;  // per component, for the report
+  /// Another topology maps the small parts less exactly: their vertices move with their part
+  /// even where the template shape leaves still the point they map to.
+  bool parts_move_whole = false;
+
+  /// The vertices whose positions are given (fixed, rigid, anchors), ascending.
+  std::vector<int> prescribed() const;
+  /// Does a shape that moves `moved` (per vertex) leave vertex v exactly where it is?
+  bool stays(const std::vector<char>& moved, int v) const {
+    return !moved[static_cast<std::size_t>(v)] &&
+           !(parts_move_whole && part[static_cast<std::size_t>(v)] >= 0);
+  }
+  int fixed_count() const;
+};
+
+/// The template's parts for the correspondence: each connected component labelled by its most
+/// common material, so that all 32 teeth of the ICT FaceKit form one part. One material: empty
+/// (the components are the parts).
+std::vector<int> template_parts(const anim::Rig& tmpl);
+
+/// The template's rigid parts: connected components that every shape moves rigidly (teeth,
+/// eyeballs), those of one template part that move together joined -- the ICT's 16 upper teeth
+/// are one rigid part, its 16 lower teeth another.
+struct RigidParts {
+  std::vector<int> of_vertex;                   // per template vertex: its rigid part, or -1
+  std::vector<std::vector<Similarity>> motion;  // per part, per shape
+};
+RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, double tolerance);
+
+Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
+                          const BuildOptions& options, const ProgressFn& progress);
+TemplateShapes template_shapes(const anim::Rig& tmpl);
+/// A vertex moves when the point it maps to moves at least still_tolerance * the template's
+/// bounding-box diagonal.
+Moved classify_motion(const Correspondence& c, const TemplateShapes& source,
+                      double still_tolerance);
+/// `same_topology`: the correspondence is vertex to vertex.
+Placement place_components(const anim::Rig& tmpl, const Points& rest, const Faces& faces,
+                           const MeshParts& parts, const Correspondence& c,
+                           const TemplateShapes& source, const Moved& moved,
+                           const BuildOptions& options, bool same_topology);
+/// Detected (kAuto, and kOff for the report's measure) or given (kFile).
+std::vector<VirtualEdge> virtual_edges(const Points& rest, const Faces& faces,
+                                       const BuildOptions& options, VirtualEdgeStats& stats);
+/// `edges` empty: none in the system.
+Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
+                const std::vector<VirtualEdge>& edges, const Placement& placement,
+                const BuildOptions& options);
+/// Per shape: the target neutral plus the template's displacement copied vertex by vertex (in the
+/// target's frame and units), the prescribed vertices at their places.
+std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
+                                const TemplateShapes& source, const Placement& placement);
+/// Per shape (none without edges): each edge's vector x_a - x_b in `copied`, #E by 3.
+std::vector<Points> edge_vectors(const std::vector<Points>& copied,
+                                 const std::vector<VirtualEdge>& edges);
+/// Every shape solved (the prescribed vertices where `copied` has them); vertices a shape leaves
+/// still (Placement::stays) are set exactly still.
+std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,
+                                 const std::vector<Gradients>& gradients,
+                                 const std::vector<Points>& copied,
+                                 const std::vector<Points>& edge_targets,
+                                 const Placement& placement, const Moved& moved,
+                                 const ProgressFn& progress);
+/// Attached parts ride on the skin triangles under them.
+void carry_attached(const Placement& placement, const MeshParts& parts, const Points& rest,
+                    std::vector<Points>& solved);
+/// The target with the solved shapes as deltas (the template's names and order).
+anim::Rig with_shapes(const anim::Rig& tmpl, const anim::Rig& target, const Points& rest,
+                      const std::vector<Points>& solved);
+/// Per shape: its name, largest displacement and the virtual edges' gap measure.
+void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<Points>& solved,
+                  const std::vector<VirtualEdge>& edges, const std::vector<Points>& edge_targets,
+                  std::vector<ShapeQuality>& quality);
+
+/// The contact stages' state: the guard over the target neutral and the template's own crossings.
+class ContactStage {
+ public:
+  /// Keeps references to its arguments.
+  ContactStage(const anim::Rig& tmpl, const TemplateShapes& source, const TriangleMap& map,
+               const Points& rest, const Faces& faces, const MeshParts& parts,
+               const Placement& placement, const ContactOptions& options);
+  /// Per shape, the reference: the copy moved out of the placed parts and smoothed where it
+  /// crosses itself, where the template does not. Fills the quality's copy and part crossings.
+  std::vector<Points> reference(const std::vector<Points>& copied, const Moved& moved,
+                                std::vector<ShapeQuality>& quality);
+  /// Contact rounds on every solved shape that crosses where its reference does not. Fills the
+  /// quality's crossings and contacts.
+  void hold(const Transfer& transfer, const std::vector<Points>& reference, const Moved& moved,
+            std::vector<Points>& solved, std::vector<ShapeQuality>& quality);
+  std::size_t watched() const { return guard_.watched(); }
+
+ private:
+  ContactGuard guard_;
+  TemplateCrossings template_;
+  const Placement& placement_;
+  const ContactOptions& options_;
+};
+
+}  // namespace facecast::rigbuild

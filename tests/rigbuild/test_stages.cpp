@@ -1,0 +1,127 @@
+// The rig builder's stages and geometry toolbox on small inputs (no shared data needed).
+#include <Eigen/Geometry>
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "facecast/core/error.hpp"
+#include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/geometry.hpp"
+#include "stages.hpp"  // private to rigbuild: the stages of build_rig
+
+using namespace facecast;
+using namespace facecast::rigbuild;
+
+namespace {
+
+// Two unit squares of two triangles each, apart: a "skin" (vertices 0-3, with a ring of two
+// more triangles so it is the larger part) and a "tooth" (vertices 6-9).
+anim::Rig skin_and_tooth() {
+  anim::Rig r;
+  r.positions.resize(10, 3);
+  r.positions << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 0, 0, 2, 1, 0,  //
+      0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1;
+  r.triangles.resize(6, 3);
+  r.triangles << 0, 1, 2, 0, 2, 3, 1, 4, 5, 1, 5, 2, 6, 7, 8, 6, 8, 9;
+  r.triangle_material.assign(6, 0);
+  r.materials.push_back({});
+  r.normals = anim::vertex_normals(r.positions, r.triangles);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("procrustes finds the rigid motion and the similarity", "[rigbuild][geometry]") {
+  Points from(5, 3);
+  from << 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3, 1, 1, 1;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).matrix();
+  const Eigen::Vector3d t(0.5, -1, 2);
+  Similarity truth;
+  truth.R = R;
+  truth.t = t;
+  const Similarity rigid = procrustes(from, truth.apply(from), false);
+  CHECK((rigid.R - R).norm() < 1e-12);
+  CHECK((rigid.t - t).norm() < 1e-12);
+  CHECK(rigid.scale == 1.0);
+  CHECK(rigid.rms < 1e-12);
+  truth.scale = 2.5;
+  const Similarity scaled = procrustes(from, truth.apply(from), true);
+  CHECK(scaled.scale == Approx(2.5));
+  CHECK((scaled.R - R).norm() < 1e-12);
+  CHECK(scaled.rms < 1e-12);
+  // Without scale the best rigid motion leaves a residual.
+  CHECK(procrustes(from, truth.apply(from), false).rms > 0.1);
+}
+
+TEST_CASE("the triangle-order matcher pairs equal triangles once each", "[rigbuild][geometry]") {
+  Faces a(3, 3), b(3, 3);
+  a << 0, 1, 2, 0, 1, 2, 2, 3, 1;  // a triangle twice
+  b << 1, 2, 0, 3, 1, 2, 2, 0, 1;  // rotated corners, another order
+  const auto order = match_triangle_order(a, b);
+  REQUIRE(order.has_value());
+  CHECK(*order == std::vector<int>{0, 2, 1});
+  b.row(1) << 1, 2, 0;  // the template's duplicate three times: one too many
+  CHECK(!match_triangle_order(a, b).has_value());
+
+  anim::Rig tmpl = skin_and_tooth(), target = tmpl;
+  target.triangles.row(0).swap(target.triangles.row(5));
+  target.triangle_material = {5, 1, 2, 3, 4, 0};
+  target.triangle_group = {5, 1, 2, 3, 4, 0};
+  REQUIRE(reorder_triangles_like(tmpl, target));
+  CHECK(target.triangles == tmpl.triangles);
+  CHECK(target.triangle_material == std::vector<int>{0, 1, 2, 3, 4, 5});
+  CHECK(target.triangle_group == std::vector<int>{0, 1, 2, 3, 4, 5});
+}
+
+TEST_CASE("markers parsed from JSON name the value and the pair in errors", "[rigbuild][errors]") {
+  const auto message = [](const nlohmann::json& j) {
+    try {
+      parse_markers(j, 10, 5);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const nlohmann::json pairs = {{"template", 1}, {"target", 1}};
+  CHECK(message({{"index_base", 1},
+                 {"pairs", {pairs, pairs, {{"name", "nose"}, {"template", 2}, {"target", 6}}}}}) ==
+        "markers: pairs[2] (nose): target vertex 6 out of range (5 vertices)");
+  CHECK(message({{"pairs", {pairs}}}) == "markers: at least 3 marker pairs are needed");
+  CHECK(message({{"pairs", 3}}) == "markers: expected an object with a \"pairs\" array");
+  const auto ok = parse_markers({{"index_base", 1}, {"pairs", {pairs, pairs, pairs}}}, 10, 5);
+  REQUIRE(ok.size() == 3);
+  CHECK(ok[2].template_vertex == 0);
+  CHECK(ok[2].name == "pair2");
+}
+
+TEST_CASE("placement: still vertices stay, a part the template moves rigidly is rigid",
+          "[rigbuild][stages]") {
+  anim::Rig tmpl = skin_and_tooth();
+  anim::Positions d = anim::Positions::Zero(10, 3);
+  d(2, 2) = 0.2f;                               // the skin moves at one vertex
+  for (int v = 6; v < 10; ++v) d(v, 1) = 0.3f;  // the tooth moves as a whole
+  tmpl.shapes.push_back(anim::Blendshape::from_dense("s", d));
+  const Points rest = tmpl.positions.cast<double>();
+  const MeshParts parts(10, tmpl.triangles);
+  CHECK(parts.skin == 0);
+  const Correspondence c = identity_correspondence(10, tmpl.triangles);
+  const TemplateShapes source = template_shapes(tmpl);
+  const Moved moved = classify_motion(c, source, 1e-4);
+  CHECK(moved[0] == std::vector<char>{0, 0, 1, 0, 0, 0, 1, 1, 1, 1});
+  const BuildOptions options;
+  const Placement p =
+      place_components(tmpl, rest, tmpl.triangles, parts, c, source, moved, options, true);
+  CHECK(p.role[0] == Role::kFixed);
+  CHECK(p.role[2] == Role::kFree);
+  CHECK(p.role[7] == Role::kRigid);
+  CHECK(p.prescribed() == std::vector<int>{0, 1, 3, 4, 5, 6, 7, 8, 9});
+  REQUIRE(p.components.size() == 2);
+  CHECK(p.components[0].placement == "anchored");
+  CHECK(p.components[1].placement == "rigid");
+  // The copy puts the rigid part where its motion takes it and the skin's moved vertex where the
+  // template's is.
+  const auto copied = copy_motion(rest, c, source, p);
+  CHECK((copied[0].row(7) - rest.row(7) - Eigen::RowVector3d(0, 0.3, 0)).norm() < 1e-6);
+  CHECK((copied[0].row(2) - rest.row(2) - Eigen::RowVector3d(0, 0, 0.2)).norm() < 1e-6);
+  CHECK(p.stays(moved[0], 0));
+  CHECK(!p.stays(moved[0], 2));
+}
