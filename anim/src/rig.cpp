@@ -1,5 +1,6 @@
 #include "facecast/anim/rig.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
@@ -113,12 +114,19 @@ Components connected_components(int vertex_count, const Triangles& triangles) {
   Components out;
   out.label.assign(static_cast<std::size_t>(vertex_count), -1);
   std::vector<int> root_label(static_cast<std::size_t>(vertex_count), -1);
+  std::vector<int> size;
   for (int v = 0; v < vertex_count; ++v) {
     if (!used[v]) continue;
     int& l = root_label[find(v)];
-    if (l < 0) l = out.count++;
+    if (l < 0) {
+      l = out.count++;
+      size.push_back(0);
+    }
     out.label[v] = l;
+    ++size[static_cast<std::size_t>(l)];
   }
+  if (out.count > 0)
+    out.largest = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
   return out;
 }
 

@@ -174,13 +174,10 @@ bool SurfaceQuery::on_boundary(const Hit& hit) const {
 
 MeshParts::MeshParts(int vertex_count, const Faces& faces)
     : components(anim::connected_components(vertex_count, faces)),
-      members(static_cast<std::size_t>(components.count)) {
+      members(static_cast<std::size_t>(components.count)),
+      skin(std::max(components.largest, 0)) {
   for (int v = 0; v < vertex_count; ++v)
     if (const int c = of(v); c >= 0) members[static_cast<std::size_t>(c)].push_back(v);
-  for (int c = 1; c < components.count; ++c)
-    if (members[static_cast<std::size_t>(c)].size() >
-        members[static_cast<std::size_t>(skin)].size())
-      skin = c;
 }
 
 }  // namespace facecast::rigbuild

@@ -137,13 +137,13 @@ class SurfaceQuery {
   std::vector<std::pair<int, int>> boundary_;  // edges (low, high) of one triangle, sorted
 };
 
-/// A mesh's connected components and their vertices. The largest is the skin (the face; this is
-/// the one place that decides it); the others are parts: teeth, eyeballs, lashes, a tongue.
+/// A mesh's connected components and their vertices; the skin is the largest
+/// (anim::Components::largest), the others are parts: teeth, eyeballs, lashes, a tongue.
 struct MeshParts {
   MeshParts(int vertex_count, const Faces& faces);
   anim::Components components;            // per vertex its component, -1 in no triangle
   std::vector<std::vector<int>> members;  // per component its vertices, ascending
-  int skin = 0;                           // the largest component (the first of equal ones)
+  int skin = 0;                           // anim::Components::largest
   int of(int vertex) const { return components.label[static_cast<std::size_t>(vertex)]; }
 };
 

@@ -232,10 +232,7 @@ Eigen::Vector3f neck_pivot(const anim::Rig& rig) {
 
 Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& options) {
   const auto comps = anim::connected_components(rig.vertex_count(), rig.triangles);
-  std::vector<int> size(static_cast<std::size_t>(std::max(comps.count, 1)), 0);
-  for (int l : comps.label)
-    if (l >= 0) ++size[static_cast<std::size_t>(l)];
-  const int skin = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+  const int skin = comps.largest;
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
   for (int v = 0; v < rig.vertex_count(); ++v) {
     if (comps.label[static_cast<std::size_t>(v)] != skin) continue;

@@ -66,10 +66,13 @@ struct Rig {
   void validate(std::string_view what = "rig") const;
 };
 
-/// Connected components of the mesh (vertices joined by triangle edges).
+/// Connected components of the mesh (vertices joined by triangle edges). The largest is the skin
+/// of a head (the face); the others are its parts: teeth, eyeballs, lashes, a tongue. This is the
+/// one place that decides it.
 struct Components {
   std::vector<int> label;  // #V, component of each vertex; -1 for a vertex in no triangle
   int count = 0;
+  int largest = -1;  // the component with the most vertices (the first of equal ones); -1: none
 };
 Components connected_components(int vertex_count, const Triangles& triangles);
 
