@@ -56,7 +56,11 @@ int main(int argc, char** argv) try {
   const int msaa = argc > 2 ? std::atoi(argv[2]) : 0;
   auto t0 = Clock::now();
   const anim::Rig avatar = anim::make_avatar();
-  std::printf("avatar generation: %.0f ms\n", ms_since(t0));
+  const double generation = ms_since(t0);
+  t0 = Clock::now();
+  const std::size_t glb = anim::glb_bytes(avatar).size();
+  std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation, ms_since(t0),
+              glb / 1024);
   bench("avatar", avatar, frames, msaa);
   const std::filesystem::path ict =
       std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";

@@ -2,7 +2,6 @@
 // self-intersection check of the neutral, every shape and the pairs that animate together.
 #include <catch2/catch.hpp>
 #include <cmath>
-#include <ctime>
 #include <map>
 #include <set>
 
@@ -59,17 +58,11 @@ std::size_t intersections(const Rig& rig, const Positions& p) {
 
 }  // namespace
 
-TEST_CASE("the avatar is deterministic, fast and the right size", "[anim][avatar]") {
-  // CPU time of this process (the machine may be shared with other builds).
-  const std::clock_t t0 = std::clock();
+TEST_CASE("the avatar is deterministic and the right size", "[anim][avatar]") {
+  // Its generation time is a figure of bench_render, not a check here (the machine is shared).
   const std::string a = glb_bytes(make_avatar());
-  const double seconds = static_cast<double>(std::clock() - t0) / CLOCKS_PER_SEC;
   const std::string b = glb_bytes(make_avatar());
   CHECK(a == b);
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-  CHECK(seconds <= 1.0);  // generation and GLB encoding, Release build
-#endif
-  (void)seconds;
   const Rig& rig = default_avatar();
   CHECK(rig.vertex_count() >= 10000);
   CHECK(rig.vertex_count() <= 30000);
