@@ -171,11 +171,19 @@ Model build_geometry(const AvatarParams& params) {
     };
     return Eigen::Vector4f(lin(r), lin(gg), lin(bb), 1.0f);
   };
-  m.materials = {{"M_Skin", srgb(236, 188, 158)},       {"M_Lips", srgb(204, 104, 104)},
-                 {"M_MouthInterior", srgb(74, 18, 24)}, {"M_Teeth", srgb(246, 242, 230)},
-                 {"M_Tongue", srgb(214, 102, 108)},     {"M_Sclera", srgb(248, 248, 244)},
-                 {"M_Iris", srgb(66, 128, 150)},        {"M_Pupil", srgb(8, 8, 10)},
-                 {"M_Brows", srgb(96, 64, 44)},         {"M_Lashes", srgb(44, 30, 26)}};
+  for (const auto& [name, colour] : std::initializer_list<std::pair<const char*, Eigen::Vector4f>>{
+           {"M_Skin", srgb(236, 188, 158)},
+           {"M_Lips", srgb(204, 104, 104)},
+           {"M_MouthInterior", srgb(74, 18, 24)},
+           {"M_Teeth", srgb(246, 242, 230)},
+           {"M_Tongue", srgb(214, 102, 108)},
+           {"M_Sclera", srgb(248, 248, 244)},
+           {"M_Iris", srgb(66, 128, 150)},
+           {"M_Pupil", srgb(8, 8, 10)},
+           {"M_Brows", srgb(96, 64, 44)},
+           {"M_Lashes", srgb(44, 30, 26)},
+       })
+    m.materials.push_back(Material::solid(name, colour));
   // Landmarks found by position.
   int nose = -1, chin = -1;
   for (Eigen::Index v = 0; v < m.pos.rows(); ++v) {

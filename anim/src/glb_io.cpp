@@ -461,13 +461,13 @@ Rig parse_glb(std::string_view bytes, std::string_view name) {
   vertices.fill(rig, read_extras(mesh, rig));
 
   for (const auto& gm : m.materials) {
-    Material mat{gm.name, {0.8f, 0.8f, 0.8f, 1.0f}};
+    Material mat = Material::solid(gm.name);
     const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
     for (std::size_t c = 0; c < 4 && c < f.size(); ++c)
       mat.base_color[static_cast<Eigen::Index>(c)] = static_cast<float>(f[c]);
     rig.materials.push_back(mat);
   }
-  if (rig.materials.empty()) rig.materials.push_back(Material{"default", {0.8f, 0.8f, 0.8f, 1.0f}});
+  if (rig.materials.empty()) rig.materials.push_back(Material::solid("default"));
   rig.validate(what);
   return rig;
 }

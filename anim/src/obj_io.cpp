@@ -248,7 +248,7 @@ ParsedObj parse(std::string_view text, std::string_view name) {
     if (vn_of[v] >= 0 && nrm[vn_of[v]].norm() > 1e-12f)
       rig.normals.row(v) = nrm[vn_of[v]].normalized();
   }
-  for (auto& m : mat_names) rig.materials.push_back(Material{m, {0.8f, 0.8f, 0.8f, 1.0f}});
+  for (auto& m : mat_names) rig.materials.push_back(Material::solid(m));
   rig.groups = std::move(group_names);
   if (rig.groups.empty()) rig.triangle_group.clear();
   return out;

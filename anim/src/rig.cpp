@@ -93,6 +93,29 @@ void Rig::validate(std::string_view what) const {
                   " out of range");
     }
   }
+  const int nt = static_cast<int>(textures.size());
+  for (const auto& m : materials) {
+    for (const TextureRef* t : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.normal_texture, &m.occlusion_texture, &m.emissive_texture}) {
+      if (t->texture < -1 || t->texture >= nt)
+        throw Error(w + ": material '" + m.name + "' texture out of range");
+    }
+  }
+  const int nj = static_cast<int>(skeleton.joint_names.size());
+  if (skeleton.parent.size() != skeleton.joint_names.size() ||
+      skeleton.rest_origin.size() != skeleton.joint_names.size())
+    throw Error(w + ": skeleton joint arrays differ in length");
+  for (int j = 0; j < nj; ++j) {
+    if (skeleton.parent[j] < -1 || skeleton.parent[j] >= nj || skeleton.parent[j] == j)
+      throw Error(w + ": skeleton joint " + std::to_string(j) + " has a bad parent");
+  }
+  if (skeleton.head < -1 || skeleton.head >= nj || skeleton.neck < -1 || skeleton.neck >= nj)
+    throw Error(w + ": skeleton head or neck joint out of range");
+  if (joints.rows() != joint_weights.rows() || (joints.rows() != 0 && joints.rows() != nv))
+    throw Error(w + ": joint count differs from vertex count");
+  if (joints.rows() && (joints.minCoeff() < 0 || joints.maxCoeff() >= nj))
+    throw Error(w + ": vertex joint index out of range");
+  if (!joint_weights.allFinite()) throw Error(w + ": non-finite joint weight");
 }
 
 Components connected_components(int vertex_count, const Triangles& triangles) {

@@ -24,7 +24,7 @@ Rig grid_rig(int n) {
       r.triangles.row(f++) << a, a + n + 1, a + n;
     }
   r.triangle_material.assign(f, 0);
-  r.materials.push_back({"skin", {1, 1, 1, 1}});
+  r.materials.push_back(Material::solid("skin", {1, 1, 1, 1}));
   r.normals = vertex_normals(r.positions, r.triangles);
   Positions bump = Positions::Zero(n * n, 3);
   bump(n + 1, 2) = 1.0f;

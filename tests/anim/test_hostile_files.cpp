@@ -61,7 +61,7 @@ Glb small_glb() {
   rig.uvs.resize(4, 2);
   rig.uvs << 0, 0, 1, 0, 1, 1, 0, 1;
   rig.triangle_material = {0, 0};
-  rig.materials.push_back(Material{"skin", {0.8f, 0.6f, 0.5f, 1.0f}});
+  rig.materials.push_back(Material::solid("skin", {0.8f, 0.6f, 0.5f, 1.0f}));
   Positions d = Positions::Zero(4, 3);
   d(2, 2) = 0.5f;
   rig.shapes.push_back(Blendshape::from_dense("jawOpen", d));

@@ -52,7 +52,7 @@ anim::Rig double_layer(int n, float gap) {
   for (std::size_t i = 0; i < tris.size(); ++i)
     r.triangles.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
   r.triangle_material.assign(tris.size(), 0);
-  r.materials.push_back({"skin", {1, 1, 1, 1}});
+  r.materials.push_back(anim::Material::solid("skin", {1, 1, 1, 1}));
   r.normals = anim::vertex_normals(r.positions, r.triangles);
   return r;
 }

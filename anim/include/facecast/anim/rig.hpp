@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace facecast::anim {
@@ -18,9 +19,60 @@ using UVs = Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>;
 /// #F by 3 vertex indices, counter-clockwise seen from outside.
 using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
+/// An image a material samples, as stored in the file: encoded PNG or JPEG bytes (the renderer
+/// decodes them), with its sampler's wrap and filter modes.
+struct Texture {
+  std::string name;
+  std::string mime_type;                  // "image/png" or "image/jpeg"
+  std::string bytes;                      // the encoded image
+  bool repeat_s = true, repeat_t = true;  // REPEAT (or MIRRORED_REPEAT) vs CLAMP_TO_EDGE
+  bool nearest = false;                   // NEAREST magnification instead of LINEAR
+};
+
+/// A material's use of a texture (glTF textureInfo with KHR_texture_transform folded in): the
+/// UV set is transformed as uv' = offset + R(rotation) * (scale .* uv) before sampling.
+struct TextureRef {
+  int texture = -1;  // index into Rig::textures; -1: no texture
+  Eigen::Vector2f offset{0.0f, 0.0f};
+  Eigen::Vector2f scale{1.0f, 1.0f};
+  float rotation = 0.0f;  // radians
+  float strength = 1.0f;  // normalTexture.scale or occlusionTexture.strength; 1 otherwise
+};
+
+enum class AlphaMode { kOpaque, kMask, kBlend };
+
+/// A glTF metallic-roughness material. Colours are linear; textures hold sRGB base colour and
+/// emissive, linear metallic (B) / roughness (G), tangent-space normals and occlusion (R).
 struct Material {
   std::string name;
   Eigen::Vector4f base_color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
+  float metallic = 0.0f;
+  float roughness = 0.6f;
+  Eigen::Vector3f emissive{0.0f, 0.0f, 0.0f};
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float alpha_cutoff = 0.5f;  // for kMask
+  bool double_sided = false;
+  TextureRef base_color_texture, metallic_roughness_texture, normal_texture, occlusion_texture,
+      emissive_texture;
+
+  /// A plain coloured material without textures.
+  static Material solid(std::string name,
+                        const Eigen::Vector4f& color = Eigen::Vector4f(0.8f, 0.8f, 0.8f, 1.0f)) {
+    Material m;
+    m.name = std::move(name);
+    m.base_color = color;
+    return m;
+  }
+};
+
+/// The skeleton of a skinned avatar, in the rig's (bind pose) coordinates. The rig's vertices are
+/// already skinned to the rest pose; the renderer moves only the joints the head pose turns.
+struct Skeleton {
+  std::vector<std::string> joint_names;
+  std::vector<int> parent;                   // -1 for a root
+  std::vector<Eigen::Vector3f> rest_origin;  // each joint's origin in the bind pose
+  int head = -1;                             // the head joint, or -1
+  int neck = -1;                             // the neck joint, or -1
 };
 
 /// A blendshape: the vertices it moves (ascending, unique) and their deltas from the neutral.
@@ -55,6 +107,12 @@ struct Rig {
   std::vector<std::string> groups;
   std::vector<Blendshape> shapes;
   std::vector<Landmark> landmarks;
+  std::vector<Texture> textures;  // images the materials sample (through uvs)
+  Skeleton skeleton;              // empty when the avatar is not skinned
+  /// #V by 4 joint indices into skeleton and their weights (summing to 1), or 0 rows when the
+  /// avatar is not skinned.
+  Eigen::Matrix<int, Eigen::Dynamic, 4, Eigen::RowMajor> joints;
+  Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> joint_weights;
 
   int vertex_count() const { return static_cast<int>(positions.rows()); }
   int triangle_count() const { return static_cast<int>(triangles.rows()); }
