@@ -21,7 +21,7 @@ namespace {
 struct RenderArgs {
   SpeechArgs speech;
   std::string rig, weights, expression, out, size, audio;
-  std::string look_at;
+  std::string look_at, framing, background_image, head;
   float zoom = 1.0f;
   int msaa = -1;
   int quality = 90;
@@ -112,6 +112,11 @@ void add_render_commands(CLI::App& app) {
   r->add_option("--look-at", a->look_at,
                 "Aim the camera at x,y,z (rig units) instead of the face centre");
   r->add_option("--zoom", a->zoom, "Move the camera closer by this factor")->capture_default_str();
+  r->add_option("--framing", a->framing, "face, bust or full (default from render.json)")
+      ->check(CLI::IsMember({"face", "bust", "full"}));
+  r->add_option("--background-image", a->background_image, "An image behind the avatar")
+      ->check(CLI::ExistingFile);
+  r->add_option("--head", a->head, "A pose's head turn: yaw,pitch,roll in degrees");
   r->callback([a] {
     render::RenderOptions opt = render::load_render_options();
     const bool speech = a->speech.given();
@@ -120,6 +125,11 @@ void add_render_commands(CLI::App& app) {
                                                                   : "640x480");
     opt.msaa = a->msaa >= 0 ? a->msaa : speech ? opt.msaa : 4;
     opt.contexts = 1;
+    if (!a->framing.empty())
+      opt.framing = a->framing == "bust"   ? render::Framing::kBust
+                    : a->framing == "full" ? render::Framing::kFull
+                                           : render::Framing::kFace;
+    if (!a->background_image.empty()) opt.background_image = a->background_image;
     const anim::Rig rig = a->rig.empty() ? anim::default_avatar() : anim::load_rig(a->rig);
     if (speech) {
       if (!a->weights.empty() || !a->expression.empty())
@@ -128,6 +138,14 @@ void add_render_commands(CLI::App& app) {
     }
     if (!a->audio.empty() || a->fps > 0)
       throw Error("--audio and --fps need --text or --timestamps");
+    anim::HeadPose head;
+    if (!a->head.empty()) {
+      float yaw = 0, pitch = 0, roll = 0;
+      if (std::sscanf(a->head.c_str(), "%f,%f,%f", &yaw, &pitch, &roll) != 3)
+        throw Error("--head: '" + a->head + "' is not yaw,pitch,roll");
+      constexpr float kRad = 3.14159265f / 180.0f;
+      head = {yaw * kRad, pitch * kRad, roll * kRad};
+    }
     auto named = a->expression.empty() ? std::vector<std::pair<std::string, float>>{}
                                        : expression_weights(rig, a->expression);
     for (auto& w : render::parse_weight_list(a->weights)) named.push_back(w);
@@ -146,7 +164,7 @@ void add_render_commands(CLI::App& app) {
       renderer.set_camera(cam);
     }
     const std::vector<float> weights = render::weights_for(rig, named);
-    render::write_image(a->out, renderer.render(weights), a->quality);
+    render::write_image(a->out, renderer.render(weights, head), a->quality);
     std::cerr << "wrote " << a->out << " (" << opt.width << "x" << opt.height << ", "
               << renderer.backend() << ")\n";
   });

@@ -209,6 +209,8 @@ TEST_CASE("configs/anim/render.json mirrors RenderOptions and VideoOptions", "[r
   CHECK(file.fov_y_deg == code.fov_y_deg);
   CHECK(file.margin == code.margin);
   CHECK(file.background == code.background);
+  CHECK(file.framing == code.framing);
+  CHECK(file.background_image == code.background_image);
   CHECK(file.contexts == code.contexts);
   const render::VideoOptions vfile = render::load_video_options(), vcode;
   CHECK(vfile.fps == vcode.fps);

@@ -1,28 +1,27 @@
 // Packing a rig for the GPU: morph deltas bucketed by vertex into a float texture, triangles
-// grouped by material.
+// grouped by material, materials and their decoded textures, tangents for normal maps, and the
+// head pose's per-vertex weights from the skeleton.
 #include "gpu_rig.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <numeric>
 
 #include "facecast/core/error.hpp"
+#include "facecast/render/image.hpp"
 
 namespace facecast::render::detail {
+namespace {
 
-PackedRig pack_rig(const anim::Rig& rig) {
-  rig.validate("render rig");
-  if (rig.shapes.size() > static_cast<std::size_t>(kMaxShapes))
-    throw Error("renderer: " + std::to_string(rig.shapes.size()) + " shapes, at most " +
-                    std::to_string(kMaxShapes) + " are supported",
-                ErrorCode::kUnsupported);
-  PackedRig p;
+using anim::Rig;
+
+// Per shape: position deltas and normal deltas (shape normals minus neutral normals) wherever
+// either is non-zero; then bucketed by vertex into the delta texture.
+void pack_morphs(const Rig& rig, PackedRig& p) {
   const int nv = rig.vertex_count();
-  p.shape_count = static_cast<int>(rig.shapes.size());
-  p.positions.assign(rig.positions.data(), rig.positions.data() + rig.positions.size());
-  p.normals.assign(rig.normals.data(), rig.normals.data() + rig.normals.size());
 
-  // Per shape: position deltas and normal deltas (shape normals minus neutral normals) wherever
-  // either is non-zero; then bucketed by vertex.
   struct Entry {
     int shape;
     Eigen::Vector3f dp, dn;
@@ -69,7 +68,143 @@ PackedRig pack_rig(const anim::Rig& rig) {
       t[4] = en.dn.x(), t[5] = en.dn.y(), t[6] = en.dn.z(), t[7] = 0;
       ++e;
     }
+}
 
+// uv' = offset + R(rotation) * (scale .* uv), as a 3x3 matrix on (u, v, 1) (KHR_texture_transform).
+Eigen::Matrix3f uv_matrix(const anim::TextureRef& t) {
+  Eigen::Matrix3f m = Eigen::Matrix3f::Identity();
+  const float c = std::cos(t.rotation), s = std::sin(t.rotation);
+  m(0, 0) = c * t.scale.x();
+  m(0, 1) = s * t.scale.y();
+  m(1, 0) = -s * t.scale.x();
+  m(1, 1) = c * t.scale.y();
+  m(0, 2) = t.offset.x();
+  m(1, 2) = t.offset.y();
+  return m;
+}
+
+// Materials with their textures decoded; each (image, colour space) pair is uploaded once.
+void pack_materials(const Rig& rig, PackedRig& p) {
+  std::map<std::pair<int, bool>, int> uploaded;
+  std::map<int, Image> decoded;
+  const auto texture = [&](const anim::TextureRef& ref, bool srgb) {
+    if (ref.texture < 0) return -1;
+    const auto key = std::make_pair(ref.texture, srgb);
+    if (auto it = uploaded.find(key); it != uploaded.end()) return it->second;
+    const anim::Texture& t = rig.textures[static_cast<std::size_t>(ref.texture)];
+    auto it = decoded.find(ref.texture);
+    if (it == decoded.end())
+      it =
+          decoded
+              .emplace(ref.texture, decode_image(t.bytes, "texture " + std::to_string(ref.texture) +
+                                                              " '" + t.name + "'"))
+              .first;
+    PackedTexture pt;
+    pt.width = it->second.width;
+    pt.height = it->second.height;
+    pt.srgb = srgb;
+    pt.repeat_s = t.repeat_s;
+    pt.repeat_t = t.repeat_t;
+    pt.nearest = t.nearest;
+    pt.rgba = it->second.pixels;
+    p.textures.push_back(std::move(pt));
+    return uploaded[key] = static_cast<int>(p.textures.size()) - 1;
+  };
+  for (const anim::Material& m : rig.materials) {
+    PackedMaterial pm;
+    pm.base_color = m.base_color;
+    pm.emissive = m.emissive;
+    pm.metallic = m.metallic;
+    pm.roughness = m.roughness;
+    pm.alpha_mode = m.alpha_mode;
+    pm.alpha_cutoff = m.alpha_cutoff;
+    pm.normal_scale = m.normal_texture.strength;
+    pm.occlusion_strength = m.occlusion_texture.strength;
+    const anim::TextureRef* refs[kSlotCount] = {&m.base_color_texture,
+                                                &m.metallic_roughness_texture, &m.normal_texture,
+                                                &m.occlusion_texture, &m.emissive_texture};
+    for (int slot = 0; slot < kSlotCount; ++slot) {
+      const bool srgb = slot == kBaseColorSlot || slot == kEmissiveSlot;
+      pm.texture[slot] = rig.uvs.rows() ? texture(*refs[slot], srgb) : -1;
+      pm.uv_transform[slot] = uv_matrix(*refs[slot]);
+    }
+    p.materials.push_back(pm);
+  }
+}
+
+// Per-vertex tangents from the UVs (the sum over a vertex's triangles of each triangle's
+// d(position)/du, orthogonalised against the normal; w is the handedness of the UV frame).
+void pack_tangents(const Rig& rig, PackedRig& p) {
+  const int nv = rig.vertex_count();
+  std::vector<Eigen::Vector3f> tu(static_cast<std::size_t>(nv), Eigen::Vector3f::Zero()), tv = tu;
+  for (int f = 0; f < rig.triangle_count(); ++f) {
+    const int a = rig.triangles(f, 0), b = rig.triangles(f, 1), c = rig.triangles(f, 2);
+    const Eigen::Vector3f e1 = (rig.positions.row(b) - rig.positions.row(a)).transpose(),
+                          e2 = (rig.positions.row(c) - rig.positions.row(a)).transpose();
+    const Eigen::Vector2f d1 = (rig.uvs.row(b) - rig.uvs.row(a)).transpose(),
+                          d2 = (rig.uvs.row(c) - rig.uvs.row(a)).transpose();
+    const float det = d1.x() * d2.y() - d2.x() * d1.y();
+    if (std::abs(det) < 1e-12f) continue;
+    const Eigen::Vector3f u = (e1 * d2.y() - e2 * d1.y()) / det,
+                          v = (e2 * d1.x() - e1 * d2.x()) / det;
+    for (int k : {a, b, c}) {
+      tu[static_cast<std::size_t>(k)] += u;
+      tv[static_cast<std::size_t>(k)] += v;
+    }
+  }
+  p.tangents.resize(static_cast<std::size_t>(nv) * 4);
+  for (int v = 0; v < nv; ++v) {
+    const Eigen::Vector3f n = rig.normals.row(v).transpose();
+    Eigen::Vector3f t =
+        tu[static_cast<std::size_t>(v)] - n * n.dot(tu[static_cast<std::size_t>(v)]);
+    if (t.squaredNorm() < 1e-20f) t = n.unitOrthogonal();
+    t.normalize();
+    const float w = n.cross(t).dot(tv[static_cast<std::size_t>(v)]) < 0 ? -1.0f : 1.0f;
+    float* o = &p.tangents[static_cast<std::size_t>(v) * 4];
+    o[0] = t.x(), o[1] = t.y(), o[2] = t.z(), o[3] = w;
+  }
+}
+
+// Whether joint j is `root` or below it.
+bool under(const anim::Skeleton& s, int j, int root) {
+  for (int guard = 0; j >= 0 && guard <= static_cast<int>(s.parent.size()); ++guard) {
+    if (j == root) return true;
+    j = s.parent[static_cast<std::size_t>(j)];
+  }
+  return false;
+}
+
+// The head pose's weights: with a head joint, each vertex's skin weight on joints under the head
+// (and, with a neck, under the neck but not the head); otherwise every vertex turns with the head
+// about a pivot at the centre of the mesh's bounds in x and z, 10 % above its bottom.
+void pack_head(const Rig& rig, PackedRig& p) {
+  const int nv = rig.vertex_count();
+  const anim::Skeleton& sk = rig.skeleton;
+  p.skin.assign(static_cast<std::size_t>(nv) * 2, 0.0f);
+  if (sk.head >= 0 && rig.joints.rows() == nv) {
+    p.head.skeleton = true;
+    p.head.head = sk.rest_origin[static_cast<std::size_t>(sk.head)];
+    p.head.has_neck = sk.neck >= 0 && sk.neck != sk.head && under(sk, sk.head, sk.neck);
+    if (p.head.has_neck) p.head.neck = sk.rest_origin[static_cast<std::size_t>(sk.neck)];
+    for (int v = 0; v < nv; ++v)
+      for (int k = 0; k < 4; ++k) {
+        const int j = rig.joints(v, k);
+        const float w = rig.joint_weights(v, k);
+        if (under(sk, j, sk.head))
+          p.skin[2 * static_cast<std::size_t>(v) + 1] += w;
+        else if (p.head.has_neck && under(sk, j, sk.neck))
+          p.skin[2 * static_cast<std::size_t>(v)] += w;
+      }
+    return;
+  }
+  const Eigen::Vector3f lo = rig.positions.colwise().minCoeff().transpose();
+  const Eigen::Vector3f hi = rig.positions.colwise().maxCoeff().transpose();
+  p.head.head = {0.5f * (lo.x() + hi.x()), lo.y() + 0.1f * (hi.y() - lo.y()),
+                 0.5f * (lo.z() + hi.z())};
+  for (int v = 0; v < nv; ++v) p.skin[2 * static_cast<std::size_t>(v) + 1] = 1.0f;
+}
+
+void pack_ranges(const Rig& rig, PackedRig& p) {
   std::vector<int> order(static_cast<std::size_t>(rig.triangle_count()));
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
@@ -80,13 +215,42 @@ PackedRig pack_rig(const anim::Rig& rig) {
     const int m = rig.triangle_material[static_cast<std::size_t>(order[i])];
     PackedRig::Range r;
     r.first = p.indices.size();
-    r.color = rig.materials[static_cast<std::size_t>(m)].base_color.head<3>();
+    r.material = m;
     for (; i < order.size() && rig.triangle_material[static_cast<std::size_t>(order[i])] == m; ++i)
-      for (int c = 0; c < 3; ++c)
-        p.indices.push_back(static_cast<std::uint32_t>(rig.triangles(order[i], c)));
+      for (int c = 0; c < 3; ++c) {
+        const int v = rig.triangles(order[i], c);
+        p.indices.push_back(static_cast<std::uint32_t>(v));
+        r.centroid += rig.positions.row(v).transpose();
+      }
     r.count = p.indices.size() - r.first;
+    r.centroid /= static_cast<float>(std::max<std::size_t>(1, r.count));
     p.ranges.push_back(r);
   }
+}
+
+}  // namespace
+
+PackedRig pack_rig(const Rig& rig) {
+  rig.validate("render rig");
+  if (rig.shapes.size() > static_cast<std::size_t>(kMaxShapes))
+    throw Error("renderer: " + std::to_string(rig.shapes.size()) + " shapes, at most " +
+                    std::to_string(kMaxShapes) + " are supported",
+                ErrorCode::kUnsupported);
+  PackedRig p;
+  p.shape_count = static_cast<int>(rig.shapes.size());
+  p.positions.assign(rig.positions.data(), rig.positions.data() + rig.positions.size());
+  p.normals.assign(rig.normals.data(), rig.normals.data() + rig.normals.size());
+  if (rig.uvs.rows())
+    p.uvs.assign(rig.uvs.data(), rig.uvs.data() + rig.uvs.size());
+  else
+    p.uvs.assign(static_cast<std::size_t>(rig.vertex_count()) * 2, 0.0f);
+  pack_morphs(rig, p);
+  pack_materials(rig, p);
+  const bool normal_maps = std::any_of(p.materials.begin(), p.materials.end(),
+                                       [](const auto& m) { return m.texture[kNormalSlot] >= 0; });
+  if (normal_maps) pack_tangents(rig, p);
+  pack_head(rig, p);
+  pack_ranges(rig, p);
   return p;
 }
 

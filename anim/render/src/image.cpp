@@ -101,6 +101,43 @@ void write_image(const std::filesystem::path& path, const Image& image, int jpeg
   write_file_atomic(path, bytes);
 }
 
+Image decode_image(std::string_view bytes, std::string_view what, int max_side) {
+  const std::string name(what);
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  // The format from the signature: the name an avatar gives an image need not have an extension.
+  const bool png =
+      bytes.size() >= 8 && bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8);
+  const bool jpeg = bytes.size() >= 3 && bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3);
+  if (!png && !jpeg) throw Error(name + ": not a PNG or JPEG image", ErrorCode::kUnsupported);
+  OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
+  auto in = OIIO::ImageInput::create(png ? "image.png" : "image.jpg");
+  if (!in) throw Error(name + ": no image reader: " + OIIO::geterror(), ErrorCode::kInternal);
+  OIIO::ImageSpec config;
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
+  OIIO::ImageSpec spec;
+  if (!in->open("image", spec, config)) throw Error(name + ": cannot decode: " + in->geterror());
+  if (spec.width < 1 || spec.height < 1 || spec.width > max_side || spec.height > max_side ||
+      spec.nchannels < 1 || spec.nchannels > 4)
+    throw Error(name + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is out of range (at most " + std::to_string(max_side) + " a side)",
+                ErrorCode::kUnsupported);
+  Image img{spec.width, spec.height, 4, {}};
+  img.pixels.assign(static_cast<std::size_t>(spec.width) * spec.height * 4, 255);
+  // Read the file's channels into the first ones of RGBA; grey is expanded below.
+  const OIIO::stride_t pixel = 4;
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
+    throw Error(name + ": cannot decode: " + in->geterror());
+  if (spec.nchannels <= 2) {
+    for (std::size_t i = 0; i < img.pixels.size(); i += 4) {
+      const std::uint8_t g = img.pixels[i], a = spec.nchannels == 2 ? img.pixels[i + 1] : 255;
+      img.pixels[i + 1] = img.pixels[i + 2] = g;
+      img.pixels[i + 3] = a;
+    }
+  }
+  return img;
+}
+
 Image read_image(const std::filesystem::path& path) {
   auto in = OIIO::ImageInput::open(path.string());
   if (!in)

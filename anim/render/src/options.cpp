@@ -25,7 +25,10 @@ Options load_options() {
       .read("msaa", r.msaa)
       .read("fov_y_deg", r.fov_y_deg)
       .read("margin", r.margin)
+      .read_choice("framing", r.framing,
+                   {{"face", Framing::kFace}, {"bust", Framing::kBust}, {"full", Framing::kFull}})
       .read("background_srgb", background)
+      .read("background_image", r.background_image)
       .read("contexts", r.contexts);
   r.background = {background[0], background[1], background[2]};
   VideoOptions& v = o.video;

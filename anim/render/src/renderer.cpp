@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <cstring>
 #include <mutex>
+#include <optional>
 
 #include "egl.hpp"
 #include "facecast/core/error.hpp"
@@ -46,19 +47,56 @@ Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& targe
   return m;
 }
 
+// The head pose as the vertex shader takes it (see detail::HeadJoints).
+struct HeadMatrices {
+  Eigen::Matrix4f neck = Eigen::Matrix4f::Identity(), head = Eigen::Matrix4f::Identity();
+};
+
+// Yaw about +Y, then pitch about +X, then roll about +Z, each scaled by `share`, about `pivot`.
+Eigen::Matrix4f turn(const anim::HeadPose& pose, float share, const Eigen::Vector3f& pivot) {
+  Eigen::Affine3f m =
+      Eigen::Translation3f(pivot) * Eigen::AngleAxisf(share * pose.roll, Eigen::Vector3f::UnitZ()) *
+      Eigen::AngleAxisf(share * pose.pitch, Eigen::Vector3f::UnitX()) *
+      Eigen::AngleAxisf(share * pose.yaw, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-pivot);
+  return m.matrix();
+}
+
+// With a neck joint the neck turns 40 % of the pose about its joint and the head the rest about
+// its own (carried by the neck); otherwise the head turns all of it.
+HeadMatrices head_matrices(const anim::HeadPose& pose, const detail::HeadJoints& joints) {
+  HeadMatrices m;
+  if (joints.has_neck) {
+    constexpr float kNeckShare = 0.4f;
+    m.neck = turn(pose, kNeckShare, joints.neck);
+    m.head = m.neck * turn(pose, 1.0f - kNeckShare, joints.head);
+  } else {
+    m.head = turn(pose, 1.0f, joints.head);
+  }
+  return m;
+}
+
 // One pooled GL context with its own copy of the rig and its framebuffers.
 struct Slot {
   detail::Context context;
-  GLuint program = 0, vao = 0, buffers[4] = {}, delta_tex = 0;
+  GLuint program = 0, vao = 0, buffers[7] = {}, delta_tex = 0;
+  GLuint background_program = 0, background_vao = 0, background_tex = 0;
+  float background_scale[2] = {1, 1};
+  std::vector<GLuint> textures;  // PackedRig::textures
+  GLuint white_tex = 0;          // bound to the slots a material leaves empty
   GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
-  GLint u_weights = -1, u_mvp = -1, u_model = -1, u_color = -1, u_eye = -1, u_deltas = -1;
+  struct Uniforms {
+    GLint weights = -1, mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
+          metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, alpha_mode = -1,
+          alpha_cutoff = -1, has_texture = -1, uv = -1, background_scale = -1;
+  } u;
   int width = 0, height = 0, samples = 0;
   std::string renderer_name;
 
-  Slot(const PackedRig& p, const RenderOptions& o) {
+  Slot(const PackedRig& p, const RenderOptions& o, const Image* background) {
     context.make_current();
     try {
       init(p, o);
+      if (background) init_background(*background);
     } catch (...) {
       context.release();
       throw;
@@ -70,44 +108,124 @@ struct Slot {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     program = detail::link_program();
-    u_weights = glGetUniformLocation(program, "u_weights");
-    u_mvp = glGetUniformLocation(program, "u_mvp");
-    u_model = glGetUniformLocation(program, "u_model");
-    u_color = glGetUniformLocation(program, "u_color");
-    u_eye = glGetUniformLocation(program, "u_eye");
-    u_deltas = glGetUniformLocation(program, "u_deltas");
+    const auto at = [&](const char* name) { return glGetUniformLocation(program, name); };
+    u = {at("u_weights"),
+         at("u_mvp"),
+         at("u_neck"),
+         at("u_head"),
+         at("u_eye"),
+         at("u_base_color"),
+         at("u_emissive"),
+         at("u_metallic_roughness"),
+         at("u_normal_scale"),
+         at("u_occlusion_strength"),
+         at("u_alpha_mode"),
+         at("u_alpha_cutoff"),
+         at("u_has_texture"),
+         at("u_uv"),
+         -1};
+    glUseProgram(program);
+    glUniform1i(at("u_deltas"), detail::kDeltaUnit);
+    GLint units[detail::kSlotCount];
+    for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
+    glUniform1iv(at("u_textures"), detail::kSlotCount, units);
     check_gl("glLinkProgram");
 
     glGenVertexArrays(1, &vao);
     glBindVertexArray(vao);
-    glGenBuffers(4, buffers);
-    const auto upload = [](GLenum target, GLuint buf, const void* data, std::size_t bytes) {
-      glBindBuffer(target, buf);
-      glBufferData(target, static_cast<GLsizeiptr>(bytes), data, GL_STATIC_DRAW);
+    glGenBuffers(7, buffers);
+    const auto attribute = [&](int index, const std::vector<float>& data, int size) {
+      glBindBuffer(GL_ARRAY_BUFFER, buffers[index]);
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)),
+                   data.data(), GL_STATIC_DRAW);
+      glVertexAttribPointer(static_cast<GLuint>(index), size, GL_FLOAT, GL_FALSE, 0, nullptr);
+      glEnableVertexAttribArray(static_cast<GLuint>(index));
     };
-    upload(GL_ARRAY_BUFFER, buffers[0], p.positions.data(), p.positions.size() * sizeof(float));
-    glVertexAttribPointer(detail::kPositionAttribute, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glEnableVertexAttribArray(detail::kPositionAttribute);
-    upload(GL_ARRAY_BUFFER, buffers[1], p.normals.data(), p.normals.size() * sizeof(float));
-    glVertexAttribPointer(detail::kNormalAttribute, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
-    glEnableVertexAttribArray(detail::kNormalAttribute);
+    static_assert(detail::kPositionAttribute == 0 && detail::kNormalAttribute == 1 &&
+                  detail::kMorphAttribute == 2 && detail::kUvAttribute == 3 &&
+                  detail::kTangentAttribute == 4 && detail::kSkinAttribute == 5);
+    attribute(detail::kPositionAttribute, p.positions, 3);
+    attribute(detail::kNormalAttribute, p.normals, 3);
+    attribute(detail::kUvAttribute, p.uvs, 2);
+    attribute(detail::kSkinAttribute, p.skin, 2);
+    if (p.tangents.empty())
+      glVertexAttrib4f(detail::kTangentAttribute, 1, 0, 0, 1);
+    else
+      attribute(detail::kTangentAttribute, p.tangents, 4);
     static_assert(sizeof(p.morph[0]) == sizeof(GLint) && sizeof(p.indices[0]) == sizeof(GLuint));
-    upload(GL_ARRAY_BUFFER, buffers[2], p.morph.data(), p.morph.size() * sizeof(GLint));
+    glBindBuffer(GL_ARRAY_BUFFER, buffers[detail::kMorphAttribute]);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(p.morph.size() * sizeof(GLint)),
+                 p.morph.data(), GL_STATIC_DRAW);
     glVertexAttribIPointer(detail::kMorphAttribute, 2, GL_INT, 0, nullptr);
     glEnableVertexAttribArray(detail::kMorphAttribute);
-    upload(GL_ELEMENT_ARRAY_BUFFER, buffers[3], p.indices.data(),
-           p.indices.size() * sizeof(GLuint));
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[6]);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+                 static_cast<GLsizeiptr>(p.indices.size() * sizeof(GLuint)), p.indices.data(),
+                 GL_STATIC_DRAW);
     check_gl("glBufferData (mesh)");
 
     glGenTextures(1, &delta_tex);
-    glActiveTexture(GL_TEXTURE0);
+    glActiveTexture(GL_TEXTURE0 + detail::kDeltaUnit);
     glBindTexture(GL_TEXTURE_2D, delta_tex);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, detail::kDeltaWidth, p.delta_rows, 0, GL_RGBA,
                  GL_FLOAT, p.deltas.data());
     check_gl("glTexImage2D (morph deltas)");
+    upload_textures(p);
+    init_framebuffers(o);
+  }
 
+  static GLuint upload_texture(int w, int h, const std::uint8_t* rgba, bool srgb, bool repeat_s,
+                               bool repeat_t, bool nearest) {
+    GLuint t = 0;
+    glGenTextures(1, &t);
+    glBindTexture(GL_TEXTURE_2D, t);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, srgb ? GL_SRGB8_ALPHA8 : GL_RGBA8, w, h, 0, GL_RGBA,
+                 GL_UNSIGNED_BYTE, rgba);
+    glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER,
+                    nearest ? GL_NEAREST_MIPMAP_NEAREST : GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, nearest ? GL_NEAREST : GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, repeat_s ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, repeat_t ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+    return t;
+  }
+
+  // glTF's UV origin is the image's top-left, which is where the rows start: no flip.
+  void upload_textures(const PackedRig& p) {
+    glActiveTexture(GL_TEXTURE0 + detail::kFirstMaterialUnit);
+    const std::uint8_t white[4] = {255, 255, 255, 255};
+    white_tex = upload_texture(1, 1, white, false, true, true, true);
+    for (const auto& t : p.textures)
+      textures.push_back(upload_texture(t.width, t.height, t.rgba.data(), t.srgb, t.repeat_s,
+                                        t.repeat_t, t.nearest));
+    check_gl("glTexImage2D (material textures)");
+  }
+
+  void init_background(const Image& image) {
+    background_program = detail::link_background_program();
+    glUseProgram(background_program);
+    glUniform1i(glGetUniformLocation(background_program, "u_image"), detail::kBackgroundUnit);
+    u.background_scale = glGetUniformLocation(background_program, "u_scale");
+    glGenVertexArrays(1, &background_vao);
+    glActiveTexture(GL_TEXTURE0 + detail::kBackgroundUnit);
+    std::vector<std::uint8_t> rgba(static_cast<std::size_t>(image.width) * image.height * 4, 255);
+    for (std::size_t i = 0, n = static_cast<std::size_t>(image.width) * image.height; i < n; ++i)
+      for (int c = 0; c < 3; ++c)
+        rgba[4 * i + c] = image.pixels[i * image.channels + (image.channels >= 3 ? c : 0)];
+    background_tex =
+        upload_texture(image.width, image.height, rgba.data(), false, false, false, false);
+    // Cover the frame: crop the image's longer side to the frame's aspect ratio.
+    const float frame = static_cast<float>(width) / static_cast<float>(height);
+    const float img = static_cast<float>(image.width) / static_cast<float>(image.height);
+    background_scale[0] = img > frame ? frame / img : 1.0f;
+    background_scale[1] = img > frame ? 1.0f : img / frame;
+    check_gl("background image");
+  }
+
+  void init_framebuffers(const RenderOptions& o) {
     width = o.width;
     height = o.height;
     samples = o.msaa > 1 ? o.msaa : 0;
@@ -141,33 +259,83 @@ struct Slot {
     check_gl("framebuffer setup");
   }
 
+  void draw_range(const PackedRig& p, const PackedRig::Range& r) {
+    const detail::PackedMaterial& m = p.materials[static_cast<std::size_t>(r.material)];
+    glUniform4fv(u.base_color, 1, m.base_color.data());
+    glUniform3fv(u.emissive, 1, m.emissive.data());
+    glUniform2f(u.metallic_roughness, m.metallic, m.roughness);
+    glUniform1f(u.normal_scale, m.normal_scale);
+    glUniform1f(u.occlusion_strength, m.occlusion_strength);
+    glUniform1i(u.alpha_mode, static_cast<int>(m.alpha_mode));
+    glUniform1f(u.alpha_cutoff, m.alpha_cutoff);
+    GLint has[detail::kSlotCount];
+    for (int slot = 0; slot < detail::kSlotCount; ++slot) {
+      has[slot] = m.texture[slot] >= 0;
+      glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(detail::kFirstMaterialUnit + slot));
+      glBindTexture(GL_TEXTURE_2D,
+                    has[slot] ? textures[static_cast<std::size_t>(m.texture[slot])] : white_tex);
+    }
+    glUniform1iv(u.has_texture, detail::kSlotCount, has);
+    glUniformMatrix3fv(u.uv, detail::kSlotCount, GL_FALSE, m.uv_transform[0].data());
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(r.count), GL_UNSIGNED_INT,
+                   reinterpret_cast<const void*>(r.first * sizeof(GLuint)));
+  }
+
   void draw(const PackedRig& p, const RenderOptions& o, const Camera& cam,
-            std::span<const float> weights, const Eigen::Matrix4f& model, Image& out) {
+            std::span<const float> weights, const HeadMatrices& pose, Image& out) {
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     glViewport(0, 0, width, height);
     glClearColor(o.background.x(), o.background.y(), o.background.z(), 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    glEnable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    if (background_program) {
+      glDisable(GL_DEPTH_TEST);
+      glUseProgram(background_program);
+      glUniform2fv(u.background_scale, 1, background_scale);
+      glActiveTexture(GL_TEXTURE0 + detail::kBackgroundUnit);
+      glBindTexture(GL_TEXTURE_2D, background_tex);
+      glBindVertexArray(background_vao);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+    glEnable(GL_DEPTH_TEST);
+    glDepthMask(GL_TRUE);
     glUseProgram(program);
-    glUniform1i(u_deltas, 0);
-    glActiveTexture(GL_TEXTURE0);
+    glActiveTexture(GL_TEXTURE0 + detail::kDeltaUnit);
     glBindTexture(GL_TEXTURE_2D, delta_tex);
     float w[detail::kMaxShapes] = {};
     std::copy(weights.begin(), weights.end(), w);
-    glUniform1fv(u_weights, detail::kMaxShapes, w);
+    glUniform1fv(u.weights, detail::kMaxShapes, w);
     const float aspect = static_cast<float>(width) / static_cast<float>(height);
+    const Eigen::Matrix4f view = look_at(cam.eye, cam.target, cam.up);
     const Eigen::Matrix4f mvp =
         perspective(cam.fov_y_deg * 3.14159265f / 180.0f, aspect, cam.near_plane, cam.far_plane) *
-        look_at(cam.eye, cam.target, cam.up);
-    glUniformMatrix4fv(u_mvp, 1, GL_FALSE, mvp.data());
-    glUniformMatrix4fv(u_model, 1, GL_FALSE, model.data());
-    glUniform3fv(u_eye, 1, cam.eye.data());
+        view;
+    glUniformMatrix4fv(u.mvp, 1, GL_FALSE, mvp.data());
+    glUniformMatrix4fv(u.neck, 1, GL_FALSE, pose.neck.data());
+    glUniformMatrix4fv(u.head, 1, GL_FALSE, pose.head.data());
+    glUniform3fv(u.eye, 1, cam.eye.data());
     glBindVertexArray(vao);
+    // Opaque and masked ranges first, then blended ones far to near without writing depth.
+    std::vector<const PackedRig::Range*> blended;
     for (const auto& r : p.ranges) {
-      glUniform3fv(u_color, 1, r.color.data());
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(r.count), GL_UNSIGNED_INT,
-                     reinterpret_cast<const void*>(r.first * sizeof(GLuint)));
+      if (p.materials[static_cast<std::size_t>(r.material)].alpha_mode == anim::AlphaMode::kBlend)
+        blended.push_back(&r);
+      else
+        draw_range(p, r);
+    }
+    if (!blended.empty()) {
+      const auto depth = [&](const PackedRig::Range* r) {
+        return (view * pose.head * r->centroid.homogeneous()).z();  // more negative: farther
+      };
+      std::stable_sort(blended.begin(), blended.end(),
+                       [&](auto* a, auto* b) { return depth(a) < depth(b); });
+      glEnable(GL_BLEND);
+      glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+      glDepthMask(GL_FALSE);
+      for (const auto* r : blended) draw_range(p, *r);
+      glDepthMask(GL_TRUE);
+      glDisable(GL_BLEND);
     }
     check_gl("glDrawElements");
     if (samples) {
@@ -195,8 +363,15 @@ struct Slot {
     try {
       context.make_current();
       glDeleteTextures(1, &delta_tex);
-      glDeleteBuffers(4, buffers);
+      glDeleteTextures(static_cast<GLsizei>(textures.size()), textures.data());
+      glDeleteTextures(1, &white_tex);
+      glDeleteBuffers(7, buffers);
       glDeleteVertexArrays(1, &vao);
+      if (background_program) {
+        glDeleteTextures(1, &background_tex);
+        glDeleteVertexArrays(1, &background_vao);
+        glDeleteProgram(background_program);
+      }
       glDeleteRenderbuffers(1, &color_rb);
       glDeleteRenderbuffers(1, &depth_rb);
       glDeleteFramebuffers(1, &fbo);
@@ -211,61 +386,13 @@ struct Slot {
   }
 };
 
-// Yaw about +Y, then pitch about +X, then roll about +Z, about `pivot`.
-Eigen::Matrix4f head_matrix(const anim::HeadPose& head, const Eigen::Vector3f& pivot) {
-  Eigen::Affine3f m =
-      Eigen::Translation3f(pivot) * Eigen::AngleAxisf(head.roll, Eigen::Vector3f::UnitZ()) *
-      Eigen::AngleAxisf(head.pitch, Eigen::Vector3f::UnitX()) *
-      Eigen::AngleAxisf(head.yaw, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-pivot);
-  return m.matrix();
-}
-
-// The neck: the centre of the skin's bounding box in x and z, 10% above its bottom.
-Eigen::Vector3f neck_pivot(const anim::Rig& rig) {
-  if (rig.vertex_count() == 0) return Eigen::Vector3f::Zero();
-  const Eigen::Vector3f lo = rig.positions.colwise().minCoeff().transpose();
-  const Eigen::Vector3f hi = rig.positions.colwise().maxCoeff().transpose();
-  return {0.5f * (lo.x() + hi.x()), lo.y() + 0.1f * (hi.y() - lo.y()), 0.5f * (lo.z() + hi.z())};
-}
-
 }  // namespace
-
-Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& options) {
-  const auto comps = anim::connected_components(rig.vertex_count(), rig.triangles);
-  const int skin = comps.largest;
-  Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
-  for (int v = 0; v < rig.vertex_count(); ++v) {
-    if (comps.label[static_cast<std::size_t>(v)] != skin) continue;
-    lo = lo.cwiseMin(rig.positions.row(v).transpose());
-    hi = hi.cwiseMax(rig.positions.row(v).transpose());
-  }
-  // The front half of the skin.
-  const float mid_z = 0.5f * (lo.z() + hi.z());
-  Eigen::Vector3f flo = Eigen::Vector3f::Constant(1e30f), fhi = -flo;
-  for (int v = 0; v < rig.vertex_count(); ++v) {
-    if (comps.label[static_cast<std::size_t>(v)] != skin || rig.positions(v, 2) < mid_z) continue;
-    flo = flo.cwiseMin(rig.positions.row(v).transpose());
-    fhi = fhi.cwiseMax(rig.positions.row(v).transpose());
-  }
-  Camera c;
-  c.fov_y_deg = options.fov_y_deg;
-  const Eigen::Vector3f centre = 0.5f * (flo + fhi);
-  const float t = std::tan(0.5f * options.fov_y_deg * 3.14159265f / 180.0f);
-  const float h = (fhi.y() - flo.y()) * options.margin, w = (fhi.x() - flo.x()) * options.margin;
-  const float dist = std::max(0.5f * h / t, 0.5f * w / (t * aspect));
-  c.target = centre;
-  c.eye = Eigen::Vector3f(centre.x(), centre.y(), fhi.z() + dist);
-  const float depth = hi.z() - lo.z();
-  c.near_plane = std::max(0.01f, 0.2f * dist);
-  c.far_plane = fhi.z() + dist - lo.z() + depth;
-  return c;
-}
 
 struct Renderer::Impl {
   RenderOptions options;
   PackedRig packed;
   Camera camera;
-  Eigen::Vector3f neck = Eigen::Vector3f::Zero();  // pivot of the head pose
+  std::optional<Image> background;  // options.background_image, read once
   mutable std::mutex mutex;
   mutable std::condition_variable freed;
   mutable std::vector<std::unique_ptr<Slot>> slots;
@@ -285,7 +412,7 @@ struct Renderer::Impl {
         lock.unlock();
         std::unique_ptr<Slot> made;
         try {
-          made = std::make_unique<Slot>(packed, options);
+          made = std::make_unique<Slot>(packed, options, background ? &*background : nullptr);
         } catch (...) {
           lock.lock();
           slots.erase(slots.begin() + static_cast<std::ptrdiff_t>(at));
@@ -312,9 +439,9 @@ Renderer::Renderer(const anim::Rig& rig, RenderOptions options) : impl_(std::mak
                 std::to_string(options.height) + " is out of range (1..8192)");
   impl_->options = options;
   impl_->packed = detail::pack_rig(rig);
-  impl_->camera = frame_face(
+  if (!options.background_image.empty()) impl_->background = read_image(options.background_image);
+  impl_->camera = frame_avatar(
       rig, static_cast<float>(options.width) / static_cast<float>(options.height), options);
-  impl_->neck = neck_pivot(rig);
 }
 
 Renderer::~Renderer() = default;
@@ -347,7 +474,8 @@ Image Renderer::render(std::span<const float> weights, const anim::HeadPose& hea
   Image image;
   try {
     slot->context.make_current();
-    slot->draw(impl_->packed, impl_->options, cam, weights, head_matrix(head, impl_->neck), image);
+    slot->draw(impl_->packed, impl_->options, cam, weights, head_matrices(head, impl_->packed.head),
+               image);
     slot->context.release();
   } catch (...) {
     slot->context.release();

@@ -16,12 +16,18 @@ const char* kVertexShader = R"(
 layout(location = POSITION_ATTRIBUTE) in vec3 a_pos;
 layout(location = NORMAL_ATTRIBUTE) in vec3 a_nrm;
 layout(location = MORPH_ATTRIBUTE) in ivec2 a_morph;  // first entry, entry count
+layout(location = UV_ATTRIBUTE) in vec2 a_uv;
+layout(location = TANGENT_ATTRIBUTE) in vec4 a_tan;
+layout(location = SKIN_ATTRIBUTE) in vec2 a_skin;  // weight of the neck's motion, of the head's
 uniform sampler2D u_deltas;  // TEXELS_PER_ENTRY texels per entry: (dpos, shape), (dnrm, 0)
 uniform float u_weights[MAX_SHAPES];
 uniform mat4 u_mvp;
-uniform mat4 u_model;  // head pose (a rotation about the neck)
+uniform mat4 u_neck;  // head pose: the neck's rotation about its joint
+uniform mat4 u_head;  // the head's: the neck's followed by the head's own
 out vec3 v_pos;
 out vec3 v_nrm;
+out vec2 v_uv;
+out vec4 v_tan;
 void main() {
   vec3 p = a_pos;
   vec3 n = a_nrm;
@@ -35,40 +41,104 @@ void main() {
       n += w * texelFetch(u_deltas, at + ivec2(1, 0), 0).xyz;
     }
   }
-  vec4 world = u_model * vec4(p, 1.0);
+  mat4 m = (1.0 - a_skin.x - a_skin.y) * mat4(1.0) + a_skin.x * u_neck + a_skin.y * u_head;
+  vec4 world = m * vec4(p, 1.0);
   v_pos = world.xyz;
-  v_nrm = mat3(u_model) * n;
+  v_nrm = mat3(m) * n;
+  v_tan = vec4(mat3(m) * a_tan.xyz, a_tan.w);
+  v_uv = a_uv;
   gl_Position = u_mvp * world;
 }
 )";
 
+// Metallic-roughness PBR (GGX, Smith-Schlick, Schlick Fresnel) under a studio rig: a key, a fill
+// and a rim light and a sky/ground ambient; textures in slot order (BASE_COLOR_SLOT, ...), each
+// with its UV transform; alpha MASK discards, BLEND keeps the alpha.
 const char* kFragmentShader = R"(
 in vec3 v_pos;
 in vec3 v_nrm;
-uniform vec3 u_color;  // linear
+in vec2 v_uv;
+in vec4 v_tan;
+uniform vec4 u_base_color;  // linear
+uniform vec3 u_emissive;
+uniform vec2 u_metallic_roughness;
+uniform float u_normal_scale;
+uniform float u_occlusion_strength;
+uniform int u_alpha_mode;  // 0 opaque, 1 mask, 2 blend
+uniform float u_alpha_cutoff;
+uniform int u_has_texture[SLOT_COUNT];
+uniform mat3 u_uv[SLOT_COUNT];
+uniform sampler2D u_textures[SLOT_COUNT];
 uniform vec3 u_eye;
 out vec4 frag;
+const float PI = 3.14159265;
 vec3 to_srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
 }
-void main() {
-  vec3 n = normalize(v_nrm);
-  vec3 v = normalize(u_eye - v_pos);
-  if (dot(n, v) < 0.0) n = -n;  // two-sided: open sheets and inner surfaces
-  vec3 key = normalize(vec3(-0.45, 0.55, 0.75));
-  vec3 fill = normalize(vec3(0.6, 0.1, 0.8));
-  vec3 rim = normalize(vec3(0.0, 0.4, -1.0));
-  float wrap = 0.25;  // soft wrap lighting, kinder to skin
-  float kd = max((dot(n, key) + wrap) / (1.0 + wrap), 0.0);
-  float fd = max(dot(n, fill), 0.0);
-  float rd = pow(max(dot(n, rim), 0.0), 2.0);
-  vec3 h = normalize(key + v);
-  float spec = pow(max(dot(n, h), 0.0), 40.0) * 0.12;
-  float hemi = 0.5 + 0.5 * n.y;
-  vec3 c = u_color * (0.22 + 0.1 * hemi + 0.78 * kd + 0.25 * fd + 0.2 * rd) + vec3(spec);
-  frag = vec4(to_srgb(c), 1.0);
+// A macro, not a function: sampler arrays take constant indices only.
+#define sample_slot(slot, fallback) \
+  (u_has_texture[slot] == 0 ? (fallback) \
+                            : texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy))
+vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float rough) {
+  float nl = max(dot(n, l), 0.0);
+  if (nl <= 0.0) return vec3(0.0);
+  vec3 h = normalize(l + v);
+  float nv = max(dot(n, v), 1e-4), nh = max(dot(n, h), 0.0), vh = max(dot(v, h), 0.0);
+  float a2 = pow(max(rough * rough, 1e-3), 2.0);
+  float d = a2 / (PI * pow(nh * nh * (a2 - 1.0) + 1.0, 2.0));
+  float k = pow(rough + 1.0, 2.0) / 8.0;
+  float g = nv / (nv * (1.0 - k) + k) * nl / (nl * (1.0 - k) + k);
+  vec3 f = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
+  vec3 spec = d * g * f / (4.0 * nv * nl + 1e-4);
+  return ((1.0 - f) * albedo / PI + spec) * radiance * nl;
 }
+void main() {
+  vec4 base = u_base_color * sample_slot(BASE_COLOR_SLOT, vec4(1.0));
+  if (u_alpha_mode == 1 && base.a < u_alpha_cutoff) discard;
+  vec4 mr = sample_slot(METALLIC_ROUGHNESS_SLOT, vec4(1.0));
+  float metal = clamp(u_metallic_roughness.x * mr.b, 0.0, 1.0);
+  float rough = clamp(u_metallic_roughness.y * mr.g, 0.04, 1.0);
+  vec3 v = normalize(u_eye - v_pos);
+  vec3 n = normalize(v_nrm);
+  float side = dot(n, v) < 0.0 ? -1.0 : 1.0;  // two-sided: open sheets and inner surfaces
+  n *= side;
+  if (u_has_texture[NORMAL_SLOT] != 0) {
+    vec3 t = normalize(v_tan.xyz - n * dot(n, v_tan.xyz));
+    vec3 b = cross(n, t) * v_tan.w * side;
+    vec3 tn = sample_slot(NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0)).xyz * 2.0 - 1.0;
+    tn.xy *= u_normal_scale;
+    n = normalize(mat3(t, b, n) * tn);
+  }
+  float ao = 1.0 + u_occlusion_strength * (sample_slot(OCCLUSION_SLOT, vec4(1.0)).r - 1.0);
+  vec3 albedo = base.rgb * (1.0 - metal);
+  vec3 f0 = mix(vec3(0.04), base.rgb, metal);
+  vec3 c = light(n, v, normalize(vec3(-0.45, 0.55, 0.75)), 2.6, albedo, f0, rough)
+         + light(n, v, normalize(vec3(0.6, 0.1, 0.8)), 0.8, albedo, f0, rough)
+         + light(n, v, normalize(vec3(0.0, 0.4, -1.0)), 1.2, albedo, f0, rough);
+  vec3 ambient = mix(vec3(0.20, 0.19, 0.18), vec3(0.34, 0.36, 0.40), 0.5 + 0.5 * n.y);
+  c += ao * ambient * (albedo + f0 * 0.5);
+  c += u_emissive * sample_slot(EMISSIVE_SLOT, vec4(1.0)).rgb;
+  frag = vec4(to_srgb(c), u_alpha_mode == 2 ? base.a : 1.0);
+}
+)";
+
+// The background image: one triangle covering the screen, the image scaled to cover it.
+const char* kBackgroundVertexShader = R"(
+uniform vec2 u_scale;  // of the image's UV range, keeping its aspect ratio
+out vec2 v_uv;
+void main() {
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  v_uv = 0.5 + (vec2(p.x, 1.0 - p.y) - 0.5) * u_scale;
+  gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);
+}
+)";
+
+const char* kBackgroundFragmentShader = R"(
+in vec2 v_uv;
+uniform sampler2D u_image;
+out vec4 frag;
+void main() { frag = vec4(texture(u_image, v_uv).rgb, 1.0); }
 )";
 
 std::string prelude() {
@@ -79,7 +149,16 @@ std::string prelude() {
     << "#define TEXELS_PER_ENTRY " << kTexelsPerEntry << "\n"
     << "#define POSITION_ATTRIBUTE " << kPositionAttribute << "\n"
     << "#define NORMAL_ATTRIBUTE " << kNormalAttribute << "\n"
-    << "#define MORPH_ATTRIBUTE " << kMorphAttribute << "\n";
+    << "#define MORPH_ATTRIBUTE " << kMorphAttribute << "\n"
+    << "#define UV_ATTRIBUTE " << kUvAttribute << "\n"
+    << "#define TANGENT_ATTRIBUTE " << kTangentAttribute << "\n"
+    << "#define SKIN_ATTRIBUTE " << kSkinAttribute << "\n"
+    << "#define SLOT_COUNT " << kSlotCount << "\n"
+    << "#define BASE_COLOR_SLOT " << kBaseColorSlot << "\n"
+    << "#define METALLIC_ROUGHNESS_SLOT " << kMetallicRoughnessSlot << "\n"
+    << "#define NORMAL_SLOT " << kNormalSlot << "\n"
+    << "#define OCCLUSION_SLOT " << kOcclusionSlot << "\n"
+    << "#define EMISSIVE_SLOT " << kEmissiveSlot << "\n";
   return s.str();
 }
 
@@ -111,9 +190,11 @@ void check_gl(const char* call) {
   }
 }
 
-GLuint link_program() {
-  const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader, "vertex");
-  const GLuint fs = compile(GL_FRAGMENT_SHADER, kFragmentShader, "fragment");
+namespace {
+
+GLuint link(const char* vertex, const char* fragment, const char* what) {
+  const GLuint vs = compile(GL_VERTEX_SHADER, vertex, what);
+  const GLuint fs = compile(GL_FRAGMENT_SHADER, fragment, what);
   const GLuint program = glCreateProgram();
   glAttachShader(program, vs);
   glAttachShader(program, fs);
@@ -122,8 +203,18 @@ GLuint link_program() {
   glDeleteShader(fs);
   GLint ok = 0;
   glGetProgramiv(program, GL_LINK_STATUS, &ok);
-  if (!ok) throw Error("glLinkProgram failed", ErrorCode::kInternal);
+  if (!ok) throw Error(std::string("glLinkProgram (") + what + ") failed", ErrorCode::kInternal);
   return program;
+}
+
+}  // namespace
+
+GLuint link_program() {
+  return link(kVertexShader, kFragmentShader, "avatar");
+}
+
+GLuint link_background_program() {
+  return link(kBackgroundVertexShader, kBackgroundFragmentShader, "background");
 }
 
 }  // namespace facecast::render::detail

@@ -9,9 +9,11 @@ namespace facecast::render::detail {
 void check_gl(const char* call);
 
 /// Compiles and links the program on the current context: morph blending from the delta texture
-/// in the vertex shader, soft lighting and sRGB output in the fragment shader. The GPU layout
-/// constants of gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with
-/// the compiler's log.
+/// and the head pose in the vertex shader, metallic-roughness shading of the material's textures
+/// and sRGB output in the fragment shader. The GPU layout constants of gpu_rig.hpp are #defined at
+/// the top of the sources. Throws Error(kInternal) with the compiler's log.
 GLuint link_program();
+/// The background image's program: a screen-covering triangle (drawn with no vertex buffer).
+GLuint link_background_program();
 
 }  // namespace facecast::render::detail

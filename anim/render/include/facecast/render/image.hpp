@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace facecast::render {
@@ -28,6 +29,10 @@ std::string encode_png(const Image& image);
 
 /// Reads any format OpenImageIO knows, as 8-bit with 3 channels (alpha dropped, grey expanded).
 Image read_image(const std::filesystem::path& path);
+
+/// Decodes PNG or JPEG bytes (a texture embedded in an avatar) as 8-bit RGBA, refusing images
+/// wider or taller than `max_side` before decoding. Throws facecast::Error naming `what`.
+Image decode_image(std::string_view bytes, std::string_view what, int max_side = 8192);
 
 struct ImageDifference {
   double mean_abs = 0;       // mean absolute channel difference, 0..255

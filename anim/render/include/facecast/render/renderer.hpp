@@ -29,14 +29,20 @@
 
 namespace facecast::render {
 
+/// What the automatic camera frames: the face (the front of the head), head and shoulders, or the
+/// whole avatar.
+enum class Framing { kFace, kBust, kFull };
+
 /// Defaults mirrored in configs/anim/render.json.
 struct RenderOptions {
   int width = 640;
   int height = 480;
   int msaa = 0;             // samples per pixel (4 is smoother, about 3x slower on llvmpipe)
   float fov_y_deg = 20.0f;  // vertical field of view
-  float margin = 1.12f;     // the framed face box is scaled by this
+  float margin = 1.12f;     // the framed box is scaled by this
+  Framing framing = Framing::kFace;
   Eigen::Vector3f background{0.16f, 0.17f, 0.20f};  // sRGB 0..1
+  std::string background_image;                     // an image file covering the frame, or ""
   int contexts = 2;                                 // size of the context pool
 };
 
@@ -52,9 +58,12 @@ struct Camera {
   float near_plane = 0.1f, far_plane = 100.0f;
 };
 
-/// A camera in front of the face (+Z) that frames the front half of the rig's largest connected
-/// component (the skin), seen at the given aspect ratio.
-Camera frame_face(const anim::Rig& rig, float aspect, const RenderOptions& options = {});
+/// A camera in front of the avatar (+Z) framing what options.framing asks for, at the given
+/// aspect ratio. The face is the front half of the head: the connected component that the most
+/// shape vertices move (the largest component when no shape moves any), narrowed to the region the
+/// shapes move when that component is a whole body; with a skeleton and no shapes, the vertices
+/// skinned to the head joint. Bust adds the shoulders below it; full is the whole rig.
+Camera frame_avatar(const anim::Rig& rig, float aspect, const RenderOptions& options = {});
 
 class Renderer {
  public:
@@ -72,7 +81,9 @@ class Renderer {
   /// Renders one frame with one weight per rig shape (in rig order). Thread-safe. Throws
   /// facecast::Error on a size mismatch, or naming the EGL/GL call that failed.
   Image render(std::span<const float> weights) const;
-  /// The same with the head turned by `head` about the neck (idle head motion).
+  /// The same with the head turned by `head` (idle head motion): through the neck and head joints
+  /// of a skinned avatar (the neck takes 40 % of the turn), else the whole rig about a pivot low in
+  /// its bounds.
   Image render(std::span<const float> weights, const anim::HeadPose& head) const;
 
   /// Which EGL platform and GL renderer are in use (creates the first context if needed).
