@@ -79,6 +79,8 @@ Rig make_avatar(const AvatarParams& params) {
   rig.triangle_group = m.group;
   rig.groups = m.group_names;
   rig.landmarks = m.landmarks;
+  rig.uvs = m.uvs;
+  rig.textures = m.textures;
   for (const auto& name : avatar_shape_names()) {
     auto it = std::find_if(shapes.begin(), shapes.end(),
                            [&](const Blendshape& s) { return s.name == name; });

@@ -112,7 +112,6 @@ enum Mat : int {
   kScleraMat,
   kIrisMat,
   kPupilMat,
-  kBrowMat,
   kLashMat,
 };
 
@@ -244,6 +243,9 @@ struct Generator {
   // Eyeballs and lids (avatar_eyes.cpp).
   void build_eyeball(int side);
   void build_lid(int side, bool upper);
+
+  // UVs and textures (avatar_textures.cpp), once the parts and materials are in `m`.
+  void paint_textures(Model& m) const;
 };
 
 }  // namespace facecast::anim::avatar_detail

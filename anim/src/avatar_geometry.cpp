@@ -180,7 +180,6 @@ Model build_geometry(const AvatarParams& params) {
            {"M_Sclera", srgb(248, 248, 244)},
            {"M_Iris", srgb(66, 128, 150)},
            {"M_Pupil", srgb(8, 8, 10)},
-           {"M_Brows", srgb(96, 64, 44)},
            {"M_Lashes", srgb(44, 30, 26)},
        })
     m.materials.push_back(Material::solid(name, colour));
@@ -196,6 +195,7 @@ Model build_geometry(const AvatarParams& params) {
   m.landmarks = g.landmarks;
   m.landmarks.push_back({"nose_tip", nose});
   m.landmarks.push_back({"chin", chin});
+  g.paint_textures(m);
   return m;
 }
 

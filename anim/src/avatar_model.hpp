@@ -77,6 +77,8 @@ struct Model {
   std::vector<std::string> group_names;
   std::vector<Material> materials;
   std::vector<Landmark> landmarks;
+  UVs uvs;                        // skin, lids and eyeballs (avatar_textures.cpp); 0 elsewhere
+  std::vector<Texture> textures;  // the skin's and the irises'
 };
 
 Model build_geometry(const AvatarParams& params);

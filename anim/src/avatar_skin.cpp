@@ -278,8 +278,6 @@ void Generator::skin_material(std::size_t t) {
   } else if (max_u <= 1.0f || (a.inner || c.inner || d.inner)) {
     m = kLipsMat;
   }
-  for (int s = 0; s < 2 && m == kSkinMat; ++s)
-    if (brow_weight(centroid, s) > 0.5f) m = kBrowMat;
   for (const auto& nc : nostril_c)
     if ((centroid - nc).dot(nostril_axis) > 0.14f && (centroid - nc).norm() < 0.7f) m = kMouthMat;
   b.mat[t] = m;

@@ -76,8 +76,20 @@ TEST_CASE("the avatar is deterministic and the right size", "[anim][avatar]") {
                         "M_MouthInterior"})
     CHECK(names.count(n));
   for (std::size_t i = 0; i < rig.materials.size(); ++i)
-    for (std::size_t j = i + 1; j < rig.materials.size(); ++j)
-      CHECK((rig.materials[i].base_color - rig.materials[j].base_color).norm() > 0.02f);
+    for (std::size_t j = i + 1; j < rig.materials.size(); ++j) {
+      const auto& m1 = rig.materials[i];
+      const auto& m2 = rig.materials[j];
+      CHECK(((m1.base_color - m2.base_color).norm() > 0.02f ||
+             m1.base_color_texture.texture != m2.base_color_texture.texture));
+    }
+  // The skin (with its brows and blush) and the irises are textured: PNGs sampled through UVs.
+  REQUIRE(rig.textures.size() == 2);
+  for (const auto& t : rig.textures) CHECK(t.bytes.rfind("\x89PNG\r\n\x1a\n", 0) == 0);
+  CHECK(rig.uvs.rows() == rig.vertex_count());
+  CHECK(rig.uvs.minCoeff() >= 0.0f);
+  CHECK(rig.uvs.maxCoeff() <= 1.0f);
+  for (const auto& m : rig.materials)
+    if (m.name == "M_Skin" || m.name == "M_Iris") CHECK(m.base_color_texture.texture >= 0);
   // Skin, two teeth rows, tongue, two eyeballs, four lids.
   CHECK(connected_components(rig.vertex_count(), rig.triangles).count == 10);
   // The GLB round trip keeps everything the server needs.

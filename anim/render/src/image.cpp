@@ -18,6 +18,11 @@ namespace {
 
 namespace OIIO = OIIO_NAMESPACE;
 
+std::string one_line(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  return s;
+}
+
 void check_image(const Image& image, std::string_view what) {
   if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
       image.pixels.size() != static_cast<std::size_t>(image.width) * image.height * image.channels)
@@ -110,12 +115,16 @@ Image decode_image(std::string_view bytes, std::string_view what, int max_side) 
   const bool jpeg = bytes.size() >= 3 && bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3);
   if (!png && !jpeg) throw Error(name + ": not a PNG or JPEG image", ErrorCode::kUnsupported);
   OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
-  auto in = OIIO::ImageInput::create(png ? "image.png" : "image.jpg");
-  if (!in) throw Error(name + ": no image reader: " + OIIO::geterror(), ErrorCode::kInternal);
   OIIO::ImageSpec config;
-  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
+  const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_pointer);
+  const std::string file = png ? "image.png" : "image.jpg";
+  auto in = OIIO::ImageInput::create(file, false, &config, &proxy);
+  if (!in)
+    throw Error(name + ": no image reader: " + one_line(OIIO::geterror()), ErrorCode::kInternal);
   OIIO::ImageSpec spec;
-  if (!in->open("image", spec, config)) throw Error(name + ": cannot decode: " + in->geterror());
+  if (!in->open(file, spec, config))
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
   if (spec.width < 1 || spec.height < 1 || spec.width > max_side || spec.height > max_side ||
       spec.nchannels < 1 || spec.nchannels > 4)
     throw Error(name + ": image of " + std::to_string(spec.width) + "x" +
@@ -127,7 +136,7 @@ Image decode_image(std::string_view bytes, std::string_view what, int max_side) 
   // Read the file's channels into the first ones of RGBA; grey is expanded below.
   const OIIO::stride_t pixel = 4;
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
-    throw Error(name + ": cannot decode: " + in->geterror());
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
   if (spec.nchannels <= 2) {
     for (std::size_t i = 0; i < img.pixels.size(); i += 4) {
       const std::uint8_t g = img.pixels[i], a = spec.nchannels == 2 ? img.pixels[i + 1] : 255;
