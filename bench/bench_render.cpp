@@ -1,11 +1,16 @@
 // Renders the ICT FaceKit (packed from the extracted test data) and the built-in avatar at 640x480
-// with random weights, JPEG-encodes each frame, and prints frames per second; also times the
-// triangle self-intersection check on the ICT neutral.
+// with random weights, JPEG-encodes each frame, and prints frames per second: one stream, and two
+// streams at once on two threads (what two viewers of frames mode cost); also a heavier textured
+// avatar (every material with its own 1024x1024 base-colour texture, the skin with a normal and an
+// occlusion map: 12 textures); and times the triangle self-intersection check.
 // Usage: bench_render [frames] [msaa]
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
+#include <thread>
 
 #include "facecast/anim/avatar.hpp"
 #include "facecast/anim/intersections.hpp"
@@ -20,34 +25,86 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-void bench(const char* label, const anim::Rig& rig, int frames, int msaa) {
-  render::RenderOptions o;
-  o.msaa = msaa;
-  o.contexts = 1;
-  auto t0 = Clock::now();
-  const render::Renderer r(rig, o);
-  std::vector<float> w(rig.shapes.size(), 0.0f);
-  (void)r.render(w);  // context creation and upload
-  const double setup = ms_since(t0);
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+struct Figures {
   double render_ms = 0, jpeg_ms = 0;
   std::size_t bytes = 0;
-  for (int f = 0; f < frames; ++f) {
+};
+
+// `frames` frames of random weights on one renderer, each JPEG-encoded.
+Figures stream(const render::Renderer& r, std::size_t shapes, int frames, unsigned seed) {
+  std::vector<float> w(shapes, 0.0f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Figures f;
+  for (int i = 0; i < frames; ++i) {
     for (auto& x : w) x = 0.5f * u(rng);
     auto a = Clock::now();
     const render::Image img = r.render(w);
     auto b = Clock::now();
-    bytes += render::encode_jpeg(img, 85).size();
-    render_ms += std::chrono::duration<double, std::milli>(b - a).count();
-    jpeg_ms += ms_since(b);
+    f.bytes += render::encode_jpeg(img, 85).size();
+    f.render_ms += std::chrono::duration<double, std::milli>(b - a).count();
+    f.jpeg_ms += ms_since(b);
   }
-  std::printf("%s: %d vertices, %d triangles, %zu shapes; setup %.0f ms (%s)\n", label,
-              rig.vertex_count(), rig.triangle_count(), rig.shapes.size(), setup,
-              r.backend().c_str());
+  return f;
+}
+
+void bench(const char* label, const anim::Rig& rig, int frames, int msaa) {
+  render::RenderOptions o;
+  o.msaa = msaa;
+  o.contexts = 2;
+  auto t0 = Clock::now();
+  const render::Renderer r(rig, o);
+  (void)r.render(std::vector<float>(rig.shapes.size(), 0.0f));  // context creation and upload
+  const double setup = ms_since(t0);
+  const Figures one = stream(r, rig.shapes.size(), frames, 1);
+  std::printf("%s: %d vertices, %d triangles, %zu shapes, %zu textures; setup %.0f ms (%s)\n",
+              label, rig.vertex_count(), rig.triangle_count(), rig.shapes.size(),
+              rig.textures.size(), setup, r.backend().c_str());
   std::printf("  640x480 msaa %d: render %.2f ms + JPEG %.2f ms = %.1f fps (%zu KB/frame)\n", msaa,
-              render_ms / frames, jpeg_ms / frames, 1000.0 * frames / (render_ms + jpeg_ms),
-              bytes / frames / 1024);
+              one.render_ms / frames, one.jpeg_ms / frames,
+              1000.0 * frames / (one.render_ms + one.jpeg_ms), one.bytes / frames / 1024);
+  // Two streams at once: each thread renders and encodes its own frames.
+  Figures two[2];
+  t0 = Clock::now();
+  std::thread other([&] { two[1] = stream(r, rig.shapes.size(), frames, 2); });
+  two[0] = stream(r, rig.shapes.size(), frames, 3);
+  other.join();
+  const double wall = ms_since(t0);
+  std::printf("  two streams at once: %.1f fps each (%d frames each in %.0f ms)\n",
+              1000.0 * frames / wall, frames, wall);
+}
+
+// The avatar with a 1024x1024 base-colour texture of its own per material (value noise in the
+// material's colour), and a normal and an occlusion map on the skin.
+anim::Rig heavily_textured(anim::Rig rig) {
+  const int n = 1024;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> grain(-12, 12);
+  const auto texture = [&](const std::string& name, auto colour) {
+    render::Image img{n, n, 3, {}};
+    img.pixels.resize(static_cast<std::size_t>(n) * n * 3);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (int c = 0; c < 3; ++c)
+          img.pixels[(static_cast<std::size_t>(y) * n + x) * 3 + c] =
+              static_cast<std::uint8_t>(std::clamp(colour(x, y, c) + grain(rng), 0, 255));
+    rig.textures.push_back({name, "image/png", render::encode_png(img)});
+    return static_cast<int>(rig.textures.size()) - 1;
+  };
+  for (auto& m : rig.materials) {
+    const Eigen::Vector4f c = m.base_color;
+    m.base_color_texture.texture = texture(m.name, [&](int, int, int k) {
+      return static_cast<int>(255.0f * std::pow(c[k], 1.0f / 2.2f));
+    });
+    m.base_color = Eigen::Vector4f::Ones();
+    if (m.name == "M_Skin") {
+      m.normal_texture.texture = texture("skin_normal", [](int x, int y, int k) {
+        return k == 2 ? 255 : 128 + static_cast<int>(20 * std::sin((k ? y : x) * 0.2));
+      });
+      m.occlusion_texture.texture = texture("skin_occlusion", [](int, int, int) { return 230; });
+    }
+  }
+  return rig;
 }
 }  // namespace
 
@@ -59,9 +116,10 @@ int main(int argc, char** argv) try {
   const double generation = ms_since(t0);
   t0 = Clock::now();
   const std::size_t glb = anim::glb_bytes(avatar).size();
-  std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation, ms_since(t0),
-              glb / 1024);
+  std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation,
+              ms_since(t0), glb / 1024);
   bench("avatar", avatar, frames, msaa);
+  bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa);
   const std::filesystem::path ict =
       std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
   if (!std::filesystem::exists(ict / "generic_neutral_mesh.obj")) {

@@ -7,6 +7,7 @@
 // file.
 #include <fnmatch.h>
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -14,6 +15,8 @@
 #include <unordered_map>
 
 #include "facecast/anim/rig_io.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 
@@ -107,7 +110,28 @@ std::string trim(std::string_view s) {
   return std::string(s);
 }
 
-// Reads Kd colours from an .mtl file into the rig's materials (names not in the file keep grey).
+// The image a map_Kd line names (its last token: options may come first), relative to the .mtl.
+// PNG and JPEG are read; a missing or other image only loses the texture, as a missing material
+// library loses the colours in every OBJ viewer.
+int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view rest) {
+  std::string file = trim(rest);
+  if (const auto space = file.find_last_of(" \t"); space != std::string::npos)
+    file = file.substr(space + 1);
+  std::string bytes;
+  try {
+    bytes = read_file(mtl.parent_path() / file);
+  } catch (const Error&) {
+    return -1;
+  }
+  const bool png = bytes.rfind("\x89PNG", 0) == 0, jpeg = bytes.rfind("\xff\xd8\xff", 0) == 0;
+  if (!png && !jpeg) return -1;
+  rig.textures.push_back({file, png ? "image/png" : "image/jpeg", std::move(bytes)});
+  return static_cast<int>(rig.textures.size()) - 1;
+}
+
+// Reads an .mtl file into the rig's materials (names not in the file keep grey): Kd colour, d
+// (or Tr = 1 - d) opacity, blended when below 1; map_Kd as the base-colour texture. (Ns/Ks are not
+// read: without a physically based model in the file, Facecast's default roughness looks better.)
 void apply_mtl(Rig& rig, const std::filesystem::path& mtl) {
   std::string text;
   try {
@@ -117,23 +141,68 @@ void apply_mtl(Rig& rig, const std::filesystem::path& mtl) {
   }
   LineReader lr{text};
   std::string_view line;
-  int current = -1;
+  Material* current = nullptr;
+  const auto opacity = [&](float d) {
+    current->base_color[3] = std::clamp(d, 0.0f, 1.0f);
+    current->alpha_mode = d < 1.0f ? AlphaMode::kBlend : AlphaMode::kOpaque;
+  };
   while (lr.next(line)) {
     std::string_view rest = line;
     std::string_view key = next_token(rest);
     if (key == "newmtl") {
       const std::string n = trim(rest);
-      current = -1;
-      for (std::size_t i = 0; i < rig.materials.size(); ++i) {
-        if (rig.materials[i].name == n) current = static_cast<int>(i);
-      }
-    } else if (key == "Kd" && current >= 0) {
-      const auto kd = parse_floats<3>(rest, mtl.string(), lr.line, "Kd");
-      rig.materials[current].base_color.head<3>() = kd.transpose();
-    } else if (key == "d" && current >= 0) {
-      rig.materials[current].base_color[3] = parse_floats<1>(rest, mtl.string(), lr.line, "d")[0];
+      current = nullptr;
+      for (auto& m : rig.materials)
+        if (m.name == n) current = &m;
+    } else if (!current) {
+      continue;
+    } else if (key == "Kd") {
+      current->base_color.head<3>() =
+          parse_floats<3>(rest, mtl.string(), lr.line, "Kd").transpose();
+    } else if (key == "d") {
+      opacity(parse_floats<1>(rest, mtl.string(), lr.line, "d")[0]);
+    } else if (key == "Tr") {
+      opacity(1.0f - parse_floats<1>(rest, mtl.string(), lr.line, "Tr")[0]);
+    } else if (key == "map_Kd") {
+      current->base_color_texture.texture = read_texture(rig, mtl, rest);
     }
   }
+}
+
+// configs/anim/materials.json: looks for material names whose library cannot say them (the ICT
+// FaceKit's transparent eye shells, its irises).
+void apply_presets(Rig& rig) {
+  static const std::vector<std::pair<std::string, Material>> presets = [] {
+    std::vector<std::pair<std::string, Material>> out;
+    ConfigReader c = ConfigReader::open(config_path("anim/materials.json"));
+    ConfigReader& list = c.section("materials");
+    for (const std::string& name : list.keys()) {
+      Material m;
+      std::array<float, 3> srgb{1, 1, 1};
+      float alpha = 1;
+      list.section(name)
+          .read("base_color_srgb", srgb)
+          .read("alpha", alpha)
+          .read("roughness", m.roughness)
+          .read_choice("alpha_mode", m.alpha_mode,
+                       {{"opaque", AlphaMode::kOpaque}, {"blend", AlphaMode::kBlend}})
+          .reject_unknown();
+      for (int k = 0; k < 3; ++k)
+        m.base_color[k] =
+            srgb[k] <= 0.04045f ? srgb[k] / 12.92f : std::pow((srgb[k] + 0.055f) / 1.055f, 2.4f);
+      m.base_color[3] = alpha;
+      out.emplace_back(name, m);
+    }
+    c.reject_unknown();
+    return out;
+  }();
+  for (auto& m : rig.materials)
+    for (const auto& [name, preset] : presets)
+      if (m.name == name && m.base_color_texture.texture < 0) {
+        m.base_color = preset.base_color;
+        m.roughness = preset.roughness;
+        m.alpha_mode = preset.alpha_mode;
+      }
 }
 
 struct ParsedObj {
@@ -266,6 +335,7 @@ Rig read_obj(const std::filesystem::path& path) {
   const std::string text = read_file(path);
   ParsedObj p = parse(text, path.string());
   for (const auto& lib : p.mtllibs) apply_mtl(p.rig, path.parent_path() / lib);
+  apply_presets(p.rig);
   p.rig.validate(path.string());
   return std::move(p.rig);
 }

@@ -40,9 +40,22 @@ ConfigReader& ConfigReader::section(std::string_view key) {
   return *sections_.back();
 }
 
+namespace {
+bool is_comment(const std::string& key) {
+  return key.starts_with("_") || key == "description";
+}
+}  // namespace
+
+std::vector<std::string> ConfigReader::keys() const {
+  std::vector<std::string> out;
+  for (const auto& [key, value] : object_.items())
+    if (!is_comment(key)) out.push_back(key);
+  return out;
+}
+
 void ConfigReader::reject_unknown() const {
   for (const auto& [key, value] : object_.items()) {
-    if (key.starts_with("_") || key == "description" || used_.count(key)) continue;
+    if (is_comment(key) || used_.count(key)) continue;
     throw Error(file_ + ": unknown key '" + prefix_ + key + "'");
   }
   for (const auto& s : sections_) s->reject_unknown();

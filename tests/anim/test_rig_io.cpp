@@ -211,3 +211,35 @@ TEST_CASE("ICT FaceKit: vertex order kept for the neutral and every expression",
     CHECK(err < 1e-5f);
   }
 }
+
+TEST_CASE("OBJ materials: Kd, d/Tr as blending, map_Kd textures, looks by name", "[anim][obj]") {
+  const auto dir = test::scratch_dir() / "mtl";
+  std::filesystem::create_directories(dir);
+  std::string obj = std::string("mtllib cube.mtl\n") + kCube;
+  obj.replace(obj.find("usemtl blue"), 11, "usemtl M_EyeBlend");
+  write_file_atomic(dir / "cube.obj", obj);
+  const std::string png("\x89PNG\r\n\x1a\n fake but signed", 24);
+  write_file_atomic(dir / "skin.png", png);
+  write_file_atomic(dir / "cube.mtl",
+                    "newmtl red\nKd 1 0 0\nd 0.5\nmap_Kd -bm 1 skin.png\n"
+                    "newmtl M_EyeBlend\nKd 0.5 0.5 0.5\n");
+  const Rig r = read_obj(dir / "cube.obj");
+  REQUIRE(r.materials.size() == 2);
+  const Material& red = r.materials[0];
+  CHECK(red.base_color.isApprox(Eigen::Vector4f(1, 0, 0, 0.5f)));
+  CHECK(red.alpha_mode == AlphaMode::kBlend);
+  REQUIRE(red.base_color_texture.texture == 0);
+  CHECK(r.textures[0].name == "skin.png");
+  CHECK(r.textures[0].mime_type == "image/png");
+  CHECK(r.textures[0].bytes == png);
+  // configs/anim/materials.json: the ICT FaceKit's eye-blend shell is a transparent overlay.
+  CHECK(r.materials[1].alpha_mode == AlphaMode::kBlend);
+  CHECK(r.materials[1].base_color[3] == 0.0f);
+
+  // A texture that is missing or not PNG/JPEG only loses the texture; Tr is 1 - d.
+  write_file_atomic(dir / "cube.mtl", "newmtl red\nTr 0.25\nmap_Kd missing.png\n");
+  const Rig r2 = read_obj(dir / "cube.obj");
+  CHECK(r2.materials[0].base_color[3] == Approx(0.75f));
+  CHECK(r2.materials[0].base_color_texture.texture == -1);
+  CHECK(r2.textures.empty());
+}

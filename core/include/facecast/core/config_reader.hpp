@@ -79,6 +79,8 @@ class ConfigReader {
   ConfigReader& section(std::string_view key);
 
   bool has(std::string_view key) const { return find_raw(key) != nullptr; }
+  /// The keys of this object that are not comments, in file order (for maps keyed by name).
+  std::vector<std::string> keys() const;
 
   /// Throws naming the first key (here or in a section) that nobody read.
   void reject_unknown() const;
