@@ -1,17 +1,21 @@
-// The 3D avatar: a rig's GLB in three.js, morph target influences set by name, head rotation about
-// the neck, in a Viewport (viewport.js: orbit camera, studio lighting); glTF loading and the
-// helpers the rig builder shares (rest box, part colours, morph meshes).
-//
-// A facecast GLB has one mesh with one primitive per material; GLTFLoader turns it into a Group
-// with one Mesh per primitive, each with the same morphTargetDictionary. Weights go to all of them.
+// The 3D avatar: a rig's or a user's GLB/VRM in three.js (every mesh, its materials and skin; VRM
+// through three-vrm with its MToon materials), weights set by name on every mesh (morphs.js), the
+// face framed, the head turned through the neck and head bones (or about a pivot below the head),
+// in a Viewport (viewport.js: orbit camera, studio lighting); glTF loading and the helpers the rig
+// builder shares (rest box, part colours, morph meshes).
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
+import { MorphBinding, isSoftwareRenderer, morphMeshes, targetNames } from './morphs.js';
 
-/** Loads a GLB (URL or ArrayBuffer) with GLTFLoader. */
+export { isSoftwareRenderer, morphMeshes, targetNames };
+
+/** Loads a GLB or VRM (URL or ArrayBuffer) with GLTFLoader; a VRM's model is gltf.userData.vrm. */
 export async function loadGlb(source, headers = {}, onProgress = undefined) {
   const loader = new GLTFLoader();
+  loader.register((parser) => new VRMLoaderPlugin(parser));
   loader.setRequestHeader(headers);
   if (source instanceof ArrayBuffer) return loader.parseAsync(source, '');
   return loader.loadAsync(source, onProgress);
@@ -21,22 +25,60 @@ export async function loadGlb(source, headers = {}, onProgress = undefined) {
  * The bounding box of the meshes' rest positions in world space. (Box3.setFromObject would include
  * every morph target's extent: a rig's box grows by its jawOpen and tongueOut.)
  */
-export function restBox(root) {
+export function restBox(root, meshes = null) {
   const box = new THREE.Box3();
   const p = new THREE.Vector3();
   root.updateWorldMatrix(true, true);
-  root.traverse((o) => {
+  const add = (o) => {
     if (!o.isMesh) return;
     const pos = o.geometry.attributes.position;
     const idx = o.geometry.index;
-    // Only the vertices this primitive draws (primitives share one vertex array).
+    // Only the vertices this primitive draws (primitives share one vertex array); a skinned mesh's
+    // vertices where its skeleton puts them.
     const n = idx ? idx.count : pos.count;
     for (let i = 0; i < n; i++) {
-      p.fromBufferAttribute(pos, idx ? idx.getX(i) : i).applyMatrix4(o.matrixWorld);
-      box.expandByPoint(p);
+      const v = idx ? idx.getX(i) : i;
+      if (o.isSkinnedMesh) o.applyBoneTransform(v, p.fromBufferAttribute(pos, v));
+      else p.fromBufferAttribute(pos, v);
+      box.expandByPoint(p.applyMatrix4(o.matrixWorld));
     }
-  });
+  };
+  if (meshes) meshes.forEach(add);
+  else root.traverse(add);
   return box;
+}
+
+/**
+ * The face's box: the morph mesh with the most targets (the head) and the other morph meshes inside
+ * it (teeth, eyes, tongue); the whole model when nothing has morph targets.
+ */
+export function faceBox(root) {
+  const meshes = morphMeshes(root);
+  if (!meshes.length) return restBox(root);
+  const head = meshes.reduce((a, b) => (Object.keys(b.morphTargetDictionary).length > Object.keys(a.morphTargetDictionary).length ? b : a));
+  const box = restBox(root, [head]);
+  const near = box.clone().expandByScalar(0.25 * box.getSize(new THREE.Vector3()).length());
+  for (const m of meshes) {
+    if (m === head) continue;
+    const b = restBox(root, [m]);
+    if (near.containsBox(b)) box.union(b);
+  }
+  return box;
+}
+
+// The head and neck bones: a VRM's humanoid bones, else bones named like a head and a neck.
+function headBones(root, vrm) {
+  if (vrm?.humanoid) {
+    return { head: vrm.humanoid.getNormalizedBoneNode('head'), neck: vrm.humanoid.getNormalizedBoneNode('neck') };
+  }
+  let head = null;
+  let neck = null;
+  root.traverse((o) => {
+    if (!o.isBone) return;
+    if (!head && /(^|[:_.])head$/i.test(o.name)) head = o;
+    if (!neck && /(^|[:_.])neck$/i.test(o.name)) neck = o;
+  });
+  return head ? { head, neck } : null;
 }
 
 // Colours for the material names heads usually have: OBJ uploads carry no .mtl, and a rig built from
@@ -80,32 +122,7 @@ export function colorizePlainMaterials(root) {
   return true;
 }
 
-/** True when WebGL runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
-export function isSoftwareRenderer(renderer) {
-  const gl = renderer.getContext();
-  const ext = gl.getExtension('WEBGL_debug_renderer_info');
-  const name = String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
-  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
-}
 
-/** Every mesh under root that has morph targets (one per glTF primitive). */
-export function morphMeshes(root) {
-  const meshes = [];
-  root.traverse((o) => {
-    if (o.isMesh && o.morphTargetInfluences && o.morphTargetDictionary) meshes.push(o);
-  });
-  return meshes;
-}
-
-/** The morph target names of a loaded glTF, in target order (extras.targetNames). */
-export function targetNames(root) {
-  const mesh = morphMeshes(root)[0];
-  if (!mesh) return [];
-  const dict = mesh.morphTargetDictionary;
-  const names = [];
-  for (const [name, i] of Object.entries(dict)) names[i] = name;
-  return names;
-}
 
 export class AvatarView extends Viewport {
   constructor(canvas, { background = 0x272a33 } = {}) {
@@ -114,14 +131,19 @@ export class AvatarView extends Viewport {
     this.motionPR = this.fullPR; // lowered by adapt() when frames come too slowly
     this.controls.dampingFactor = 0.12;
     this.controls.addEventListener('start', () => (this.userMoved = true));
-    this.pivot = new THREE.Group(); // the neck: head rotation is applied here
+    this.pivot = new THREE.Group(); // the neck of an avatar without head bones
     this.scene.add(this.pivot);
     this.model = null;
-    this.meshes = [];
-    this.names = [];
-    this.index = new Map(); // name -> morph index
-    this.weights = new Float32Array(0); // current influences, by morph index
+    this.vrm = null;
+    this.morphs = null;
+    this.headPose = { yaw: 0, pitch: 0, roll: 0 };
+    this.clock = new THREE.Clock();
     this.observeSize();
+  }
+
+  /** The avatar's weight names: morph targets of every mesh, then a VRM's other expressions. */
+  get names() {
+    return this.morphs ? this.morphs.names : [];
   }
 
   resize() {
@@ -130,23 +152,30 @@ export class AvatarView extends Viewport {
     if (this.box && !this.userMoved) this.frame(this.box);
   }
 
-  /** Shows a loaded glTF scene (replacing the previous rig) and frames the camera on it. */
+  /** Shows a loaded glTF or VRM (replacing the previous avatar) and frames the camera on its face. */
   setModel(gltf) {
     if (this.model) {
       this.pivot.remove(this.model);
-      this.model.traverse((o) => {
-        if (o.isMesh) {
-          o.geometry.dispose();
-          for (const m of [].concat(o.material)) m.dispose();
-        }
-      });
+      if (this.vrm) VRMUtils.deepDispose(this.model);
+      else
+        this.model.traverse((o) => {
+          if (o.isMesh) {
+            o.geometry.dispose();
+            for (const m of [].concat(o.material)) m.dispose();
+          }
+        });
     }
-    const model = gltf.scene;
-    // Put the neck at the pivot: below the head's centre, a little behind it.
-    const box = restBox(model);
+    const vrm = gltf.userData?.vrm ?? null;
+    const model = vrm ? vrm.scene : gltf.scene;
+    if (vrm) VRMUtils.rotateVRM0(vrm); // VRM 0.x faces -Z; turn it to the camera like VRM 1.0
+    this.vrm = vrm;
+    this.bones = headBones(model, vrm);
+    this.rest = this.bones ? { head: this.bones.head.quaternion.clone(), neck: this.bones.neck?.quaternion.clone() } : null;
+    const box = faceBox(model);
+    // Without bones the head turns about the pivot: the neck, below the face's centre, a little behind.
     const size = box.getSize(new THREE.Vector3());
     const center = box.getCenter(new THREE.Vector3());
-    const neck = new THREE.Vector3(center.x, box.min.y + 0.12 * size.y, center.z - 0.12 * size.z);
+    const neck = this.bones ? new THREE.Vector3() : new THREE.Vector3(center.x, box.min.y + 0.12 * size.y, center.z - 0.12 * size.z);
     model.position.sub(neck);
     this.pivot.position.copy(neck);
     this.pivot.rotation.set(0, 0, 0);
@@ -154,18 +183,17 @@ export class AvatarView extends Viewport {
     colorizePlainMaterials(model);
     for (const m of morphMeshes(model)) {
       for (const mat of [].concat(m.material)) {
+        if (!mat.isMeshStandardMaterial) continue;
         mat.envMapIntensity = 1;
         if (/sclera|teeth/i.test(mat.name)) mat.roughness = 0.35;
         if (/iris|pupil/i.test(mat.name)) mat.roughness = 0.2;
       }
     }
     this.model = model;
-    this.meshes = morphMeshes(model);
-    this.names = targetNames(model);
-    this.index = new Map(this.names.map((n, i) => [n, i]));
-    this.weights = new Float32Array(this.names.length);
-    this._mapNames = null;
-    this.setupCpuMorph();
+    const force = new URLSearchParams(window.location.search).get('morph');
+    const cpu = force === 'cpu' || (force !== 'gpu' && isSoftwareRenderer(this.renderer));
+    this.morphs = new MorphBinding(model, vrm, { cpu });
+    this.headPose = { yaw: 0, pitch: 0, roll: 0 };
     this.box = box;
     this.userMoved = false;
     this.frame(box);
@@ -186,125 +214,46 @@ export class AvatarView extends Viewport {
     this.controls.update();
   }
 
-  /**
-   * Applies weights given for `names` (the stream's order) to the morph targets of the same name.
-   * A map from stream order to morph index is cached per names array.
-   */
+  /** Applies weights given for `names` (the stream's order) to the targets and expressions of the same name. */
   setWeights(names, values) {
-    if (this._mapNames !== names) {
-      this._mapNames = names;
-      this._map = names.map((n) => (this.index.has(n) ? this.index.get(n) : -1));
-    }
-    const map = this._map;
-    let changed = false;
-    for (let i = 0; i < map.length && i < values.length; i++) {
-      const k = map[i];
-      if (k >= 0 && this.weights[k] !== values[i]) {
-        this.weights[k] = values[i];
-        changed = true;
-      }
-    }
-    if (changed) this.push();
+    if (this.morphs?.setWeights(names, values)) this.dirty = true;
   }
 
-  /** Sets one shape by name (sliders); returns false when the rig lacks it. */
+  /** Sets one shape by name (sliders); returns false when the avatar lacks it. */
   setWeight(name, value) {
-    const k = this.index.get(name);
-    if (k === undefined) return false;
-    if (this.weights[k] !== value) {
-      this.weights[k] = value;
-      this.push();
-    }
+    if (!this.morphs?.setWeight(name, value)) return false;
+    this.dirty ||= this.morphs.dirty;
     return true;
   }
 
   /** Multiplies every weight by f (a decay to the rest pose). */
   scaleWeights(f) {
-    let changed = false;
-    for (let i = 0; i < this.weights.length; i++) {
-      if (this.weights[i] === 0) continue;
-      this.weights[i] = Math.abs(this.weights[i]) < 1e-4 ? 0 : this.weights[i] * f;
-      changed = true;
-    }
-    if (changed) this.push();
+    if (this.morphs?.scale(f)) this.dirty = true;
   }
 
-  push() {
-    this.dirty = true;
-    for (const m of this.meshes) {
-      const inf = m.morphTargetInfluences;
-      for (let i = 0; i < inf.length && i < this.weights.length; i++) inf[i] = this.weights[i];
-    }
-    if (this.cpu) this.cpu.dirty = true;
-  }
-
-  /**
-   * Software WebGL (SwiftShader, llvmpipe) spends most of a frame looping over every morph target
-   * per vertex. There the morphs are blended on the CPU instead (sparse deltas, only the shapes in
-   * use) into the shared position buffer, and the shaders draw a plain mesh. The influences stay in
-   * morphTargetInfluences either way. `?morph=cpu|gpu` forces a path.
-   */
-  setupCpuMorph() {
-    this.cpu = null;
-    const force = new URLSearchParams(window.location.search).get('morph');
-    if (force === 'gpu' || (force !== 'cpu' && !isSoftwareRenderer(this.renderer))) return;
-    const first = this.meshes[0];
-    const pos = first?.geometry.attributes.position;
-    const deltas = first?.geometry.morphAttributes.position;
-    if (!pos || !deltas?.length || !this.meshes.every((m) => m.geometry.attributes.position === pos)) return;
-    const shapes = deltas.map((attr) => {
-      const a = attr.array;
-      const idx = [];
-      for (let v = 0; v < attr.count; v++) if (a[3 * v] !== 0 || a[3 * v + 1] !== 0 || a[3 * v + 2] !== 0) idx.push(v);
-      const vi = Uint32Array.from(idx);
-      const d = new Float32Array(3 * vi.length);
-      vi.forEach((v, k) => d.set(a.subarray(3 * v, 3 * v + 3), 3 * k));
-      return { vi, d };
-    });
-    for (const m of this.meshes) {
-      m.geometry.morphAttributes = {};
-      m.frustumCulled = false;
-    }
-    pos.setUsage(THREE.DynamicDrawUsage);
-    this.cpu = { pos, base: Float32Array.from(pos.array), shapes, dirty: true };
-  }
-
-  blendOnCpu() {
-    const c = this.cpu;
-    if (!c || !c.dirty) return;
-    c.dirty = false;
-    const out = c.pos.array;
-    out.set(c.base);
-    for (let k = 0; k < c.shapes.length && k < this.weights.length; k++) {
-      const w = this.weights[k];
-      if (w === 0) continue;
-      const { vi, d } = c.shapes[k];
-      for (let j = 0; j < vi.length; j++) {
-        const o = 3 * vi[j];
-        out[o] += w * d[3 * j];
-        out[o + 1] += w * d[3 * j + 1];
-        out[o + 2] += w * d[3 * j + 2];
-      }
-    }
-    c.pos.needsUpdate = true;
-  }
-
-  /** The influence of a shape on every primitive (for tests): [values...] */
+  /** The influence of a target on every morph mesh (for tests): [values...] */
   influences(name) {
-    return this.meshes.map((m) => {
-      const k = m.morphTargetDictionary[name];
-      return k === undefined ? null : m.morphTargetInfluences[k];
-    });
+    this.morphs?.apply();
+    return this.morphs ? this.morphs.influences(name) : [];
   }
 
   /**
-   * Head rotation in radians about the neck: yaw about +Y, pitch about +X, roll about +Z, applied in
-   * that order (the matrix Rz * Rx * Ry, three's Euler order 'ZXY').
+   * Head rotation in radians: yaw about +Y, pitch about +X, roll about +Z, applied in that order (the
+   * matrix Rz * Rx * Ry, three's Euler order 'ZXY'). With head bones the neck takes 40 % of it and
+   * the head the rest, on top of their rest poses; otherwise the whole avatar turns about the pivot.
    */
   setHead(yaw, pitch, roll) {
-    const r = this.pivot.rotation;
-    if (r.x === pitch && r.y === yaw && r.z === roll) return;
-    r.set(pitch, yaw, roll, 'ZXY');
+    const h = this.headPose;
+    if (h.yaw === yaw && h.pitch === pitch && h.roll === roll) return;
+    this.headPose = { yaw, pitch, roll };
+    if (!this.bones) {
+      this.pivot.rotation.set(pitch, yaw, roll, 'ZXY');
+    } else {
+      const turn = (share) => new THREE.Quaternion().setFromEuler(new THREE.Euler(share * pitch, share * yaw, share * roll, 'ZXY'));
+      const { head, neck } = this.bones;
+      if (neck) neck.quaternion.copy(this.rest.neck).multiply(turn(0.4));
+      head.quaternion.copy(this.rest.head).multiply(turn(neck ? 0.6 : 1));
+    }
     this.dirty = true;
   }
 
@@ -318,7 +267,6 @@ export class AvatarView extends Viewport {
       if (this.motionPR < this.fullPR && !this.refined && now - (this._lastDirty || 0) > 400) {
         this.refined = true;
         this.setPR(this.fullPR);
-        this.blendOnCpu();
         this.renderer.render(this.scene, this.camera);
       }
       return false;
@@ -329,7 +277,8 @@ export class AvatarView extends Viewport {
       this.refined = false;
       this.setPR(this.motionPR);
     }
-    this.blendOnCpu();
+    if (this.vrm) this.vrm.update(this.clock.getDelta()); // expressions, look-at, spring bones
+    this.morphs?.apply(!!this.vrm);
     this.renderer.render(this.scene, this.camera);
     this.renders = (this.renders || 0) + 1;
     this.adapt();

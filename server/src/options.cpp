@@ -22,6 +22,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("data", o.data);
   c.read("token", o.token);
   c.read("web_root", o.web_root).read("three_root", o.three_root);
+  c.read("three_vrm_root", o.three_vrm_root);
   c.read("default_rig", o.default_rig);
   c.read("io_threads", o.io_threads).read("workers", o.workers).read("job_workers", o.job_workers);
   c.read("max_connections", o.max_connections);

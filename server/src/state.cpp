@@ -17,6 +17,7 @@ State::State(ServerOptions opts)
     : options(std::move(opts)),
       web_root(project_path(options.web_root)),
       three_root(project_path(options.three_root)),
+      three_vrm_root(project_path(options.three_vrm_root)),
       rigs(options.data, options.default_rig),
       viseme_options(viseme::load_options()),
       anim_options(anim::load_anim_options()),

@@ -34,7 +34,7 @@ struct State {
   explicit State(ServerOptions opts);
 
   ServerOptions options;
-  std::filesystem::path web_root, three_root;  // resolved
+  std::filesystem::path web_root, three_root, three_vrm_root;  // resolved
   Metrics metrics;
   RigRegistry rigs;
   viseme::Options viseme_options;

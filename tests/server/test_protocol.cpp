@@ -205,6 +205,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.token == d.token);
   CHECK(file.web_root == d.web_root);
   CHECK(file.three_root == d.three_root);
+  CHECK(file.three_vrm_root == d.three_vrm_root);
   CHECK(file.default_rig == d.default_rig);
   CHECK(file.io_threads == d.io_threads);
   CHECK(file.workers == d.workers);

@@ -78,5 +78,5 @@ window.__facecast = {
   },
   log: state.log,
   expressions: EXPRESSIONS,
-  headRotation: () => ({ x: view.pivot.rotation.x, y: view.pivot.rotation.y, z: view.pivot.rotation.z }),
+  headRotation: () => ({ x: view.headPose.pitch, y: view.headPose.yaw, z: view.headPose.roll }),
 };

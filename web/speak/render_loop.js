@@ -51,9 +51,9 @@ export function tick() {
   if (state.restDecay && view.model) {
     view.scaleWeights(Math.exp(-dt / 0.08));
     const k = Math.exp(-dt / 0.2);
-    const r = view.pivot.rotation;
+    const h = view.headPose;
     const small = (v) => (Math.abs(v * k) < 1e-5 ? 0 : v * k);
-    view.setHead(small(r.y), small(r.x), small(r.z));
+    view.setHead(small(h.yaw), small(h.pitch), small(h.roll));
     idleBlink(now);
   }
   if (view.model && output() === 'weights') view.render();

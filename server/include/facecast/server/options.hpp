@@ -20,6 +20,7 @@ struct ServerOptions {
   // the folder above configs/).
   std::filesystem::path web_root = "web";
   std::filesystem::path three_root = "node_modules/three";
+  std::filesystem::path three_vrm_root = "node_modules/@pixiv/three-vrm/lib";  // VRM avatars
   // The rig a `speak` without "rig" uses: "default" is the built-in avatar.
   std::string default_rig = "default";
 

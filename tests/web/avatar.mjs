@@ -1,0 +1,198 @@
+// The web client's avatar view on avatars like users' files, made here with glTF-Transform: a
+// multi-mesh skinned GLB (a textured head and teeth that share morph targets by name in different
+// orders, a body without any, a Hips/Spine/Neck/Head skeleton) and the same as a VRM 1.0 (humanoid
+// bones, expressions aa and blink bound to the head's targets), loaded through three-vrm. Checks:
+// weights by name reach every mesh, VRM expressions drive their bound targets, the camera frames the
+// face (not the body), the head pose turns the head bone, and the page logs no errors.
+
+import { readFileSync, writeFileSync } from 'node:fs';
+import { createRequire } from 'node:module';
+import { join } from 'node:path';
+import { deflateSync } from 'node:zlib';
+import { run, startServer, launchBrowser, newPage, screenshot, check, must, sourceDir, artifacts } from './lib.mjs';
+
+const require = createRequire(join(sourceDir, 'package.json'));
+const { Document, NodeIO } = require('@gltf-transform/core');
+
+// A PNG of w x h RGB pixels from colour(x, y) (zlib from node; CRC-32 by the table-free loop).
+function png(w, h, colour) {
+  const crc = (buf) => {
+    let c = ~0;
+    for (const b of buf) {
+      c ^= b;
+      for (let k = 0; k < 8; k++) c = (c >>> 1) ^ (0xedb88320 & -(c & 1));
+    }
+    return ~c >>> 0;
+  };
+  const chunk = (type, data) => {
+    const out = Buffer.alloc(12 + data.length);
+    out.writeUInt32BE(data.length, 0);
+    out.write(type, 4, 'ascii');
+    data.copy(out, 8);
+    out.writeUInt32BE(crc(out.subarray(4, 8 + data.length)), 8 + data.length);
+    return out;
+  };
+  const raw = Buffer.alloc(h * (1 + 3 * w));
+  for (let y = 0; y < h; y++)
+    for (let x = 0; x < w; x++) raw.set(colour(x, y), y * (1 + 3 * w) + 1 + 3 * x);
+  const ihdr = Buffer.alloc(13);
+  ihdr.writeUInt32BE(w, 0);
+  ihdr.writeUInt32BE(h, 4);
+  ihdr.set([8, 2, 0, 0, 0], 8);
+  return Buffer.concat([Buffer.from([0x89, 0x50, 0x4e, 0x47, 13, 10, 26, 10]), chunk('IHDR', ihdr), chunk('IDAT', deflateSync(raw)), chunk('IEND', Buffer.alloc(0))]);
+}
+
+// A UV sphere (radius r about c): positions, normals, uvs, indices.
+function sphere(c, r, nu = 32, nv = 16) {
+  const pos = [], nrm = [], uv = [], idx = [];
+  for (let i = 0; i <= nv; i++)
+    for (let k = 0; k <= nu; k++) {
+      const th = (Math.PI * i) / nv, ph = (2 * Math.PI * k) / nu;
+      const n = [Math.sin(th) * Math.sin(ph), Math.cos(th), Math.sin(th) * Math.cos(ph)];
+      pos.push(c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]);
+      nrm.push(...n);
+      uv.push(k / nu, i / nv);
+    }
+  for (let i = 0; i < nv; i++)
+    for (let k = 0; k < nu; k++) {
+      const a = i * (nu + 1) + k, b = a + nu + 1;
+      idx.push(a, b, a + 1, a + 1, b, b + 1);
+    }
+  return { pos, nrm, uv, idx };
+}
+
+// The avatar: node layout Hips > Spine > Neck > Head, meshes Head (sphere at y 1.6), Teeth (small
+// sphere in front of the head's lower half), Body (a tall sphere), all skinned.
+function makeAvatar() {
+  const doc = new Document();
+  const buffer = doc.createBuffer();
+  const acc = (type, array) => doc.createAccessor().setType(type).setArray(array).setBuffer(buffer);
+  const joints = ['Hips', 'Spine', 'Neck', 'Head'].map((n) => doc.createNode(n));
+  const origins = [[0, 1.0, 0], [0, 1.2, 0], [0, 1.42, 0], [0, 1.5, 0]];
+  joints.forEach((j, i) => j.setTranslation(i ? origins[i].map((v, k) => v - origins[i - 1][k]) : origins[0]));
+  for (let i = 1; i < 4; i++) joints[i - 1].addChild(joints[i]);
+  const ibm = new Float32Array(16 * 4);
+  origins.forEach((o, i) => ibm.set([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -o[0], -o[1], -o[2], 1], 16 * i));
+  const skin = doc.createSkin().setInverseBindMatrices(acc('MAT4', ibm)).setSkeleton(joints[0]);
+  joints.forEach((j) => skin.addJoint(j));
+  const texture = doc.createTexture('skin').setMimeType('image/png').setImage(png(16, 16, (x) => (x < 8 ? [230, 40, 40] : [40, 40, 230])));
+  const scene = doc.createScene().addChild(joints[0]);
+  const part = (name, geo, joint, targets, material) => {
+    const n = geo.pos.length / 3;
+    const prim = doc
+      .createPrimitive()
+      .setAttribute('POSITION', acc('VEC3', new Float32Array(geo.pos)))
+      .setAttribute('NORMAL', acc('VEC3', new Float32Array(geo.nrm)))
+      .setAttribute('TEXCOORD_0', acc('VEC2', new Float32Array(geo.uv)))
+      .setAttribute('JOINTS_0', acc('VEC4', new Uint8Array(4 * n).map((_, i) => (i % 4 ? 0 : joint))))
+      .setAttribute('WEIGHTS_0', acc('VEC4', new Float32Array(4 * n).map((_, i) => (i % 4 ? 0 : 1))))
+      .setIndices(acc('SCALAR', new Uint16Array(geo.idx)))
+      .setMaterial(material);
+    for (const [target, delta] of targets) {
+      const d = new Float32Array(3 * n);
+      for (let v = 0; v < n; v++) d.set(delta(geo.pos.slice(3 * v, 3 * v + 3)), 3 * v);
+      prim.addTarget(doc.createPrimitiveTarget(target).setAttribute('POSITION', acc('VEC3', d)));
+    }
+    const mesh = doc.createMesh(name).addPrimitive(prim);
+    if (targets.length) mesh.setWeights(targets.map(() => 0)); // glTF-Transform writes extras.targetNames from the targets' names
+    const node = doc.createNode(`${name}_mesh`).setMesh(mesh).setSkin(skin);
+    scene.addChild(node);
+    return node;
+  };
+  const jaw = ([, y, z]) => (y < 1.58 && z > 0 ? [0, -0.04, 0] : [0, 0, 0]);
+  const blink = ([, y, z]) => (y > 1.63 && z > 0.05 ? [0, -0.02, 0] : [0, 0, 0]);
+  const skinMat = doc.createMaterial('skin').setBaseColorTexture(texture).setRoughnessFactor(0.6).setMetallicFactor(0);
+  part('Head', sphere([0, 1.6, 0], 0.1), 3, [['eyeBlinkLeft', blink], ['jawOpen', jaw]], skinMat);
+  part('Teeth', sphere([0, 1.55, 0.06], 0.02, 12, 6), 3, [['jawOpen', jaw]], doc.createMaterial('teeth').setBaseColorFactor([0.95, 0.93, 0.88, 1]));
+  part('Body', { ...sphere([0, 1.0, 0], 0.3), pos: sphere([0, 0, 0], 1).pos.map((v, i) => (i % 3 === 1 ? 1.0 + 0.45 * v : 0.25 * v)) }, 1, [], doc.createMaterial('cloth').setBaseColorFactor([0.2, 0.3, 0.5, 1]));
+  return doc;
+}
+
+// Writes the document as GLB; for a VRM adds VRMC_vrm (the extension glTF-Transform does not know)
+// to the JSON chunk.
+async function glb({ vrm }) {
+  const doc = makeAvatar();
+  const io = new NodeIO();
+  const bytes = Buffer.from(await io.writeBinary(doc));
+  if (!vrm) return bytes;
+  const jsonLength = bytes.readUInt32LE(12);
+  const json = JSON.parse(bytes.subarray(20, 20 + jsonLength).toString('utf8'));
+  const node = (name) => json.nodes.findIndex((n) => n.name === name);
+  const humanBones = { hips: 'Hips', spine: 'Spine', neck: 'Neck', head: 'Head' };
+  const bones = Object.fromEntries(Object.entries(humanBones).map(([b, n]) => [b, { node: node(n) }]));
+  // VRM requires the limbs too: empty nodes under the hips stand in for them.
+  for (const limb of ['leftUpperLeg', 'leftLowerLeg', 'leftFoot', 'rightUpperLeg', 'rightLowerLeg', 'rightFoot', 'leftUpperArm', 'leftLowerArm', 'leftHand', 'rightUpperArm', 'rightLowerArm', 'rightHand']) {
+    json.nodes.push({ name: limb });
+    json.nodes[node('Spine')].children = [...(json.nodes[node('Spine')].children || []), json.nodes.length - 1];
+    bones[limb] = { node: json.nodes.length - 1 };
+  }
+  const bind = (target) => ({ morphTargetBinds: [{ node: node('Head_mesh'), index: json.meshes[json.nodes[node('Head_mesh')].mesh].extras.targetNames.indexOf(target), weight: 1 }] });
+  json.extensionsUsed = [...(json.extensionsUsed || []), 'VRMC_vrm'];
+  json.extensions = {
+    ...(json.extensions || {}),
+    VRMC_vrm: {
+      specVersion: '1.0',
+      meta: { name: 'test', authors: ['facecast'], licenseUrl: 'https://vrm.dev/licenses/1.0/' },
+      humanoid: { humanBones: bones },
+      expressions: { preset: { aa: bind('jawOpen'), blink: bind('eyeBlinkLeft') } },
+    },
+  };
+  let text = Buffer.from(JSON.stringify(json), 'utf8');
+  text = Buffer.concat([text, Buffer.alloc((4 - (text.length % 4)) % 4, 0x20)]);
+  const bin = bytes.subarray(20 + jsonLength);
+  const header = Buffer.alloc(20);
+  header.writeUInt32LE(0x46546c67, 0);
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(20 + text.length + bin.length, 8);
+  header.writeUInt32LE(text.length, 12);
+  header.writeUInt32LE(0x4e4f534a, 16);
+  return Buffer.concat([header, text, bin]);
+}
+
+await run('avatar', async () => {
+  const server = await startServer();
+  const browser = await launchBrowser();
+  const page = await newPage(browser, { width: 640, height: 480 });
+  const files = { 'multi.glb': await glb({ vrm: false }), 'avatar.vrm': await glb({ vrm: true }) };
+  for (const [name, bytes] of Object.entries(files)) writeFileSync(join(artifacts, name), bytes);
+  // A page of its own with the web client's import map (read from index.html) and one canvas.
+  const importMap = readFileSync(join(sourceDir, 'web/index.html'), 'utf8').match(/<script type="importmap">[\s\S]*?<\/script>/)[0];
+  files['index.html'] = `<!doctype html><html><head>${importMap}</head><body style="margin:0"><canvas id="test-view" style="width:640px;height:480px;display:block"></canvas></body></html>`;
+  await page.route('**/test-avatars/*', (route) => {
+    const name = route.request().url().split('/').pop();
+    route.fulfill({ status: 200, contentType: name.endsWith('.html') ? 'text/html' : 'model/gltf-binary', body: files[name] });
+  });
+  await page.goto(`${server.url}/test-avatars/index.html`);
+  for (const [file, isVrm] of [['multi.glb', false], ['avatar.vrm', true]]) {
+    const result = await page.evaluate(
+      async ({ file }) => {
+        const { AvatarView, loadGlb } = await import('/avatar.js');
+        const view = (window.__view ||= new AvatarView(document.getElementById('test-view')));
+        view.setModel(await loadGlb(`/test-avatars/${file}`));
+        view.render(true);
+        const target = view.controls.target.clone();
+        view.setWeights(['jawOpen', 'eyeBlinkLeft', 'aa'], [0.5, 0.25, 0]);
+        const byName = view.influences('jawOpen');
+        view.setWeights(['jawOpen', 'eyeBlinkLeft', 'aa'], [0, 0, 1]);
+        const byExpression = view.influences('jawOpen');
+        view.setHead(0.3, 0, 0);
+        view.render(true);
+        const headTurned = view.bones ? view.bones.head.quaternion.angleTo(view.rest.head) : null;
+        return { names: view.names, byName, byExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
+      },
+      { file },
+    );
+    const tag = isVrm ? 'VRM' : 'GLB';
+    must(`${tag}: loads`, result.names.includes('jawOpen'), result.names.join(','));
+    check(`${tag}: jawOpen by name reaches the head and the teeth (different target orders)`, result.byName.filter((v) => v === 0.5).length === 2, JSON.stringify(result.byName));
+    check(`${tag}: the camera frames the face (y 1.5-1.7), not the body`, result.targetY > 1.5 && result.targetY < 1.7, result.targetY.toFixed(3));
+    check(`${tag}: the head pose turns the head bone`, result.headTurned > 0.1, String(result.headTurned));
+    if (isVrm) {
+      check('VRM: three-vrm loaded it', result.vrm);
+      check('VRM: the expression names are weight names', result.names.includes('aa') && result.names.includes('blink'), result.names.join(','));
+      check('VRM: expression aa drives its bound target on the head', result.byExpression[0] === 1, JSON.stringify(result.byExpression));
+    }
+    await screenshot(page, `avatar-${isVrm ? 'vrm' : 'glb'}`);
+  }
+  check('no console errors', page.problems.length === 0, page.problems.join(' | '));
+});
