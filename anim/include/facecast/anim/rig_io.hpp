@@ -36,10 +36,12 @@ void write_obj_folder(const std::filesystem::path& dir, const Rig& rig);
 /// deltas with min/max, names in mesh.extras.targetNames, default weights 0.
 std::string glb_bytes(const Rig& rig);
 void write_glb(const std::filesystem::path& path, const Rig& rig);
+/// The face view (avatar_view.hpp) of a self-contained GLB/VRM/.gltf upload, or of a file (whose
+/// .gltf may name external buffers and images beside it).
 Rig parse_glb(std::string_view bytes, std::string_view name);
 Rig read_glb(const std::filesystem::path& path);
 
-/// Reads a rig by extension: .glb or .obj.
+/// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);
 
 }  // namespace facecast::anim
