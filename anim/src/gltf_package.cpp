@@ -78,7 +78,8 @@ std::size_t size_field(const json& o, const char* key, const std::string& what,
                        std::size_t fallback = 0) {
   if (!o.contains(key)) return fallback;
   const json& v = o[key];
-  if (!v.is_number_unsigned()) throw Error(what + ": '" + key + "' is not an unsigned integer");
+  if (!v.is_number_integer() || v.get<std::int64_t>() < 0)
+    throw Error(what + ": '" + key + "' is not an unsigned integer");
   return v.get<std::size_t>();
 }
 
@@ -300,7 +301,8 @@ class Packer {
 
   json& accessor(const json& index, const std::string& at) {
     auto& accessors = array_of(c_.doc, "accessors", what_);
-    if (!index.is_number_unsigned() || index.get<std::size_t>() >= accessors.size())
+    if (!index.is_number_integer() || index.get<std::int64_t>() < 0 ||
+        index.get<std::size_t>() >= accessors.size())
       throw Error(at + ": accessor index out of range");
     return accessors[index.get<std::size_t>()];
   }
@@ -339,7 +341,7 @@ class Packer {
     std::vector<DracoRequest> requests;
     std::vector<json*> targets;
     for (const auto& [name, id] : e["attributes"].items()) {
-      if (!p["attributes"].contains(name) || !id.is_number_unsigned())
+      if (!p["attributes"].contains(name) || !id.is_number_integer())
         throw Error(at + ": Draco attribute " + name + " has no accessor");
       json& a = accessor(p["attributes"][name], at);
       DracoRequest r;
