@@ -3,6 +3,7 @@
 #include "facecast/anim/avatar_view.hpp"
 
 #include <Eigen/LU>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -193,11 +194,13 @@ class ViewBuilder {
       if (d.nrm.rows() != n)
         throw Error(at + " NORMAL: " + std::to_string(d.nrm.rows()) + " elements for " +
                     std::to_string(n) + " positions");
-      for (Eigen::Index v = 0; v < n; ++v)
-        d.nrm.row(v) =
-            (d.lin[static_cast<std::size_t>(v)].inverse().transpose() * d.nrm.row(v).transpose())
-                .normalized()
-                .transpose();
+      for (Eigen::Index v = 0; v < n; ++v) {
+        // Normals go through the inverse transpose; a degenerate map (a zero scale) keeps them.
+        const Eigen::Matrix3f& l = d.lin[static_cast<std::size_t>(v)];
+        if (std::abs(l.determinant()) > 1e-12f)
+          d.nrm.row(v) =
+              (l.inverse().transpose() * d.nrm.row(v).transpose()).normalized().transpose();
+      }
     }
     if (attr("TEXCOORD_0") >= 0) {
       d.uv = read_floats(m_, attr("TEXCOORD_0"), 2, at + " TEXCOORD_0");
@@ -357,20 +360,22 @@ void ViewBuilder::add_shapes(AvatarView& view) {
     rig.shapes.push_back(Blendshape::from_dense(e.name, dense));
     view.derived_shapes.push_back(e.name);
   }
-  // Facecast's own landmarks (mesh.extras.facecast.landmarks), by vertex of the mesh's first part.
+  // Facecast's own landmarks (mesh.extras.facecast.landmarks), by vertex of each mesh's first part.
+  std::set<int> meshes_done;
   for (const auto& d : parts_) {
-    if (!d.part.owner) continue;
+    if (!d.part.owner || !meshes_done.insert(d.part.mesh).second) continue;
     const auto& ex = m_.meshes[static_cast<std::size_t>(d.part.mesh)].extras;
     if (!ex.IsObject() || !ex.Get("facecast").Get("landmarks").IsArray()) continue;
     const auto& lm = ex.Get("facecast").Get("landmarks");
     for (std::size_t i = 0; i < lm.ArrayLen(); ++i) {
       const auto& o = lm.Get(static_cast<int>(i));
-      if (!o.Get("name").IsString() || !o.Get("vertex").IsInt())
-        throw Error(what_ + ": malformed landmark");
+      if (!o.Get("name").IsString() || !o.Get("vertex").IsInt() ||
+          o.Get("vertex").GetNumberAsInt() < 0 ||
+          o.Get("vertex").GetNumberAsInt() >= d.part.vertex_count)
+        throw Error(what_ + ": malformed landmark in mesh " + d.part.mesh_name);
       rig.landmarks.push_back({o.Get("name").Get<std::string>(),
                                d.part.first_vertex + o.Get("vertex").GetNumberAsInt()});
     }
-    break;
   }
 }
 

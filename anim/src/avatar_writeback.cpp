@@ -107,6 +107,9 @@ void write_back(AvatarDocument& doc, const AvatarView& view, const Rig& rig) {
           d.row(v) =
               (from_rig[row] * dense.row(static_cast<Eigen::Index>(row)).transpose()).transpose();
         }
+        if (!d.allFinite())
+          throw Error(doc.name() + ": shape '" + shape.name + "' cannot go back into mesh " +
+                      mesh.name + " (its node transform is degenerate)");
         moves |= !d.isZero(0.0f);
         local.emplace(acc, std::move(d));
       }

@@ -1,11 +1,16 @@
 // GLB (binary glTF 2.0) reading and writing with tinygltf.
 //
-// Layout written: one buffer; POSITION, NORMAL and TEXCOORD_0 accessors shared by every primitive
-// (one primitive per material, each with its own uint32 indices), so the file keeps the rig's
-// vertex order exactly; one POSITION morph target per shape, stored dense as deltas with min/max;
-// shape names in mesh.extras.targetNames (three.js and Blender read them); default weights 0.
-// Landmarks go to mesh.extras.facecast.landmarks.
+// Layout written: one buffer; one mesh (or, with GlbOptions::mesh_per_group, one per Rig group with
+// the vertices its triangles use, in rig order); in a mesh, POSITION, NORMAL, TEXCOORD_0 (and
+// JOINTS_0/WEIGHTS_0 for a skinned rig) accessors shared by every primitive (one primitive per
+// material, each with its own uint32 indices), so a one-mesh file keeps the rig's vertex order
+// exactly; one POSITION morph target per shape (per group: the shapes that move it), stored dense
+// as deltas with min/max; shape names in mesh.extras.targetNames (three.js and Blender read them);
+// default weights 0. Landmarks go to mesh.extras.facecast.landmarks. Textures are written as the
+// Rig holds them (encoded bytes), materials as glTF metallic-roughness with KHR_texture_transform;
+// the skeleton as joint nodes at their rest origins with one skin.
 #include <tiny_gltf.h>
+#include <map>
 #include <sstream>
 
 #include "facecast/anim/avatar_view.hpp"
@@ -56,6 +61,19 @@ class GlbWriter {
     return static_cast<int>(model.accessors.size()) - 1;
   }
 
+  int add_int_accessor(const void* data, Eigen::Index count, int component, int type) {
+    tinygltf::Accessor a;
+    const auto bytes = static_cast<std::size_t>(count) *
+                       static_cast<std::size_t>(tinygltf::GetComponentSizeInBytes(component) *
+                                                tinygltf::GetNumComponentsInType(type));
+    a.bufferView = add_view(data, bytes, TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.componentType = component;
+    a.count = static_cast<std::size_t>(count);
+    a.type = type;
+    model.accessors.push_back(a);
+    return static_cast<int>(model.accessors.size()) - 1;
+  }
+
   int add_index_accessor(const std::vector<std::uint32_t>& idx) {
     tinygltf::Accessor a;
     a.bufferView = add_view(idx.data(), idx.size() * sizeof(std::uint32_t),
@@ -76,79 +94,234 @@ tinygltf::Value string_array(const std::vector<std::string>& items) {
 
 }  // namespace
 
-std::string glb_bytes(const Rig& rig) {
+namespace {
+
+tinygltf::Value landmark_extras(const std::vector<Landmark>& landmarks) {
+  tinygltf::Value::Array marks;
+  for (const auto& l : landmarks) {
+    tinygltf::Value::Object o;
+    o["name"] = tinygltf::Value(l.name);
+    o["vertex"] = tinygltf::Value(l.vertex);
+    marks.emplace_back(std::move(o));
+  }
+  tinygltf::Value::Object fc;
+  fc["landmarks"] = tinygltf::Value(std::move(marks));
+  return tinygltf::Value(std::move(fc));
+}
+
+// A textureInfo from a TextureRef; KHR_texture_transform when it is not the identity.
+template <typename Info>
+void set_texture(Info& info, const TextureRef& ref, bool& transformed) {
+  info.index = ref.texture;
+  if (ref.texture < 0) return;
+  if (ref.offset.isZero() && ref.scale.isOnes() && ref.rotation == 0.0f) return;
+  tinygltf::Value::Object t;
+  t["offset"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(double(ref.offset[0])),
+                                                       tinygltf::Value(double(ref.offset[1]))});
+  t["scale"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(double(ref.scale[0])),
+                                                      tinygltf::Value(double(ref.scale[1]))});
+  t["rotation"] = tinygltf::Value(double(ref.rotation));
+  info.extensions["KHR_texture_transform"] = tinygltf::Value(std::move(t));
+  transformed = true;
+}
+
+// Images (bytes as they are), samplers, textures and PBR materials.
+void add_materials(GlbWriter& w, const Rig& rig) {
+  tinygltf::Model& m = w.model;
+  for (const auto& t : rig.textures) {
+    tinygltf::Image im;
+    im.name = t.name;
+    im.mimeType = t.mime_type.empty() ? "image/png" : t.mime_type;
+    im.bufferView = w.add_view(t.bytes.data(), t.bytes.size(), 0);
+    m.images.push_back(im);
+    tinygltf::Sampler s;
+    s.wrapS = t.repeat_s ? TINYGLTF_TEXTURE_WRAP_REPEAT : TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+    s.wrapT = t.repeat_t ? TINYGLTF_TEXTURE_WRAP_REPEAT : TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+    s.magFilter = t.nearest ? TINYGLTF_TEXTURE_FILTER_NEAREST : TINYGLTF_TEXTURE_FILTER_LINEAR;
+    m.samplers.push_back(s);
+    tinygltf::Texture tex;
+    tex.name = t.name;
+    tex.source = tex.sampler = static_cast<int>(m.images.size()) - 1;
+    m.textures.push_back(tex);
+  }
+  bool transformed = false;
+  for (const auto& mat : rig.materials) {
+    tinygltf::Material gm;
+    gm.name = mat.name;
+    auto& pbr = gm.pbrMetallicRoughness;
+    pbr.baseColorFactor = {mat.base_color[0], mat.base_color[1], mat.base_color[2],
+                           mat.base_color[3]};
+    pbr.metallicFactor = mat.metallic;
+    pbr.roughnessFactor = mat.roughness;
+    gm.emissiveFactor = {mat.emissive[0], mat.emissive[1], mat.emissive[2]};
+    gm.alphaMode = mat.alpha_mode == AlphaMode::kMask    ? "MASK"
+                   : mat.alpha_mode == AlphaMode::kBlend ? "BLEND"
+                   : mat.base_color[3] < 1.0f            ? "BLEND"
+                                                         : "OPAQUE";
+    if (mat.alpha_mode == AlphaMode::kMask) gm.alphaCutoff = mat.alpha_cutoff;
+    gm.doubleSided = mat.double_sided;
+    set_texture(pbr.baseColorTexture, mat.base_color_texture, transformed);
+    set_texture(pbr.metallicRoughnessTexture, mat.metallic_roughness_texture, transformed);
+    set_texture(gm.normalTexture, mat.normal_texture, transformed);
+    gm.normalTexture.scale = mat.normal_texture.strength;
+    set_texture(gm.occlusionTexture, mat.occlusion_texture, transformed);
+    gm.occlusionTexture.strength = mat.occlusion_texture.strength;
+    set_texture(gm.emissiveTexture, mat.emissive_texture, transformed);
+    m.materials.push_back(gm);
+  }
+  if (transformed) m.extensionsUsed.push_back("KHR_texture_transform");
+}
+
+// The skeleton as joint nodes (each at its rest origin relative to its parent) and a skin whose
+// inverse bind matrices undo the rest origins. Returns the root joints.
+std::vector<int> add_skeleton(GlbWriter& w, const Skeleton& sk) {
+  tinygltf::Model& m = w.model;
+  const int first = static_cast<int>(m.nodes.size());
+  const auto nj = sk.joint_names.size();
+  std::vector<int> roots;
+  Eigen::Matrix<float, Eigen::Dynamic, 16, Eigen::RowMajor> ibm(static_cast<Eigen::Index>(nj), 16);
+  for (std::size_t j = 0; j < nj; ++j) {
+    tinygltf::Node n;
+    n.name = sk.joint_names[j];
+    const int parent = sk.parent[j];
+    const Eigen::Vector3f t =
+        sk.rest_origin[j] -
+        (parent >= 0 ? sk.rest_origin[static_cast<std::size_t>(parent)] : Eigen::Vector3f::Zero());
+    n.translation = {t.x(), t.y(), t.z()};
+    m.nodes.push_back(n);
+    Eigen::Matrix4f inv = Eigen::Matrix4f::Identity();
+    inv.block<3, 1>(0, 3) = -sk.rest_origin[j];
+    ibm.row(static_cast<Eigen::Index>(j)) =
+        Eigen::Map<const Eigen::Matrix<float, 1, 16>>(inv.data());
+    if (parent < 0) roots.push_back(first + static_cast<int>(j));
+  }
+  for (std::size_t j = 0; j < nj; ++j)
+    if (sk.parent[j] >= 0)
+      m.nodes[static_cast<std::size_t>(first + sk.parent[j])].children.push_back(
+          first + static_cast<int>(j));
+  tinygltf::Skin skin;
+  for (std::size_t j = 0; j < nj; ++j) skin.joints.push_back(first + static_cast<int>(j));
+  tinygltf::Accessor a;
+  a.bufferView = w.add_view(ibm.data(), static_cast<std::size_t>(ibm.size()) * sizeof(float), 0);
+  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  a.count = nj;
+  a.type = TINYGLTF_TYPE_MAT4;
+  m.accessors.push_back(a);
+  skin.inverseBindMatrices = static_cast<int>(m.accessors.size()) - 1;
+  m.skins.push_back(skin);
+  return roots;
+}
+
+// One mesh of the rig's vertices `verts` (rows, in order) and faces `faces`: shared vertex
+// accessors, one primitive per material; the shapes that move these vertices (all shapes when
+// `all_shapes`) as dense morph targets.
+tinygltf::Mesh add_mesh(GlbWriter& w, const Rig& rig, const std::vector<int>& verts,
+                        const std::vector<int>& faces, bool all_shapes) {
+  std::vector<int> local(static_cast<std::size_t>(rig.vertex_count()), -1);
+  for (std::size_t i = 0; i < verts.size(); ++i)
+    local[static_cast<std::size_t>(verts[i])] = static_cast<int>(i);
+  const auto rows = [&](const auto& mat) {
+    std::decay_t<decltype(mat)> out(static_cast<Eigen::Index>(verts.size()), mat.cols());
+    for (std::size_t i = 0; i < verts.size(); ++i)
+      out.row(static_cast<Eigen::Index>(i)) = mat.row(verts[i]);
+    return out;
+  };
+  std::map<std::string, int> attributes;
+  attributes["POSITION"] = w.add_float_accessor(rows(rig.positions), TINYGLTF_TYPE_VEC3, true);
+  attributes["NORMAL"] = w.add_float_accessor(rows(rig.normals), TINYGLTF_TYPE_VEC3, false);
+  if (rig.uvs.rows())
+    attributes["TEXCOORD_0"] = w.add_float_accessor(rows(rig.uvs), TINYGLTF_TYPE_VEC2, false);
+  if (rig.joints.rows()) {
+    const Eigen::Matrix<std::uint16_t, Eigen::Dynamic, 4, Eigen::RowMajor> j =
+        rows(rig.joints).cast<std::uint16_t>();
+    attributes["JOINTS_0"] = w.add_int_accessor(
+        j.data(), j.rows(), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4);
+    attributes["WEIGHTS_0"] =
+        w.add_float_accessor(rows(rig.joint_weights), TINYGLTF_TYPE_VEC4, false);
+  }
+  std::vector<int> targets;
+  std::vector<std::string> names;
+  for (const auto& s : rig.shapes) {
+    const Positions d = rows(s.dense(rig.vertex_count()));
+    if (!all_shapes && d.isZero(0.0f)) continue;
+    targets.push_back(w.add_float_accessor(d, TINYGLTF_TYPE_VEC3, true));
+    names.push_back(s.name);
+  }
+  tinygltf::Mesh mesh;
+  std::map<int, std::vector<std::uint32_t>> per_material;
+  for (const int f : faces)
+    for (int c = 0; c < 3; ++c)
+      per_material[rig.triangle_material[static_cast<std::size_t>(f)]].push_back(
+          static_cast<std::uint32_t>(local[static_cast<std::size_t>(rig.triangles(f, c))]));
+  for (const auto& [material, idx] : per_material) {
+    tinygltf::Primitive p;
+    p.attributes = attributes;
+    p.indices = w.add_index_accessor(idx);
+    p.material = material;
+    p.mode = TINYGLTF_MODE_TRIANGLES;
+    for (int t : targets) p.targets.push_back({{"POSITION", t}});
+    mesh.primitives.push_back(std::move(p));
+  }
+  mesh.weights.assign(targets.size(), 0.0);
+  tinygltf::Value::Object extras;
+  extras["targetNames"] = string_array(names);
+  std::vector<Landmark> marks;
+  for (const auto& l : rig.landmarks)
+    if (local[static_cast<std::size_t>(l.vertex)] >= 0)
+      marks.push_back({l.name, local[static_cast<std::size_t>(l.vertex)]});
+  if (!marks.empty()) extras["facecast"] = landmark_extras(marks);
+  mesh.extras = tinygltf::Value(std::move(extras));
+  return mesh;
+}
+
+}  // namespace
+
+std::string glb_bytes(const Rig& rig, const GlbOptions& options) {
   rig.validate();
   GlbWriter w;
   tinygltf::Model& m = w.model;
   m.asset.version = "2.0";
   m.asset.generator = kGenerator;
+  add_materials(w, rig);
+  const bool skinned = rig.joints.rows() > 0;
+  std::vector<int> scene_nodes = skinned ? add_skeleton(w, rig.skeleton) : std::vector<int>{};
 
-  const int pos = w.add_float_accessor(rig.positions, TINYGLTF_TYPE_VEC3, true);
-  const int nrm = w.add_float_accessor(rig.normals, TINYGLTF_TYPE_VEC3, false);
-  const int uv = rig.uvs.rows() ? w.add_float_accessor(rig.uvs, TINYGLTF_TYPE_VEC2, false) : -1;
-
-  std::vector<int> targets;
-  Positions dense;
-  for (const auto& s : rig.shapes) {
-    dense = s.dense(rig.vertex_count());
-    targets.push_back(w.add_float_accessor(dense, TINYGLTF_TYPE_VEC3, true));
-  }
-
-  for (const auto& mat : rig.materials) {
-    tinygltf::Material gm;
-    gm.name = mat.name;
-    gm.pbrMetallicRoughness.baseColorFactor = {mat.base_color[0], mat.base_color[1],
-                                               mat.base_color[2], mat.base_color[3]};
-    gm.pbrMetallicRoughness.metallicFactor = 0.0;
-    gm.pbrMetallicRoughness.roughnessFactor = 0.6;
-    if (mat.base_color[3] < 1.0f) gm.alphaMode = "BLEND";
-    m.materials.push_back(gm);
-  }
-
-  tinygltf::Mesh mesh;
-  mesh.name = "face";
-  std::vector<std::vector<std::uint32_t>> per_material(rig.materials.size());
-  for (int f = 0; f < rig.triangle_count(); ++f) {
-    auto& idx = per_material[static_cast<std::size_t>(rig.triangle_material[f])];
-    for (int c = 0; c < 3; ++c) idx.push_back(static_cast<std::uint32_t>(rig.triangles(f, c)));
-  }
-  for (std::size_t mi = 0; mi < per_material.size(); ++mi) {
-    if (per_material[mi].empty()) continue;
-    tinygltf::Primitive p;
-    p.attributes["POSITION"] = pos;
-    p.attributes["NORMAL"] = nrm;
-    if (uv >= 0) p.attributes["TEXCOORD_0"] = uv;
-    p.indices = w.add_index_accessor(per_material[mi]);
-    p.material = static_cast<int>(mi);
-    p.mode = TINYGLTF_MODE_TRIANGLES;
-    for (int t : targets) p.targets.push_back({{"POSITION", t}});
-    mesh.primitives.push_back(std::move(p));
-  }
-  mesh.weights.assign(rig.shapes.size(), 0.0);
-
-  tinygltf::Value::Object extras;
-  extras["targetNames"] = string_array(rig.shape_names());
-  if (!rig.landmarks.empty()) {
-    tinygltf::Value::Array marks;
-    for (const auto& l : rig.landmarks) {
-      tinygltf::Value::Object o;
-      o["name"] = tinygltf::Value(l.name);
-      o["vertex"] = tinygltf::Value(l.vertex);
-      marks.emplace_back(std::move(o));
+  // The meshes: one of all vertices in rig order, or one per group (its vertices in rig order).
+  std::vector<std::vector<int>> faces(1), verts(1);
+  std::vector<std::string> names{"face"};
+  if (options.mesh_per_group &&
+      rig.triangle_group.size() == static_cast<std::size_t>(rig.triangle_count()) &&
+      !rig.groups.empty()) {
+    faces.assign(rig.groups.size(), {});
+    names = rig.groups;
+    for (int f = 0; f < rig.triangle_count(); ++f)
+      faces[static_cast<std::size_t>(rig.triangle_group[static_cast<std::size_t>(f)])].push_back(f);
+    verts.assign(rig.groups.size(), {});
+    for (std::size_t g = 0; g < faces.size(); ++g) {
+      std::vector<char> used(static_cast<std::size_t>(rig.vertex_count()), 0);
+      for (const int f : faces[g])
+        for (int c = 0; c < 3; ++c) used[static_cast<std::size_t>(rig.triangles(f, c))] = 1;
+      for (int v = 0; v < rig.vertex_count(); ++v)
+        if (used[static_cast<std::size_t>(v)]) verts[g].push_back(v);
     }
-    tinygltf::Value::Object fc;
-    fc["landmarks"] = tinygltf::Value(std::move(marks));
-    extras["facecast"] = tinygltf::Value(std::move(fc));
+  } else {
+    for (int f = 0; f < rig.triangle_count(); ++f) faces[0].push_back(f);
+    for (int v = 0; v < rig.vertex_count(); ++v) verts[0].push_back(v);
   }
-  mesh.extras = tinygltf::Value(std::move(extras));
-  m.meshes.push_back(std::move(mesh));
-
-  tinygltf::Node node;
-  node.name = "face";
-  node.mesh = 0;
-  m.nodes.push_back(node);
+  for (std::size_t g = 0; g < faces.size(); ++g) {
+    if (faces[g].empty()) continue;
+    tinygltf::Mesh mesh = add_mesh(w, rig, verts[g], faces[g], faces.size() == 1);
+    mesh.name = names[g];
+    m.meshes.push_back(std::move(mesh));
+    tinygltf::Node node;
+    node.name = names[g];
+    node.mesh = static_cast<int>(m.meshes.size()) - 1;
+    if (skinned) node.skin = 0;
+    m.nodes.push_back(node);
+    scene_nodes.push_back(static_cast<int>(m.nodes.size()) - 1);
+  }
   tinygltf::Scene scene;
-  scene.nodes = {0};
+  scene.nodes = scene_nodes;
   m.scenes.push_back(scene);
   m.defaultScene = 0;
 
@@ -158,6 +331,10 @@ std::string glb_bytes(const Rig& rig) {
     throw Error("GLB serialization failed", ErrorCode::kInternal);
   }
   return std::move(out).str();
+}
+
+std::string glb_bytes(const Rig& rig) {
+  return glb_bytes(rig, GlbOptions{});
 }
 
 void write_glb(const std::filesystem::path& path, const Rig& rig) {

@@ -10,6 +10,7 @@
 
 #include "facecast/anim/avatar_document.hpp"
 #include "facecast/anim/avatar_view.hpp"
+#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "test_avatar_file.hpp"
@@ -216,4 +217,38 @@ TEST_CASE("a required extension Facecast does not read is a one-line error namin
           "upload.glb: required extension KHR_texture_basisu is not supported");
     CHECK(e.code() == ErrorCode::kUnsupported);
   }
+}
+
+TEST_CASE("glb_bytes writes textures, PBR materials and the skeleton, one mesh per group",
+          "[anim][gltf]") {
+  const AvatarDocument doc = AvatarDocument::parse(test::test_avatar_glb(), "base.glb");
+  const Rig rig = make_view(doc, {.all_meshes = true}).rig;
+  const fs::path out = work_dir() / "exported.glb";
+  write_file_atomic(out, glb_bytes(rig, GlbOptions{.mesh_per_group = true}));
+  CHECK(validator_clean(out));
+  const AvatarDocument again = AvatarDocument::read(out);
+  CHECK(again.model().meshes.size() == 4);
+  CHECK(again.model().skins.size() == 1);
+  const Rig back = make_view(again, {.all_meshes = true}).rig;
+  REQUIRE(back.vertex_count() == rig.vertex_count());
+  CHECK((back.positions - rig.positions).cwiseAbs().maxCoeff() < 1e-5f);
+  CHECK(back.groups == rig.groups);
+  CHECK(back.shape_names() == rig.shape_names());
+  for (const auto& s : rig.shapes) {
+    const auto& b = back.shapes[static_cast<std::size_t>(back.find_shape(s.name))];
+    CHECK((b.dense(rig.vertex_count()) - s.dense(rig.vertex_count())).cwiseAbs().maxCoeff() <
+          1e-6f);
+  }
+  REQUIRE(back.textures.size() == 2);
+  CHECK(back.textures[0].bytes == rig.textures[0].bytes);
+  CHECK(back.textures[0].repeat_s == rig.textures[0].repeat_s);
+  CHECK(back.materials[0].base_color_texture.offset.isApprox(
+      rig.materials[0].base_color_texture.offset));
+  CHECK(back.materials[0].normal_texture.strength == Approx(0.8f));
+  CHECK(back.materials[3].alpha_mode == AlphaMode::kMask);
+  CHECK(back.skeleton.joint_names == rig.skeleton.joint_names);
+  CHECK(back.skeleton.parent == rig.skeleton.parent);
+  CHECK(back.skeleton.head == rig.skeleton.head);
+  CHECK((back.joint_weights - rig.joint_weights).cwiseAbs().maxCoeff() < 1e-6f);
+  CHECK(back.joints == rig.joints);
 }
