@@ -62,14 +62,32 @@ std::vector<std::string> keys_of(ConfigReader& table, const std::string& key) {
   return out;
 }
 
+// The viseme table by what the avatar has: Oculus visemes (10 or more viseme_* shapes); ARKit
+// names (jawOpen, or the ICT FaceKit's); VRM presets (3 or more of aa ih ou ee oh); else ARKit.
+std::string choose_table(const std::vector<std::string>& shapes) {
+  const auto has_oculus = std::count_if(shapes.begin(), shapes.end(),
+                                        [](auto& n) { return n.starts_with("viseme_"); }) >= 10;
+  if (has_oculus) return "oculus";
+  if (!resolve(shapes, "jawOpen").empty()) return "arkit";
+  int vrm = 0;
+  for (const char* n : {"aa", "ih", "ou", "ee", "oh"})
+    vrm += std::find(shapes.begin(), shapes.end(), n) != shapes.end();
+  return vrm >= 3 ? "vrm" : "arkit";
+}
+
+// The first of `names` the rig has (resolved as table names are), or -1.
+int first_of(const std::vector<std::string>& shapes, std::initializer_list<std::string> names) {
+  for (const auto& n : names)
+    if (const auto r = resolve(shapes, n); !r.empty()) return r.front();
+  return -1;
+}
+
 }  // namespace
 
 Mapping Mapping::for_rig(const std::vector<std::string>& shape_names) {
   Mapping m;
   m.shapes_ = shape_names;
-  const auto has_oculus = std::count_if(shape_names.begin(), shape_names.end(),
-                                        [](auto& n) { return n.starts_with("viseme_"); }) >= 10;
-  m.table_ = has_oculus ? "oculus" : "arkit";
+  m.table_ = choose_table(shape_names);
 
   // Viseme names per set; MPEG-4 rows are the Oculus rows renamed. (The viseme module owns and
   // checks this file; only the keys read here are used.)
@@ -108,33 +126,34 @@ Mapping Mapping::for_rig(const std::vector<std::string>& shape_names) {
   m.sets_[set_index(VisemeSet::kMpeg4)] = m.sets_[set_index(VisemeSet::kOculus)];
   m.closure_[set_index(VisemeSet::kMpeg4)] = m.closure_[set_index(VisemeSet::kOculus)];
   if (mapped == 0)
-    throw Error("the rig has no blendshape that " + table_path.string() +
-                    " maps a viseme to (expected ARKit names or Oculus viseme_* morphs)",
-                ErrorCode::kUnsupported);
+    throw Error(
+        "the rig has no blendshape that " + table_path.string() +
+            " maps a viseme to (expected ARKit names, Oculus viseme_* morphs or VRM presets)",
+        ErrorCode::kUnsupported);
   std::vector<std::string> damped;
   table.require("closure_damped", damped);
   for (const auto& name : damped)
     for (const int s : resolve(shape_names, name)) m.closure_damped_.push_back(s);
   table.reject_unknown();
 
-  ConfigReader expressions = ConfigReader::open(config_path("anim/expressions_arkit.json"));
+  ConfigReader expressions = ConfigReader::open(
+      config_path(m.table_ == "vrm" ? "anim/expressions_vrm.json" : "anim/expressions_arkit.json"));
   ConfigReader& rows = expressions.section("expressions");
   for (const auto& name : keys_of(expressions, "expressions"))
     m.expressions_.emplace_back(name, read_row(shape_names, rows, name));
   expressions.reject_unknown();
 
-  const auto one = [&](const std::string& n) {
-    const auto r = resolve(shape_names, n);
-    return r.empty() ? -1 : r.front();
-  };
-  m.blink_left = one("eyeBlinkLeft");
-  m.blink_right = one("eyeBlinkRight");
-  const char* sides[2] = {"Left", "Right"};
+  // ARKit names first, then VRM presets (one blink or look shape for both eyes).
+  m.blink_left = first_of(shape_names, {"eyeBlinkLeft", "blinkLeft", "blink"});
+  m.blink_right = first_of(shape_names, {"eyeBlinkRight", "blinkRight", "blink"});
+  const std::string sides[2] = {"Left", "Right"};
+  // The subject's left eye looks in (towards the nose) when the gaze goes to the subject's right.
+  const std::string in_vrm[2] = {"lookRight", "lookLeft"}, out_vrm[2] = {"lookLeft", "lookRight"};
   for (int s = 0; s < 2; ++s) {
-    m.look_up[s] = one(std::string("eyeLookUp") + sides[s]);
-    m.look_down[s] = one(std::string("eyeLookDown") + sides[s]);
-    m.look_in[s] = one(std::string("eyeLookIn") + sides[s]);
-    m.look_out[s] = one(std::string("eyeLookOut") + sides[s]);
+    m.look_up[s] = first_of(shape_names, {"eyeLookUp" + sides[s], "lookUp"});
+    m.look_down[s] = first_of(shape_names, {"eyeLookDown" + sides[s], "lookDown"});
+    m.look_in[s] = first_of(shape_names, {"eyeLookIn" + sides[s], in_vrm[s]});
+    m.look_out[s] = first_of(shape_names, {"eyeLookOut" + sides[s], out_vrm[s]});
   }
   return m;
 }
@@ -148,6 +167,21 @@ const std::vector<std::string>& Mapping::viseme_names(VisemeSet set) const {
 const std::vector<int>& Mapping::closure_channels(VisemeSet set) const {
   return closure_[set_index(set)];
 }
+std::vector<Mapping::Channel> Mapping::channels() const {
+  std::vector<Channel> out;
+  for (const VisemeSet set : {VisemeSet::kZh15, VisemeSet::kOculus}) {
+    const auto& names = set_names_[set_index(set)];
+    for (std::size_t v = 0; v < names.size(); ++v)
+      out.push_back({"viseme." + std::string(viseme::to_string(set)) + "." + names[v],
+                     names[v] == "sil" || !sets_[set_index(set)][v].empty()});
+  }
+  for (const auto& [name, row] : expressions_)
+    out.push_back({"expression." + name, name == "neutral" || !row.empty()});
+  out.push_back({"blink", blink_left >= 0 && blink_right >= 0});
+  out.push_back({"eye_look", look_up[0] >= 0 || look_in[0] >= 0 || look_out[0] >= 0});
+  return out;
+}
+
 const std::vector<Mapping::Entry>* Mapping::expression(const std::string& name) const {
   for (const auto& [n, row] : expressions_)
     if (n == name) return &row;

@@ -478,9 +478,9 @@ void write_obj_folder(const std::filesystem::path& dir, const Rig& rig) {
 
 Rig load_rig(const std::filesystem::path& path) {
   const std::string ext = path.extension().string();
-  if (ext == ".glb") return read_glb(path);
+  if (ext == ".glb" || ext == ".gltf" || ext == ".vrm") return read_glb(path);
   if (ext == ".obj") return read_obj(path);
-  throw Error(path.string() + ": unknown rig format (expected .glb or .obj)",
+  throw Error(path.string() + ": unknown rig format (expected .glb, .gltf, .vrm or .obj)",
               ErrorCode::kUnsupported);
 }
 

@@ -1,10 +1,13 @@
 // facecast rig pack | unpack | info
 #include <cstdio>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "facecast/anim/animation.hpp"
+#include "facecast/anim/avatar_view.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 
@@ -25,11 +28,44 @@ struct UnpackArgs {
   std::string rig, out;
 };
 
-void print_info(const anim::Rig& rig, bool as_json) {
+// The face view of a glTF avatar with the meshes it came from (none listed for an OBJ).
+struct Loaded {
+  anim::Rig rig;
+  std::vector<anim::ViewMesh> meshes;
+};
+
+Loaded load_for_info(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext != ".glb" && ext != ".gltf" && ext != ".vrm") return {anim::load_rig(path), {}};
+  anim::AvatarView view = anim::make_view(anim::AvatarDocument::read(path));
+  return {std::move(view.rig), std::move(view.meshes)};
+}
+
+// Which channels (visemes, expressions, blink, eye look) the avatar can show and which not.
+nlohmann::json channel_report(const anim::Rig& rig) {
+  nlohmann::json j = {
+      {"table", "none"}, {"shown", nlohmann::json::array()}, {"missing", nlohmann::json::array()}};
+  try {
+    const auto mapping = anim::Mapping::for_rig(rig.shape_names());
+    j["table"] = mapping.table();
+    for (const auto& c : mapping.channels()) j[c.shown ? "shown" : "missing"].push_back(c.name);
+  } catch (const Error& e) {
+    j["error"] = e.what();  // not a face rig: nothing maps
+  }
+  return j;
+}
+
+void print_info(const Loaded& loaded, bool as_json) {
+  const anim::Rig& rig = loaded.rig;
   const auto comps = anim::connected_components(rig.vertex_count(), rig.triangles);
+  const nlohmann::json channels = channel_report(rig);
   if (as_json) {
     nlohmann::json j;
     j["vertices"] = rig.vertex_count();
+    j["meshes"] = nlohmann::json::array();
+    for (const auto& m : loaded.meshes)
+      j["meshes"].push_back({{"name", m.name}, {"vertices", m.vertices}, {"targets", m.targets}});
+    j["channels"] = channels;
     j["triangles"] = rig.triangle_count();
     j["components"] = comps.count;
     for (const auto& m : rig.materials) j["materials"].push_back(m.name);
@@ -57,6 +93,13 @@ void print_info(const anim::Rig& rig, bool as_json) {
               << std::setprecision(5) << s.max_displacement() << std::setw(10) << s.vertices.size()
               << '\n';
   }
+  for (const auto& m : loaded.meshes)
+    std::cout << "mesh        " << m.name << ": " << m.vertices << " vertices, " << m.targets.size()
+              << " targets\n";
+  std::cout << "channels    " << channels["table"].get<std::string>() << " table, "
+            << channels["shown"].size() << " shown, " << channels["missing"].size() << " missing:";
+  for (const auto& c : channels["missing"]) std::cout << ' ' << c.get<std::string>();
+  std::cout << '\n';
 }
 
 }  // namespace
@@ -100,11 +143,14 @@ void add_rig_commands(CLI::App& app) {
   });
 
   auto info = std::make_shared<InfoArgs>();
-  auto* i =
-      rig->add_subcommand("info", "Print vertices, triangles, components, materials and shapes");
-  i->add_option("rig", info->rig, "Rig (GLB or OBJ)")->required()->check(CLI::ExistingFile);
+  auto* i = rig->add_subcommand("info",
+                                "Print vertices, triangles, components, materials, shapes, the "
+                                "meshes with morph targets and the channels the avatar can show");
+  i->add_option("rig", info->rig, "Rig (GLB, .gltf, VRM or OBJ)")
+      ->required()
+      ->check(CLI::ExistingFile);
   i->add_flag("--json", info->json, "Print JSON");
-  i->callback([info] { print_info(anim::load_rig(info->rig), info->json); });
+  i->callback([info] { print_info(load_for_info(info->rig), info->json); });
 
   add_rig_build_commands(*rig);
 }

@@ -93,7 +93,7 @@ TEST_CASE("TEXCOORD_0 with fewer elements than POSITION is an error, not an over
           "[anim][glb][errors]") {
   Glb g = small_glb();
   g.doc["accessors"][attribute(g, "TEXCOORD_0")]["count"] = 1;
-  CHECK(error_of(g) == "upload.glb TEXCOORD_0: 1 elements for 4 positions");
+  CHECK(error_of(g) == "upload.glb meshes[0].primitives[0] TEXCOORD_0: 1 elements for 4 positions");
 }
 
 TEST_CASE("indices out of the file's arrays are errors naming what is missing",

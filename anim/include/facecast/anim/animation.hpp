@@ -67,16 +67,19 @@ struct HeadPose {
 
 /// How viseme channels and expressions drive a rig's blendshapes.
 /// for_rig() picks the table by the rig's shape names: Oculus viseme morphs (viseme_aa ...) ->
-/// configs/anim/visemes_oculus.json; otherwise ARKit names -> configs/anim/visemes_arkit.json, with
-/// Left/Right mapped to _L/_R where the rig uses those (ICT FaceKit). Expressions come from
-/// configs/anim/expressions_arkit.json. Table entries whose shape the rig lacks are dropped; throws
-/// Error when nothing at all maps (not a face rig) and names the file and key of a bad table.
+/// configs/anim/visemes_oculus.json; ARKit names -> configs/anim/visemes_arkit.json, with
+/// Left/Right mapped to _L/_R where the rig uses those (ICT FaceKit); VRM expression presets (aa ih
+/// ou ee oh, no jawOpen) -> configs/anim/visemes_vrm.json. Expressions come from
+/// configs/anim/expressions_vrm.json for VRM, configs/anim/expressions_arkit.json otherwise. Table
+/// entries whose shape the rig lacks are dropped; throws Error when nothing at all maps (not a face
+/// rig) and names the file and key of a bad table.
 class Mapping {
  public:
   static Mapping for_rig(const std::vector<std::string>& shape_names);
 
   const std::vector<std::string>& shape_names() const { return shapes_; }
-  /// Which table was chosen ("arkit" | "oculus"), for logs.
+  /// Which table was chosen ("arkit" | "oculus" | "vrm"): by what the avatar has (Oculus visemes,
+  /// ARKit or ICT FaceKit names, VRM expression presets), for logs and `rig info`.
   const std::string& table() const { return table_; }
 
   struct Entry {
@@ -94,6 +97,13 @@ class Mapping {
   const std::vector<int>& closure_channels(viseme::VisemeSet set) const;
   /// Shapes that mouth closure damps in the expression contribution.
   const std::vector<int>& closure_damped() const { return closure_damped_; }
+  /// What the avatar can show: every viseme channel ("viseme.<set>.<name>"), expression
+  /// ("expression.<name>"), "blink" and "eye_look", with whether any of its shapes drive it.
+  struct Channel {
+    std::string name;
+    bool shown;
+  };
+  std::vector<Channel> channels() const;
   /// Blink and eye-look shapes for idle life (-1 when absent).
   int blink_left = -1, blink_right = -1;
   int look_up[2] = {-1, -1}, look_down[2] = {-1, -1}, look_in[2] = {-1, -1}, look_out[2] = {-1, -1};

@@ -33,13 +33,22 @@ void write_obj(const std::filesystem::path& path, const Rig& rig, const Position
 void write_obj_folder(const std::filesystem::path& dir, const Rig& rig);
 
 /// GLB: one mesh, one primitive per material sharing the vertex attributes, morph targets as
-/// deltas with min/max, names in mesh.extras.targetNames, default weights 0.
+/// deltas with min/max, names in mesh.extras.targetNames, default weights 0 (see GlbOptions).
 std::string glb_bytes(const Rig& rig);
+struct GlbOptions {
+  /// One mesh per Rig group (its vertices in rig order, the shapes that move it) instead of one
+  /// mesh of all vertices in rig order. Textures, PBR materials and the skeleton (a skin) are
+  /// written either way when the Rig has them.
+  bool mesh_per_group = false;
+};
+std::string glb_bytes(const Rig& rig, const GlbOptions& options);
 void write_glb(const std::filesystem::path& path, const Rig& rig);
+/// The face view (avatar_view.hpp) of a self-contained GLB/VRM/.gltf upload, or of a file (whose
+/// .gltf may name external buffers and images beside it).
 Rig parse_glb(std::string_view bytes, std::string_view name);
 Rig read_glb(const std::filesystem::path& path);
 
-/// Reads a rig by extension: .glb or .obj.
+/// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);
 
 }  // namespace facecast::anim

@@ -1,0 +1,470 @@
+// Packing a glTF container into one self-contained GLB (see gltf_package.hpp). Every offset and
+// length the JSON declares is checked against the bytes at hand before anything is read; decoded
+// sizes are bounded by a multiple of the input before they are allocated.
+#include "gltf_package.hpp"
+
+#include <meshoptimizer.h>
+
+#include <array>
+#include <cctype>
+#include <cstring>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+
+namespace facecast::anim::detail {
+namespace {
+
+using nlohmann::json;
+
+// Decoded data (meshopt fallback buffers, Draco output) may not exceed this many times the input,
+// nor kMaxDecoded bytes: a file that declares more is refused before allocating.
+constexpr std::size_t kMaxExpansion = 1024;
+constexpr std::size_t kMaxDecoded = std::size_t{1} << 31;
+
+constexpr std::array kSupportedRequired = {
+    "KHR_mesh_quantization",      "KHR_texture_transform", "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression", "KHR_materials_unlit",   "KHR_materials_emissive_strength",
+};
+
+struct Container {
+  json doc;
+  std::string bin;
+  bool glb = false;
+};
+
+std::uint32_t u32_at(std::string_view b, std::size_t at) {
+  std::uint32_t v;
+  std::memcpy(&v, b.data() + at, 4);
+  return v;
+}
+
+Container split(std::string_view bytes, const std::string& what) {
+  Container c;
+  std::string_view text = bytes;
+  if (bytes.size() >= 4 && bytes.substr(0, 4) == "glTF") {
+    c.glb = true;
+    if (bytes.size() < 20) throw Error(what + ": GLB header is truncated");
+    if (u32_at(bytes, 4) != 2) throw Error(what + ": only GLB version 2 is supported");
+    const std::size_t json_len = u32_at(bytes, 12);
+    if (u32_at(bytes, 16) != 0x4E4F534A || json_len > bytes.size() - 20)
+      throw Error(what + ": GLB JSON chunk is missing or truncated");
+    text = bytes.substr(20, json_len);
+    const std::size_t at = (20 + json_len + 3) / 4 * 4;
+    if (at + 8 <= bytes.size() && u32_at(bytes, at + 4) == 0x004E4942) {
+      const std::size_t bin_len = u32_at(bytes, at);
+      if (bin_len > bytes.size() - at - 8) throw Error(what + ": GLB BIN chunk is truncated");
+      c.bin = std::string(bytes.substr(at + 8, bin_len));
+    }
+  }
+  c.doc = json::parse(text, nullptr, false);
+  if (c.doc.is_discarded() || !c.doc.is_object())
+    throw Error(what + ": the glTF JSON is not a valid JSON object");
+  return c;
+}
+
+// A JSON array member (empty when absent); anything else is an error naming the key.
+json& array_of(json& o, const char* key, const std::string& what) {
+  thread_local json empty;
+  if (!o.is_object() || !o.contains(key)) return empty = json::array();
+  if (!o[key].is_array()) throw Error(what + ": '" + key + "' is not an array");
+  return o[key];
+}
+
+std::size_t size_field(const json& o, const char* key, const std::string& what,
+                       std::size_t fallback = 0) {
+  if (!o.contains(key)) return fallback;
+  const json& v = o[key];
+  if (!v.is_number_integer() || v.get<std::int64_t>() < 0)
+    throw Error(what + ": '" + key + "' is not an unsigned integer");
+  return v.get<std::size_t>();
+}
+
+std::string base64_decode(std::string_view in, const std::string& what) {
+  std::string out;
+  out.reserve(in.size() / 4 * 3);
+  unsigned acc = 0;
+  int bits = 0;
+  for (const char ch : in) {
+    int v;
+    if (ch >= 'A' && ch <= 'Z')
+      v = ch - 'A';
+    else if (ch >= 'a' && ch <= 'z')
+      v = ch - 'a' + 26;
+    else if (ch >= '0' && ch <= '9')
+      v = ch - '0' + 52;
+    else if (ch == '+' || ch == '-')
+      v = 62;
+    else if (ch == '/' || ch == '_')
+      v = 63;
+    else if (ch == '=')
+      break;
+    else
+      throw Error(what + ": invalid base64 in a data: URI");
+    acc = (acc << 6) | static_cast<unsigned>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<char>((acc >> bits) & 0xFF));
+    }
+  }
+  return out;
+}
+
+std::string percent_decode(const std::string& uri) {
+  std::string out;
+  for (std::size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] == '%' && i + 2 < uri.size() &&
+        std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
+      out.push_back(static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16)));
+      i += 2;
+    } else {
+      out.push_back(uri[i]);
+    }
+  }
+  return out;
+}
+
+// The bytes a URI names, and the MIME type a data: URI declares.
+std::string read_uri(const std::string& uri, const std::string& what,
+                     const std::optional<std::filesystem::path>& base_dir, std::string* mime) {
+  if (uri.starts_with("data:")) {
+    const auto comma = uri.find(',');
+    const std::string header = uri.substr(5, comma == std::string::npos ? 0 : comma - 5);
+    if (comma == std::string::npos || !header.ends_with(";base64"))
+      throw Error(what + ": only base64 data: URIs are supported");
+    if (mime) *mime = header.substr(0, header.size() - 7);
+    return base64_decode(std::string_view(uri).substr(comma + 1), what);
+  }
+  if (!base_dir) throw Error(what + ": external file '" + uri + "' is not read from an upload");
+  const std::filesystem::path rel(percent_decode(uri));
+  if (rel.is_absolute() || uri.find("://") != std::string::npos)
+    throw Error(what + ": external file '" + uri + "' must be a relative path");
+  return read_file(*base_dir / rel);
+}
+
+bool remove_extension(json& o, const char* name) {
+  if (!o.is_object() || !o.contains("extensions") || !o["extensions"].is_object()) return false;
+  const bool had = o["extensions"].erase(name) > 0;
+  if (o["extensions"].empty()) o.erase("extensions");
+  return had;
+}
+
+void drop_from_lists(json& doc, const char* name) {
+  for (const char* list : {"extensionsUsed", "extensionsRequired"}) {
+    if (!doc.contains(list) || !doc[list].is_array()) continue;
+    json kept = json::array();
+    for (const auto& e : doc[list])
+      if (!(e.is_string() && e.get<std::string>() == name)) kept.push_back(e);
+    if (kept.empty())
+      doc.erase(list);
+    else
+      doc[list] = kept;
+  }
+}
+
+class Packer {
+ public:
+  Packer(Container c, const std::string& what, const std::optional<std::filesystem::path>& dir,
+         std::size_t input_size)
+      : c_(std::move(c)),
+        what_(what),
+        dir_(dir),
+        budget_(std::min(kMaxDecoded, input_size * kMaxExpansion)) {}
+
+  std::string run(std::string_view original) {
+    check_required();
+    load_buffers();
+    decode_meshopt();
+    decode_draco_primitives();
+    pack_images();
+    if (!changed_ && c_.glb) return std::string(original);
+    return assemble();
+  }
+
+ private:
+  void check_required() {
+    for (const auto& e : array_of(c_.doc, "extensionsRequired", what_)) {
+      if (!e.is_string()) throw Error(what_ + ": extensionsRequired holds a non-string");
+      if (!is_supported_required_extension(e.get<std::string>()))
+        throw Error(what_ + ": required extension " + e.get<std::string>() + " is not supported",
+                    ErrorCode::kUnsupported);
+    }
+  }
+
+  void charge(std::size_t bytes) {
+    if (bytes > budget_)
+      throw Error(what_ + ": declared sizes exceed what the file can hold (" +
+                      std::to_string(bytes) + " bytes)",
+                  ErrorCode::kLimit);
+    budget_ -= bytes;
+  }
+
+  void load_buffers() {
+    auto& buffers = array_of(c_.doc, "buffers", what_);
+    data_.resize(buffers.size());
+    for (std::size_t i = 0; i < buffers.size(); ++i) {
+      json& b = buffers[i];
+      const std::string at = what_ + " buffers[" + std::to_string(i) + "]";
+      const std::size_t length = size_field(b, "byteLength", at);
+      if (b.contains("uri")) {
+        if (!b["uri"].is_string()) throw Error(at + ": uri is not a string");
+        data_[i] = read_uri(b["uri"].get<std::string>(), at, dir_, nullptr);
+        changed_ = true;
+      } else if (c_.glb && i == 0) {
+        data_[i] = c_.bin;
+      } else if (b.contains("extensions") && b["extensions"].contains("EXT_meshopt_compression")) {
+        charge(length);
+        data_[i].assign(length, '\0');  // filled by decode_meshopt
+      } else {
+        throw Error(at + ": buffer has no data");
+      }
+      if (data_[i].size() < length)
+        throw Error(at + ": byteLength " + std::to_string(length) + " exceeds its " +
+                    std::to_string(data_[i].size()) + " bytes");
+      remove_extension(b, "EXT_meshopt_compression");
+    }
+  }
+
+  // The bytes [offset, offset + length) of buffer `index`, checked.
+  std::string_view slice(std::size_t index, std::size_t offset, std::size_t length,
+                         const std::string& at) const {
+    if (index >= data_.size())
+      throw Error(at + ": buffer " + std::to_string(index) + " does not exist");
+    const std::string& d = data_[index];
+    if (offset > d.size() || length > d.size() - offset)
+      throw Error(at + ": byte range runs past the end of buffer " + std::to_string(index));
+    return std::string_view(d).substr(offset, length);
+  }
+
+  void decode_meshopt() {
+    auto& views = array_of(c_.doc, "bufferViews", what_);
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      json& v = views[i];
+      if (!v.is_object() || !v.contains("extensions") || !v["extensions"].is_object() ||
+          !v["extensions"].contains("EXT_meshopt_compression"))
+        continue;
+      const std::string at = what_ + " bufferViews[" + std::to_string(i) + "]";
+      const json& e = v["extensions"]["EXT_meshopt_compression"];
+      const std::size_t count = size_field(e, "count", at),
+                        stride = size_field(e, "byteStride", at);
+      const std::string_view src =
+          slice(size_field(e, "buffer", at), size_field(e, "byteOffset", at),
+                size_field(e, "byteLength", at), at);
+      const std::size_t dst_buffer = size_field(v, "buffer", at);
+      const std::size_t dst_offset = size_field(v, "byteOffset", at);
+      const std::size_t dst_length = size_field(v, "byteLength", at);
+      (void)slice(dst_buffer, dst_offset, dst_length, at);
+      if (stride == 0 || stride > 256 || count > dst_length / stride)
+        throw Error(at + ": meshopt count and stride do not fit the buffer view");
+      auto* dst = reinterpret_cast<unsigned char*>(data_[dst_buffer].data() + dst_offset);
+      const auto* in = reinterpret_cast<const unsigned char*>(src.data());
+      const std::string mode = e.value("mode", std::string());
+      const std::string filter = e.value("filter", std::string("NONE"));
+      int rc = -1;
+      if (mode == "ATTRIBUTES" && stride % 4 == 0) {
+        rc = meshopt_decodeVertexBuffer(dst, count, stride, in, src.size());
+      } else if (mode == "TRIANGLES" && (stride == 2 || stride == 4) && count % 3 == 0) {
+        rc = meshopt_decodeIndexBuffer(dst, count, stride, in, src.size());
+      } else if (mode == "INDICES" && (stride == 2 || stride == 4)) {
+        rc = meshopt_decodeIndexSequence(dst, count, stride, in, src.size());
+      }
+      if (rc != 0) throw Error(at + ": meshopt data cannot be decoded (mode " + mode + ")");
+      if (filter == "OCTAHEDRAL" && (stride == 4 || stride == 8))
+        meshopt_decodeFilterOct(dst, count, stride);
+      else if (filter == "QUATERNION" && stride == 8)
+        meshopt_decodeFilterQuat(dst, count, stride);
+      else if (filter == "EXPONENTIAL" && stride % 4 == 0)
+        meshopt_decodeFilterExp(dst, count, stride);
+      else if (filter != "NONE")
+        throw Error(at + ": meshopt filter " + filter + " does not fit stride " +
+                    std::to_string(stride));
+      remove_extension(v, "EXT_meshopt_compression");
+      changed_ = true;
+    }
+    drop_from_lists(c_.doc, "EXT_meshopt_compression");
+  }
+
+  // Appends bytes as a new buffer (merged by assemble) and returns a buffer view over it.
+  std::size_t add_view(std::string bytes) {
+    auto& views = c_.doc["bufferViews"];
+    if (!views.is_array()) views = json::array();
+    json v = {{"buffer", data_.size()}, {"byteOffset", 0}, {"byteLength", bytes.size()}};
+    data_.push_back(std::move(bytes));
+    views.push_back(v);
+    return views.size() - 1;
+  }
+
+  json& accessor(const json& index, const std::string& at) {
+    auto& accessors = array_of(c_.doc, "accessors", what_);
+    if (!index.is_number_integer() || index.get<std::int64_t>() < 0 ||
+        index.get<std::size_t>() >= accessors.size())
+      throw Error(at + ": accessor index out of range");
+    return accessors[index.get<std::size_t>()];
+  }
+
+  void decode_draco_primitives() {
+    auto& meshes = array_of(c_.doc, "meshes", what_);
+    for (std::size_t mi = 0; mi < meshes.size(); ++mi) {
+      auto& prims = array_of(meshes[mi], "primitives", what_);
+      for (std::size_t pi = 0; pi < prims.size(); ++pi) {
+        json& p = prims[pi];
+        if (!p.is_object() || !p.contains("extensions") || !p["extensions"].is_object() ||
+            !p["extensions"].contains("KHR_draco_mesh_compression"))
+          continue;
+        decode_draco_primitive(p, what_ + " meshes[" + std::to_string(mi) + "].primitives[" +
+                                      std::to_string(pi) + "]");
+        changed_ = true;
+      }
+    }
+    drop_from_lists(c_.doc, "KHR_draco_mesh_compression");
+  }
+
+  void decode_draco_primitive(json& p, const std::string& at) {
+    const json& e = p["extensions"]["KHR_draco_mesh_compression"];
+    const std::size_t view = size_field(e, "bufferView", at);
+    auto& views = array_of(c_.doc, "bufferViews", what_);
+    if (view >= views.size()) throw Error(at + ": Draco buffer view does not exist");
+    const json& v = views[view];
+    const std::string_view src = slice(size_field(v, "buffer", at), size_field(v, "byteOffset", at),
+                                       size_field(v, "byteLength", at), at);
+    if (!p.contains("indices") || !e.contains("attributes") || !e["attributes"].is_object() ||
+        !p.contains("attributes") || !p["attributes"].is_object())
+      throw Error(at + ": Draco primitive without indices or attributes");
+    json& idx = accessor(p["indices"], at);
+    const std::size_t index_count = size_field(idx, "count", at);
+    charge(index_count * 4);
+    std::vector<DracoRequest> requests;
+    std::vector<json*> targets;
+    for (const auto& [name, id] : e["attributes"].items()) {
+      if (!p["attributes"].contains(name) || !id.is_number_integer())
+        throw Error(at + ": Draco attribute " + name + " has no accessor");
+      json& a = accessor(p["attributes"][name], at);
+      DracoRequest r;
+      r.unique_id = id.get<int>();
+      r.component_type = a.value("componentType", 0);
+      static const std::map<std::string, int> comps = {
+          {"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}, {"MAT4", 16}};
+      const auto it = comps.find(a.value("type", std::string()));
+      if (it == comps.end()) throw Error(at + ": bad accessor type for " + name);
+      r.components = it->second;
+      r.count = size_field(a, "count", at);
+      charge(r.count * static_cast<std::size_t>(r.components) * 4);
+      requests.push_back(std::move(r));
+      targets.push_back(&a);
+    }
+    std::string indices;
+    decode_draco(src, index_count, indices, requests, at);
+    idx["bufferView"] = add_view(std::move(indices));
+    idx["componentType"] = 5125;
+    idx.erase("byteOffset");
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      (*targets[k])["bufferView"] = add_view(std::move(requests[k].out));
+      targets[k]->erase("byteOffset");
+    }
+    remove_extension(p, "KHR_draco_mesh_compression");
+  }
+
+  void pack_images() {
+    auto& images = array_of(c_.doc, "images", what_);
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      json& im = images[i];
+      if (!im.is_object() || !im.contains("uri")) continue;
+      const std::string at = what_ + " images[" + std::to_string(i) + "]";
+      if (!im["uri"].is_string()) throw Error(at + ": uri is not a string");
+      const std::string uri = im["uri"].get<std::string>();
+      std::string mime;
+      std::string bytes = read_uri(uri, at, dir_, &mime);
+      if (mime.empty() || mime == "application/octet-stream") {
+        const std::string ext = std::filesystem::path(uri).extension().string();
+        mime = ext == ".png"                       ? "image/png"
+               : (ext == ".jpg" || ext == ".jpeg") ? "image/jpeg"
+               : ext == ".webp"                    ? "image/webp"
+               : ext == ".ktx2"                    ? "image/ktx2"
+                                                   : "image/png";
+      }
+      if (!im.contains("mimeType")) im["mimeType"] = mime;
+      im["bufferView"] = add_view(std::move(bytes));
+      im.erase("uri");
+      changed_ = true;
+    }
+  }
+
+  // One buffer: every buffer's bytes one after another (each start 16-byte aligned, so views keep
+  // their alignment), views rebased onto it.
+  std::string assemble() {
+    std::string bin;
+    std::vector<std::size_t> base(data_.size());
+    for (std::size_t i = 0; i < data_.size(); ++i) {
+      while (bin.size() % 16) bin.push_back('\0');
+      base[i] = bin.size();
+      bin += data_[i];
+    }
+    for (auto& v : array_of(c_.doc, "bufferViews", what_)) {
+      const std::size_t b = size_field(v, "buffer", what_ + " bufferView");
+      if (b >= base.size())
+        throw Error(what_ + ": buffer view names buffer " + std::to_string(b) +
+                    ", which does not exist");
+      v["buffer"] = 0;
+      v["byteOffset"] = base[b] + size_field(v, "byteOffset", what_);
+    }
+    if (!bin.empty())
+      c_.doc["buffers"] = json::array({{{"byteLength", bin.size()}}});
+    else
+      c_.doc.erase("buffers");
+    std::string text = c_.doc.dump(-1, ' ', false, json::error_handler_t::replace);
+    while (text.size() % 4) text.push_back(' ');
+    while (bin.size() % 4) bin.push_back('\0');
+    std::string out;
+    const auto u32 = [&](std::size_t v) {
+      const auto x = static_cast<std::uint32_t>(v);
+      out.append(reinterpret_cast<const char*>(&x), 4);
+    };
+    const std::size_t total = 12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size());
+    if (total > 0x7FFFFFFF)
+      throw Error(what_ + ": the packed GLB exceeds 2 GiB", ErrorCode::kLimit);
+    out += "glTF";
+    u32(2);
+    u32(total);
+    u32(text.size());
+    out += "JSON";
+    out += text;
+    if (!bin.empty()) {
+      u32(bin.size());
+      out.append("BIN\0", 4);
+      out += bin;
+    }
+    return out;
+  }
+
+  Container c_;
+  std::string what_;
+  std::optional<std::filesystem::path> dir_;
+  std::size_t budget_;
+  std::vector<std::string> data_;
+  bool changed_ = false;
+};
+
+}  // namespace
+
+bool is_supported_required_extension(std::string_view name) {
+  for (const char* e : kSupportedRequired)
+    if (name == e) return true;
+  return false;
+}
+
+std::string pack_glb(std::string_view bytes, const std::string& what,
+                     const std::optional<std::filesystem::path>& base_dir) {
+  try {
+    Packer packer(split(bytes, what), what, base_dir, bytes.size() + 4096);
+    return packer.run(bytes);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(what + ": malformed glTF JSON (" + e.what() + ")");
+  }
+}
+
+}  // namespace facecast::anim::detail
