@@ -1,0 +1,259 @@
+// Forced alignment through espeak-ng speech and DTW: see docs/algorithms.md#forced-alignment.
+#include "facecast/viseme/align.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "dtw.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
+#include "facecast/core/error.hpp"
+#include "features.hpp"
+#include "plan.hpp"
+#include "timeline.hpp"
+
+namespace facecast::viseme {
+namespace {
+
+using detail::Features;
+
+constexpr double kPad = 0.10;  // seconds of context kept around the speech when cropping
+
+struct Speech {
+  Features f;
+  std::vector<bool> silent;
+  std::size_t first = 0, last = 0;  // first and last non-silent frame
+  double seconds() const { return static_cast<double>(last - first + 1) * f.hop_seconds; }
+};
+
+Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOptions& ao,
+                      const char* what) {
+  Speech s;
+  s.f = detail::compute_features(samples, rate);
+  s.silent = detail::silent_frames(s.f, ao.silence_range, ao.silence_max_db);
+  const auto loud = std::find(s.silent.begin(), s.silent.end(), false);
+  if (loud == s.silent.end()) throw Error(std::string(what) + " holds no speech (all silent)");
+  s.first = static_cast<std::size_t>(loud - s.silent.begin());
+  s.last = s.silent.size() - 1 -
+           static_cast<std::size_t>(std::find(s.silent.rbegin(), s.silent.rend(), false) -
+                                    s.silent.rbegin());
+  detail::normalize(s.f);
+  return s;
+}
+
+// Frames [a, b] of `s` as their own Features / silence flags.
+Speech crop(const Speech& s, std::size_t a, std::size_t b) {
+  Speech c;
+  c.f.dims = s.f.dims;
+  c.f.hop_seconds = s.f.hop_seconds;
+  c.f.frame_seconds = s.f.frame_seconds;
+  const auto d = static_cast<std::size_t>(s.f.dims);
+  c.f.mfcc.assign(s.f.mfcc.begin() + static_cast<std::ptrdiff_t>(a * d),
+                  s.f.mfcc.begin() + static_cast<std::ptrdiff_t>((b + 1) * d));
+  c.f.energy_db.assign(s.f.energy_db.begin() + static_cast<std::ptrdiff_t>(a),
+                       s.f.energy_db.begin() + static_cast<std::ptrdiff_t>(b + 1));
+  c.silent.assign(s.silent.begin() + static_cast<std::ptrdiff_t>(a),
+                  s.silent.begin() + static_cast<std::ptrdiff_t>(b + 1));
+  return c;
+}
+
+std::pair<std::size_t, std::size_t> padded(const Speech& s) {
+  const auto pad = static_cast<std::size_t>(kPad / s.f.hop_seconds);
+  return {s.first > pad ? s.first - pad : 0, std::min(s.f.frames() - 1, s.last + pad)};
+}
+
+// Synthesized-speech time -> audio time through the path: each synthesized frame maps to the
+// mean of the audio frames matched to it; times in between are interpolated.
+class TimeMap {
+ public:
+  TimeMap(const std::vector<std::pair<int, int>>& path, std::size_t x0, std::size_t y0,
+          std::size_t m, const Features& f)
+      : x0_(x0), y0_(y0), hop_(f.hop_seconds), half_(f.frame_seconds / 2) {
+    std::vector<double> sum(m, 0), count(m, 0);
+    for (const auto& [i, j] : path) {
+      sum[static_cast<std::size_t>(j)] += i;
+      count[static_cast<std::size_t>(j)] += 1;
+    }
+    map_.resize(m);
+    for (std::size_t j = 0; j < m; ++j) map_[j] = sum[j] / std::max(1.0, count[j]);
+  }
+  double operator()(double t) const {
+    const double p = (t - half_) / hop_ - static_cast<double>(y0_);
+    double frame;
+    if (p <= 0) {
+      frame = map_.front() + p;
+    } else if (p >= static_cast<double>(map_.size() - 1)) {
+      frame = map_.back() + (p - static_cast<double>(map_.size() - 1));
+    } else {
+      const auto k = static_cast<std::size_t>(p);
+      const double f = p - static_cast<double>(k);
+      frame = map_[k] + f * (map_[k + 1] - map_[k]);
+    }
+    return (frame + static_cast<double>(x0_)) * hop_ + half_;
+  }
+
+ private:
+  std::size_t x0_, y0_;
+  double hop_, half_;
+  std::vector<double> map_;
+};
+
+// Moves a boundary at audio time `t` to the strongest spectral/energy change within +- window,
+// between `lo` and `hi`, with a penalty on the distance moved.
+double refine(double t, double lo, double hi, const Speech& a, const std::vector<float>& change,
+              float mean_change, const AlignOptions& ao) {
+  const double hop = a.f.hop_seconds, half = a.f.frame_seconds / 2;
+  const auto frame_of = [&](double s) { return (s - half) / hop; };
+  const double centre = frame_of(t);
+  const double reach = ao.refine_seconds / hop;
+  const auto k0 = static_cast<long>(std::ceil(std::max(frame_of(lo) + 1, centre - reach)));
+  const auto k1 = static_cast<long>(std::floor(std::min(frame_of(hi) - 1, centre + reach)));
+  double best = -1e30, best_t = t;
+  for (long k = std::max(1L, k0); k <= k1 && k + 1 < static_cast<long>(change.size()); ++k) {
+    const double score = change[static_cast<std::size_t>(k)] -
+                         ao.refine_weight * mean_change * std::abs(k - centre) / reach;
+    if (score > best) best = score, best_t = static_cast<double>(k) * hop + half;
+  }
+  return best_t;
+}
+
+// Spectral change per frame: distance between the frames either side (energy column included,
+// so onsets and closures count).
+std::vector<float> spectral_change(const Features& f, float& mean) {
+  std::vector<float> c(f.frames(), 0);
+  double sum = 0;
+  for (std::size_t k = 1; k + 1 < f.frames(); ++k) {
+    float s = 0;
+    for (int q = 0; q < f.dims; ++q) s += std::pow(f.row(k + 1)[q] - f.row(k - 1)[q], 2.0f);
+    c[k] = std::sqrt(s);
+    sum += c[k];
+  }
+  mean = static_cast<float>(sum / std::max<std::size_t>(1, f.frames()));
+  return c;
+}
+
+// Silent runs of at least `min` seconds in the audio, as time spans.
+std::vector<detail::Span> pauses(const Speech& a, double min) {
+  std::vector<detail::Span> out;
+  const double hop = a.f.hop_seconds, half = a.f.frame_seconds / 2;
+  for (std::size_t i = 0; i < a.silent.size();) {
+    if (!a.silent[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < a.silent.size() && a.silent[j]) ++j;
+    if (static_cast<double>(j - i) * hop >= min)
+      out.push_back({static_cast<double>(i) * hop + half, static_cast<double>(j - 1) * hop + half});
+    i = j;
+  }
+  return out;
+}
+
+detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map, const Speech& a,
+                              const AlignOptions& ao, double duration) {
+  float mean_change = 0;
+  const std::vector<float> change = spectral_change(a.f, mean_change);
+  detail::Timeline tl;
+  tl.duration = duration;
+  tl.units.resize(synth.units.size());
+  // Phone starts in order (each unit's phones are contiguous in the synthesized timeline).
+  double previous = 0;
+  for (std::size_t u = 0; u < synth.units.size(); ++u) {
+    const auto& su = synth.units[u];
+    auto& tu = tl.units[u];
+    for (std::size_t k = 0; k < su.phones.size(); ++k) {
+      const double start = std::max(previous, map(su.phones[k].start));
+      const double end = std::max(start, map(su.phones[k].end));
+      tu.phones.push_back({start, end});
+    }
+    for (std::size_t k = 0; k < tu.phones.size(); ++k) {
+      auto& p = tu.phones[k];
+      const double hi = k + 1 < tu.phones.size() ? tu.phones[k + 1].end : p.end + ao.refine_seconds;
+      const double refined =
+          refine(p.start, previous, std::max(hi, p.start), a, change, mean_change, ao);
+      if (k > 0 && std::abs(tu.phones[k - 1].end - p.start) < 1e-9) tu.phones[k - 1].end = refined;
+      p.start = refined;
+      p.end = std::max(p.end, p.start);
+      previous = p.start;
+    }
+    if (!tu.phones.empty()) previous = std::max(previous, tu.phones.back().start);
+  }
+  // Silences of the audio become rest: phones are clipped out of every pause.
+  for (const detail::Span& gap : pauses(a, ao.min_pause)) {
+    for (auto& tu : tl.units)
+      for (auto& p : tu.phones) {
+        if (p.start >= gap.start && p.start < gap.end && p.end > gap.end) p.start = gap.end;
+        if (p.end > gap.start && p.end <= gap.end && p.start < gap.start) p.end = gap.start;
+      }
+  }
+  for (std::size_t u = 0; u < tl.units.size(); ++u) {
+    auto& tu = tl.units[u];
+    if (tu.phones.empty()) {
+      const double t = map(synth.units[u].span.start);
+      tu.span = {t, t};
+    } else {
+      tu.span = {tu.phones.front().start, tu.phones.back().end};
+    }
+  }
+  return tl;
+}
+
+}  // namespace
+
+AlignOptions load_align_options() {
+  ConfigReader c = ConfigReader::open(config_path("viseme/align.json"));
+  AlignOptions o;
+  c.read("min_speed", o.min_speed)
+      .read("max_speed", o.max_speed)
+      .read("band", o.band)
+      .read("band_frames", o.band_frames)
+      .read("refine_seconds", o.refine_seconds)
+      .read("refine_weight", o.refine_weight)
+      .read("min_pause", o.min_pause)
+      .read("silence_range", o.silence_range)
+      .read("silence_max_db", o.silence_max_db);
+  if (o.min_speed < 80 || o.max_speed > 450 || o.min_speed > o.max_speed)
+    c.fail("min_speed", "min_speed..max_speed must lie within 80..450");
+  c.reject_unknown();
+  return o;
+}
+
+Utterance align(std::string_view text, const Audio& audio, const Options& options,
+                const AlignOptions& ao) {
+  const Speech a = analyze_speech(audio.samples, audio.sample_rate, ao, "the audio");
+  Options o = options;
+  o.timing = Timing::kTts;
+  // Speak the text twice: the second time at the pace that makes its speech as long as the audio's,
+  // so DTW's 2:1 slope limit has room on both sides.
+  detail::Plan plan;
+  detail::Timeline synth;
+  Speech s;
+  for (int pass = 0; pass < 2; ++pass) {
+    plan = detail::make_plan(text, o);
+    if (plan.units.empty()) throw Error("alignment: the text has nothing to say");
+    synth = detail::time_by_tts(plan, o);
+    const Audio spoken = audio_from_pcm16(synth.pcm, synth.sample_rate, {audio.sample_rate});
+    s = analyze_speech(spoken.samples, spoken.sample_rate, ao, "the synthesized text");
+    const double ratio = s.seconds() / a.seconds();
+    if (pass == 0)
+      o.espeak_speed = std::clamp(static_cast<int>(std::lround(o.espeak_speed * ratio)),
+                                  ao.min_speed, ao.max_speed);
+  }
+  const auto [x0, x1] = padded(a);
+  const auto [y0, y1] = padded(s);
+  const Speech ac = crop(a, x0, x1), sc = crop(s, y0, y1);
+  const auto path =
+      detail::dtw_path(ac.f, sc.f, ac.silent, sc.silent, {ao.band, ao.band_frames, 600});
+  const TimeMap map(path, x0, y0, sc.f.frames(), a.f);
+  detail::Timeline tl = map_timeline(synth, map, a, ao, audio.seconds());
+  tl.pcm = to_pcm16(audio.samples);
+  tl.sample_rate = audio.sample_rate;
+  const VisemeSet set = o.set.value_or(plan.has_zh ? VisemeSet::kZh15 : VisemeSet::kOculus);
+  Utterance u = detail::assemble(plan, tl, std::string(text), set);
+  u.duration = audio.seconds();
+  return u;
+}
+
+}  // namespace facecast::viseme
