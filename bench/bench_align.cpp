@@ -34,12 +34,15 @@ int main() {
   std::vector<test::AlignCase> cases = test::festival_cases(dir);
   for (auto& c : test::flite_cases(dir)) cases.push_back(std::move(c));
   for (auto& c : test::chinese_cases(dir)) cases.push_back(std::move(c));
+  if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
+    std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
+  const viseme::AlignOptions options = viseme::load_align_options();
   std::map<std::string, std::vector<double>> errors;  // per language and per source
   double seconds = 0, audio_seconds = 0;
   for (const auto& c : cases) {
     const viseme::Audio audio = viseme::read_audio(c.audio);
     const auto t0 = std::chrono::steady_clock::now();
-    const viseme::Utterance u = viseme::align(c.text, audio);
+    const viseme::Utterance u = viseme::align(c.text, audio, {}, options);
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     audio_seconds += audio.seconds();
     const auto e = test::onset_errors(u, c);

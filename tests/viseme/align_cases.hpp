@@ -155,7 +155,7 @@ inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
   std::string pieces;
   for (int k = 0; k < 3; ++k) {
     const std::string p = base + "_p" + std::to_string(k) + ".wav";
-    run_capture("sox " + base + "_src.wav " + p + " trim " + std::to_string(cut[k]) + " =" +
+    run_capture("sox -R " + base + "_src.wav " + p + " trim " + std::to_string(cut[k]) + " =" +
                 std::to_string(cut[k + 1]) + " tempo -s " + std::to_string(tempo[k]));
     const double len = std::stod(run_capture("soxi -D " + p));
     out_start[k] = at;
@@ -163,11 +163,11 @@ inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
     at += len;
     pieces += p + " ";
   }
-  run_capture("sox " + pieces + base + "_cat.wav pitch " + std::to_string(cents) + " reverb 35");
-  run_capture("sox -n -r " + std::to_string(u.sample_rate) + " -c 1 " + base + "_noise.wav synth " +
-              std::to_string(at + 1) + " pinknoise vol 0.015");
+  run_capture("sox -R " + pieces + base + "_cat.wav pitch " + std::to_string(cents) + " reverb 35");
+  run_capture("sox -R -n -r " + std::to_string(u.sample_rate) + " -c 1 " + base +
+              "_noise.wav synth " + std::to_string(at + 1) + " pinknoise vol 0.015");
   const std::string out = base + ".wav";
-  run_capture("sox -m " + base + "_cat.wav " + base + "_noise.wav " + out + " trim 0 " +
+  run_capture("sox -R -m " + base + "_cat.wav " + base + "_noise.wav " + out + " trim 0 " +
               std::to_string(at + 0.3));
   AlignCase c{"espeak " + voice + " " + std::to_string(speed) + " " + std::to_string(i),
               "zh",

@@ -24,7 +24,10 @@ struct Speech {
   Features f;
   std::vector<bool> silent;
   std::size_t first = 0, last = 0;  // first and last non-silent frame
-  double seconds() const { return static_cast<double>(last - first + 1) * f.hop_seconds; }
+  /// Seconds of speech (non-silent frames): pauses are left out of the pace.
+  double seconds() const {
+    return static_cast<double>(std::count(silent.begin(), silent.end(), false)) * f.hop_seconds;
+  }
 };
 
 Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOptions& ao,
@@ -39,6 +42,7 @@ Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOp
            static_cast<std::size_t>(std::find(s.silent.rbegin(), s.silent.rend(), false) -
                                     s.silent.rbegin());
   detail::normalize(s.f);
+  if (ao.deltas) detail::add_deltas(s.f);
   return s;
 }
 
@@ -184,8 +188,12 @@ detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map,
   for (const detail::Span& gap : pauses(a, ao.min_pause)) {
     for (auto& tu : tl.units)
       for (auto& p : tu.phones) {
-        if (p.start >= gap.start && p.start < gap.end && p.end > gap.end) p.start = gap.end;
-        if (p.end > gap.start && p.end <= gap.end && p.start < gap.start) p.end = gap.start;
+        if (p.start >= gap.end || p.end <= gap.start) continue;
+        // A phone reaching into the pause keeps the side of it where more of the phone lies.
+        if (gap.start - p.start < p.end - gap.end)
+          p.start = std::min(p.end, gap.end);
+        else
+          p.end = std::max(p.start, gap.start);
       }
   }
   for (std::size_t u = 0; u < tl.units.size(); ++u) {
@@ -213,7 +221,10 @@ AlignOptions load_align_options() {
       .read("refine_weight", o.refine_weight)
       .read("min_pause", o.min_pause)
       .read("silence_range", o.silence_range)
-      .read("silence_max_db", o.silence_max_db);
+      .read("silence_max_db", o.silence_max_db)
+      .read("hold_penalty", o.hold_penalty)
+      .read("deltas", o.deltas)
+      .read("refine", o.refine);
   if (o.min_speed < 80 || o.max_speed > 450 || o.min_speed > o.max_speed)
     c.fail("min_speed", "min_speed..max_speed must lie within 80..450");
   c.reject_unknown();

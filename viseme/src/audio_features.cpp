@@ -115,6 +115,20 @@ Features compute_features(const std::vector<float>& samples, int rate, const Fea
   return f;
 }
 
+void add_deltas(Features& f) {
+  const std::size_t n = f.frames(), d = static_cast<std::size_t>(f.dims);
+  std::vector<float> out(n * 2 * d);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t a = i > 0 ? i - 1 : i, b = i + 1 < n ? i + 1 : i;
+    for (std::size_t q = 0; q < d; ++q) {
+      out[i * 2 * d + q] = f.mfcc[i * d + q];
+      out[i * 2 * d + d + q] = 0.5f * (f.mfcc[b * d + q] - f.mfcc[a * d + q]);
+    }
+  }
+  f.mfcc = std::move(out);
+  f.dims *= 2;
+}
+
 void normalize(Features& f) {
   const std::size_t n = f.frames();
   if (n == 0) return;

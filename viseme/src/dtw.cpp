@@ -77,9 +77,11 @@ std::vector<std::pair<int, int>> dtw_path(const Features& x, const Features& y,
         take(b.D(i - 2, j - 1) + 2 * distance(x, i - 1, y, j) + d, 2);
       if (i >= 1 && j >= 2 && b.D(i - 1, j - 2) < kInf)
         take(b.D(i - 1, j - 2) + 2 * distance(x, i, y, j - 1) + d, 3);
-      if (free_x[static_cast<std::size_t>(i)] || free_y[static_cast<std::size_t>(j)]) {
-        take(b.D(i - 1, j) + d, 4);
-        take(b.D(i, j - 1) + d, 5);
+      const bool sx = free_x[static_cast<std::size_t>(i)], sy = free_y[static_cast<std::size_t>(j)];
+      if (sx || sy) {
+        const float extra = sx && sy ? 0.0f : static_cast<float>(c.hold_penalty);
+        take(b.D(i - 1, j) + d + extra, 4);
+        take(b.D(i, j - 1) + d + extra, 5);
       }
       b.cost[b.at(i, j)] = best;
       b.move[b.at(i, j)] = mv;

@@ -67,4 +67,7 @@ Features compute_features(const std::vector<float>& samples, int sample_rate,
 /// column is centred on its maximum instead, so silence stays low).
 void normalize(Features& f);
 
+/// Appends first differences (x[i+1] - x[i-1]) / 2 of every column: dims doubles.
+void add_deltas(Features& f);
+
 }  // namespace facecast::viseme::detail

@@ -21,6 +21,9 @@ struct AlignOptions {
   double min_pause = 0.10;       // silences at least this long become rest
   double silence_range = 0.30;   // silence threshold: floor + this x (loud - floor), in dB
   double silence_max_db = 40;    // ... and at most this far below the loud level
+  double hold_penalty = 2.0;     // DTW: cost of holding one side where only the other is silent
+  bool deltas = true;            // MFCC first differences in the DTW distance
+  bool refine = true;            // boundary refinement on spectral change and energy
 };
 
 /// configs/viseme/align.json; Error naming the file and key.
