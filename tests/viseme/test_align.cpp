@@ -8,6 +8,8 @@
 #include <fstream>
 #include <numbers>
 
+#include <unistd.h>
+
 #include "align_cases.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/align.hpp"
@@ -20,7 +22,8 @@ using Catch::Contains;
 namespace {
 
 std::filesystem::path scratch(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("facecast_align_" + name);
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("facecast_align_" + name + "_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -48,7 +51,7 @@ double rms(const std::vector<float>& s, std::size_t from, std::size_t to) {
 
 }  // namespace
 
-TEST_CASE("resampling keeps frequency and level; streaming equals whole", "[viseme][audio]") {
+TEST_CASE("resampling keeps frequency and level, and streaming equals whole", "[viseme][audio]") {
   const auto in = sine(1000, 44100, 1.0);
   const auto out = resample(in, 44100, 16000);
   CHECK(out.size() == 16000);
