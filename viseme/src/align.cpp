@@ -24,10 +24,8 @@ struct Speech {
   Features f;
   std::vector<bool> silent;
   std::size_t first = 0, last = 0;  // first and last non-silent frame
-  /// Seconds of speech (non-silent frames): pauses are left out of the pace.
-  double seconds() const {
-    return static_cast<double>(std::count(silent.begin(), silent.end(), false)) * f.hop_seconds;
-  }
+  /// Seconds from the first to the last non-silent frame.
+  double seconds() const { return static_cast<double>(last - first + 1) * f.hop_seconds; }
 };
 
 Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOptions& ao,
