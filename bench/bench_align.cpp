@@ -53,7 +53,8 @@ int main() {
     }
     if (std::getenv("BENCH_ALIGN_VERBOSE")) {
       std::printf("%-34s", c.name.c_str());
-      for (double x : e) std::printf(" %3.0f", x * 1000);
+      for (std::size_t w = 0; w < u.words.size(); ++w)
+        std::printf(" %4.0f", (u.words[w].start - c.onsets[w]) * 1000);
       std::printf("\n");
     }
   }

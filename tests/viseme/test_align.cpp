@@ -136,6 +136,7 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
   CHECK(a.hold_penalty == b.hold_penalty);
   CHECK(a.deltas == b.deltas);
   CHECK(a.refine == b.refine);
+  CHECK(a.warps == b.warps);
 }
 
 TEST_CASE("alignment: word onsets on festival English and altered Chinese speech",

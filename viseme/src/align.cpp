@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "dtw.hpp"
@@ -18,7 +19,8 @@ namespace {
 
 using detail::Features;
 
-constexpr double kPad = 0.10;  // seconds of context kept around the speech when cropping
+constexpr double kPad = 0.10;     // seconds of context kept around the speech when cropping
+constexpr double kMargin = 0.30;  // seconds of silence put around the synthesized speech
 
 struct Speech {
   Features f;
@@ -29,9 +31,11 @@ struct Speech {
 };
 
 Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOptions& ao,
-                      const char* what) {
+                      const char* what, double warp = 1.0) {
   Speech s;
-  s.f = detail::compute_features(samples, rate);
+  detail::FeatureConfig fc;
+  fc.warp = warp;
+  s.f = detail::compute_features(samples, rate, fc);
   s.silent = detail::silent_frames(s.f, ao.silence_range, ao.silence_max_db);
   const auto loud = std::find(s.silent.begin(), s.silent.end(), false);
   if (loud == s.silent.end()) throw Error(std::string(what) + " holds no speech (all silent)");
@@ -81,7 +85,7 @@ class TimeMap {
     for (std::size_t j = 0; j < m; ++j) map_[j] = sum[j] / std::max(1.0, count[j]);
   }
   double operator()(double t) const {
-    const double p = (t - half_) / hop_ - static_cast<double>(y0_);
+    const double p = (t + kMargin - half_) / hop_ - static_cast<double>(y0_);
     double frame;
     if (p <= 0) {
       frame = map_.front() + p;
@@ -222,7 +226,9 @@ AlignOptions load_align_options() {
       .read("silence_max_db", o.silence_max_db)
       .read("hold_penalty", o.hold_penalty)
       .read("deltas", o.deltas)
-      .read("refine", o.refine);
+      .read("refine", o.refine)
+      .read("warps", o.warps);
+  if (o.warps.empty()) c.fail("warps", "must list at least one warp (1.0: none)");
   if (o.min_speed < 80 || o.max_speed > 450 || o.min_speed > o.max_speed)
     c.fail("min_speed", "min_speed..max_speed must lie within 80..450");
   c.reject_unknown();
@@ -243,7 +249,12 @@ Utterance align(std::string_view text, const Audio& audio, const Options& option
     plan = detail::make_plan(text, o);
     if (plan.units.empty()) throw Error("alignment: the text has nothing to say");
     synth = detail::time_by_tts(plan, o);
-    const Audio spoken = audio_from_pcm16(synth.pcm, synth.sample_rate, {audio.sample_rate});
+    // Silent margins around the synthesized speech, so DTW can hold them against leading or
+    // trailing noise of any length in the audio.
+    std::vector<int16_t> pcm(static_cast<std::size_t>(kMargin * synth.sample_rate), 0);
+    pcm.insert(pcm.end(), synth.pcm.begin(), synth.pcm.end());
+    pcm.resize(pcm.size() + static_cast<std::size_t>(kMargin * synth.sample_rate), 0);
+    const Audio spoken = audio_from_pcm16(pcm, synth.sample_rate, {audio.sample_rate});
     s = analyze_speech(spoken.samples, spoken.sample_rate, ao, "the synthesized text");
     const double ratio = s.seconds() / a.seconds();
     if (pass == 0)
@@ -252,9 +263,20 @@ Utterance align(std::string_view text, const Audio& audio, const Options& option
   }
   const auto [x0, x1] = padded(a);
   const auto [y0, y1] = padded(s);
-  const Speech ac = crop(a, x0, x1), sc = crop(s, y0, y1);
-  const auto path =
-      detail::dtw_path(ac.f, sc.f, ac.silent, sc.silent, {ao.band, ao.band_frames, 600});
+  const Speech sc = crop(s, y0, y1);
+  // Vocal tract length normalisation: the audio's features under each frequency warp; the warp
+  // whose DTW path costs least wins (docs/algorithms.md#forced-alignment).
+  std::vector<std::pair<int, int>> path;
+  double best = std::numeric_limits<double>::infinity();
+  for (double warp : ao.warps) {
+    const Speech aw =
+        warp == 1.0 ? a : analyze_speech(audio.samples, audio.sample_rate, ao, "the audio", warp);
+    const Speech ac = crop(aw, x0, x1);
+    double cost = 0;
+    auto p = detail::dtw_path(ac.f, sc.f, ac.silent, sc.silent,
+                              {ao.band, ao.band_frames, 600, ao.hold_penalty}, &cost);
+    if (cost < best) best = cost, path = std::move(p);
+  }
   const TimeMap map(path, x0, y0, sc.f.frames(), a.f);
   detail::Timeline tl = map_timeline(synth, map, a, ao, audio.seconds());
   tl.pcm = to_pcm16(audio.samples);

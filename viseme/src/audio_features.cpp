@@ -42,7 +42,7 @@ MfccAnalyzer::MfccAnalyzer(int rate, const FeatureConfig& c) : config_(c) {
     const double mid = mel_to_hz(m0 + (m1 - m0) * (b + 1) / (c.mel_bands + 1));
     const double hi = mel_to_hz(m0 + (m1 - m0) * (b + 2) / (c.mel_bands + 1));
     for (std::size_t k = 0; k < bins; ++k) {
-      const double hz = static_cast<double>(k) * rate / static_cast<double>(fft_size_);
+      const double hz = static_cast<double>(k) * rate / static_cast<double>(fft_size_) / c.warp;
       double w = 0;
       if (hz > lo && hz <= mid) w = (hz - lo) / (mid - lo);
       if (hz > mid && hz < hi) w = (hi - hz) / (hi - mid);

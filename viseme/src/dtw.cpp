@@ -51,7 +51,8 @@ float distance(const Features& x, int i, const Features& y, int j) {
 
 std::vector<std::pair<int, int>> dtw_path(const Features& x, const Features& y,
                                           const std::vector<bool>& free_x,
-                                          const std::vector<bool>& free_y, const DtwConfig& c) {
+                                          const std::vector<bool>& free_y, const DtwConfig& c,
+                                          double* cost) {
   const int n = static_cast<int>(x.frames()), m = static_cast<int>(y.frames());
   if (n == 0 || m == 0) throw Error("alignment: no audio frames to align");
   const int half = std::min(c.max_band_frames, static_cast<int>(c.band * std::max(n, m))) +
@@ -79,7 +80,8 @@ std::vector<std::pair<int, int>> dtw_path(const Features& x, const Features& y,
         take(b.D(i - 1, j - 2) + 2 * distance(x, i, y, j - 1) + d, 3);
       const bool sx = free_x[static_cast<std::size_t>(i)], sy = free_y[static_cast<std::size_t>(j)];
       if (sx || sy) {
-        const float extra = sx && sy ? 0.0f : static_cast<float>(c.hold_penalty);
+        const bool free = sx && sy;
+        const float extra = free ? 0.0f : static_cast<float>(c.hold_penalty);
         take(b.D(i - 1, j) + d + extra, 4);
         take(b.D(i, j - 1) + d + extra, 5);
       }
@@ -91,6 +93,7 @@ std::vector<std::pair<int, int>> dtw_path(const Features& x, const Features& y,
     throw Error(
         "alignment: the audio and the text's speech cannot be matched (too different "
         "in length or pace)");
+  if (cost) *cost = b.D(n - 1, m - 1) / (n + m);
   std::vector<std::pair<int, int>> path;
   for (int i = n - 1, j = m - 1;;) {
     path.push_back({i, j});
@@ -122,7 +125,7 @@ std::vector<bool> silent_frames(const Features& f, double range, double max_db) 
   std::vector<bool> out(sorted.size(), true);
   if (sorted.empty()) return out;
   std::sort(sorted.begin(), sorted.end());
-  const float floor = sorted[sorted.size() * 5 / 100], loud = sorted[sorted.size() * 95 / 100];
+  const float floor = sorted[sorted.size() * 10 / 100], loud = sorted[sorted.size() * 95 / 100];
   const double threshold =
       std::max(floor + range * (loud - floor), static_cast<double>(loud) - max_db);
   for (std::size_t i = 0; i < f.frames(); ++i) out[i] = f.energy_db[i] < threshold;

@@ -19,9 +19,11 @@ struct DtwConfig {
 /// normalized features. Steps: (1,1) and the slope-limited (2,1), (1,2) everywhere; (1,0) and
 /// (0,1) only where a frame is silent (`free_x[i] || free_y[j]`; free when both are, else at
 /// `hold_penalty`), so pauses of any length stretch while speech is warped by at most 2:1 locally.
+/// `cost`, when given, receives the path's accumulated cost divided by n + m.
 std::vector<std::pair<int, int>> dtw_path(const Features& x, const Features& y,
                                           const std::vector<bool>& free_x,
-                                          const std::vector<bool>& free_y, const DtwConfig& c);
+                                          const std::vector<bool>& free_y, const DtwConfig& c,
+                                          double* cost = nullptr);
 
 /// Per frame: silent (level below the threshold of the signal's own level distribution:
 /// floor + range x (loud - floor), at most max_db below loud; floor, loud = 5th, 95th percentile).

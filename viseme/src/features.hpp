@@ -15,6 +15,9 @@ struct FeatureConfig {
   int cepstra = 13;  // c0 .. c12; c0 is replaced by the frame's log energy
   double low_hz = 80, high_hz = 7600;
   double preemphasis = 0.97;
+  /// Vocal tract length warp: the filter meant for frequency F reads the spectrum at warp x F
+  /// (> 1 for a shorter vocal tract / higher formants than the reference).
+  double warp = 1.0;
 };
 
 /// Features of a whole signal: frame i covers samples [i*hop, i*hop + window); its time is

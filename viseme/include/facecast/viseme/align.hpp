@@ -4,6 +4,7 @@
 // the other, the phone boundaries go through the path and are refined locally on spectral change
 // and energy; pauses in the audio become rest. See docs/algorithms.md#forced-alignment.
 #include <string_view>
+#include <vector>
 
 #include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/options.hpp"
@@ -24,6 +25,8 @@ struct AlignOptions {
   double hold_penalty = 2.0;     // DTW: cost of holding one side where only the other is silent
   bool deltas = true;            // MFCC first differences in the DTW distance
   bool refine = true;            // boundary refinement on spectral change and energy
+  /// Frequency warps tried on the audio's filterbank (vocal tract length normalisation).
+  std::vector<double> warps = {0.84, 0.92, 1.0, 1.09, 1.19};
 };
 
 /// configs/viseme/align.json; Error naming the file and key.
