@@ -69,40 +69,40 @@ std::pair<std::size_t, std::size_t> padded(const Speech& s) {
   return {s.first > pad ? s.first - pad : 0, std::min(s.f.frames() - 1, s.last + pad)};
 }
 
-// Synthesized-speech time -> audio time through the path: each synthesized frame maps to the
-// mean of the audio frames matched to it; times in between are interpolated.
+// Synthesized-speech time -> audio time through the path. A time between synthesized frames j-1
+// and j maps between the last audio frame matched to j-1 and the first matched to j, so a boundary
+// next to a stretched pause lands at the pause's edge, not in its middle.
 class TimeMap {
  public:
   TimeMap(const std::vector<std::pair<int, int>>& path, std::size_t x0, std::size_t y0,
           std::size_t m, const Features& f)
-      : x0_(x0), y0_(y0), hop_(f.hop_seconds), half_(f.frame_seconds / 2) {
-    std::vector<double> sum(m, 0), count(m, 0);
+      : x0_(x0),
+        y0_(y0),
+        hop_(f.hop_seconds),
+        half_(f.frame_seconds / 2),
+        first_(m, 1e30),
+        last_(m, -1e30) {
     for (const auto& [i, j] : path) {
-      sum[static_cast<std::size_t>(j)] += i;
-      count[static_cast<std::size_t>(j)] += 1;
+      auto& lo = first_[static_cast<std::size_t>(j)];
+      auto& hi = last_[static_cast<std::size_t>(j)];
+      lo = std::min(lo, static_cast<double>(i));
+      hi = std::max(hi, static_cast<double>(i));
     }
-    map_.resize(m);
-    for (std::size_t j = 0; j < m; ++j) map_[j] = sum[j] / std::max(1.0, count[j]);
   }
   double operator()(double t) const {
     const double p = (t + kMargin - half_) / hop_ - static_cast<double>(y0_);
-    double frame;
-    if (p <= 0) {
-      frame = map_.front() + p;
-    } else if (p >= static_cast<double>(map_.size() - 1)) {
-      frame = map_.back() + (p - static_cast<double>(map_.size() - 1));
-    } else {
-      const auto k = static_cast<std::size_t>(p);
-      const double f = p - static_cast<double>(k);
-      frame = map_[k] + f * (map_[k + 1] - map_[k]);
-    }
+    const auto m = static_cast<long>(first_.size());
+    const long j = std::clamp(static_cast<long>(std::floor(p + 0.5)), 1L, m - 1);
+    const double edge =
+        (last_[static_cast<std::size_t>(j - 1)] + first_[static_cast<std::size_t>(j)]) / 2;
+    const double frame = edge + (p - (static_cast<double>(j) - 0.5));
     return (frame + static_cast<double>(x0_)) * hop_ + half_;
   }
 
  private:
   std::size_t x0_, y0_;
   double hop_, half_;
-  std::vector<double> map_;
+  std::vector<double> first_, last_;
 };
 
 // Moves a boundary at audio time `t` to the strongest spectral/energy change within +- window,
@@ -157,6 +157,50 @@ std::vector<detail::Span> pauses(const Speech& a, double min) {
   return out;
 }
 
+// Clears a pause of a unit's phones: a phone reaching into it keeps the side where more of it
+// lies, and as a word or syllable never spans a pause, the phones on the shorter side of it move
+// across (packed at the pause's edge).
+void clear_pause(detail::UnitTime& tu, const detail::Span& gap) {
+  for (auto& p : tu.phones) {
+    if (p.start >= gap.end || p.end <= gap.start) continue;
+    if (gap.start - p.start < p.end - gap.end)
+      p.start = std::min(p.end, gap.end);
+    else
+      p.end = std::max(p.start, gap.start);
+  }
+  double before = 0, after = 0;
+  std::size_t split = 0;  // phones [0, split) lie before the pause
+  for (const auto& p : tu.phones) {
+    if (p.end <= gap.start + 1e-9) {
+      before += p.end - p.start;
+      ++split;
+    } else {
+      after += p.end - p.start;
+    }
+  }
+  if (split == 0 || split == tu.phones.size()) return;
+  constexpr double kPacked = 0.03;  // seconds per moved phone at most
+  if (before < after) {
+    double t = gap.end;
+    for (std::size_t k = 0; k < split; ++k) {
+      const double len = std::min(kPacked, tu.phones[k].end - tu.phones[k].start);
+      tu.phones[k] = {t, t + len};
+      t += len;
+    }
+    for (std::size_t k = split; k < tu.phones.size() && tu.phones[k].start < t; ++k)
+      tu.phones[k] = {t, std::max(t, tu.phones[k].end)}, t = tu.phones[k].end;
+  } else {
+    double t = gap.start;
+    for (std::size_t k = tu.phones.size(); k-- > split;) {
+      const double len = std::min(kPacked, tu.phones[k].end - tu.phones[k].start);
+      tu.phones[k] = {t - len, t};
+      t -= len;
+    }
+    for (std::size_t k = split; k-- > 0 && tu.phones[k].end > t;)
+      tu.phones[k] = {std::min(t, tu.phones[k].start), t}, t = tu.phones[k].start;
+  }
+}
+
 detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map, const Speech& a,
                               const AlignOptions& ao, double duration) {
   float mean_change = 0;
@@ -178,7 +222,8 @@ detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map,
       auto& p = tu.phones[k];
       const double hi = k + 1 < tu.phones.size() ? tu.phones[k + 1].end : p.end + ao.refine_seconds;
       const double refined =
-          refine(p.start, previous, std::max(hi, p.start), a, change, mean_change, ao);
+          !ao.refine ? p.start
+                     : refine(p.start, previous, std::max(hi, p.start), a, change, mean_change, ao);
       if (k > 0 && std::abs(tu.phones[k - 1].end - p.start) < 1e-9) tu.phones[k - 1].end = refined;
       p.start = refined;
       p.end = std::max(p.end, p.start);
@@ -187,17 +232,8 @@ detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map,
     if (!tu.phones.empty()) previous = std::max(previous, tu.phones.back().start);
   }
   // Silences of the audio become rest: phones are clipped out of every pause.
-  for (const detail::Span& gap : pauses(a, ao.min_pause)) {
-    for (auto& tu : tl.units)
-      for (auto& p : tu.phones) {
-        if (p.start >= gap.end || p.end <= gap.start) continue;
-        // A phone reaching into the pause keeps the side of it where more of the phone lies.
-        if (gap.start - p.start < p.end - gap.end)
-          p.start = std::min(p.end, gap.end);
-        else
-          p.end = std::max(p.start, gap.start);
-      }
-  }
+  for (const detail::Span& gap : pauses(a, ao.min_pause))
+    for (auto& tu : tl.units) clear_pause(tu, gap);
   for (std::size_t u = 0; u < tl.units.size(); ++u) {
     auto& tu = tl.units[u];
     if (tu.phones.empty()) {

@@ -19,14 +19,14 @@ struct AlignOptions {
   int band_frames = 50;
   double refine_seconds = 0.03;  // boundary refinement searches +- this far
   double refine_weight = 1.0;    // distance penalty of the refinement (per window)
-  double min_pause = 0.10;       // silences at least this long become rest
+  double min_pause = 0.15;       // silences at least this long become rest
   double silence_range = 0.30;   // silence threshold: floor + this x (loud - floor), in dB
   double silence_max_db = 40;    // ... and at most this far below the loud level
   double hold_penalty = 2.0;     // DTW: cost of holding one side where only the other is silent
   bool deltas = true;            // MFCC first differences in the DTW distance
   bool refine = true;            // boundary refinement on spectral change and energy
   /// Frequency warps tried on the audio's filterbank (vocal tract length normalisation).
-  std::vector<double> warps = {0.84, 0.92, 1.0, 1.09, 1.19};
+  std::vector<double> warps = {0.8, 0.86, 0.92, 1.0, 1.06, 1.13, 1.2, 1.27};
 };
 
 /// configs/viseme/align.json; Error naming the file and key.
