@@ -51,9 +51,9 @@ ffmpeg -v error -y -i "$tmp/speech.wav" -ar 44100 -ac 2 "$tmp/speech.mp3"
 out=$("$facecast" visemes --audio "$tmp/speech.mp3" --text "Hello there, good morning")
 grep -q '"text": "morning"' <<<"$out" || fail "visemes --audio --text: $out"
 grep -q '"sample_rate": 16000' <<<"$out" || fail "visemes --audio: audio rate"
-echo "not audio" >"$tmp/junk.ogg"
+echo "not audio" >"$tmp/junk.mp3"
 set +e
-err=$("$facecast" visemes --audio "$tmp/junk.ogg" --text "hi" 2>&1 >/dev/null); rc=$?
+err=$("$facecast" visemes --audio "$tmp/junk.mp3" --text "hi" 2>&1 >/dev/null); rc=$?
 set -e
-[[ $rc != 0 && $err == *"junk.ogg: not audio"* && $(wc -l <<<"$err") == 1 ]] || fail "bad audio: $err"
+[[ $rc != 0 && $err == *"junk.mp3: not audio"* && $(wc -l <<<"$err") == 1 ]] || fail "bad audio: $err"
 echo "cli_viseme: all passed"

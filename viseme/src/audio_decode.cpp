@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <sstream>
 
@@ -40,8 +41,23 @@ void check_length(const std::string& path, const Audio& a, const AudioOptions& o
     throw Error(path + ": " + seconds_text(a.seconds()) + " of audio is too short to analyze");
 }
 
+// Whether the file starts like a container libsndfile reads (WAV/RF64, AIFF, AU, CAF, FLAC, OGG,
+// MP3 with an ID3 tag or a frame sync). Others go straight to ffmpeg: libsndfile's MP3 decoder
+// prints resync notes to stderr on files that are not MP3 at all.
+bool sndfile_magic(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char b[4] = {};
+  in.read(reinterpret_cast<char*>(b), 4);
+  if (in.gcount() < 4) return false;
+  const std::string m(reinterpret_cast<const char*>(b), 4);
+  for (const char* magic : {"RIFF", "RIFX", "RF64", "FORM", ".snd", "caff", "fLaC", "OggS"})
+    if (m == magic) return true;
+  return m.compare(0, 3, "ID3") == 0 || (b[0] == 0xFF && (b[1] & 0xE0) == 0xE0);
+}
+
 // libsndfile; false when it does not recognise the file (then ffmpeg tries).
 bool read_sndfile(const std::string& path, const AudioOptions& o, Audio& out) {
+  if (!sndfile_magic(path)) return false;
   SF_INFO info{};
   SNDFILE* f = sf_open(path.c_str(), SFM_READ, &info);
   if (!f) return false;
