@@ -2,12 +2,11 @@
 // Speech audio in: any file libsndfile or ffmpeg reads -> mono float at the working rate.
 // See docs/algorithms.md#audio-in.
 //
-// libsndfile (in process) reads WAV, FLAC, OGG/Vorbis, Opus and MP3 and reports the length before
-// decoding, so an absurdly long file is refused from its header; anything else (AAC/M4A, WebM,
-// video containers) goes to the ffmpeg binary as a subprocess (configs/viseme/audio.json
-// names the binary), whose output is capped at the
-// length limit so a 10-hour file is never decoded whole. Both paths mix channels to mono and
-// resample with a windowed-sinc filter to `AudioOptions::sample_rate`.
+// libsndfile (in process) reads WAV, AIFF, FLAC, OGG/Vorbis, Opus and MP3 and reports the length
+// before decoding, so an absurdly long file is refused from its header; anything else (AAC/M4A,
+// WebM, video containers) goes to the ffmpeg binary as a subprocess (configs/viseme/audio.json
+// names it), whose output is capped at the length limit so a 10-hour file is never decoded whole.
+// libsndfile's channels are averaged and resampled here (windowed sinc); ffmpeg does both itself.
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -34,8 +33,9 @@ struct Audio {
 };
 
 /// Reads `path` (any format libsndfile or ffmpeg reads, any rate and channel count) to mono at
-/// options.sample_rate. Throws a one-line Error naming the file when it is missing, not audio,
-/// empty/silent-length, or longer than options.max_seconds (checked before decoding it all).
+/// options.sample_rate. Throws a one-line Error naming the file when it is missing, empty, not
+/// audio, holds no samples or less than min_seconds, or is longer than max_seconds (checked before
+/// decoding it all).
 Audio read_audio(const std::string& path, const AudioOptions& options = {});
 
 /// Mono PCM16 -> float at options.sample_rate.
