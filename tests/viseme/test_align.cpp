@@ -137,6 +137,7 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
   CHECK(a.deltas == b.deltas);
   CHECK(a.refine == b.refine);
   CHECK(a.warps == b.warps);
+  CHECK(a.max_seconds == b.max_seconds);
 }
 
 TEST_CASE("alignment: word onsets on festival English and altered Chinese speech",
@@ -180,6 +181,10 @@ TEST_CASE("alignment: pauses in the audio become rest", "[viseme][align]") {
   pcm.insert(pcm.end(), later.pcm.begin(), later.pcm.end());
   const Audio audio = audio_from_pcm16(pcm, spoken.sample_rate);
   const Utterance u = align("Hello there good morning", audio);
+  AlignOptions short_limit;
+  short_limit.max_seconds = 2;
+  CHECK_THROWS_WITH(align("Hello there good morning", audio, {}, short_limit),
+                    Contains("longer than the limit"));
   REQUIRE(u.words.size() == 4);
   std::string timed;
   for (const auto& p : u.phones)

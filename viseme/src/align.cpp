@@ -92,6 +92,7 @@ class TimeMap {
   double operator()(double t) const {
     const double p = (t + kMargin - half_) / hop_ - static_cast<double>(y0_);
     const auto m = static_cast<long>(first_.size());
+    if (m < 2) return (static_cast<double>(x0_) + (m == 1 ? first_[0] : 0.0)) * hop_ + half_;
     const long j = std::clamp(static_cast<long>(std::floor(p + 0.5)), 1L, m - 1);
     const double edge =
         (last_[static_cast<std::size_t>(j - 1)] + first_[static_cast<std::size_t>(j)]) / 2;
@@ -263,7 +264,8 @@ AlignOptions load_align_options() {
       .read("hold_penalty", o.hold_penalty)
       .read("deltas", o.deltas)
       .read("refine", o.refine)
-      .read("warps", o.warps);
+      .read("warps", o.warps)
+      .read("max_seconds", o.max_seconds);
   if (o.warps.empty()) c.fail("warps", "must list at least one warp (1.0: none)");
   if (o.min_speed < 80 || o.max_speed > 450 || o.min_speed > o.max_speed)
     c.fail("min_speed", "min_speed..max_speed must lie within 80..450");
@@ -273,6 +275,12 @@ AlignOptions load_align_options() {
 
 Utterance align(std::string_view text, const Audio& audio, const Options& options,
                 const AlignOptions& ao) {
+  if (audio.seconds() > ao.max_seconds)
+    throw Error("alignment: " + std::to_string(static_cast<int>(audio.seconds())) +
+                    " s of audio is longer than the limit of " +
+                    std::to_string(static_cast<int>(ao.max_seconds)) +
+                    " s (align.max_seconds); align it in parts",
+                ErrorCode::kLimit);
   const Speech a = analyze_speech(audio.samples, audio.sample_rate, ao, "the audio");
   Options o = options;
   o.timing = Timing::kTts;

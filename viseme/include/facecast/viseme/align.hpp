@@ -25,6 +25,8 @@ struct AlignOptions {
   double hold_penalty = 2.0;     // DTW: cost of holding one side where only the other is silent
   bool deltas = true;            // MFCC first differences in the DTW distance
   bool refine = true;            // boundary refinement on spectral change and energy
+  /// Longer audio is refused (DTW memory grows with length x band: about 80 MB at 120 s).
+  double max_seconds = 120;
   /// Frequency warps tried on the audio's filterbank (vocal tract length normalisation).
   std::vector<double> warps = {0.8, 0.86, 0.92, 1.0, 1.06, 1.13, 1.2, 1.27};
 };
