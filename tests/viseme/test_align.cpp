@@ -21,12 +21,22 @@ using Catch::Contains;
 
 namespace {
 
-std::filesystem::path scratch(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("facecast_align_" + name + "_" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+// A scratch folder for one test case, removed with everything in it at the end of the case.
+struct Scratch {
+  std::filesystem::path path;
+  explicit Scratch(const std::string& name)
+      : path(std::filesystem::temp_directory_path() /
+             ("facecast_align_" + name + "_" + std::to_string(getpid()))) {
+    std::filesystem::create_directories(path);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  std::filesystem::path operator/(const std::string& file) const { return path / file; }
+};
 
 std::vector<float> sine(double hz, int rate, double seconds) {
   std::vector<float> s(static_cast<std::size_t>(seconds * rate));
@@ -70,7 +80,7 @@ TEST_CASE("resampling keeps frequency and level, and streaming equals whole", "[
 
 TEST_CASE("read_audio: WAV, FLAC, OGG, MP3 and AAC at any rate and channel count",
           "[viseme][audio]") {
-  const auto dir = scratch("formats");
+  const Scratch dir("formats");
   const std::string src = (dir / "src.wav").string();
   test::run_capture("sox -n -r 44100 -c 2 " + src + " synth 2.0 sine 440 vol 0.5");
   const std::vector<std::string> files = {src, (dir / "a.flac").string(), (dir / "a.ogg").string(),
@@ -90,7 +100,7 @@ TEST_CASE("read_audio: WAV, FLAC, OGG, MP3 and AAC at any rate and channel count
 }
 
 TEST_CASE("read_audio: bad audio is a one-line error naming the file", "[viseme][audio]") {
-  const auto dir = scratch("bad");
+  const Scratch dir("bad");
   const std::string text = (dir / "notes.mp3").string(), empty = (dir / "empty.wav").string();
   std::ofstream(text) << "these are not the samples you are looking for\n";
   std::ofstream(empty).close();
@@ -142,9 +152,9 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
 
 TEST_CASE("alignment: word onsets on festival English and altered Chinese speech",
           "[viseme][align]") {
-  const auto dir = scratch("cases");
-  std::vector<test::AlignCase> cases = test::festival_cases(dir);
-  for (auto& c : test::chinese_cases(dir)) cases.push_back(std::move(c));
+  const Scratch dir("cases");
+  std::vector<test::AlignCase> cases = test::festival_cases(dir.path);
+  for (auto& c : test::chinese_cases(dir.path)) cases.push_back(std::move(c));
   for (const char* lang : {"en", "zh"}) {
     std::vector<double> errors;
     for (const auto& c : cases) {
@@ -169,7 +179,6 @@ TEST_CASE("alignment: word onsets on festival English and altered Chinese speech
 }
 
 TEST_CASE("alignment: pauses in the audio become rest", "[viseme][align]") {
-  const auto dir = scratch("pause");
   Options o;
   o.timing = Timing::kTts;
   const Utterance spoken = analyze("Hello there", o);
