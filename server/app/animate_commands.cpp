@@ -33,7 +33,7 @@ void add_speech_options(CLI::App* cmd, SpeechArgs& a) {
       ->capture_default_str();
 }
 
-viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts) {
+viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::string& audio) {
   if (a.text.empty() == a.timestamps.empty())
     throw Error("give exactly one of --text or --timestamps");
   viseme::Options o = viseme::load_options();
@@ -47,6 +47,9 @@ viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts) {
                             : viseme::parse_timestamp_format(a.timestamps_format);
     return viseme::import_timestamps(format, content, o, viseme::PhoneSet::kAuto, a.timestamps);
   }
+  if (!audio.empty())
+    return viseme::align(a.text, viseme::read_audio(audio, viseme::load_audio_options()), o,
+                         viseme::load_align_options());
   o.timing = !a.timing.empty() ? viseme::parse_timing(a.timing)
              : tts             ? viseme::Timing::kTts
                                : viseme::Timing::kModel;

@@ -11,7 +11,7 @@
 #include "facecast/core/files.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/render/video.hpp"
-#include "facecast/viseme/wav.hpp"
+#include "facecast/viseme/align.hpp"
 #include "progress.hpp"
 #include "speech_input.hpp"
 
@@ -59,16 +59,19 @@ std::pair<int, int> parse_size(const std::string& size) {
 // Text or timestamps -> MP4 (ffmpeg) or a frame sequence + WAV.
 void render_speech(const RenderArgs& a, const anim::Rig& rig, render::RenderOptions opt) {
   const std::string audio = !a.audio.empty() ? a.audio : !a.speech.text.empty() ? "tts" : "none";
-  const auto u = speech_utterance(a.speech, audio == "tts");
+  const bool file = audio != "tts" && audio != "none";
+  // Text with an audio file: the text is aligned to that speech (and the video carries it).
+  const auto u =
+      speech_utterance(a.speech, audio == "tts", file && !a.speech.text.empty() ? audio : "");
   std::vector<int16_t> pcm = u.pcm;
   int rate = u.sample_rate;
   if (audio == "none") {
     pcm.clear();
     rate = 0;
-  } else if (audio != "tts") {
-    auto wav = viseme::decode_wav(read_file(audio), audio);
-    pcm = std::move(wav.samples);
-    rate = wav.sample_rate;
+  } else if (file && a.speech.text.empty()) {
+    const auto in = viseme::read_audio(audio, viseme::load_audio_options());
+    pcm = viseme::to_pcm16(in.samples);
+    rate = in.sample_rate;
   }
   const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
   const anim::Performance performance(u, mapping, speech_anim_options(a.speech));
@@ -93,7 +96,8 @@ void add_render_commands(CLI::App& app) {
   add_speech_options(r, a->speech);
   r->add_option("--audio", a->audio,
                 "Speech audio for the video: tts (espeak-ng; default with --text), none (default "
-                "with --timestamps), or a WAV file");
+                "with --timestamps), or an audio file (any format ffmpeg/libsndfile reads; with "
+                "--text the text is aligned to it)");
   r->add_option("--fps", a->fps, "Video frame rate (default from configs/anim/render.json)")
       ->check(CLI::Range(1.0, 240.0));
   r->add_option("--rig", a->rig, "Rig (GLB or OBJ); default: the built-in avatar")

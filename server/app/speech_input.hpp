@@ -18,8 +18,9 @@ struct SpeechArgs {
 
 void add_speech_options(CLI::App* cmd, SpeechArgs& a);
 
-/// The utterance of --text (with espeak-ng audio when `tts`) or --timestamps.
-viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts);
+/// The utterance of --text (with espeak-ng audio when `tts`; aligned to the speech in the file
+/// `audio` when given) or --timestamps.
+viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::string& audio = "");
 
 /// configs/anim/animation.json with --idle applied.
 anim::AnimOptions speech_anim_options(const SpeechArgs& a);

@@ -19,7 +19,7 @@ struct CommonArgs {
 
 struct VisemesArgs {
   CommonArgs common;
-  std::string text, input, format = "json", phoneset = "auto";
+  std::string text, input, format = "json", phoneset = "auto", audio;
   std::vector<std::string> from;
 };
 
@@ -99,6 +99,13 @@ void run_lines(std::istream& in, const VisemesArgs& a, const viseme::Options& o)
 void run_visemes(const VisemesArgs& a) {
   const viseme::Options o = options_from(a.common);
   const int sources = !a.text.empty() + !a.input.empty() + !a.from.empty();
+  if (!a.audio.empty()) {
+    if (!a.input.empty() || !a.from.empty()) throw Error("--audio combines with --text only");
+    const viseme::Audio audio = viseme::read_audio(a.audio, viseme::load_audio_options());
+    if (a.text.empty())
+      throw Error("visemes --audio without --text: audio-only lip-sync is not available yet");
+    return print(viseme::align(a.text, audio, o, viseme::load_align_options()), a.format, false);
+  }
   if (sources != 1) throw Error("give exactly one of --text, --input or --from");
   if (!a.from.empty()) {
     const auto format = viseme::parse_timestamp_format(a.from[0]);
@@ -135,7 +142,9 @@ void add_viseme_commands(CLI::App& app) {
   auto* v = app.add_subcommand("visemes",
                                "Text with (expression, intensity, seconds) tags, or TTS/aligner "
                                "timestamps, to timed visemes");
-  v->add_option("--text", va->text, "Text to analyze");
+  v->add_option("--text", va->text, "Text to analyze (with --audio: the words spoken in it)");
+  v->add_option("--audio", va->audio,
+                "Speech audio (any format ffmpeg/libsndfile reads): times the --text on it");
   v->add_option("--input", va->input,
                 "File (or - for stdin) with one utterance per line: JSON Lines out");
   v->add_option("--from", va->from,

@@ -38,6 +38,6 @@ expect_error "--out" "$facecast" animate --text hi --out "$tmp/w.txt"
 expect_error "exactly one of --text or --timestamps" "$facecast" animate --out "$tmp/x.json"
 expect_error "character 6" "$facecast" animate --text "(joy, 99, 1)hi" --out "$tmp/x.json"
 expect_error "x.gif" "$facecast" render --text hi --out "$tmp/x.gif"
-expect_error "not a RIFF" "$facecast" render --text hi --audio "$src/README.md" --out "$tmp/x.mp4"
+expect_error "README.md: not audio" "$facecast" render --text hi --audio "$src/README.md" --out "$tmp/x.mp4"
 test ! -e "$tmp/x.json" && test ! -e "$tmp/x.mp4" || fail "a file was left behind"
 echo ok

@@ -45,4 +45,15 @@ err=$("$facecast" visemes --from json "$fixtures/phones_unknown.json" --phoneset
 set -e
 [[ $rc == 2 && $err == *"'QQ9'"* && $err == *"0.100 s"* ]] || fail "unknown phone: $err"
 [[ $rc2 == 2 && ! -e $tmp/bad.wav ]] || fail "tts error left a file"
+# --audio: any format (here MP3 via ffmpeg) aligned to --text; bad audio is a one-line error.
+"$facecast" tts --text "Hello there, good morning" --out "$tmp/speech.wav" 2>/dev/null
+ffmpeg -v error -y -i "$tmp/speech.wav" -ar 44100 -ac 2 "$tmp/speech.mp3"
+out=$("$facecast" visemes --audio "$tmp/speech.mp3" --text "Hello there, good morning")
+grep -q '"text": "morning"' <<<"$out" || fail "visemes --audio --text: $out"
+grep -q '"sample_rate": 16000' <<<"$out" || fail "visemes --audio: audio rate"
+echo "not audio" >"$tmp/junk.mp3"
+set +e
+err=$("$facecast" visemes --audio "$tmp/junk.mp3" --text "hi" 2>&1 >/dev/null); rc=$?
+set -e
+[[ $rc != 0 && $err == *"junk.mp3: not audio"* && $(wc -l <<<"$err") == 1 ]] || fail "bad audio: $err"
 echo "cli_viseme: all passed"

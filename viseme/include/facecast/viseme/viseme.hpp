@@ -1,6 +1,8 @@
 #pragma once
 // facecast::viseme — text and timestamps to timed visemes and expressions. One include for all.
+#include "facecast/viseme/align.hpp"
 #include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/import.hpp"
 #include "facecast/viseme/options.hpp"
 #include "facecast/viseme/pinyin.hpp"

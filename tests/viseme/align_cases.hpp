@@ -1,0 +1,207 @@
+#pragma once
+// Speech with known word onsets for the alignment test and bench/bench_align, made at run time
+// into a scratch folder (never committed): English from festival (kal diphone voice; word starts
+// from its Word relation) and flite (slt and kal voices; segment end times from -psdur, grouped
+// into words by each word's own phone count), Chinese from espeak-ng's Mandarin voice with other
+// variants and speeds, then pitch-shifted, time-stretched unevenly in three pieces, reverberated
+// and mixed with pink noise by sox (the onsets follow the stretch).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/wav.hpp"
+
+namespace facecast::test {
+
+struct AlignCase {
+  std::string name, lang, text, audio;
+  std::vector<double> onsets;  // true onset of each word of the utterance, seconds
+};
+
+inline std::string run_capture(const std::string& command) {
+  std::string out;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) throw std::runtime_error("cannot run: " + command);
+  char buf[4096];
+  for (std::size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  if (pclose(p) != 0) throw std::runtime_error("failed: " + command);
+  return out;
+}
+
+inline const std::vector<std::string>& english_sentences() {
+  static const std::vector<std::string> s = {
+      "The quick brown fox jumps over the lazy dog",
+      "She sells sea shells by the sea shore every morning",
+      "Please call me when you get home from the station",
+      "We will meet again tomorrow, before the long meeting starts",
+      "My father bought a small boat to fish on the lake",
+      "Reading books at night helps me fall asleep quickly",
+      "The weather was cold, so we stayed inside and played music",
+      "Can you tell me where the nearest bank is"};
+  return s;
+}
+
+inline const std::vector<std::string>& chinese_sentences() {
+  static const std::vector<std::string> s = {
+      "今天天气很好，我们一起去公园散步吧", "我想喝一杯热咖啡，然后开始工作",
+      "他每天早上七点起床，坐地铁去学校",   "这本书非常有意思，你一定要看看",
+      "明天下午我们在会议室讨论这个问题",   "请把窗户打开，房间里太热了"};
+  return s;
+}
+
+// The words of `text` as facecast reads them (lower-cased letters only), for matching.
+inline std::vector<std::string> word_tokens(const std::string& text) {
+  std::vector<std::string> out;
+  std::string w;
+  for (char c : text + " ") {
+    if (std::isalpha(static_cast<unsigned char>(c)) || c == '\'') {
+      w += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    } else if (!w.empty()) {
+      out.push_back(w);
+      w.clear();
+    }
+  }
+  return out;
+}
+
+inline std::vector<AlignCase> festival_cases(const std::filesystem::path& dir) {
+  std::ofstream scm(dir / "festival.scm");
+  const auto& s = english_sentences();
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    scm << "(set! u (Utterance Text \"" << s[i] << "\"))\n(utt.synth u)\n(utt.save.wave u \""
+        << (dir / ("fest" + std::to_string(i) + ".wav")).string() << "\" 'riff)\n"
+        << "(format t \"S " << i << "\\n\")\n"
+        << "(mapcar (lambda (w) (format t \"%f\\n\" (item.feat w \"word_start\"))) "
+           "(utt.relation.items u 'Word))\n";
+  }
+  scm.close();
+  std::istringstream out(run_capture("festival -b " + (dir / "festival.scm").string()));
+  std::vector<AlignCase> cases;
+  for (std::string line; std::getline(out, line);) {
+    if (line.rfind("S ", 0) == 0) {
+      const auto i = static_cast<std::size_t>(std::stoi(line.substr(2)));
+      cases.push_back({"festival " + std::to_string(i),
+                       "en",
+                       s[i],
+                       (dir / ("fest" + std::to_string(i) + ".wav")).string(),
+                       {}});
+    } else if (!cases.empty() && !line.empty()) {
+      cases.back().onsets.push_back(std::stod(line));
+    }
+  }
+  return cases;
+}
+
+inline std::vector<AlignCase> flite_cases(const std::filesystem::path& dir) {
+  std::vector<AlignCase> cases;
+  const auto& s = english_sentences();
+  const char* voices[] = {"slt", "kal16"};
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const std::string voice = voices[i % 2];
+    const std::string wav = (dir / ("flite" + std::to_string(i) + ".wav")).string();
+    std::istringstream segs(
+        run_capture("flite -voice " + voice + " -t '" + s[i] + "' -o " + wav + " -psdur"));
+    std::vector<std::pair<std::string, double>> phones;  // (name, start)
+    double prev = 0;
+    for (std::string tok; segs >> tok;) {
+      const auto colon = tok.find(':');
+      if (colon == std::string::npos) continue;
+      const double end = std::stod(tok.substr(colon + 1));
+      phones.push_back({tok.substr(0, colon), prev});
+      prev = end;
+    }
+    AlignCase c{"flite " + voice + " " + std::to_string(i), "en", s[i], wav, {}};
+    std::size_t at = 0;
+    for (const std::string& w : word_tokens(s[i])) {
+      std::istringstream one(run_capture("flite -voice " + voice + " -t '" + w + "' -o none -ps"));
+      std::size_t count = 0;
+      for (std::string p; one >> p;) count += p != "pau";
+      while (at < phones.size() && phones[at].first == "pau") ++at;
+      if (at >= phones.size()) break;
+      c.onsets.push_back(phones[at].second);
+      at += count;
+    }
+    cases.push_back(std::move(c));
+  }
+  return cases;
+}
+
+// One Chinese case: espeak-ng through facecast (true word onsets from its events) with `voice` at
+// `speed`, then sox: pitch shift, three pieces stretched by `tempo`, reverb, pink noise.
+inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
+                              const std::string& voice, int speed, int cents,
+                              const double (&tempo)[3]) {
+  viseme::Options o;
+  o.timing = viseme::Timing::kTts;
+  o.zh_voice = voice;
+  o.espeak_speed = speed;
+  const std::string text = chinese_sentences()[i];
+  const viseme::Utterance u = viseme::analyze(text, o);
+  const std::string base = (dir / ("zh" + std::to_string(i))).string();
+  {
+    std::ofstream f(base + "_src.wav", std::ios::binary);
+    f << viseme::encode_wav(u.pcm, u.sample_rate);
+  }
+  const double total = u.duration;
+  const double cut[4] = {0, total / 3, 2 * total / 3, total};
+  double out_start[3], scale[3], at = 0;
+  std::string pieces;
+  for (int k = 0; k < 3; ++k) {
+    const std::string p = base + "_p" + std::to_string(k) + ".wav";
+    run_capture("sox -R " + base + "_src.wav " + p + " trim " + std::to_string(cut[k]) + " =" +
+                std::to_string(cut[k + 1]) + " tempo -s " + std::to_string(tempo[k]));
+    const double len = std::stod(run_capture("soxi -D " + p));
+    out_start[k] = at;
+    scale[k] = len / (cut[k + 1] - cut[k]);
+    at += len;
+    pieces += p + " ";
+  }
+  run_capture("sox -R " + pieces + base + "_cat.wav pitch " + std::to_string(cents) + " reverb 35");
+  run_capture("sox -R -n -r " + std::to_string(u.sample_rate) + " -c 1 " + base +
+              "_noise.wav synth " + std::to_string(at + 1) + " pinknoise vol 0.015");
+  const std::string out = base + ".wav";
+  run_capture("sox -R -m " + base + "_cat.wav " + base + "_noise.wav " + out + " trim 0 " +
+              std::to_string(at + 0.3));
+  AlignCase c{"espeak " + voice + " " + std::to_string(speed) + " " + std::to_string(i),
+              "zh",
+              text,
+              out,
+              {}};
+  for (const auto& w : u.words) {
+    int k = w.start < cut[1] ? 0 : w.start < cut[2] ? 1 : 2;
+    c.onsets.push_back(out_start[k] + (w.start - cut[k]) * scale[k]);
+  }
+  return c;
+}
+
+inline std::vector<AlignCase> chinese_cases(const std::filesystem::path& dir) {
+  const std::string voices[] = {"cmn-latn-pinyin+f3", "cmn-latn-pinyin+m3", "cmn-latn-pinyin+f1"};
+  const int speeds[] = {140, 210, 170};
+  const int cents[] = {250, -300, 120};
+  const double tempi[][3] = {{0.8, 1.25, 0.95}, {1.2, 0.85, 1.1}, {0.9, 1.15, 0.75}};
+  std::vector<AlignCase> out;
+  for (std::size_t i = 0; i < chinese_sentences().size(); ++i)
+    out.push_back(chinese_case(dir, i, voices[i % 3], speeds[i % 3], cents[i % 3], tempi[i % 3]));
+  return out;
+}
+
+/// |aligned - true| word onsets, seconds; words matched in order (English by spelling, Chinese by
+/// the shared segmentation). Throws when the word counts differ.
+inline std::vector<double> onset_errors(const viseme::Utterance& u, const AlignCase& c) {
+  if (u.words.size() != c.onsets.size())
+    throw std::runtime_error(c.name + ": " + std::to_string(u.words.size()) + " words aligned, " +
+                             std::to_string(c.onsets.size()) + " true");
+  std::vector<double> e;
+  for (std::size_t i = 0; i < u.words.size(); ++i)
+    e.push_back(std::abs(u.words[i].start - c.onsets[i]));
+  return e;
+}
+
+}  // namespace facecast::test

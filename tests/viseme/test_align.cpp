@@ -1,0 +1,208 @@
+// Speech audio in (formats, resampling, one-line errors) and forced alignment of text to speech
+// from other synthesizers (festival) and altered Chinese espeak-ng speech.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+
+#include <unistd.h>
+
+#include "align_cases.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/viseme/align.hpp"
+#include "facecast/viseme/audio.hpp"
+
+using namespace facecast;
+using namespace facecast::viseme;
+using Catch::Contains;
+
+namespace {
+
+// A scratch folder for one test case, removed with everything in it at the end of the case.
+struct Scratch {
+  std::filesystem::path path;
+  explicit Scratch(const std::string& name)
+      : path(std::filesystem::temp_directory_path() /
+             ("facecast_align_" + name + "_" + std::to_string(getpid()))) {
+    std::filesystem::create_directories(path);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  std::filesystem::path operator/(const std::string& file) const { return path / file; }
+};
+
+std::vector<float> sine(double hz, int rate, double seconds) {
+  std::vector<float> s(static_cast<std::size_t>(seconds * rate));
+  for (std::size_t i = 0; i < s.size(); ++i)
+    s[i] = 0.5f *
+           static_cast<float>(std::sin(2 * std::numbers::pi * hz * static_cast<double>(i) / rate));
+  return s;
+}
+
+// Frequency by counting upward zero crossings.
+double frequency(const std::vector<float>& s, int rate) {
+  int crossings = 0;
+  for (std::size_t i = 1; i < s.size(); ++i) crossings += s[i - 1] < 0 && s[i] >= 0;
+  return crossings * static_cast<double>(rate) / static_cast<double>(s.size());
+}
+
+double rms(const std::vector<float>& s, std::size_t from, std::size_t to) {
+  double sum = 0;
+  for (std::size_t i = from; i < to; ++i) sum += s[i] * s[i];
+  return std::sqrt(sum / static_cast<double>(to - from));
+}
+
+}  // namespace
+
+TEST_CASE("resampling keeps frequency and level, and streaming equals whole", "[viseme][audio]") {
+  const auto in = sine(1000, 44100, 1.0);
+  const auto out = resample(in, 44100, 16000);
+  CHECK(out.size() == 16000);
+  CHECK(std::abs(frequency(out, 16000) - 1000) < 3);
+  CHECK(std::abs(rms(out, 1000, 15000) - 0.5 / std::sqrt(2.0)) < 0.01);
+  // A tone above the new Nyquist frequency is removed, not aliased.
+  const auto high = resample(sine(12000, 44100, 1.0), 44100, 16000);
+  CHECK(rms(high, 1000, 15000) < 0.01);
+  StreamResampler stream(44100, 16000);
+  std::vector<float> chunked;
+  for (std::size_t at = 0; at < in.size(); at += 441)
+    stream.push(in.data() + at, std::min<std::size_t>(441, in.size() - at), chunked);
+  REQUIRE(chunked.size() > 15900);
+  for (std::size_t i = 0; i < 15900; i += 97) CHECK(std::abs(chunked[i] - out[i]) < 1e-5f);
+}
+
+TEST_CASE("read_audio: WAV, FLAC, OGG, MP3 and AAC at any rate and channel count",
+          "[viseme][audio]") {
+  const Scratch dir("formats");
+  const std::string src = (dir / "src.wav").string();
+  test::run_capture("sox -n -r 44100 -c 2 " + src + " synth 2.0 sine 440 vol 0.5");
+  const std::vector<std::string> files = {src, (dir / "a.flac").string(), (dir / "a.ogg").string(),
+                                          (dir / "a.mp3").string(), (dir / "a.m4a").string()};
+  test::run_capture("sox " + src + " -r 22050 " + files[1]);
+  test::run_capture("sox " + src + " -r 48000 -c 1 " + files[2]);
+  test::run_capture("ffmpeg -v error -y -i " + src + " -ar 32000 " + files[3]);
+  test::run_capture("ffmpeg -v error -y -i " + src + " -c:a aac " + files[4]);
+  for (const auto& f : files) {
+    INFO(f);
+    const Audio a = read_audio(f);
+    CHECK(a.sample_rate == 16000);
+    CHECK(std::abs(a.seconds() - 2.0) < 0.08);  // MP3/AAC add encoder padding
+    CHECK(std::abs(frequency(a.samples, 16000) - 440) < 8);
+    CHECK(rms(a.samples, 4000, 28000) > 0.1);
+  }
+}
+
+TEST_CASE("read_audio: bad audio is a one-line error naming the file", "[viseme][audio]") {
+  const Scratch dir("bad");
+  const std::string text = (dir / "notes.mp3").string(), empty = (dir / "empty.wav").string();
+  std::ofstream(text) << "these are not the samples you are looking for\n";
+  std::ofstream(empty).close();
+  CHECK_THROWS_WITH(read_audio(text), Contains(text) && Contains("not audio"));
+  CHECK_THROWS_WITH(read_audio(empty), Contains("empty"));
+  CHECK_THROWS_WITH(read_audio((dir / "missing.wav").string()), Contains("no such"));
+  const std::string header_only = (dir / "zero.wav").string();
+  test::run_capture("sox -n -r 16000 -c 1 " + header_only + " trim 0 0");
+  CHECK_THROWS_WITH(read_audio(header_only), Contains("no audio samples"));
+  // Over the limit: refused from the header (libsndfile) or at the limit while decoding (ffmpeg).
+  AudioOptions o;
+  o.max_seconds = 3;
+  const std::string wav = (dir / "long.wav").string(), m4a = (dir / "long.m4a").string();
+  test::run_capture("sox -n -r 16000 -c 1 " + wav + " synth 8 sine 300");
+  test::run_capture("ffmpeg -v error -y -i " + wav + " -c:a aac " + m4a);
+  CHECK_THROWS_WITH(read_audio(wav, o), Contains("longer than the limit"));
+  CHECK_THROWS_WITH(read_audio(m4a, o), Contains("longer than the limit"));
+  for (const std::string& f : {text, empty, wav, m4a}) {
+    try {
+      read_audio(f, o);
+    } catch (const Error& e) {
+      CHECK(std::string(e.what()).find('\n') == std::string::npos);
+    }
+  }
+}
+
+TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][config]") {
+  const AudioOptions d, c = load_audio_options();
+  CHECK(d.sample_rate == c.sample_rate);
+  CHECK(d.max_seconds == c.max_seconds);
+  CHECK(d.min_seconds == c.min_seconds);
+  CHECK(d.ffmpeg == c.ffmpeg);
+  const AlignOptions a, b = load_align_options();
+  CHECK(a.min_speed == b.min_speed);
+  CHECK(a.max_speed == b.max_speed);
+  CHECK(a.band == b.band);
+  CHECK(a.band_frames == b.band_frames);
+  CHECK(a.refine_seconds == b.refine_seconds);
+  CHECK(a.refine_weight == b.refine_weight);
+  CHECK(a.min_pause == b.min_pause);
+  CHECK(a.silence_range == b.silence_range);
+  CHECK(a.silence_max_db == b.silence_max_db);
+  CHECK(a.hold_penalty == b.hold_penalty);
+  CHECK(a.deltas == b.deltas);
+  CHECK(a.refine == b.refine);
+  CHECK(a.warps == b.warps);
+  CHECK(a.max_seconds == b.max_seconds);
+}
+
+TEST_CASE("alignment: word onsets on festival English and altered Chinese speech",
+          "[viseme][align]") {
+  const Scratch dir("cases");
+  std::vector<test::AlignCase> cases = test::festival_cases(dir.path);
+  for (auto& c : test::chinese_cases(dir.path)) cases.push_back(std::move(c));
+  for (const char* lang : {"en", "zh"}) {
+    std::vector<double> errors;
+    for (const auto& c : cases) {
+      if (c.lang != lang) continue;
+      const Audio audio = read_audio(c.audio);
+      const Utterance u = align(c.text, audio);
+      CHECK(u.duration == audio.seconds());
+      CHECK(u.pcm.size() == audio.samples.size());
+      const auto e = test::onset_errors(u, c);
+      errors.insert(errors.end(), e.begin(), e.end());
+    }
+    std::sort(errors.begin(), errors.end());
+    double mean = 0;
+    for (double e : errors) mean += e / static_cast<double>(errors.size());
+    const double p95 = errors[errors.size() * 95 / 100];
+    INFO(lang << ": mean " << mean * 1000 << " ms, p95 " << p95 * 1000 << " ms over "
+              << errors.size() << " words");
+    // Looser than bench_align's targets (30 / 80 ms): this guards against regressions.
+    CHECK(mean < 0.050);
+    CHECK(p95 < 0.150);
+  }
+}
+
+TEST_CASE("alignment: pauses in the audio become rest", "[viseme][align]") {
+  Options o;
+  o.timing = Timing::kTts;
+  const Utterance spoken = analyze("Hello there", o);
+  const Utterance later = analyze("good morning", o);
+  // "Hello there" + 1.2 s of silence + "good morning", aligned to the text without punctuation.
+  std::vector<int16_t> pcm = spoken.pcm;
+  pcm.resize(pcm.size() + static_cast<std::size_t>(1.2 * spoken.sample_rate), 0);
+  const double gap_start = spoken.duration, gap_end = spoken.duration + 1.2;
+  pcm.insert(pcm.end(), later.pcm.begin(), later.pcm.end());
+  const Audio audio = audio_from_pcm16(pcm, spoken.sample_rate);
+  const Utterance u = align("Hello there good morning", audio);
+  AlignOptions short_limit;
+  short_limit.max_seconds = 2;
+  CHECK_THROWS_WITH(align("Hello there good morning", audio, {}, short_limit),
+                    Contains("longer than the limit"));
+  REQUIRE(u.words.size() == 4);
+  std::string timed;
+  for (const auto& p : u.phones)
+    timed += p.phone + " " + std::to_string(p.start) + " " + std::to_string(p.end) + ", ";
+  INFO(timed);
+  CHECK(u.words[1].end <= gap_start + 0.08);
+  CHECK(std::abs(u.words[2].start - gap_end) < 0.08);
+  bool rest = false;
+  for (const auto& v : u.visemes)
+    rest |= v.viseme == "sil" && v.start < gap_start + 0.2 && v.end > gap_end - 0.2;
+  CHECK(rest);
+}
