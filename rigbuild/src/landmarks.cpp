@@ -150,6 +150,24 @@ int drop_by_symmetry(double limit, const std::vector<double>& residual, Points& 
   return static_cast<int>(drop.size());
 }
 
+// Each point moved by the template's bias carried into the target's frame: the rotation and
+// scale of the similarity fitted from the reference onto the points.
+void apply_bias(const Points& reference, const Points& bias, Points& points) {
+  std::vector<int> both;
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (valid(points, k) && valid(reference, k)) both.push_back(k);
+  if (both.size() < 4) return;
+  Points from(static_cast<Eigen::Index>(both.size()), 3), to(from.rows(), 3);
+  for (std::size_t i = 0; i < both.size(); ++i) {
+    from.row(static_cast<Eigen::Index>(i)) = reference.row(both[i]);
+    to.row(static_cast<Eigen::Index>(i)) = points.row(both[i]);
+  }
+  const Similarity s = procrustes(from, to, true);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (valid(points, k) && valid(bias, k))
+      points.row(k) += (s.scale * s.R * bias.row(k).transpose()).transpose();
+}
+
 // Per landmark, the median of its lifted points over the views that may show it.
 Points fuse(const std::vector<LandmarkView>& views,
             const std::vector<std::array<Eigen::RowVector3d, kLandmarkCount>>& lifted,
@@ -172,7 +190,7 @@ Points fuse(const std::vector<LandmarkView>& views,
 }  // namespace
 
 HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
-                               const Points* reference) {
+                               const Points* reference, const Points* bias) {
   if (options.image_size < 64 || options.image_size > 4096)
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
                 " out of range (64..4096)");
@@ -244,6 +262,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
                          ? (out.points.row(36) - out.points.row(45)).norm()
                          : 0.25 * diagonal;
   std::vector<double> residual;
+  if (reference && bias) apply_bias(*reference, *bias, out.points);
   if (reference)
     out.dropped += drop_by_similarity(*reference, options.outlier * iod, out.points, residual);
   out.dropped += drop_by_symmetry(options.symmetry * iod, residual, out.points);
@@ -281,6 +300,15 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
   return out;
 }
 
+Points landmark_bias(const anim::Rig& tmpl, const Points& reference,
+                     const LandmarkOptions& options) {
+  const HeadLandmarks found = detect_landmarks(tmpl, options, &reference);
+  Points bias = reference - found.points;
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (!valid(bias, k)) bias.row(k).setZero();
+  return bias;
+}
+
 AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
                          const LandmarkOptions& options) {
   AutoMarkers out;
@@ -301,7 +329,8 @@ AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
     else
       reference.row(k).setConstant(kNaN);
   }
-  out.target = detect_landmarks(target, options, &reference);
+  const Points bias = landmark_bias(tmpl, reference, options);
+  out.target = detect_landmarks(target, options, &reference, &bias);
   if (out.target.views_found == 0)
     throw Error("target: no face found in its " + std::to_string(out.target.views.size()) +
                 " rendered views (a head facing +Z with +Y up is needed; or give --markers)");

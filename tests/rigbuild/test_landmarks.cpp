@@ -33,12 +33,13 @@ TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of 
   REQUIRE(truth_ids);  // configs/rigbuild/template_landmarks.json knows the ICT FaceKit
   const LandmarkOptions options = load_landmark_options();
   const Points reference = landmark_points(neutral, *truth_ids);
+  const Points bias = landmark_bias(neutral, reference, options);
   double worst_mean = 0;
   for (const char* name : {"identity000.obj", "identity003.obj", "identity007.obj"}) {
     anim::Rig head = neutral;
     head.positions = anim::read_obj_positions(dir / name);
     head.normals = anim::vertex_normals(head.positions, head.triangles);
-    const HeadLandmarks found = detect_landmarks(head, options, &reference);
+    const HeadLandmarks found = detect_landmarks(head, options, &reference, &bias);
     CHECK(found.views_found >= 3);
     const Points truth = landmark_points(head, *truth_ids);
     // The face: the bounding box of the skin in front of the ears (the true landmarks' box).

@@ -30,7 +30,7 @@ inline constexpr int kLandmarkCount = 68;
 /// Defaults mirrored in configs/rigbuild/landmarks.json (load_landmark_options).
 struct LandmarkOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
-  int image_size = 400;                           // square views, pixels
+  int image_size = 400;       // square views, pixels
   float frame_margin = 1.3f;  // the head's box scaled by this in the first, wide view
   double face_fill = 0.5;     // the views are zoomed until the landmarks span this much of them
   std::vector<double> yaws{0, -15, 15, -30, 30};  // view directions, degrees about +Y
@@ -61,10 +61,18 @@ struct HeadLandmarks {
   int dropped = 0;  // landmarks the outlier and symmetry tests removed
 };
 
-/// The template's landmark positions (68 by 3, NaN rows where unknown) that the target's are
-/// checked against; nullptr: no similarity test.
+/// `reference`: the template's landmark positions (68 by 3, NaN rows where unknown) that the
+/// target's are checked against; nullptr: no similarity test. `bias` (with a reference): the
+/// template's landmark_bias, added to the fused points in the target's frame.
 HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
-                               const Points* reference = nullptr);
+                               const Points* reference = nullptr, const Points* bias = nullptr);
+
+/// Where dlib puts a landmark on a render and where the template's own landmark vertex is differ
+/// by a convention (the brows of a bald grey head, the lid margins): per landmark, the
+/// template's `reference` point minus the point detected on the template (zero where dropped),
+/// in the template's frame.
+Points landmark_bias(const anim::Rig& tmpl, const Points& reference,
+                     const LandmarkOptions& options);
 
 /// The rig's 68 landmark vertices: landmarks named "dlib_00".."dlib_67" stored with it, else the
 /// entry of configs/rigbuild/template_landmarks.json with its vertex and triangle counts;
