@@ -101,3 +101,66 @@ TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbui
     CHECK(what.find('\n') == std::string::npos);
   }
 }
+
+namespace {
+
+// sum <d_auto, d_hand> / sum |d_hand|^2 over the vertices: 1 when the automatic build moves
+// every vertex as the hand-marker build does.
+double agreement(const anim::Rig& automatic, const anim::Rig& hand, const std::string& shape) {
+  const int a = automatic.find_shape(shape), h = hand.find_shape(shape);
+  REQUIRE(a >= 0);
+  REQUIRE(h >= 0);
+  const anim::Positions da =
+      automatic.shapes[static_cast<std::size_t>(a)].dense(automatic.vertex_count());
+  const anim::Positions dh = hand.shapes[static_cast<std::size_t>(h)].dense(hand.vertex_count());
+  return (da.cast<double>().array() * dh.cast<double>().array()).sum() /
+         dh.cast<double>().squaredNorm();
+}
+
+}  // namespace
+
+TEST_CASE(
+    "MakeHuman head without markers: the automatic landmarks' build agrees with the hand "
+    "markers'; the MediaPipe face builds the same way",
+    "[rigbuild][landmarks][makehuman][slow]") {
+  const auto dir = test::ict_dir();
+  const auto mh = test::shared_data() / "makehuman/head.obj";
+  const auto mp = test::shared_data() / "mediapipe/canonical_face_model.obj";
+  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh) ||
+      !test::require_data(mp))
+    return;
+  const anim::Rig tmpl =
+      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const anim::Rig target = anim::read_obj(mh);
+  const BuildOptions defaults = load_build_options();
+  const BuildResult automatic = build_rig(tmpl, target, defaults);
+  REQUIRE(automatic.landmarks);
+  CHECK(automatic.landmarks->markers.size() >= 50);
+  BuildOptions opt = defaults;
+  opt.markers = read_markers(test::shared_data() / "markers/makehuman_head_to_ict.json",
+                             tmpl.vertex_count(), target.vertex_count());
+  const BuildResult hand = build_rig(tmpl, target, opt);
+  CHECK(!hand.landmarks);
+  std::ostringstream figures;
+  for (const char* shape :
+       {"jawOpen", "eyeBlink_L", "eyeBlink_R", "mouthSmile_L", "mouthFunnel", "browInnerUp_L"}) {
+    const double r = agreement(automatic.rig, hand.rig, shape);
+    figures << " " << shape << " " << r;
+    INFO(shape << ": " << r);
+    CHECK(r >= 0.8);
+  }
+  WARN("MakeHuman, automatic vs hand markers, sum<d_auto,d_hand>/sum|d_hand|^2:"
+       << figures.str() << "; " << automatic.landmarks->markers.size()
+       << " landmark markers; build " << automatic.timings.total << " s (landmarks "
+       << automatic.timings.landmarks << " s, correspondence " << automatic.timings.correspondence
+       << " s)");
+
+  const anim::Rig mask = anim::read_obj(mp);
+  const BuildResult m = build_rig(tmpl, mask, defaults);
+  REQUIRE(m.landmarks);
+  CHECK(m.rig.shapes.size() == 57);
+  CHECK(m.rig.shapes[static_cast<std::size_t>(m.rig.find_shape("jawOpen"))].max_displacement() >
+        0.0f);
+  WARN("MediaPipe: " << m.landmarks->markers.size() << " landmark markers, build "
+                     << m.timings.total << " s");
+}
