@@ -220,7 +220,9 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   {
     renderer.set_camera(wide);
     std::array<Eigen::Vector2d, kLandmarkCount> px;
-    if (!find_face(renderer.render({}), sp, px)) {
+    render::Image image = renderer.render({});
+    if (!find_face(image, sp, px)) {
+      out.views.push_back({0.0, std::move(image), false, {}, {}});
       out.points = Points::Constant(kLandmarkCount, 3, kNaN);
       out.vertex.fill(-1);
       return out;

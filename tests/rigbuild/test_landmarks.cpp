@@ -7,6 +7,7 @@
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "test_data.hpp"
 
