@@ -56,24 +56,31 @@ const dlib::shape_predictor& shape_predictor(const std::string& path) {
   return *slot;
 }
 
-// dlib's largest face in `image` and its 68 points; false when there is no face.
-bool find_face(const render::Image& image, const dlib::shape_predictor& sp,
-               std::array<Eigen::Vector2d, kLandmarkCount>& points) {
+dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
   dlib::array2d<dlib::rgb_pixel> img(image.height, image.width);
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x)
       img[y][x] = dlib::rgb_pixel(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
+  return img;
+}
+
+// dlib's largest face in `image` (the HOG scan over the pyramid: about a second on a 400 px
+// image on a shared machine, so it runs on the wide view only).
+std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
   dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();  // one per call
   const std::vector<dlib::rectangle> faces = detector(img);
-  if (faces.empty()) return false;
-  const auto largest = std::max_element(
-      faces.begin(), faces.end(), [](const auto& a, const auto& b) { return a.area() < b.area(); });
-  const dlib::full_object_detection shape = sp(img, *largest);
-  if (shape.num_parts() != kLandmarkCount) return false;
+  if (faces.empty()) return std::nullopt;
+  return *std::max_element(faces.begin(), faces.end(),
+                           [](const auto& a, const auto& b) { return a.area() < b.area(); });
+}
+
+// The 68 points of the face in `box` (a few milliseconds).
+void predict(const dlib::array2d<dlib::rgb_pixel>& img, const dlib::shape_predictor& sp,
+             const dlib::rectangle& box, std::array<Eigen::Vector2d, kLandmarkCount>& points) {
+  const dlib::full_object_detection shape = sp(img, box);
   for (int k = 0; k < kLandmarkCount; ++k)
     points[static_cast<std::size_t>(k)] = {static_cast<double>(shape.part(k).x()),
                                            static_cast<double>(shape.part(k).y())};
-  return true;
 }
 
 double median(std::vector<double> v) {
@@ -214,26 +221,45 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
 
   HeadLandmarks out;
-  // The face framed: found in a wide frontal view, then filling face_fill of the image.
+  // The face framed: found in a wide frontal view, then filling face_fill of the image. The
+  // detector's box, zoomed with the view, starts the shape predictor in every view (the views
+  // orbit the face's centre, so the face stays there).
   const render::Camera wide = wide_camera(head, options.frame_margin, options.image_size);
   render::Camera front = wide;
+  dlib::rectangle box;
   {
     renderer.set_camera(wide);
-    std::array<Eigen::Vector2d, kLandmarkCount> px;
     render::Image image = renderer.render({});
-    if (!find_face(image, sp, px)) {
+    const auto img = to_dlib(image);
+    const auto face = find_face(img);
+    if (!face) {
       out.views.push_back({0.0, std::move(image), false, {}, {}});
       out.points = Points::Constant(kLandmarkCount, 3, kNaN);
       out.vertex.fill(-1);
       return out;
     }
+    std::array<Eigen::Vector2d, kLandmarkCount> px;
+    predict(img, sp, *face, px);
     Eigen::Vector2d lo = px[0], hi = px[0];
     for (const auto& p : px) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
     const SkinBuffer buffer(rest, head.triangles, skin, wide, options.image_size, 0.02 * diagonal);
-    const auto centre = buffer.lift(0.5 * (lo + hi), 0.25 * (hi - lo).minCoeff());
-    if (centre)
-      front = face_camera(wide, centre->transpose(),
-                          options.face_fill * options.image_size / (hi - lo).maxCoeff());
+    const Eigen::Vector2d mid = 0.5 * (lo + hi);
+    const auto centre = buffer.lift(mid, 0.25 * (hi - lo).minCoeff());
+    double zoom = 1;
+    Eigen::Vector2d from = Eigen::Vector2d::Constant(0.5 * options.image_size);
+    if (centre) {
+      zoom = options.face_fill * options.image_size / (hi - lo).maxCoeff();
+      front = face_camera(wide, centre->transpose(), zoom);
+      from = mid;
+    }
+    const auto zoomed = [&](double x, double y) {
+      return Eigen::Vector2d(0.5 * options.image_size + zoom * (x - from.x()),
+                             0.5 * options.image_size + zoom * (y - from.y()));
+    };
+    const Eigen::Vector2d a = zoomed(face->left(), face->top()),
+                          b = zoomed(face->right(), face->bottom());
+    box = dlib::rectangle(std::lround(a.x()), std::lround(a.y()), std::lround(b.x()),
+                          std::lround(b.y()));
   }
   std::vector<std::array<Eigen::RowVector3d, kLandmarkCount>> lifted;
   for (double yaw : options.yaws) {
@@ -242,23 +268,21 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     const render::Camera camera = orbit(front, yaw);
     renderer.set_camera(camera);
     view.image = renderer.render({});
-    view.found = find_face(view.image, sp, view.pixels);
+    predict(to_dlib(view.image), sp, box, view.pixels);
+    view.found = true;
+    ++out.views_found;
     auto& points = lifted.emplace_back();
-    if (view.found) {
-      ++out.views_found;
-      const SkinBuffer buffer(rest, head.triangles, skin, camera, options.image_size,
-                              0.02 * diagonal);
-      for (int k = 0; k < kLandmarkCount; ++k) {
-        const auto p = buffer.lift(view.pixels[static_cast<std::size_t>(k)], options.search_pixels);
-        view.lifted[static_cast<std::size_t>(k)] = p.has_value();
-        if (p) points[static_cast<std::size_t>(k)] = *p;
-      }
+    const SkinBuffer buffer(rest, head.triangles, skin, camera, options.image_size,
+                            0.02 * diagonal);
+    for (int k = 0; k < kLandmarkCount; ++k) {
+      const auto p = buffer.lift(view.pixels[static_cast<std::size_t>(k)], options.search_pixels);
+      view.lifted[static_cast<std::size_t>(k)] = p.has_value();
+      if (p) points[static_cast<std::size_t>(k)] = *p;
     }
     out.views.push_back(std::move(view));
   }
   out.points = fuse(out.views, lifted, options.contour_yaw);
   out.vertex.fill(-1);
-  if (out.views_found == 0) return out;
 
   const double iod = valid(out.points, 36) && valid(out.points, 45)
                          ? (out.points.row(36) - out.points.row(45)).norm()
