@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "facecast/anim/avatar.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
@@ -164,4 +165,28 @@ TEST_CASE(
         0.0f);
   WARN("MediaPipe: " << m.landmarks->markers.size() << " landmark markers, build "
                      << m.timings.total << " s");
+}
+
+TEST_CASE("the default avatar's stored landmarks are where the detector finds them",
+          "[rigbuild][landmarks]") {
+  const anim::Rig& avatar = anim::default_avatar();
+  const HeadLandmarks found = detect_landmarks(avatar, load_landmark_options());
+  std::ostringstream list;  // configs/rigbuild/template_landmarks.json's entry, to regenerate it
+  for (int k = 0; k < kLandmarkCount; ++k)
+    list << (k ? ", " : "[") << found.vertex[static_cast<std::size_t>(k)];
+  list << "] (" << avatar.vertex_count() << " vertices, " << avatar.triangle_count()
+       << " triangles)";
+  const auto stored = known_landmarks(avatar);
+  INFO("detected: " << list.str());
+  REQUIRE(stored);
+  const double iod =
+      (avatar.positions.row((*stored)[36]) - avatar.positions.row((*stored)[45])).norm();
+  int agree = 0;
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const int s = (*stored)[static_cast<std::size_t>(k)],
+              d = found.vertex[static_cast<std::size_t>(k)];
+    agree += s >= 0 && d >= 0 &&
+             (avatar.positions.row(s) - avatar.positions.row(d)).norm() <= 0.05 * iod;
+  }
+  CHECK(agree >= 55);
 }
