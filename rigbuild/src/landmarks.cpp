@@ -343,8 +343,9 @@ AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
   } else {
     const HeadLandmarks t = detect_landmarks(tmpl, options);
     if (t.views_found == 0)
-      throw Error("template: no face found in its " + std::to_string(t.views.size()) +
-                  " rendered views, and it has no stored landmarks (dlib_00..dlib_67)");
+      throw Error(
+          "template: no face found in its " + std::to_string(t.views.size()) +
+          " rendered views, and it has no stored landmarks (dlib_00..dlib_67); give --markers");
     out.template_vertices = t.vertex;
   }
   Points reference(kLandmarkCount, 3);

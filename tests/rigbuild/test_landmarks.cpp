@@ -122,8 +122,8 @@ double agreement(const anim::Rig& automatic, const anim::Rig& hand, const std::s
 }  // namespace
 
 TEST_CASE(
-    "MakeHuman head without markers: the automatic landmarks' build agrees with the hand "
-    "markers'; the MediaPipe face builds the same way",
+    "MakeHuman head without markers builds like with the hand markers, and so does the "
+    "MediaPipe face",
     "[rigbuild][landmarks][makehuman][slow]") {
   const auto dir = test::ict_dir();
   const auto mh = test::shared_data() / "makehuman/head.obj";
