@@ -138,6 +138,19 @@ TEST_CASE(
   const BuildResult automatic = build_rig(tmpl, target, defaults);
   REQUIRE(automatic.landmarks);
   CHECK(automatic.landmarks->markers.size() >= 50);
+  // What --markers-out writes reads back as --markers; --landmarks-png draws every view.
+  const auto markers_out = test::scratch_dir() / "mh_markers.json";
+  write_markers_json(markers_out, automatic.landmarks->markers);
+  const auto again = read_markers(markers_out, tmpl.vertex_count(), target.vertex_count());
+  REQUIRE(again.size() == automatic.landmarks->markers.size());
+  for (std::size_t i = 0; i < again.size(); ++i) {
+    CHECK(again[i].name == automatic.landmarks->markers[i].name);
+    CHECK(again[i].template_vertex == automatic.landmarks->markers[i].template_vertex);
+    CHECK(again[i].target_vertex == automatic.landmarks->markers[i].target_vertex);
+  }
+  const render::Image picture = landmark_picture(automatic.landmarks->target);
+  CHECK(picture.width == 5 * load_landmark_options().image_size);
+  render::write_image(test::artifacts_dir("landmarks") / "makehuman.png", picture);
   BuildOptions opt = defaults;
   opt.markers = read_markers(test::shared_data() / "markers/makehuman_head_to_ict.json",
                              tmpl.vertex_count(), target.vertex_count());
