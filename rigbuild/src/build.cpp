@@ -53,18 +53,27 @@ void check_inputs(const anim::Rig& tmpl, const anim::Rig& target, const BuildOpt
 }  // namespace
 
 Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
-                          const BuildOptions& options, const ProgressFn& progress) {
+                          const BuildOptions& options, std::optional<AutoMarkers>& found,
+                          const ProgressFn& progress) {
+  const std::vector<MarkerPair>* markers = &options.markers;
   if (options.markers.empty()) {
     if (auto same = same_topology_correspondence(tmpl.vertex_count(), tmpl.triangles,
                                                  target.vertex_count(), target.triangles))
       return std::move(*same);
-    throw Error("target: topology differs from the template (" +
-                std::to_string(target.vertex_count()) + " vs " +
-                std::to_string(tmpl.vertex_count()) + " vertices); give --markers");
+    if (!options.auto_landmarks)
+      throw Error("target: topology differs from the template (" +
+                  std::to_string(target.vertex_count()) + " vs " +
+                  std::to_string(tmpl.vertex_count()) + " vertices); give --markers");
+    // Another topology without markers: automatic landmarks (docs/algorithms.md#landmarks).
+    report(progress, "landmarks", 0.0);
+    const auto t0 = Clock::now();
+    found = auto_markers(tmpl, target, options.landmarks);
+    found->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    markers = &found->markers;
   }
   if (options.correspondence) return *options.correspondence;
   return compute_correspondence(tmpl.positions.cast<double>(), tmpl.triangles, template_parts(tmpl),
-                                target.positions.cast<double>(), target.triangles, options.markers,
+                                target.positions.cast<double>(), target.triangles, *markers,
                                 options.registration, progress);
 }
 
@@ -77,13 +86,16 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   const Points rest = target.positions.cast<double>();
   const Faces& faces = target.triangles;
   const MeshParts parts(target.vertex_count(), faces);
-  r.correspondence = timed(progress, "correspondence", time.correspondence,
-                           [&] { return correspond(tmpl, target, options, progress); });
+  r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
+    return correspond(tmpl, target, options, r.landmarks, progress);
+  });
+  time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
+  const bool same_topology = options.markers.empty() && !r.landmarks;
   const TemplateShapes source =
       timed(progress, "gradients", time.gradients, [&] { return template_shapes(tmpl); });
   const Moved moved = classify_motion(r.correspondence, source, options.still_tolerance);
   const Placement placement = place_components(tmpl, rest, faces, parts, r.correspondence, source,
-                                               moved, options, options.markers.empty());
+                                               moved, options, same_topology);
   r.components = placement.components;
   r.fixed_vertices = placement.fixed_count();
   r.virtual_edges = timed(progress, "virtual edges", time.detect,

@@ -39,6 +39,7 @@ BuildOptions load_build_options() {
       .read("rest_pull", o.registration.rest_pull)
       .read("max_distance", o.registration.max_distance);
   c.reject_unknown();
+  o.landmarks = load_landmark_options();
   return o;
 }
 
@@ -79,13 +80,16 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
   contacts["enabled"] = options.contacts.enabled;
   contacts["watched_pairs"] = r.watched_pairs;
   j["contacts"] = contacts;
-  j["timings_s"] = {{"correspondence", r.timings.correspondence},
-                    {"gradients", r.timings.gradients},
-                    {"virtual_edges", r.timings.detect},
-                    {"factor", r.timings.factor},
-                    {"solve", r.timings.solve},
-                    {"contacts", r.timings.contacts},
-                    {"total", r.timings.total}};
+  j["timings_s"] = {
+      {"landmarks", r.timings.landmarks}, {"correspondence", r.timings.correspondence},
+      {"gradients", r.timings.gradients}, {"virtual_edges", r.timings.detect},
+      {"factor", r.timings.factor},       {"solve", r.timings.solve},
+      {"contacts", r.timings.contacts},   {"total", r.timings.total}};
+  if (r.landmarks)
+    j["landmarks"] = {{"markers", r.landmarks->markers.size()},
+                      {"views", r.landmarks->target.views.size()},
+                      {"views_with_face", r.landmarks->target.views_found},
+                      {"dropped", r.landmarks->target.dropped}};
   j["factor_nonzeros"] = r.factor_nonzeros;
   j["fixed_vertices"] = r.fixed_vertices;
   j["components"] = nlohmann::json::array();

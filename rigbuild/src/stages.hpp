@@ -94,8 +94,11 @@ struct RigidParts {
 };
 RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, double tolerance);
 
+/// Another topology without markers: `found` gets the automatic landmarks' markers
+/// (BuildOptions::auto_landmarks).
 Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
-                          const BuildOptions& options, const ProgressFn& progress);
+                          const BuildOptions& options, std::optional<AutoMarkers>& found,
+                          const ProgressFn& progress);
 TemplateShapes template_shapes(const anim::Rig& tmpl);
 /// A vertex moves when the point it maps to moves at least still_tolerance * the template's
 /// bounding-box diagonal.

@@ -10,8 +10,10 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/render/image.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/picture.hpp"
 #include "facecast/rigbuild/quality.hpp"
 #include "progress.hpp"
@@ -24,6 +26,7 @@ struct BuildArgs {
   std::string correspondence, ve_mode = "auto", ve_pair, ve_out, ve_png, crossings_png,
                               solver = "cholmod";
   std::string contacts = "on";
+  std::string markers_out, landmarks_png;  // what the automatic landmarks found
   rigbuild::BuildOptions opt;
 };
 
@@ -143,6 +146,16 @@ void run_build(BuildArgs& a) {
   if (!cache.empty() && !opt.correspondence) rigbuild::save_correspondence(cache, r.correspondence);
 
   anim::write_glb(a.out, r.rig);
+  if (r.landmarks) {
+    std::fprintf(stderr, "landmarks: %zu marker pairs from %d of %zu views (%.2f s)\n",
+                 r.landmarks->markers.size(), r.landmarks->target.views_found,
+                 r.landmarks->target.views.size(), r.timings.landmarks);
+    if (!a.markers_out.empty()) rigbuild::write_markers_json(a.markers_out, r.landmarks->markers);
+    if (!a.landmarks_png.empty())
+      render::write_image(a.landmarks_png, rigbuild::landmark_picture(r.landmarks->target));
+  } else if (!a.markers_out.empty() || !a.landmarks_png.empty()) {
+    std::fprintf(stderr, "no landmarks were detected (markers given, or the same topology)\n");
+  }
   if (!a.obj_out.empty()) anim::write_obj_folder(a.obj_out, r.rig);
   if (!a.ve_out.empty()) {
     const std::filesystem::path obj(a.ve_out);
@@ -248,8 +261,13 @@ void add_rig_build_commands(CLI::App& rig) {
   b->add_option("--target", a->target, "The user's neutral head (OBJ or GLB)")
       ->required()
       ->check(CLI::ExistingFile);
-  b->add_option("--markers", a->markers, "Marker pairs JSON (needed when the topology differs)")
+  b->add_option("--markers", a->markers,
+                "Marker pairs JSON for another topology (default: found by automatic landmarks)")
       ->check(CLI::ExistingFile);
+  b->add_option("--markers-out", a->markers_out,
+                "Write the marker pairs the automatic landmarks found (the --markers format)");
+  b->add_option("--landmarks-png", a->landmarks_png,
+                "Write the landmark views with the points dlib found (green: used)");
   b->add_option("--correspondence", a->correspondence,
                 "Correspondence cache (default: next to --out)");
   b->add_option("--out", a->out, "Output rig (GLB)")->required();

@@ -51,6 +51,10 @@ if (JSON.stringify(fs.readdirSync(process.argv[2]).sort()) !== JSON.stringify(wi
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/triangle.obj"
 expect_error "give --markers" "$facecast" rig build --template "$tmp/default.glb" \
   --target "$tmp/triangle.obj" --out "$tmp/x.glb"
+# Another topology without --markers: automatic landmarks, and a triangle has no face.
+expect_error "no face found" "$facecast" rig build --template "$tmp/default.glb" \
+  --target "$tmp/triangle.obj" --out "$tmp/x.glb" --markers-out "$tmp/m.json"
+test ! -e "$tmp/m.json" || fail "a failed build left its markers"
 test ! -e "$tmp/x.glb" || fail "a failed build left its output"
 if "$facecast" rig build --template "$tmp/default.glb" --target "$tmp/user.glb" \
   --out "$tmp/x.glb" --contacts maybe 2>"$tmp/err"; then fail "--contacts maybe accepted"; fi

@@ -157,7 +157,11 @@ TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild]
   CHECK(message(flat, opt).find("has zero area") != std::string::npos);
 
   anim::Rig other = double_layer(6, 0.5f);
+  CHECK(message(other, opt).find("no face found") != std::string::npos);  // automatic landmarks
   CHECK(message(other, opt).find("give --markers") != std::string::npos);
+  opt.auto_landmarks = false;
+  CHECK(message(other, opt).find("topology differs from the template") != std::string::npos);
+  opt.auto_landmarks = true;
 
   anim::Rig empty = target;
   empty.triangles.resize(0, 3);

@@ -29,6 +29,7 @@
 #include "facecast/anim/rig.hpp"
 #include "facecast/core/progress.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/transfer.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
 
@@ -66,7 +67,11 @@ struct BuildOptions {
                                   // this * the component's size in every shape
   SolverKind solver = SolverKind::kCholmod;
   // Another topology (see correspondence.hpp).
-  std::vector<MarkerPair> markers;  // required when the topologies differ (read_markers)
+  std::vector<MarkerPair> markers;  // when the topologies differ (read_markers); empty: found
+  /// Without markers on another topology: find them with automatic landmarks (landmarks.hpp);
+  /// false: such a build is an error.
+  bool auto_landmarks = true;
+  LandmarkOptions landmarks;
   /// With markers: a correspondence computed before (load_correspondence) to use instead of
   /// computing it; BuildResult::correspondence holds the one used, to save.
   std::optional<Correspondence> correspondence;
@@ -82,6 +87,7 @@ struct ComponentInfo {
 };
 
 struct BuildTimings {
+  double landmarks = 0;  // part of correspondence
   double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, contacts = 0,
          total = 0;
 };
@@ -109,7 +115,8 @@ struct BuildResult {
   std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
   std::vector<ComponentInfo> components;
-  Correspondence correspondence;  // its map: per target triangle, its template triangles
+  Correspondence correspondence;         // its map: per target triangle, its template triangles
+  std::optional<AutoMarkers> landmarks;  // the markers found when none were given
   int fixed_vertices = 0;
   std::size_t watched_pairs = 0;  // triangle pairs the contact guard watches
   long factor_nonzeros = 0;

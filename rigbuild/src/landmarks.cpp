@@ -1,0 +1,368 @@
+// Automatic facial landmarks: dlib on rendered views, lifted and fused. See
+// docs/algorithms.md#landmarks.
+#include "facecast/rigbuild/landmarks.hpp"
+
+#include <dlib/image_processing.h>
+#include <dlib/image_processing/frontal_face_detector.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+
+#include "facecast/core/error.hpp"
+#include "facecast/render/renderer.hpp"
+#include "landmark_views.hpp"
+
+namespace facecast::rigbuild {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Mirror pairs of the 68-point layout: (subject's right, subject's left).
+constexpr std::array<std::array<int, 2>, 29> kMirror = {{
+    {0, 16},  {1, 15},  {2, 14},  {3, 13},  {4, 12},  {5, 11},  {6, 10},  {7, 9},
+    {17, 26}, {18, 25}, {19, 24}, {20, 23}, {21, 22}, {31, 35}, {32, 34}, {36, 45},
+    {37, 44}, {38, 43}, {39, 42}, {40, 47}, {41, 46}, {48, 54}, {49, 53}, {50, 52},
+    {59, 55}, {58, 56}, {60, 64}, {61, 63}, {67, 65},
+}};
+
+bool is_jaw(int k) {
+  return k <= 16;
+}
+
+// The shape predictor, read once per path (about 100 MB); shared by every thread (its operator()
+// is const).
+const dlib::shape_predictor& shape_predictor(const std::string& path) {
+  static std::mutex mutex;
+  static std::map<std::string, std::unique_ptr<dlib::shape_predictor>> cache;
+  std::lock_guard lock(mutex);
+  auto& slot = cache[path];
+  if (!slot) {
+    if (!std::filesystem::exists(path))
+      throw Error(path + ": dlib's 68-point shape predictor is missing (Debian: libdlib-data)");
+    auto sp = std::make_unique<dlib::shape_predictor>();
+    try {
+      dlib::deserialize(path) >> *sp;
+    } catch (const std::exception& e) {
+      throw Error(path + ": not a dlib shape predictor (" + std::string(e.what()).substr(0, 80) +
+                  ")");
+    }
+    slot = std::move(sp);
+  }
+  return *slot;
+}
+
+dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
+  dlib::array2d<dlib::rgb_pixel> img(image.height, image.width);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      img[y][x] = dlib::rgb_pixel(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
+  return img;
+}
+
+// dlib's largest face in `image` (the HOG scan over the pyramid: about a second on a 400 px
+// image on a shared machine, so it runs on the wide view only).
+std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
+  dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();  // one per call
+  const std::vector<dlib::rectangle> faces = detector(img);
+  if (faces.empty()) return std::nullopt;
+  return *std::max_element(faces.begin(), faces.end(),
+                           [](const auto& a, const auto& b) { return a.area() < b.area(); });
+}
+
+// The 68 points of the face in `box` (a few milliseconds).
+void predict(const dlib::array2d<dlib::rgb_pixel>& img, const dlib::shape_predictor& sp,
+             const dlib::rectangle& box, std::array<Eigen::Vector2d, kLandmarkCount>& points) {
+  const dlib::full_object_detection shape = sp(img, box);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    points[static_cast<std::size_t>(k)] = {static_cast<double>(shape.part(k).x()),
+                                           static_cast<double>(shape.part(k).y())};
+}
+
+double median(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  if (v.size() % 2) return *mid;
+  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
+}
+
+bool valid(const Points& p, int k) {
+  return std::isfinite(p(k, 0));
+}
+
+// Drops, one at a time (the worst first), the points farther than `limit` from the reference
+// after the similarity fit; fills `residual` from the last fit.
+int drop_by_similarity(const Points& reference, double limit, Points& points,
+                       std::vector<double>& residual) {
+  int dropped = 0;
+  for (;;) {
+    std::vector<int> both;
+    for (int k = 0; k < kLandmarkCount; ++k)
+      if (valid(points, k) && valid(reference, k)) both.push_back(k);
+    if (both.size() < 4) return dropped;
+    Points from(static_cast<Eigen::Index>(both.size()), 3), to(from.rows(), 3);
+    for (std::size_t i = 0; i < both.size(); ++i) {
+      from.row(static_cast<Eigen::Index>(i)) = reference.row(both[i]);
+      to.row(static_cast<Eigen::Index>(i)) = points.row(both[i]);
+    }
+    const Similarity s = procrustes(from, to, true);
+    int worst = -1;
+    residual.assign(kLandmarkCount, 0.0);
+    for (int k : both) {
+      residual[static_cast<std::size_t>(k)] =
+          (s.apply(Eigen::RowVector3d(reference.row(k))) - points.row(k)).norm();
+      if (worst < 0 ||
+          residual[static_cast<std::size_t>(k)] > residual[static_cast<std::size_t>(worst)])
+        worst = k;
+    }
+    if (worst < 0 || residual[static_cast<std::size_t>(worst)] <= limit) return dropped;
+    points.row(worst).setConstant(kNaN);
+    ++dropped;
+  }
+}
+
+// Mirror plane of the fused points (normal: the mean right-to-left direction of the mirror
+// pairs; offset: the median of their midpoints); drops the point of each pair whose mirror
+// image misses its partner by more than `limit` -- the one with the larger similarity residual,
+// or both without a reference.
+int drop_by_symmetry(double limit, const std::vector<double>& residual, Points& points) {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  std::vector<std::array<int, 2>> pairs;
+  for (const auto& [r, l] : kMirror) {
+    if (!valid(points, r) || !valid(points, l)) continue;
+    n += (points.row(l) - points.row(r)).transpose().normalized();
+    pairs.push_back({r, l});
+  }
+  if (pairs.size() < 4 || n.norm() < 1e-12) return 0;
+  n.normalize();
+  std::vector<double> mids;
+  for (const auto& [r, l] : pairs)
+    mids.push_back(0.5 * n.dot((points.row(r) + points.row(l)).transpose()));
+  const double d = median(mids);
+  std::vector<int> drop;
+  for (const auto& [r, l] : pairs) {
+    const Eigen::Vector3d pr = points.row(r).transpose();
+    const Eigen::Vector3d mirrored = pr - 2 * (n.dot(pr) - d) * n;
+    if ((mirrored - points.row(l).transpose()).norm() <= limit) continue;
+    const double er = residual.empty() ? 0 : residual[static_cast<std::size_t>(r)];
+    const double el = residual.empty() ? 0 : residual[static_cast<std::size_t>(l)];
+    if (residual.empty() || er >= el) drop.push_back(r);
+    if (residual.empty() || el >= er) drop.push_back(l);
+  }
+  for (int k : drop) points.row(k).setConstant(kNaN);
+  return static_cast<int>(drop.size());
+}
+
+// Each point moved by the template's bias carried into the target's frame: the rotation and
+// scale of the similarity fitted from the reference onto the points.
+void apply_bias(const Points& reference, const Points& bias, Points& points) {
+  std::vector<int> both;
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (valid(points, k) && valid(reference, k)) both.push_back(k);
+  if (both.size() < 4) return;
+  Points from(static_cast<Eigen::Index>(both.size()), 3), to(from.rows(), 3);
+  for (std::size_t i = 0; i < both.size(); ++i) {
+    from.row(static_cast<Eigen::Index>(i)) = reference.row(both[i]);
+    to.row(static_cast<Eigen::Index>(i)) = points.row(both[i]);
+  }
+  const Similarity s = procrustes(from, to, true);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (valid(points, k) && valid(bias, k))
+      points.row(k) += (s.scale * s.R * bias.row(k).transpose()).transpose();
+}
+
+// Per landmark, the median of its lifted points over the views that may show it.
+Points fuse(const std::vector<LandmarkView>& views,
+            const std::vector<std::array<Eigen::RowVector3d, kLandmarkCount>>& lifted,
+            double contour_yaw) {
+  Points out(kLandmarkCount, 3);
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    std::array<std::vector<double>, 3> c;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      if (!views[v].found || !views[v].lifted[static_cast<std::size_t>(k)]) continue;
+      if (is_jaw(k) && std::abs(views[v].yaw) > contour_yaw) continue;
+      for (int i = 0; i < 3; ++i)
+        c[static_cast<std::size_t>(i)].push_back(lifted[v][static_cast<std::size_t>(k)][i]);
+    }
+    for (int i = 0; i < 3; ++i)
+      out(k, i) = c[0].empty() ? kNaN : median(c[static_cast<std::size_t>(i)]);
+  }
+  return out;
+}
+
+}  // namespace
+
+HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
+                               const Points* reference, const Points* bias) {
+  if (options.image_size < 64 || options.image_size > 4096)
+    throw Error("landmarks: image_size " + std::to_string(options.image_size) +
+                " out of range (64..4096)");
+  const dlib::shape_predictor& sp = shape_predictor(options.predictor);
+  // The neutral alone (the renderer takes at most 256 shapes; the views need none).
+  anim::Rig neutral = head;
+  neutral.shapes.clear();
+  render::RenderOptions ro;
+  ro.width = ro.height = options.image_size;
+  ro.margin = options.frame_margin;
+  ro.contexts = 1;
+  ro.background = Eigen::Vector3f(0.05f, 0.05f, 0.05f);
+  render::Renderer renderer(neutral, ro);
+
+  const Points rest = head.positions.cast<double>();
+  const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
+  std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
+  for (int t = 0; t < head.triangle_count(); ++t)
+    skin[static_cast<std::size_t>(t)] =
+        comps.label[static_cast<std::size_t>(head.triangles(t, 0))] == comps.largest;
+  const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
+
+  HeadLandmarks out;
+  // The face framed: found in a wide frontal view, then filling face_fill of the image. The
+  // detector's box, zoomed with the view, starts the shape predictor in every view (the views
+  // orbit the face's centre, so the face stays there).
+  const render::Camera wide = wide_camera(head, options.frame_margin, options.image_size);
+  render::Camera front = wide;
+  dlib::rectangle box;
+  {
+    renderer.set_camera(wide);
+    render::Image image = renderer.render({});
+    const auto img = to_dlib(image);
+    const auto face = find_face(img);
+    if (!face) {
+      out.views.push_back({0.0, std::move(image), false, {}, {}});
+      out.points = Points::Constant(kLandmarkCount, 3, kNaN);
+      out.vertex.fill(-1);
+      return out;
+    }
+    std::array<Eigen::Vector2d, kLandmarkCount> px;
+    predict(img, sp, *face, px);
+    Eigen::Vector2d lo = px[0], hi = px[0];
+    for (const auto& p : px) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    const SkinBuffer buffer(rest, head.triangles, skin, wide, options.image_size, 0.02 * diagonal);
+    const Eigen::Vector2d mid = 0.5 * (lo + hi);
+    const auto centre = buffer.lift(mid, 0.25 * (hi - lo).minCoeff());
+    double zoom = 1;
+    Eigen::Vector2d from = Eigen::Vector2d::Constant(0.5 * options.image_size);
+    if (centre) {
+      zoom = options.face_fill * options.image_size / (hi - lo).maxCoeff();
+      front = face_camera(wide, centre->transpose(), zoom);
+      from = mid;
+    }
+    const auto zoomed = [&](double x, double y) {
+      return Eigen::Vector2d(0.5 * options.image_size + zoom * (x - from.x()),
+                             0.5 * options.image_size + zoom * (y - from.y()));
+    };
+    const Eigen::Vector2d a = zoomed(face->left(), face->top()),
+                          b = zoomed(face->right(), face->bottom());
+    box = dlib::rectangle(std::lround(a.x()), std::lround(a.y()), std::lround(b.x()),
+                          std::lround(b.y()));
+  }
+  std::vector<std::array<Eigen::RowVector3d, kLandmarkCount>> lifted;
+  for (double yaw : options.yaws) {
+    LandmarkView view;
+    view.yaw = yaw;
+    const render::Camera camera = orbit(front, yaw);
+    renderer.set_camera(camera);
+    view.image = renderer.render({});
+    predict(to_dlib(view.image), sp, box, view.pixels);
+    view.found = true;
+    ++out.views_found;
+    auto& points = lifted.emplace_back();
+    const SkinBuffer buffer(rest, head.triangles, skin, camera, options.image_size,
+                            0.02 * diagonal);
+    for (int k = 0; k < kLandmarkCount; ++k) {
+      const auto p = buffer.lift(view.pixels[static_cast<std::size_t>(k)], options.search_pixels);
+      view.lifted[static_cast<std::size_t>(k)] = p.has_value();
+      if (p) points[static_cast<std::size_t>(k)] = *p;
+    }
+    out.views.push_back(std::move(view));
+  }
+  out.points = fuse(out.views, lifted, options.contour_yaw);
+  out.vertex.fill(-1);
+
+  const double iod = valid(out.points, 36) && valid(out.points, 45)
+                         ? (out.points.row(36) - out.points.row(45)).norm()
+                         : 0.25 * diagonal;
+  std::vector<double> residual;
+  if (reference && bias) apply_bias(*reference, *bias, out.points);
+  if (reference)
+    out.dropped += drop_by_similarity(*reference, options.outlier * iod, out.points, residual);
+  out.dropped += drop_by_symmetry(options.symmetry * iod, residual, out.points);
+
+  // Each fused point's nearest skin vertex.
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    if (!valid(out.points, k)) continue;
+    double best = std::numeric_limits<double>::infinity();
+    for (int v = 0; v < head.vertex_count(); ++v) {
+      if (comps.label[static_cast<std::size_t>(v)] != comps.largest) continue;
+      const double d = (rest.row(v) - out.points.row(k)).squaredNorm();
+      if (d < best) {
+        best = d;
+        out.vertex[static_cast<std::size_t>(k)] = v;
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& template_vertices,
+                                         const HeadLandmarks& target) {
+  std::vector<MarkerPair> out;
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const int a = template_vertices[static_cast<std::size_t>(k)];
+    const int b = target.vertex[static_cast<std::size_t>(k)];
+    if (a < 0 || b < 0) continue;
+    char name[16];
+    std::snprintf(name, sizeof name, "dlib_%02d", k);
+    out.push_back({name, a, b});
+  }
+  if (out.size() < 8)
+    throw Error("landmarks: only " + std::to_string(out.size()) +
+                " of 68 landmarks agree with the template's; give --markers");
+  return out;
+}
+
+Points landmark_bias(const anim::Rig& tmpl, const Points& reference,
+                     const LandmarkOptions& options) {
+  const HeadLandmarks found = detect_landmarks(tmpl, options, &reference);
+  Points bias = reference - found.points;
+  for (int k = 0; k < kLandmarkCount; ++k)
+    if (!valid(bias, k)) bias.row(k).setZero();
+  return bias;
+}
+
+AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
+                         const LandmarkOptions& options) {
+  AutoMarkers out;
+  if (const auto known = known_landmarks(tmpl)) {
+    out.template_vertices = *known;
+  } else {
+    const HeadLandmarks t = detect_landmarks(tmpl, options);
+    if (t.views_found == 0)
+      throw Error(
+          "template: no face found in its " + std::to_string(t.views.size()) +
+          " rendered views, and it has no stored landmarks (dlib_00..dlib_67); give --markers");
+    out.template_vertices = t.vertex;
+  }
+  Points reference(kLandmarkCount, 3);
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const int v = out.template_vertices[static_cast<std::size_t>(k)];
+    if (v >= 0 && v < tmpl.vertex_count())
+      reference.row(k) = tmpl.positions.row(v).cast<double>();
+    else
+      reference.row(k).setConstant(kNaN);
+  }
+  const Points bias = landmark_bias(tmpl, reference, options);
+  out.target = detect_landmarks(target, options, &reference, &bias);
+  if (out.target.views_found == 0)
+    throw Error("target: no face found in its " + std::to_string(out.target.views.size()) +
+                " rendered views (a head facing +Z with +Y up is needed; or give --markers)");
+  out.markers = landmark_markers(out.template_vertices, out.target);
+  return out;
+}
+
+}  // namespace facecast::rigbuild

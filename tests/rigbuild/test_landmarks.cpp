@@ -1,0 +1,219 @@
+// Automatic facial landmarks (rigbuild/landmarks.hpp) on real heads from ../shared/data: the ICT
+// identities against their known landmark vertices, and MakeHuman and MediaPipe heads.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <sstream>
+
+#include "facecast/anim/avatar.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/render/image.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
+#include "test_data.hpp"
+
+using namespace facecast;
+using namespace facecast::rigbuild;
+
+namespace {
+
+Points landmark_points(const anim::Rig& rig, const std::array<int, kLandmarkCount>& ids) {
+  Points p(kLandmarkCount, 3);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    p.row(k) = rig.positions.row(ids[static_cast<std::size_t>(k)]).cast<double>();
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of the true ones",
+          "[rigbuild][landmarks][ict]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const anim::Rig neutral = anim::read_obj(dir / "generic_neutral_mesh.obj");
+  const auto truth_ids = known_landmarks(neutral);
+  REQUIRE(truth_ids);  // configs/rigbuild/template_landmarks.json knows the ICT FaceKit
+  const LandmarkOptions options = load_landmark_options();
+  const Points reference = landmark_points(neutral, *truth_ids);
+  const Points bias = landmark_bias(neutral, reference, options);
+  double worst_mean = 0;
+  for (const char* name : {"identity003.obj", "identity007.obj"}) {
+    anim::Rig head = neutral;
+    head.positions = anim::read_obj_positions(dir / name);
+    head.normals = anim::vertex_normals(head.positions, head.triangles);
+    const HeadLandmarks found = detect_landmarks(head, options, &reference, &bias);
+    CHECK(found.views_found >= 3);
+    const Points truth = landmark_points(head, *truth_ids);
+    // The face: the bounding box of the skin in front of the ears (the true landmarks' box).
+    const double diagonal = (truth.colwise().maxCoeff() - truth.colwise().minCoeff()).norm();
+    double sum = 0;
+    int n = 0;
+    for (int k = 0; k < kLandmarkCount; ++k) {
+      if (!std::isfinite(found.points(k, 0))) continue;
+      sum += (found.points.row(k) - truth.row(k)).norm();
+      ++n;
+    }
+    const double mean = sum / std::max(n, 1) / diagonal;
+    std::ostringstream groups;
+    for (auto [a, b] : {std::pair{0, 17}, std::pair{17, 27}, std::pair{27, 36}, std::pair{36, 48},
+                        std::pair{48, 68}}) {
+      double s = 0;
+      int m = 0;
+      for (int k = a; k < b; ++k)
+        if (std::isfinite(found.points(k, 0)))
+          s += (found.points.row(k) - truth.row(k)).norm(), ++m;
+      groups << " " << a << "-" << b - 1 << ": " << 100 * s / std::max(m, 1) / diagonal << " %";
+    }
+    WARN(name << ": " << n << " of 68 landmarks (" << found.dropped << " dropped, "
+              << found.views_found << " views with a face), mean error " << 100 * mean
+              << " % of the face diagonal " << diagonal << ";" << groups.str());
+    CHECK(n >= 60);
+    CHECK(mean <= 0.02);
+    worst_mean = std::max(worst_mean, mean);
+    render::write_image(test::artifacts_dir("landmarks") / (std::string(name) + ".png"),
+                        landmark_picture(found));
+  }
+  WARN("worst mean landmark error: " << 100 * worst_mean << " %");
+}
+
+TEST_CASE("configs/rigbuild/landmarks.json mirrors LandmarkOptions' defaults",
+          "[rigbuild][landmarks][config]") {
+  const LandmarkOptions d, c = load_landmark_options();
+  CHECK(c.predictor == d.predictor);
+  CHECK(c.image_size == d.image_size);
+  CHECK(c.frame_margin == d.frame_margin);
+  CHECK(c.face_fill == d.face_fill);
+  CHECK(c.yaws == d.yaws);
+  CHECK(c.contour_yaw == d.contour_yaw);
+  CHECK(c.search_pixels == d.search_pixels);
+  CHECK(c.outlier == d.outlier);
+  CHECK(c.symmetry == d.symmetry);
+}
+
+TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbuild][landmarks]") {
+  // A closed box: nothing for the face detector.
+  anim::Rig box;
+  box.positions.resize(8, 3);
+  for (int i = 0; i < 8; ++i)
+    box.positions.row(i) << (i & 1 ? 1.f : -1.f), (i & 2 ? 1.f : -1.f), (i & 4 ? 1.f : -1.f);
+  box.triangles.resize(12, 3);
+  box.triangles << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2,
+      2, 4, 6, 1, 3, 5, 3, 7, 5;
+  box.triangle_material.assign(12, 0);
+  box.materials.resize(1);
+  box.normals = anim::vertex_normals(box.positions, box.triangles);
+  anim::Rig tmpl = box;
+  tmpl.landmarks.clear();
+  for (int k = 0; k < kLandmarkCount; ++k)
+    tmpl.landmarks.push_back({"dlib_" + std::string(k < 10 ? "0" : "") + std::to_string(k), 0});
+  const LandmarkOptions options = load_landmark_options();
+  REQUIRE(known_landmarks(tmpl));
+  try {
+    auto_markers(tmpl, box, options);
+    FAIL("a box has no face");
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    CHECK(what.find("no face found") != std::string::npos);
+    CHECK(what.find('\n') == std::string::npos);
+  }
+}
+
+namespace {
+
+// sum <d_auto, d_hand> / sum |d_hand|^2 over the vertices: 1 when the automatic build moves
+// every vertex as the hand-marker build does.
+double agreement(const anim::Rig& automatic, const anim::Rig& hand, const std::string& shape) {
+  const int a = automatic.find_shape(shape), h = hand.find_shape(shape);
+  REQUIRE(a >= 0);
+  REQUIRE(h >= 0);
+  const anim::Positions da =
+      automatic.shapes[static_cast<std::size_t>(a)].dense(automatic.vertex_count());
+  const anim::Positions dh = hand.shapes[static_cast<std::size_t>(h)].dense(hand.vertex_count());
+  return (da.cast<double>().array() * dh.cast<double>().array()).sum() /
+         dh.cast<double>().squaredNorm();
+}
+
+}  // namespace
+
+TEST_CASE(
+    "MakeHuman head without markers builds like with the hand markers, and so does the "
+    "MediaPipe face",
+    "[rigbuild][landmarks][makehuman][slow]") {
+  const auto dir = test::ict_dir();
+  const auto mh = test::shared_data() / "makehuman/head.obj";
+  const auto mp = test::shared_data() / "mediapipe/canonical_face_model.obj";
+  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh) ||
+      !test::require_data(mp))
+    return;
+  const anim::Rig tmpl =
+      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const anim::Rig target = anim::read_obj(mh);
+  const BuildOptions defaults = load_build_options();
+  const BuildResult automatic = build_rig(tmpl, target, defaults);
+  REQUIRE(automatic.landmarks);
+  CHECK(automatic.landmarks->markers.size() >= 50);
+  // What --markers-out writes reads back as --markers; --landmarks-png draws every view.
+  const auto markers_out = test::scratch_dir() / "mh_markers.json";
+  write_markers_json(markers_out, automatic.landmarks->markers);
+  const auto again = read_markers(markers_out, tmpl.vertex_count(), target.vertex_count());
+  REQUIRE(again.size() == automatic.landmarks->markers.size());
+  for (std::size_t i = 0; i < again.size(); ++i) {
+    CHECK(again[i].name == automatic.landmarks->markers[i].name);
+    CHECK(again[i].template_vertex == automatic.landmarks->markers[i].template_vertex);
+    CHECK(again[i].target_vertex == automatic.landmarks->markers[i].target_vertex);
+  }
+  const render::Image picture = landmark_picture(automatic.landmarks->target);
+  CHECK(picture.width == 5 * load_landmark_options().image_size);
+  render::write_image(test::artifacts_dir("landmarks") / "makehuman.png", picture);
+  BuildOptions opt = defaults;
+  opt.markers = read_markers(test::shared_data() / "markers/makehuman_head_to_ict.json",
+                             tmpl.vertex_count(), target.vertex_count());
+  const BuildResult hand = build_rig(tmpl, target, opt);
+  CHECK(!hand.landmarks);
+  std::ostringstream figures;
+  for (const char* shape :
+       {"jawOpen", "eyeBlink_L", "eyeBlink_R", "mouthSmile_L", "mouthFunnel", "browInnerUp_L"}) {
+    const double r = agreement(automatic.rig, hand.rig, shape);
+    figures << " " << shape << " " << r;
+    INFO(shape << ": " << r);
+    CHECK(r >= 0.8);
+  }
+  WARN("MakeHuman, automatic vs hand markers, sum<d_auto,d_hand>/sum|d_hand|^2:"
+       << figures.str() << "; " << automatic.landmarks->markers.size()
+       << " landmark markers; build " << automatic.timings.total << " s (landmarks "
+       << automatic.timings.landmarks << " s, correspondence " << automatic.timings.correspondence
+       << " s)");
+
+  const anim::Rig mask = anim::read_obj(mp);
+  const BuildResult m = build_rig(tmpl, mask, defaults);
+  REQUIRE(m.landmarks);
+  CHECK(m.rig.shapes.size() == 57);
+  CHECK(m.rig.shapes[static_cast<std::size_t>(m.rig.find_shape("jawOpen"))].max_displacement() >
+        0.0f);
+  WARN("MediaPipe: " << m.landmarks->markers.size() << " landmark markers, build "
+                     << m.timings.total << " s");
+}
+
+TEST_CASE("the default avatar's stored landmarks are where the detector finds them",
+          "[rigbuild][landmarks]") {
+  const anim::Rig& avatar = anim::default_avatar();
+  const HeadLandmarks found = detect_landmarks(avatar, load_landmark_options());
+  std::ostringstream list;  // configs/rigbuild/template_landmarks.json's entry, to regenerate it
+  for (int k = 0; k < kLandmarkCount; ++k)
+    list << (k ? ", " : "[") << found.vertex[static_cast<std::size_t>(k)];
+  list << "] (" << avatar.vertex_count() << " vertices, " << avatar.triangle_count()
+       << " triangles)";
+  const auto stored = known_landmarks(avatar);
+  INFO("detected: " << list.str());
+  REQUIRE(stored);
+  const double iod =
+      (avatar.positions.row((*stored)[36]) - avatar.positions.row((*stored)[45])).norm();
+  int agree = 0;
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const int s = (*stored)[static_cast<std::size_t>(k)],
+              d = found.vertex[static_cast<std::size_t>(k)];
+    agree += s >= 0 && d >= 0 &&
+             (avatar.positions.row(s) - avatar.positions.row(d)).norm() <= 0.05 * iod;
+  }
+  CHECK(agree >= 55);
+}
