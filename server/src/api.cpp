@@ -77,7 +77,23 @@ std::string base64_decode(std::string_view text, std::string_view field) {
   return out;
 }
 
-http::message_generator post_rig(State& state, const Request& req) {
+// POST /api/rigs with a GLB or VRM body: the user's avatar, stored as it is (?name= names it).
+http::message_generator import_rig(State& state, const Request& req, const Target& t) {
+  std::string name = query_value(t.query, "name").value_or("Avatar");
+  if (name.empty() || utf8_length(name) > 64) throw Error("name: expected 1 to 64 characters");
+  const std::string& bytes = req.body();
+  if (bytes.empty()) throw Error("body: empty (expected a GLB or VRM file)");
+  const std::string id = state.rigs.import(name, bytes, "upload");
+  const auto info = state.rigs.find(id);
+  log::info("rig_import", {{"rig", id}, {"name", name}, {"bytes", bytes.size()}});
+  return json_response(state, req, http::status::created, info->to_json());
+}
+
+http::message_generator post_rig(State& state, const Request& req, const Target& t) {
+  const std::string type(req[http::field::content_type]);
+  if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
+      type.starts_with("application/octet-stream"))
+    return import_rig(state, req, t);
   const json body = parse_body(req);
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string name = "Rig", template_id = state.options.default_rig;
@@ -133,17 +149,13 @@ http::message_generator post_rig(State& state, const Request& req) {
   target.validate("mesh");
   const auto tmpl = state.rigs.load(template_id);
 
-  if (markers) {
+  // Without markers, another topology is registered through landmarks found automatically on
+  // rendered views of the mesh (in the job: a mesh that is not a head fails there, saying so).
+  if (markers)
     opt.markers = rigbuild::parse_markers(*markers, tmpl->rig->vertex_count(),
                                           target.vertex_count(), "markers");
-  } else if (!rigbuild::reorder_triangles_like(*tmpl->rig, target)) {
-    throw Error("mesh: " + std::to_string(target.vertex_count()) + " vertices and " +
-                std::to_string(target.triangle_count()) +
-                " triangles do not match the template's topology (" +
-                std::to_string(tmpl->rig->vertex_count()) + " vertices, " +
-                std::to_string(tmpl->rig->triangle_count()) +
-                " triangles); give markers for another topology");
-  }
+  else
+    rigbuild::reorder_triangles_like(*tmpl->rig, target);
   auto shared_target = std::make_shared<const anim::Rig>(std::move(target));
   const std::string job =
       state.jobs.submit("rig", [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {

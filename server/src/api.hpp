@@ -2,11 +2,15 @@
 // POST /api/rigs (rig build job) and POST /api/render (video render job): request validation
 // (answered at once with 400/404/413) and the job work.
 #include "beast.hpp"
+#include "routes.hpp"
 #include "state.hpp"
 
 namespace facecast::server {
 
-http::message_generator post_rig(State& state, const Request& req);
+/// POST /api/rigs: a JSON body builds a rig from a template (a job); a GLB/VRM body
+/// (Content-Type model/gltf-binary, model/vrm or application/octet-stream) imports an avatar as it
+/// is.
+http::message_generator post_rig(State& state, const Request& req, const Target& t);
 http::message_generator post_render(State& state, const Request& req);
 
 /// Standard base64 (whitespace ignored, padding optional); throws Error naming `field`.

@@ -4,6 +4,7 @@
 #include <regex>
 
 #include "facecast/anim/avatar.hpp"
+#include "facecast/anim/avatar_view.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
@@ -36,6 +37,7 @@ RigInfo info_from_meta(const nlohmann::json& j) {
   i.shapes = j.at("shapes").get<std::vector<std::string>>();
   i.vertices = j.at("vertices").get<int>();
   i.virtual_edges = j.value("virtual_edges", false);
+  i.imported = j.value("imported", false);
   i.created = j.value("created", 0.0);
   return i;
 }
@@ -50,6 +52,7 @@ nlohmann::json RigInfo::to_json() const {
     j["template"] = template_id;
     j["created"] = created;
     j["virtual_edges"] = virtual_edges;
+    j["imported"] = imported;
   }
   return j;
 }
@@ -134,7 +137,9 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
           std::shared_ptr<const anim::Rig>(&anim::default_avatar(), [](const anim::Rig*) {});
     } else {
       const auto t0 = std::chrono::steady_clock::now();
-      loaded->rig = std::make_shared<const anim::Rig>(anim::read_glb(glb_path(id)));
+      // Every mesh (hair, body, clothes too): the frames show the whole avatar.
+      loaded->rig = std::make_shared<const anim::Rig>(
+          anim::make_view(anim::AvatarDocument::read(glb_path(id)), {.all_meshes = true}).rig);
       log::info(
           "rig_loaded",
           {{"rig", id},
@@ -189,42 +194,28 @@ std::shared_ptr<const std::string> RigRegistry::builtin_glb() {
   return future.get();
 }
 
-std::string RigRegistry::add(const std::string& name, const std::string& template_id,
-                             const anim::Rig& rig, const nlohmann::json& report,
-                             const std::vector<rigbuild::VirtualEdge>& edges,
-                             const rigbuild::VirtualEdgeStats& stats) {
-  std::string id;
-  {
-    std::lock_guard lock(mutex_);
-    id = "r" + std::to_string(next_id_++);
-  }
-  RigInfo info;
-  info.id = id;
-  info.name = name;
-  info.template_id = template_id;
-  info.shapes = rig.shape_names();
-  info.vertices = rig.vertex_count();
-  info.virtual_edges = !edges.empty();
-  info.created =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+std::string RigRegistry::new_id() {
+  std::lock_guard lock(mutex_);
+  return "r" + std::to_string(next_id_++);
+}
+
+static double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+void RigRegistry::store(const RigInfo& info,
+                        const std::vector<std::pair<std::string, std::string>>& files,
+                        const nlohmann::json& meta,
+                        const std::function<void(const fs::path&)>& more) {
   // Everything goes into a temporary folder that is renamed into place at the end.
-  const fs::path tmp = rigs_dir_ / (id + ".tmp");
-  const fs::path dir = rigs_dir_ / id;
+  const fs::path tmp = rigs_dir_ / (info.id + ".tmp");
+  const fs::path dir = rigs_dir_ / info.id;
   std::error_code ec;
   fs::remove_all(tmp, ec);
   try {
     fs::create_directories(tmp);
-    write_file_atomic(tmp / "rig.glb", anim::glb_bytes(rig));
-    if (!edges.empty())
-      rigbuild::write_virtual_edges_json(tmp / "virtual_edges.json", edges, stats);
-    write_file_atomic(tmp / "report.json", report.dump(2) + "\n");
-    nlohmann::json meta = {{"id", id},
-                           {"name", name},
-                           {"template", template_id},
-                           {"shapes", info.shapes},
-                           {"vertices", info.vertices},
-                           {"virtual_edges", info.virtual_edges},
-                           {"created", info.created}};
+    for (const auto& [file, bytes] : files) write_file_atomic(tmp / file, bytes);
+    if (more) more(tmp);
     write_file_atomic(tmp / "meta.json", meta.dump(2) + "\n");
     fs::rename(tmp, dir);
   } catch (const fs::filesystem_error& e) {
@@ -237,10 +228,58 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
   }
   {
     std::lock_guard lock(mutex_);
-    infos_[id] = info;
+    infos_[info.id] = info;
   }
-  log::info("rig_stored", {{"rig", id}, {"name", name}, {"dir", dir.string()}});
-  return id;
+  log::info("rig_stored", {{"rig", info.id}, {"name", info.name}, {"dir", dir.string()}});
+}
+
+std::string RigRegistry::add(const std::string& name, const std::string& template_id,
+                             const anim::Rig& rig, const nlohmann::json& report,
+                             const std::vector<rigbuild::VirtualEdge>& edges,
+                             const rigbuild::VirtualEdgeStats& stats) {
+  RigInfo info;
+  info.id = new_id();
+  info.name = name;
+  info.template_id = template_id;
+  info.shapes = rig.shape_names();
+  info.vertices = rig.vertex_count();
+  info.virtual_edges = !edges.empty();
+  info.created = now_seconds();
+  store(info, {{"rig.glb", anim::glb_bytes(rig)}, {"report.json", report.dump(2) + "\n"}},
+        {{"id", info.id},
+         {"name", name},
+         {"template", template_id},
+         {"shapes", info.shapes},
+         {"vertices", info.vertices},
+         {"virtual_edges", info.virtual_edges},
+         {"created", info.created}},
+        [&](const fs::path& dir) {
+          if (!edges.empty())
+            rigbuild::write_virtual_edges_json(dir / "virtual_edges.json", edges, stats);
+        });
+  return info.id;
+}
+
+std::string RigRegistry::import(const std::string& name, const std::string& bytes,
+                                const std::string& what) {
+  const anim::AvatarView view = anim::make_view(anim::AvatarDocument::parse(bytes, what));
+  anim::Mapping::for_rig(view.rig.shape_names());  // throws when nothing maps: not a face rig
+  RigInfo info;
+  info.id = new_id();
+  info.name = name;
+  info.shapes = view.rig.shape_names();
+  info.vertices = view.rig.vertex_count();
+  info.imported = true;
+  info.created = now_seconds();
+  store(info, {{"rig.glb", bytes}},
+        {{"id", info.id},
+         {"name", name},
+         {"template", ""},
+         {"shapes", info.shapes},
+         {"vertices", info.vertices},
+         {"imported", true},
+         {"created", info.created}});
+  return info.id;
 }
 
 std::shared_ptr<render::Renderer> RendererCache::get(const LoadedRig& rig, int width, int height) {

@@ -5,6 +5,7 @@
 // listed from meta.json at start-up and loaded (GLB parsed, mapping chosen) on first use.
 // Renderers (GL contexts with the rig uploaded) are cached per rig and frame size.
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <map>
 #include <memory>
@@ -28,6 +29,7 @@ struct RigInfo {
   int vertices = 0;
   bool builtin = false;
   bool virtual_edges = false;
+  bool imported = false;           // a user's avatar stored as it was uploaded
   double created = 0;              // Unix seconds
   nlohmann::json to_json() const;  // the GET /api/rigs entry
 };
@@ -60,6 +62,9 @@ class RigRegistry {
   std::string add(const std::string& name, const std::string& template_id, const anim::Rig& rig,
                   const nlohmann::json& report, const std::vector<rigbuild::VirtualEdge>& edges,
                   const rigbuild::VirtualEdgeStats& stats);
+  /// Stores a user's avatar (GLB or VRM bytes) as it is, byte for byte, after checking that it
+  /// parses and that the animation can drive it; throws Error naming `what` otherwise.
+  std::string import(const std::string& name, const std::string& bytes, const std::string& what);
 
  private:
   std::filesystem::path rigs_dir_;
@@ -67,6 +72,12 @@ class RigRegistry {
   mutable std::mutex mutex_;
   std::map<std::string, RigInfo> infos_;
   std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;
+  // Writes `files` (name -> bytes), what `more` writes into the folder it is given, and meta.json
+  // into <rigs>/<id> (a folder renamed into place).
+  void store(const RigInfo& info, const std::vector<std::pair<std::string, std::string>>& files,
+             const nlohmann::json& meta,
+             const std::function<void(const std::filesystem::path&)>& more = {});
+  std::string new_id();
   std::shared_future<std::shared_ptr<const std::string>> builtin_glb_;
   bool builtin_glb_started_ = false;
   int next_id_ = 1;

@@ -181,7 +181,7 @@ http::message_generator api(State& state, Request& req, const Target& t) {
   std::smatch m;
   const std::string& path = t.path;
   if (path == "/api/rigs") {
-    if (req.method() == http::verb::post) return post_rig(state, req);
+    if (req.method() == http::verb::post) return post_rig(state, req, t);
     require_method(req, {http::verb::get, http::verb::head, http::verb::post});
     json rigs = json::array();
     for (const auto& r : state.rigs.list()) rigs.push_back(r.to_json());

@@ -1,5 +1,6 @@
 // Rig jobs: upload -> job -> stored rig -> download -> speak with it -> listed after a restart;
 // bad uploads; video render jobs.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <thread>
 
@@ -7,6 +8,7 @@
 #include "facecast/anim/avatar.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/files.hpp"
+#include "test_avatar_file.hpp"
 #include "test_data.hpp"
 
 using namespace fctest;
@@ -160,8 +162,16 @@ TEST_CASE("rig uploads with bad input are refused at once", "[rigs]") {
              Catch::Contains("not base64"));
   const std::string tetra =
       "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
-  CHECK_THAT(error({{"mesh", {{"format", "obj"}, {"data", tetra}}}}, 400),
-             Catch::Contains("give markers"));
+  {
+    // Another topology without markers: the job looks for a face on the mesh and finds none.
+    const auto r =
+        http_request(s.port(), http::verb::post, "/api/rigs",
+                     nlohmann::json{{"mesh", {{"format", "obj"}, {"data", tetra}}}}.dump());
+    REQUIRE(r.status == 202);
+    const auto failed = wait_job(s.port(), r.json()["job"], 120 * slowdown());
+    CHECK(failed["state"] == "failed");
+    CHECK_THAT(failed.dump(), Catch::Contains("no face found"));
+  }
   CHECK_THAT(
       error({{"mesh", {{"format", "obj"}, {"data", tetra}}},
              {"markers",
@@ -226,4 +236,52 @@ TEST_CASE("render jobs produce an MP4 video", "[jobs][render]") {
   r = http_request(s.port(), http::verb::post, "/api/render", R"({"size":[160,120]})");
   CHECK(r.status == 400);
   CHECK_THAT(r.body, Catch::Contains("text: missing"));
+}
+
+TEST_CASE("an avatar GLB is imported as it is, served back unchanged and speaks by its own names",
+          "[rigs][import]") {
+  TestServer s;
+  const std::string glb = facecast::test::test_avatar_glb();
+  const auto r = http_request(s.port(), http::verb::post, "/api/rigs?name=My%20avatar", glb,
+                              {{"Content-Type", "model/gltf-binary"}});
+  INFO(r.body);
+  REQUIRE(r.status == 201);
+  const auto info = r.json();
+  const std::string id = info["id"];
+  CHECK(info["name"] == "My avatar");
+  CHECK(info["imported"] == true);
+  CHECK(info["url"] == "/api/rigs/" + id + ".glb");
+  const auto names = info["shapes"].get<std::vector<std::string>>();
+  REQUIRE(std::find(names.begin(), names.end(), "jawOpen") != names.end());
+  // Byte for byte.
+  const auto back = http_request(s.port(), http::verb::get, "/api/rigs/" + id + ".glb");
+  REQUIRE(back.status == 200);
+  CHECK(back.body == glb);
+  // Weights by the avatar's own names; frames rendered from all its meshes.
+  WsClient c(s.port());
+  c.read_json(10);
+  c.send(nlohmann::json{
+      {"type", "speak"}, {"id", "w"}, {"rig", id}, {"text", "Hello."}, {"audio", false}});
+  const auto w = collect_stream(c, "w");
+  REQUIRE_FALSE(w.error);
+  CHECK(w.start["names"].get<std::vector<std::string>>() == names);
+  CHECK_FALSE(w.weights.empty());
+  c.send(nlohmann::json{{"type", "speak"},
+                        {"id", "f"},
+                        {"rig", id},
+                        {"text", "Hello."},
+                        {"output", "frames"},
+                        {"size", {160, 120}},
+                        {"fps", 10},
+                        {"audio", false}});
+  const auto f = collect_stream(c, "f");
+  REQUIRE_FALSE(f.error);
+  CHECK_FALSE(f.frames.empty());
+
+  // Not an avatar: a one-line error, nothing stored.
+  const auto bad = http_request(s.port(), http::verb::post, "/api/rigs", "glTF but not really",
+                                {{"Content-Type", "model/gltf-binary"}});
+  CHECK(bad.status == 400);
+  CHECK(bad.json()["error"]["message"].get<std::string>().find('\n') == std::string::npos);
+  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 2);
 }

@@ -6,9 +6,12 @@ import { showResult } from './result.js';
 
 export function updateBuild() {
   const running = state.job && (state.job.state === 'queued' || state.job.state === 'running');
-  const ok = !!state.target && window.__rig.templateReady && (sameTopology() || state.pairs.length >= 3);
+  // Another topology without marker pairs: the server finds the facial landmarks itself; pairs given
+  // here replace them (then at least 3).
+  const pairsOk = sameTopology() || state.pairs.length === 0 || state.pairs.length >= 3;
+  const ok = !!state.target && window.__rig.templateReady && pairsOk;
   $('build').disabled = !ok || running;
-  if (!running && state.target && !ok) $('job-status').textContent = 'Another topology needs at least 3 marker pairs (more is better).';
+  if (!running && state.target && !ok) $('job-status').textContent = 'Give at least 3 marker pairs, or none (landmarks are then found automatically).';
   else if (!running && ok && !state.job) $('job-status').textContent = 'Ready to build.';
 }
 

@@ -87,7 +87,7 @@ function updateTopologyNote() {
   const n = state.target.vertexCount.toLocaleString();
   info.textContent = sameTopology()
     ? `${n} vertices — the template's topology: no markers needed.`
-    : `${n} vertices — another topology: pick marker pairs (at least a dozen spread over the face).`;
+    : `${n} vertices — another topology: the facial landmarks are found automatically, or pick marker pairs (at least a dozen spread over the face).`;
   updateBuild();
 }
 
