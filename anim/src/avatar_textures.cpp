@@ -6,7 +6,7 @@
 // direction (the rim of the disc), where only the lips and the inner mouth lie, which are not
 // textured; so the skin needs no seam. The lids use the same map (they are skin-coloured and lie
 // in front of the eye sockets). Eyeball UVs: the same map about each eye's forward axis, the iris's
-// rim at 0.52 rad filling most of the disc.
+// rim at 0.52 rad filling most of the disc. See docs/algorithms.md#avatar-textures.
 #include <png.h>
 
 #include <cmath>

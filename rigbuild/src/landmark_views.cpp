@@ -57,7 +57,7 @@ render::Camera wide_camera(const anim::Rig& head, float margin, int image_size) 
   render::RenderOptions o;
   o.width = o.height = image_size;
   o.margin = margin;
-  return render::frame_face(head, 1.0f, o);
+  return render::frame_avatar(head, 1.0f, o);
 }
 
 render::Camera face_camera(const render::Camera& wide, const Eigen::Vector3d& centre, double zoom) {

@@ -1,4 +1,5 @@
-// The automatic camera: which vertices are the face, and a look-at camera in front of them.
+// The automatic camera: which vertices are the face, and a look-at camera in front of them
+// (docs/algorithms.md#rendering).
 #include <algorithm>
 #include <cmath>
 

@@ -1,4 +1,4 @@
-// The renderer's GLSL program. The layout constants come from gpu_rig.hpp, #defined in front of
+// The renderer's GLSL program (docs/algorithms.md#rendering). The layout constants come from gpu_rig.hpp, #defined in front of
 // the sources, so the shaders and the C++ packing cannot disagree.
 #include "shaders.hpp"
 

@@ -9,7 +9,7 @@
 // similarity fit. The template's 68 landmark vertices paired with the target's nearest skin
 // vertices become the registration's markers (correspondence.hpp).
 //
-// Heads face +Z with +Y up (as the renderer's frame_face assumes).
+// Heads face +Z with +Y up (as the renderer's frame_avatar assumes).
 #include <array>
 #include <filesystem>
 #include <optional>
