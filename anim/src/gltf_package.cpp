@@ -204,29 +204,38 @@ class Packer {
     budget_ -= bytes;
   }
 
+  // Buffers with data first (their bytes raise the decoding budget: external .bin files count),
+  // then the meshopt fallback buffers that decoding fills.
   void load_buffers() {
     auto& buffers = array_of(c_.doc, "buffers", what_);
     data_.resize(buffers.size());
+    std::vector<std::size_t> fallback;
     for (std::size_t i = 0; i < buffers.size(); ++i) {
       json& b = buffers[i];
       const std::string at = what_ + " buffers[" + std::to_string(i) + "]";
-      const std::size_t length = size_field(b, "byteLength", at);
       if (b.contains("uri")) {
         if (!b["uri"].is_string()) throw Error(at + ": uri is not a string");
         data_[i] = read_uri(b["uri"].get<std::string>(), at, dir_, nullptr);
+        budget_ = std::min(kMaxDecoded, budget_ + data_[i].size() * kMaxExpansion);
         changed_ = true;
       } else if (c_.glb && i == 0) {
         data_[i] = c_.bin;
       } else if (b.contains("extensions") && b["extensions"].contains("EXT_meshopt_compression")) {
-        charge(length);
-        data_[i].assign(length, '\0');  // filled by decode_meshopt
+        fallback.push_back(i);
+        continue;
       } else {
         throw Error(at + ": buffer has no data");
       }
+      const std::size_t length = size_field(b, "byteLength", at);
       if (data_[i].size() < length)
         throw Error(at + ": byteLength " + std::to_string(length) + " exceeds its " +
                     std::to_string(data_[i].size()) + " bytes");
-      remove_extension(b, "EXT_meshopt_compression");
+    }
+    for (const std::size_t i : fallback) {
+      const std::size_t length = size_field(buffers[i], "byteLength", what_ + " buffers");
+      charge(length);
+      data_[i].assign(length, '\0');  // filled by decode_meshopt
+      remove_extension(buffers[i], "EXT_meshopt_compression");
     }
   }
 

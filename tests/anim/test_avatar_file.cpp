@@ -123,33 +123,9 @@ std::string test_avatar_png(int i) {
   return std::string(reinterpret_cast<const char*>(kPng[i]), sizeof kPng[i]);
 }
 
-std::string test_avatar_glb() {
-  Builder b;
+// Images, samplers, textures and the four materials.
+void add_materials(Builder& b) {
   auto& m = b.m;
-  m.asset.version = "2.0";
-  m.asset.generator = "facecast test avatar";
-
-  // Skeleton: Hips (0,1,0) > Spine (0,0.3,0) > Neck (0,0.3,0) > Head (0,0.1,0); Head at y = 1.7.
-  const int head_j = b.node("Head", {0, 0.1, 0});
-  const int neck_j = b.node("Neck", {0, 0.3, 0}, {head_j});
-  const int spine_j = b.node("Spine", {0, 0.3, 0}, {neck_j});
-  const int hips_j = b.node("Hips", {0, 1.0, 0}, {spine_j});
-  const std::vector<int> joints = {hips_j, spine_j, neck_j, head_j};
-  const float joint_y[4] = {1.0f, 1.3f, 1.6f, 1.7f};
-  std::vector<float> ibm;
-  for (const float y : joint_y) {
-    Eigen::Matrix4f inv = Eigen::Matrix4f::Identity();
-    inv(1, 3) = -y;
-    ibm.insert(ibm.end(), inv.data(), inv.data() + 16);
-  }
-  tinygltf::Skin skin;
-  skin.name = "Armature";
-  skin.joints = joints;
-  skin.skeleton = hips_j;
-  skin.inverseBindMatrices =
-      b.accessor(ibm, 16, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, false, 0);
-  m.skins.push_back(skin);
-
   // Images and textures: the skin colour with a texture transform, a normal map.
   for (int i = 0; i < 2; ++i) {
     tinygltf::Image im;
@@ -193,7 +169,11 @@ std::string test_avatar_glb() {
   hair.pbrMetallicRoughness.baseColorFactor = {0.2, 0.1, 0.05, 1.0};
   m.materials = {skin_mat, lips, teeth, hair};
   m.extensionsUsed = {"KHR_texture_transform"};
+}
 
+// Head and Teeth with morph targets, Hair and Body without.
+void add_meshes(Builder& b) {
+  auto& m = b.m;
   // Head: a 6x4 grid at the head's height, skinned to Head (lower rows to Neck), two primitives
   // (skin, lips) sharing its vertices; targets jawOpen (lower half down) and eyeBlinkLeft.
   {
@@ -282,6 +262,37 @@ std::string test_avatar_glb() {
     mesh.primitives.push_back(p);
     m.meshes.push_back(mesh);
   }
+}
+
+std::string test_avatar_glb() {
+  Builder b;
+  auto& m = b.m;
+  m.asset.version = "2.0";
+  m.asset.generator = "facecast test avatar";
+
+  // Skeleton: Hips (0,1,0) > Spine (0,0.3,0) > Neck (0,0.3,0) > Head (0,0.1,0); Head at y = 1.7.
+  const int head_j = b.node("Head", {0, 0.1, 0});
+  const int neck_j = b.node("Neck", {0, 0.3, 0}, {head_j});
+  const int spine_j = b.node("Spine", {0, 0.3, 0}, {neck_j});
+  const int hips_j = b.node("Hips", {0, 1.0, 0}, {spine_j});
+  const std::vector<int> joints = {hips_j, spine_j, neck_j, head_j};
+  const float joint_y[4] = {1.0f, 1.3f, 1.6f, 1.7f};
+  std::vector<float> ibm;
+  for (const float y : joint_y) {
+    Eigen::Matrix4f inv = Eigen::Matrix4f::Identity();
+    inv(1, 3) = -y;
+    ibm.insert(ibm.end(), inv.data(), inv.data() + 16);
+  }
+  tinygltf::Skin skin;
+  skin.name = "Armature";
+  skin.joints = joints;
+  skin.skeleton = hips_j;
+  skin.inverseBindMatrices =
+      b.accessor(ibm, 16, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, false, 0);
+  m.skins.push_back(skin);
+
+  add_materials(b);
+  add_meshes(b);
 
   // Mesh nodes: Head and Body skinned (at the root), Teeth under the Head joint, Hair at the root
   // with a translation.

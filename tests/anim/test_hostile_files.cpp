@@ -142,3 +142,69 @@ TEST_CASE("an OBJ whose material name is not UTF-8 is an error, not a failed GLB
     CHECK(std::string(e.what()) == "head.obj: material name is not valid UTF-8");
   }
 }
+
+namespace {
+
+std::string base64(const std::string& in) {
+  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (std::size_t i = 0; i < in.size(); i += 3) {
+    std::uint32_t v = static_cast<unsigned char>(in[i]) << 16;
+    if (i + 1 < in.size()) v |= static_cast<unsigned char>(in[i + 1]) << 8;
+    if (i + 2 < in.size()) v |= static_cast<unsigned char>(in[i + 2]);
+    out += abc[(v >> 18) & 63];
+    out += abc[(v >> 12) & 63];
+    out += i + 1 < in.size() ? abc[(v >> 6) & 63] : '=';
+    out += i + 2 < in.size() ? abc[v & 63] : '=';
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("a .gltf upload reads data: URIs and nothing else", "[anim][gltf][errors]") {
+  Glb g = small_glb();
+  g.doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64(g.bin);
+  CHECK(parse_glb(g.doc.dump(), "upload.gltf").vertex_count() == 4);
+  g.doc["buffers"][0]["uri"] = "mesh.bin";
+  CHECK_THROWS_WITH(parse_glb(g.doc.dump(), "upload.gltf"),
+                    "upload.gltf buffers[0]: external file 'mesh.bin' is not read from an upload");
+}
+
+TEST_CASE("compressed data that declares more than the file can hold is refused before allocating",
+          "[anim][gltf][errors]") {
+  SECTION("a meshopt fallback buffer of 1 TB") {
+    Glb g = small_glb();
+    g.doc["buffers"].push_back(
+        {{"byteLength", 1ull << 40},
+         {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
+    CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && Catch::Contains("exceed"));
+  }
+  SECTION("a meshopt view whose count overruns its target") {
+    Glb g = small_glb();
+    g.doc["bufferViews"][0]["extensions"] = {{"EXT_meshopt_compression",
+                                              {{"buffer", 0},
+                                               {"byteLength", 8},
+                                               {"byteStride", 12},
+                                               {"count", 4000000000u},
+                                               {"mode", "ATTRIBUTES"}}}};
+    CHECK_THAT(error_of(g), Catch::Contains("upload.glb bufferViews[0]"));
+  }
+  SECTION("a Draco primitive whose accessors declare billions of elements") {
+    Glb g = small_glb();
+    auto& p = g.doc["meshes"][0]["primitives"][0];
+    g.doc["accessors"][p["indices"].get<int>()]["count"] = 3000000000u;
+    p["extensions"] = {
+        {"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", {{"POSITION", 0}}}}}};
+    CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && Catch::Contains("exceed"));
+  }
+  SECTION("garbage in a meshopt stream") {
+    Glb g = small_glb();
+    g.doc["buffers"].push_back(json::parse(
+        R"({"byteLength": 48, "extensions": {"EXT_meshopt_compression": {"fallback": true}}})"));
+    g.doc["bufferViews"].push_back(json::parse(
+        R"({"buffer": 1, "byteLength": 48, "extensions": {"EXT_meshopt_compression":
+            {"buffer": 0, "byteLength": 16, "byteStride": 12, "count": 4, "mode": "ATTRIBUTES"}}})"));
+    CHECK_THAT(error_of(g), Catch::Contains("meshopt data cannot be decoded"));
+  }
+}
