@@ -4,6 +4,7 @@
 
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/server/protocol.hpp"
 
 namespace facecast::server {
 
@@ -48,6 +49,17 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("shutdown_timeout", o.shutdown_timeout);
   c.read("allowed_origins", o.allowed_origins);
   c.read("log_level", o.log_level);
+  c.read("presence_interval", o.presence_interval);
+  nlohmann::json channels = nlohmann::json::object();
+  c.read("channels", channels);
+  if (!channels.is_object()) c.fail("channels", "expected an object {name: {producer_token}}");
+  for (const auto& [name, v] : channels.items()) {
+    ConfigReader ch(v, path.string() + ": channels." + name);
+    ServerOptions::Channel channel{name, {}};
+    ch.require("producer_token", channel.producer_token);
+    ch.reject_unknown();
+    o.channels.push_back(std::move(channel));
+  }
   c.reject_unknown();
   validate(o);
   return o;
@@ -94,6 +106,12 @@ void validate(const ServerOptions& o) {
            o.log_level == "error",
        "log_level: '" + o.log_level + "' is not debug, info, warn or error");
   need(!o.default_rig.empty(), "default_rig: empty");
+  need(o.presence_interval > 0, "presence_interval: must be positive");
+  for (const auto& ch : o.channels) {
+    check_channel_name(nlohmann::json(ch.name), "channels: name");
+    need(ch.producer_token.size() >= 8,
+         "channels." + ch.name + ".producer_token: must be at least 8 characters");
+  }
   if (!is_loopback_host(o.host) && o.token.empty()) {
     throw Error("host " + o.host +
                 " is not a loopback address: set a token (--token, FACECAST_TOKEN or \"token\" in "

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "beast.hpp"
+#include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
@@ -30,6 +31,10 @@ void raise_file_limit() {
 
 struct Server::Impl {
   explicit Impl(ServerOptions options);
+  // The channels hold the State: drop them (no thread runs any more) so that it can go.
+  ~Impl() {
+    if (state) state->channels.reset();
+  }
 
   void do_accept();
   void on_accept(beast::error_code ec, tcp::socket socket);
@@ -60,6 +65,7 @@ Server::Impl::Impl(ServerOptions options)
   log::set_level(options.log_level);
   raise_file_limit();
   state = std::make_shared<State>(std::move(options));
+  state->channels = std::make_shared<ChannelRegistry>(state, ioc.get_executor());
   const auto& o = state->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
@@ -115,6 +121,7 @@ void Server::Impl::begin_shutdown() {
   acceptor.close(ec);
   signals.cancel(ec);
   state->shut_down_sessions();
+  state->channels->close_all();
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
   jobs_stopper = std::thread([s = state] { s->jobs.shutdown(); });
   shutdown_deadline = std::chrono::steady_clock::now() +

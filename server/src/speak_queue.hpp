@@ -31,6 +31,11 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   void cancel(const CancelRequest& request);
   /// Stops the playing stream and forgets the waiting ones; nothing is sent after this.
   void close();
+  /// Incremental text: adds text to the open utterance `id` (a speak with "more": true) and
+  /// speaks each piece as soon as it is complete; end() closes it. Throw Error (not found, not
+  /// open, already ended).
+  void append(const AppendRequest& request);
+  void end(const EndRequest& request);
 
  private:
   struct Item;
@@ -40,6 +45,11 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   void on_prepared(const std::shared_ptr<Item>& item, std::shared_ptr<PreparedSpeech> prepared,
                    std::optional<Problem> problem);
   void start_next();
+  std::shared_ptr<Item> open_item(const std::string& id, const char* what);
+  void prepare_piece(const std::shared_ptr<Item>& item);
+  void on_piece(const std::shared_ptr<Item>& item, std::shared_ptr<PreparedSpeech> prepared,
+                std::optional<Problem> problem);
+  void close_if_done(const std::shared_ptr<Item>& item);
   void on_stream_end();
   void remove(std::deque<std::shared_ptr<Item>>::iterator it);
   std::size_t queued() const { return pending_.size() + (active_ ? 1 : 0); }
@@ -52,6 +62,7 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   std::deque<std::shared_ptr<Item>> pending_;  // waiting utterances, in order
   GaugeShare waiting_;                         // speak_queue_depth: pending_.size()
   std::shared_ptr<StreamPacer> active_;
+  std::shared_ptr<Item> active_item_;  // the item active_ plays
   double tokens_;
   Clock::time_point tokens_at_ = Clock::now();
   bool closed_ = false;

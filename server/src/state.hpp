@@ -30,6 +30,8 @@ class Closable {
   virtual void shut_down() = 0;
 };
 
+class ChannelRegistry;  // channel.hpp
+
 struct State {
   explicit State(ServerOptions opts);
 
@@ -52,6 +54,8 @@ struct State {
   // Short work: speech analysis, rendering, request bodies. Declared after everything it uses.
   boost::asio::thread_pool workers;
   Jobs jobs;
+  // The configured channels; set by the server before any thread runs, dropped after they ended.
+  std::shared_ptr<ChannelRegistry> channels;
 
   double uptime() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -67,6 +67,15 @@ struct ServerOptions {
   std::vector<std::string> allowed_origins;
 
   std::string log_level = "info";  // debug | info | warn | error
+
+  // Live shows (docs/protocol.md, "Channels"): the channels that exist, each with the token its
+  // producers present; anyone allowed on /ws may subscribe.
+  struct Channel {
+    std::string name;
+    std::string producer_token;
+  };
+  std::vector<Channel> channels;
+  double presence_interval = 1.0;  // seconds between two `presence` messages of a channel
 };
 
 /// Reads a server config (JSON object, every key optional, unknown keys rejected) over the
