@@ -4,6 +4,7 @@
 
 #include "log.hpp"
 #include "routes.hpp"
+#include "speech.hpp"
 
 namespace facecast::server {
 
@@ -36,6 +37,7 @@ void Channel::subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who) 
         self->name_, static_cast<long>(self->members_.size()), self->on_air_id_)));
     // A late joiner starts at the current frame: the stream_start, then what comes next.
     if (self->on_air_) m->deliver(*self->on_air_);
+    self->maybe_idle();
   });
 }
 
@@ -64,6 +66,9 @@ void Channel::request(ClientMessage message, std::weak_ptr<ChannelMember> produc
       if (auto* speak = std::get_if<SpeakRequest>(&message)) {
         if (!producer.expired()) self->producer_ = producer;
         self->queue_->speak(std::move(*speak));
+        // Idle life gives way: it fades to rest, then the utterance starts.
+        if (self->on_air_id_ == kIdleId)
+          self->queue_->cancel(CancelRequest{std::string(kIdleId), {}});
       } else if (auto* append = std::get_if<AppendRequest>(&message)) {
         self->queue_->append(*append);
       } else if (auto* end = std::get_if<EndRequest>(&message)) {
@@ -101,6 +106,8 @@ std::uint32_t Channel::send(OutMessage message) {
   if (message.boundary == Boundary::kEnd) {
     on_air_.reset();
     on_air_id_.reset();
+    // After the queue moved on (it does so right after this call): idle life if nothing plays.
+    net::post(strand_, [self = shared_from_this()] { self->maybe_idle(); });
   }
   broadcast(message);
   return 0;  // drops happen per subscriber; stream_end counts what the channel sent
@@ -137,6 +144,33 @@ void Channel::presence_changed() {
     if (n == self->presence_sent_) return;
     self->presence_sent_ = n;
     self->broadcast(OutMessage::control(presence_message(self->name_, n)));
+  });
+}
+
+// Between utterances a channel with subscribers plays idle life (blinks, small head and eye
+// motion) in streams of channel_idle seconds, so viewers never see a frozen face.
+void Channel::maybe_idle() {
+  const double seconds = state_->options.channel_idle;
+  if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy()) return;
+  idle_preparing_ = true;
+  SpeakRequest r;
+  r.id = std::string(kIdleId);
+  r.audio = false;
+  r.timing = viseme::Timing::kModel;
+  const std::uint32_t seed =
+      static_cast<std::uint32_t>(std::hash<std::string>{}(name_)) + ++idle_count_;
+  net::post(state_->workers, [self = shared_from_this(), r, seconds, seed]() mutable {
+    std::shared_ptr<PreparedSpeech> prepared;
+    try {
+      prepared = prepare_idle(*self->state_, r, seconds, seed);
+    } catch (const std::exception& e) {
+      log::warn("channel_idle_failed", {{"channel", self->name_}, {"error", e.what()}});
+    }
+    net::post(self->strand_, [self, r = std::move(r), prepared = std::move(prepared)]() mutable {
+      self->idle_preparing_ = false;
+      if (!prepared || self->closed_ || self->queue_->busy()) return;
+      self->queue_->speak_prepared(std::move(r), std::move(prepared));
+    });
   });
 }
 

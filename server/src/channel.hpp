@@ -59,6 +59,7 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
  private:
   void broadcast(const OutMessage& message);
   void presence_changed();
+  void maybe_idle();
 
   std::shared_ptr<State> state_;
   net::any_io_executor strand_;
@@ -74,7 +75,12 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   long presence_sent_ = 0;
   net::steady_timer presence_timer_;
   bool presence_armed_ = false, closed_ = false;
+  bool idle_preparing_ = false;
+  std::uint32_t idle_count_ = 0;
 };
+
+/// The id of a channel's idle-life streams (between utterances).
+inline constexpr std::string_view kIdleId = "~idle";
 
 /// The configured channels (ServerOptions::channels); the set is fixed at start.
 class ChannelRegistry {

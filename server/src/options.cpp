@@ -49,7 +49,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("shutdown_timeout", o.shutdown_timeout);
   c.read("allowed_origins", o.allowed_origins);
   c.read("log_level", o.log_level);
-  c.read("presence_interval", o.presence_interval);
+  c.read("presence_interval", o.presence_interval).read("channel_idle", o.channel_idle);
   nlohmann::json channels = nlohmann::json::object();
   c.read("channels", channels);
   if (!channels.is_object()) c.fail("channels", "expected an object {name: {producer_token}}");
@@ -107,6 +107,7 @@ void validate(const ServerOptions& o) {
        "log_level: '" + o.log_level + "' is not debug, info, warn or error");
   need(!o.default_rig.empty(), "default_rig: empty");
   need(o.presence_interval > 0, "presence_interval: must be positive");
+  need(o.channel_idle >= 0 && o.channel_idle <= 3600, "channel_idle: must be in 0..3600 seconds");
   for (const auto& ch : o.channels) {
     check_channel_name(nlohmann::json(ch.name), "channels: name");
     need(ch.producer_token.size() >= 8,

@@ -88,6 +88,17 @@ void SpeakQueue::speak(SpeakRequest&& request) {
   start_next();
 }
 
+void SpeakQueue::speak_prepared(SpeakRequest&& request, std::shared_ptr<PreparedSpeech> prepared) {
+  if (closed_) return;
+  auto item = std::make_shared<Item>();
+  item->request = std::move(request);
+  item->received = Clock::now();
+  item->prepared = std::move(prepared);
+  pending_.push_back(std::move(item));
+  waiting_.set(static_cast<long>(pending_.size()));
+  start_next();
+}
+
 void SpeakQueue::cancel(const CancelRequest& request) {
   if (active_ && active_->id() == request.id) {
     active_item_->cancelled = true;  // no more pieces

@@ -36,6 +36,10 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   /// open, already ended).
   void append(const AppendRequest& request);
   void end(const EndRequest& request);
+  /// Something plays or waits.
+  bool busy() const noexcept { return active_ || !pending_.empty(); }
+  /// Queues an utterance that is already prepared (a channel's idle life): no rate limit.
+  void speak_prepared(SpeakRequest&& request, std::shared_ptr<PreparedSpeech> prepared);
 
  private:
   struct Item;

@@ -21,6 +21,7 @@ const char* kToken = "producer-secret-1";
 void with_channel(ServerOptions& o) {
   o.channels.push_back({"show", kToken});
   o.presence_interval = 0.2;
+  o.channel_idle = 0;  // idle-life streams have their own test
 }
 
 // Reads text messages until one of `type` (others are kept in `seen`).
@@ -281,4 +282,41 @@ TEST_CASE("incremental text fed in 3-word pieces has no gaps", "[ws][incremental
     speech_end = seg["start"].get<double>() + seg["utterance"]["duration"].get<double>();
     CHECK(seg["end_sample"].get<std::size_t>() <= samples);
   }
+}
+
+TEST_CASE("a channel plays idle life between utterances and gives way to speech", "[ws][channel]") {
+  TestServer s([](ServerOptions& o) {
+    o.channels.push_back({"show", kToken});
+    o.channel_idle = 1.5;
+  });
+  auto viewer = subscriber(s.port());
+  // With a subscriber and nothing to say, the channel streams idle life, stream after stream.
+  const auto idle = wait_for(*viewer, "stream_start");
+  CHECK(idle["id"] == "~idle");
+  CHECK(idle["audio"].is_null());
+  const auto r = collect_stream(*viewer, "~idle", 10, &idle);
+  check_contiguous(r, 0);
+  CHECK(r.end["cancelled"] == false);
+  const double fps = idle["fps"];
+  CHECK(r.start["frames"] == static_cast<int>(std::ceil(1.5 * fps - 1e-9)));
+  // Blinks and head motion: the weights change over the stream.
+  float change = 0;
+  for (const auto& w : r.weights)
+    for (std::size_t i = 0; i < w.values.size(); ++i)
+      change =
+          std::max(change, std::abs(w.values[i] - r.weights.front().values[i % w.values.size()]));
+  CHECK(change > 0.0f);
+  const auto next = wait_for(*viewer, "stream_start");
+  CHECK(next["id"] == "~idle");
+  // A producer's utterance: the idle stream fades out (cancelled), then the speech plays.
+  auto prod = producer(s.port());
+  prod->send(nlohmann::json{
+      {"type", "speak"}, {"id", "s1"}, {"channel", "show"}, {"text", "Hello, everyone."}});
+  const auto idle_end = collect_stream(*viewer, "~idle", 10, &next);
+  const auto speech = collect_stream(*viewer, "s1", 30);
+  CHECK(speech.end["cancelled"] == false);
+  check_contiguous(speech, 0);
+  const auto after = wait_for(*viewer, "stream_start");
+  CHECK(after["id"] == "~idle");
+  (void)idle_end;
 }

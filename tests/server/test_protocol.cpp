@@ -241,10 +241,11 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.log_level == d.log_level);
   CHECK(file.channels.empty());
   CHECK(file.presence_interval == d.presence_interval);
+  CHECK(file.channel_idle == d.channel_idle);
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 43);  // 42 settings + "_doc"
+  CHECK(j.size() == 44);  // 43 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

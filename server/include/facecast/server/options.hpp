@@ -76,6 +76,7 @@ struct ServerOptions {
   };
   std::vector<Channel> channels;
   double presence_interval = 1.0;  // seconds between two `presence` messages of a channel
+  double channel_idle = 10;        // idle-life streams of this length between utterances (0: off)
 };
 
 /// Reads a server config (JSON object, every key optional, unknown keys rejected) over the
