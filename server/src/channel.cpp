@@ -96,6 +96,12 @@ void Channel::close() {
   });
 }
 
+void Channel::stop_idle() {
+  net::post(strand_, [self = shared_from_this()] {
+    if (self->on_air_id_ == kIdleId) self->queue_->cancel(CancelRequest{std::string(kIdleId), {}});
+  });
+}
+
 // ---- fan-out (on the strand) -------------------------------------------------------------------
 
 std::uint32_t Channel::send(OutMessage message) {
@@ -151,7 +157,9 @@ void Channel::presence_changed() {
 // motion) in streams of channel_idle seconds, so viewers never see a frozen face.
 void Channel::maybe_idle() {
   const double seconds = state_->options.channel_idle;
-  if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy()) return;
+  if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy() ||
+      state_->stopping)
+    return;
   idle_preparing_ = true;
   SpeakRequest r;
   r.id = std::string(kIdleId);
@@ -168,7 +176,7 @@ void Channel::maybe_idle() {
     }
     net::post(self->strand_, [self, r = std::move(r), prepared = std::move(prepared)]() mutable {
       self->idle_preparing_ = false;
-      if (!prepared || self->closed_ || self->queue_->busy()) return;
+      if (!prepared || self->closed_ || self->queue_->busy() || self->state_->stopping) return;
       self->queue_->speak_prepared(std::move(r), std::move(prepared));
     });
   });
@@ -193,6 +201,10 @@ std::shared_ptr<Channel> ChannelRegistry::find(std::string_view name) const {
 
 void ChannelRegistry::close_all() {
   for (const auto& c : channels_) c->close();
+}
+
+void ChannelRegistry::stop_idle() {
+  for (const auto& c : channels_) c->stop_idle();
 }
 
 // ---- HTTP --------------------------------------------------------------------------------------

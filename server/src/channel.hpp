@@ -50,6 +50,8 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   void request(ClientMessage message, std::weak_ptr<ChannelMember> producer, Reply reply);
   /// Stops what plays and forgets the queue (server shutdown).
   void close();
+  /// Fades out an idle-life stream (server draining; none starts while the server stops).
+  void stop_idle();
 
   // StreamSink (on the strand)
   std::uint32_t send(OutMessage message) override;
@@ -90,6 +92,8 @@ class ChannelRegistry {
   std::shared_ptr<Channel> find(std::string_view name) const;
   const std::vector<std::shared_ptr<Channel>>& all() const { return channels_; }
   void close_all();
+  /// Draining: idle life stops (fades out) and does not start again.
+  void stop_idle();
 
  private:
   std::vector<std::shared_ptr<Channel>> channels_;

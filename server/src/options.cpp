@@ -46,7 +46,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("send_buffer", o.send_buffer);
   c.read("http_timeout", o.http_timeout);
   c.read("ws_handshake_timeout", o.ws_handshake_timeout).read("ws_idle_timeout", o.ws_idle_timeout);
-  c.read("shutdown_timeout", o.shutdown_timeout);
+  c.read("shutdown_timeout", o.shutdown_timeout).read("drain_timeout", o.drain_timeout);
   c.read("allowed_origins", o.allowed_origins);
   c.read("log_level", o.log_level);
   c.read("presence_interval", o.presence_interval).read("channel_idle", o.channel_idle);
@@ -102,6 +102,7 @@ void validate(const ServerOptions& o) {
   need(o.ws_handshake_timeout > 0, "ws_handshake_timeout: must be positive");
   need(o.ws_idle_timeout > 0, "ws_idle_timeout: must be positive");
   need(o.shutdown_timeout > 0, "shutdown_timeout: must be positive");
+  need(o.drain_timeout >= 0, "drain_timeout: must not be negative");
   need(o.log_level == "debug" || o.log_level == "info" || o.log_level == "warn" ||
            o.log_level == "error",
        "log_level: '" + o.log_level + "' is not debug, info, warn or error");

@@ -344,6 +344,14 @@ http::message_generator handle_request(State& state, Request&& req) {
                             {"uptime", state.uptime()},
                             {"version", FACECAST_VERSION}});
     }
+    if (path == "/readyz") {
+      require_method(req, {http::verb::get, http::verb::head});
+      const bool ready = state.ready && !state.stopping;
+      return json_response(state, req, ready ? http::status::ok : http::status::service_unavailable,
+                           {{"status", ready            ? "ready"
+                                       : state.stopping ? "draining"
+                                                        : "starting"}});
+    }
     if (path == "/metrics") {
       require_method(req, {http::verb::get, http::verb::head});
       http::response<http::string_body> res{http::status::ok, req.version()};

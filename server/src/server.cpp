@@ -40,6 +40,8 @@ struct Server::Impl {
   void on_accept(beast::error_code ec, tcp::socket socket);
   void begin_shutdown();
   void check_shutdown();
+  void begin_drain();
+  void check_drain();
 
   std::shared_ptr<State> state;
   net::io_context ioc;
@@ -51,6 +53,8 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   std::thread jobs_stopper;    // cancels jobs during shutdown
   bool shutting_down = false;  // on the io_context
+  bool draining = false;
+  std::chrono::steady_clock::time_point drain_deadline;
   std::mutex mutex;
   bool started = false;
 };
@@ -130,6 +134,36 @@ void Server::Impl::begin_shutdown() {
   check_shutdown();
 }
 
+// SIGTERM: stop accepting (and /readyz says so), refuse new utterances, let the running ones
+// finish for up to drain_timeout, then shut down (close every WebSocket with 1001).
+void Server::Impl::begin_drain() {
+  if (shutting_down || draining) return;
+  draining = true;
+  state->stopping = true;
+  log::info("draining", {{"streams", state->metrics.active_streams.load()},
+                         {"timeout_s", state->options.drain_timeout}});
+  beast::error_code ec;
+  acceptor.close(ec);
+  state->channels->stop_idle();
+  drain_deadline = std::chrono::steady_clock::now() + from_seconds(state->options.drain_timeout);
+  check_drain();
+}
+
+void Server::Impl::check_drain() {
+  if (shutting_down) return;
+  const bool done =
+      state->metrics.active_streams.load() == 0 && state->metrics.speak_queue_depth.load() == 0;
+  if (done || std::chrono::steady_clock::now() >= drain_deadline) {
+    if (!done) log::warn("drain_timeout", {{"streams", state->metrics.active_streams.load()}});
+    begin_shutdown();
+    return;
+  }
+  shutdown_timer.expires_after(std::chrono::milliseconds(50));
+  shutdown_timer.async_wait([this](beast::error_code ec) {
+    if (!ec) check_drain();
+  });
+}
+
 void Server::Impl::check_shutdown() {
   const bool idle = state->connections.load() == 0;
   if (idle || std::chrono::steady_clock::now() >= shutdown_deadline) {
@@ -165,6 +199,14 @@ void Server::handle_signals() {
   impl_->signals.async_wait([this](beast::error_code ec, int signal) {
     if (ec) return;
     log::info("signal", {{"signal", signal == SIGINT ? "SIGINT" : "SIGTERM"}});
+    if (signal == SIGTERM) {
+      impl_->begin_drain();
+      // A second signal during the drain stops at once.
+      impl_->signals.async_wait([this](beast::error_code e, int) {
+        if (!e) impl_->begin_shutdown();
+      });
+      return;
+    }
     impl_->begin_shutdown();
   });
 }
@@ -203,6 +245,7 @@ void Server::start() {
     } catch (const std::exception& e) {
       log::warn("warm_up_failed", {{"error", e.what()}});
     }
+    s->ready = true;
   });
   for (int i = 0; i < o.io_threads; ++i) {
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });

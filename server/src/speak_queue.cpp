@@ -53,6 +53,8 @@ void SpeakQueue::take_tokens(Clock::time_point now) {
 
 void SpeakQueue::speak(SpeakRequest&& request) {
   const auto now = Clock::now();
+  if (state_->stopping)
+    throw RequestError(Code::kUnavailable, "speak: the server is shutting down (draining)");
   take_tokens(now);
   if (const auto n = queued(); static_cast<int>(n) >= state_->options.max_queued_speaks) {
     throw RequestError(Code::kLimit, "speak: " + std::to_string(n) +

@@ -46,7 +46,8 @@ struct State {
   RendererCache renderers;
   ProtocolLimits limits;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
-  std::atomic<bool> stopping{false};
+  std::atomic<bool> stopping{false};  // draining or shutting down: /readyz answers 503
+  std::atomic<bool> ready{false};     // warmed up: /readyz answers 200
   std::atomic<std::uint64_t> next_connection{1};
   std::atomic<std::uint32_t> next_stream{1};
   std::atomic<long> connections{0};

@@ -242,10 +242,11 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.channels.empty());
   CHECK(file.presence_interval == d.presence_interval);
   CHECK(file.channel_idle == d.channel_idle);
+  CHECK(file.drain_timeout == d.drain_timeout);
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 44);  // 43 settings + "_doc"
+  CHECK(j.size() == 45);  // 44 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

@@ -61,6 +61,7 @@ struct ServerOptions {
   double ws_handshake_timeout = 30;  // WebSocket handshake and close
   double ws_idle_timeout = 60;       // no traffic: ping at half of it, close at it
   double shutdown_timeout = 3;       // SIGINT/SIGTERM: hard stop after this long
+  double drain_timeout = 10;         // SIGTERM: running utterances may finish for this long
 
   // WebSocket Origin check: browsers may connect from the server's own origin and from these
   // ("*" allows any). Clients that send no Origin (not browsers) are allowed.
