@@ -85,7 +85,7 @@ void SpeakQueue::speak(SpeakRequest&& request) {
     for (auto& piece : take_pieces(item->buffer, false)) item->pieces.push_back(std::move(piece));
     prepare_piece(item);
   } else {
-    prepare(item);
+    prepare(item, item->request, item->seed, &SpeakQueue::on_prepared);
   }
   start_next();
 }
@@ -140,19 +140,22 @@ void SpeakQueue::remove(std::deque<std::shared_ptr<Item>>::iterator it) {
 
 // ---- preparation (worker pool) ----------------------------------------------------------------
 
-void SpeakQueue::prepare(const std::shared_ptr<Item>& item) {
-  net::post(state_->workers, [self = shared_from_this(), item] {
-    std::shared_ptr<PreparedSpeech> prepared;
-    std::optional<Problem> problem;
-    try {
-      prepared = prepare_speech(*self->state_, item->request, item->seed);
-    } catch (...) {
-      problem = describe(std::current_exception());
-    }
-    net::post(self->strand_, [self, item, prepared = std::move(prepared), problem] {
-      self->on_prepared(item, prepared, problem);
-    });
-  });
+// Prepares `request` on the worker pool; `done` gets the result (or the problem) on the strand.
+void SpeakQueue::prepare(const std::shared_ptr<Item>& item, SpeakRequest request,
+                         std::uint32_t seed, Done done) {
+  net::post(state_->workers,
+            [self = shared_from_this(), item, request = std::move(request), seed, done] {
+              std::shared_ptr<PreparedSpeech> prepared;
+              std::optional<Problem> problem;
+              try {
+                prepared = prepare_speech(*self->state_, request, seed);
+              } catch (...) {
+                problem = describe(std::current_exception());
+              }
+              net::post(self->strand_, [self, item, prepared = std::move(prepared), problem, done] {
+                ((*self).*done)(item, prepared, problem);
+              });
+            });
 }
 
 void SpeakQueue::on_prepared(const std::shared_ptr<Item>& item,
@@ -250,18 +253,7 @@ void SpeakQueue::prepare_piece(const std::shared_ptr<Item>& item) {
   piece.text = std::move(item->pieces.front());
   item->pieces.pop_front();
   const std::uint32_t seed = item->seed + static_cast<std::uint32_t>(item->spoken);
-  net::post(state_->workers, [self = shared_from_this(), item, piece = std::move(piece), seed] {
-    std::shared_ptr<PreparedSpeech> prepared;
-    std::optional<Problem> problem;
-    try {
-      prepared = prepare_speech(*self->state_, piece, seed);
-    } catch (...) {
-      problem = describe(std::current_exception());
-    }
-    net::post(self->strand_, [self, item, prepared = std::move(prepared), problem] {
-      self->on_piece(item, prepared, problem);
-    });
-  });
+  prepare(item, std::move(piece), seed, &SpeakQueue::on_piece);
 }
 
 void SpeakQueue::on_piece(const std::shared_ptr<Item>& item,

@@ -45,7 +45,10 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   struct Item;
 
   void take_tokens(Clock::time_point now);
-  void prepare(const std::shared_ptr<Item>& item);
+  using Done = void (SpeakQueue::*)(const std::shared_ptr<Item>&, std::shared_ptr<PreparedSpeech>,
+                                    std::optional<Problem>);
+  void prepare(const std::shared_ptr<Item>& item, SpeakRequest request, std::uint32_t seed,
+               Done done);
   void on_prepared(const std::shared_ptr<Item>& item, std::shared_ptr<PreparedSpeech> prepared,
                    std::optional<Problem> problem);
   void start_next();
