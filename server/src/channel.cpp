@@ -207,6 +207,17 @@ void ChannelRegistry::stop_idle() {
   for (const auto& c : channels_) c->stop_idle();
 }
 
+std::string channel_metrics(const ChannelRegistry& channels) {
+  if (channels.all().empty()) return {};
+  std::string out =
+      "# HELP facecast_channel_subscribers Subscribers of a channel.\n"
+      "# TYPE facecast_channel_subscribers gauge\n";
+  for (const auto& c : channels.all())  // names are [A-Za-z0-9_.-]: no label escaping needed
+    out += "facecast_channel_subscribers{channel=\"" + c->name() + "\"} " +
+           std::to_string(c->subscribers()) + "\n";
+  return out;
+}
+
 // ---- HTTP --------------------------------------------------------------------------------------
 
 namespace {

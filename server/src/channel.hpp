@@ -81,6 +81,9 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   std::uint32_t idle_count_ = 0;
 };
 
+/// Prometheus lines: facecast_channel_subscribers{channel="show"} per channel.
+std::string channel_metrics(const ChannelRegistry& channels);
+
 /// The id of a channel's idle-life streams (between utterances).
 inline constexpr std::string_view kIdleId = "~idle";
 

@@ -358,7 +358,10 @@ http::message_generator handle_request(State& state, Request&& req) {
       res.set(http::field::content_type, "text/plain; version=0.0.4; charset=utf-8");
       res.set(http::field::cache_control, "no-store");
       res.keep_alive(req.keep_alive());
-      if (req.method() != http::verb::head) res.body() = state.metrics.render(state.uptime());
+      if (req.method() != http::verb::head) {
+        res.body() = state.metrics.render(state.uptime());
+        if (state.channels) res.body() += channel_metrics(*state.channels);
+      }
       return finish(state, std::move(res));
     }
     if (path == "/ws") {

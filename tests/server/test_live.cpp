@@ -145,6 +145,8 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
   const auto j =
       nlohmann::json::parse(http_request(s.port(), http::verb::get, "/api/channels/show").body);
   CHECK(j["subscribers"] == 4);
+  const auto metrics = http_request(s.port(), http::verb::get, "/metrics").body;
+  CHECK(metric_value(metrics, "facecast_channel_subscribers{channel=\"show\"}") == 4);
 
   prod->send(nlohmann::json{{"type", "speak"},
                             {"id", "s2"},
