@@ -7,10 +7,14 @@
 //     (p50/p99, measured at the client).
 //  2. frames: 2 clients at once in frames mode at 640x480 (JPEG) for --frames-seconds: delivered
 //     frames per second each.
+//  3. broadcast (bench_broadcast.cpp): one channel, --broadcast subscribers (10000), a producer
+//     speaking 60 fps weights with audio for --broadcast-seconds (60).
 // Usage: bench_server [--clients 1000] [--seconds 60] [--ramp 5] [--fps 60] [--min-tick (config)]
 //                     [--frames-clients 2] [--frames-seconds 15] [--frames-fps 30]
 //                     [--frames-size 640x480] [--client-threads 1] [--exe path/to/facecast]
 //                     [--set key=json ...] (server config values, e.g. --set frames_in_flight=3)
+//                     [--broadcast 10000] [--broadcast-seconds 60] [--broadcast-ramp 10]
+//                     (--clients 0, --frames-clients 0, --broadcast 0 skip a case)
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -39,6 +43,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench_broadcast.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
@@ -70,6 +75,7 @@ struct Args {
   int client_threads = 1;
   std::string exe = FACECAST_EXE;
   std::vector<std::pair<std::string, std::string>> set;  // --set key=json (server config)
+  bench::BroadcastArgs broadcast;
 };
 
 // ---- the server process -------------------------------------------------------------------------
@@ -327,13 +333,16 @@ Args parse_args(int argc, char** argv) {
   Args a;
   const std::map<std::string, int*> ints = {{"--clients", &a.clients},
                                             {"--frames-clients", &a.frames_clients},
-                                            {"--client-threads", &a.client_threads}};
+                                            {"--client-threads", &a.client_threads},
+                                            {"--broadcast", &a.broadcast.subscribers}};
   const std::map<std::string, double*> reals = {{"--seconds", &a.seconds},
                                                 {"--ramp", &a.ramp},
                                                 {"--fps", &a.fps},
                                                 {"--min-tick", &a.min_tick},
                                                 {"--frames-seconds", &a.frames_seconds},
-                                                {"--frames-fps", &a.frames_fps}};
+                                                {"--frames-fps", &a.frames_fps},
+                                                {"--broadcast-seconds", &a.broadcast.seconds},
+                                                {"--broadcast-ramp", &a.broadcast.ramp}};
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     if (i + 1 >= argc) throw std::runtime_error(k + ": missing value");
@@ -494,7 +503,9 @@ void run_frames(const Args& a, const fctest::ServeProcess& server) {
 // The shipped config with room for the load and the --set values, written to `dir`.
 void write_config(Args& a, const std::filesystem::path& dir) {
   json config = facecast::load_json(facecast::config_path("server.json"));
-  config["max_connections"] = std::max(config["max_connections"].get<int>(), a.clients + 100);
+  config["max_connections"] = std::max(config["max_connections"].get<int>(),
+                                       std::max(a.clients, a.broadcast.subscribers) + 100);
+  config["channels"] = {{a.broadcast.channel, {{"producer_token", a.broadcast.token}}}};
   config["log_level"] = "warn";
   if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
   for (const auto& [key, value] : a.set) config[key] = json::parse(value);
@@ -534,8 +545,10 @@ int main(int argc, char** argv) {
         (dir / "server.log").string());
     std::printf("server pid %d on port %u, RSS at start %.0f MB\n", server.pid(), server.port(),
                 rss(server.pid()).first);
-    run_weights(a, server);
+    if (a.clients > 0) run_weights(a, server);
     if (a.frames_clients > 0) run_frames(a, server);
+    a.broadcast.client_threads = a.client_threads;
+    if (a.broadcast.subscribers > 0) bench::run_broadcast(a.broadcast, server.port(), server.pid());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_server: %s\n", e.what());
     rc = 3;

@@ -4,6 +4,7 @@
 
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/server/protocol.hpp"
 
 namespace facecast::server {
 
@@ -46,9 +47,20 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("send_buffer", o.send_buffer);
   c.read("http_timeout", o.http_timeout);
   c.read("ws_handshake_timeout", o.ws_handshake_timeout).read("ws_idle_timeout", o.ws_idle_timeout);
-  c.read("shutdown_timeout", o.shutdown_timeout);
+  c.read("shutdown_timeout", o.shutdown_timeout).read("drain_timeout", o.drain_timeout);
   c.read("allowed_origins", o.allowed_origins);
   c.read("log_level", o.log_level);
+  c.read("presence_interval", o.presence_interval).read("channel_idle", o.channel_idle);
+  nlohmann::json channels = nlohmann::json::object();
+  c.read("channels", channels);
+  if (!channels.is_object()) c.fail("channels", "expected an object {name: {producer_token}}");
+  for (const auto& [name, v] : channels.items()) {
+    ConfigReader ch(v, path.string() + ": channels." + name);
+    ServerOptions::Channel channel{name, {}};
+    ch.require("producer_token", channel.producer_token);
+    ch.reject_unknown();
+    o.channels.push_back(std::move(channel));
+  }
   c.reject_unknown();
   validate(o);
   return o;
@@ -91,10 +103,18 @@ void validate(const ServerOptions& o) {
   need(o.ws_handshake_timeout > 0, "ws_handshake_timeout: must be positive");
   need(o.ws_idle_timeout > 0, "ws_idle_timeout: must be positive");
   need(o.shutdown_timeout > 0, "shutdown_timeout: must be positive");
+  need(o.drain_timeout >= 0, "drain_timeout: must not be negative");
   need(o.log_level == "debug" || o.log_level == "info" || o.log_level == "warn" ||
            o.log_level == "error",
        "log_level: '" + o.log_level + "' is not debug, info, warn or error");
   need(!o.default_rig.empty(), "default_rig: empty");
+  need(o.presence_interval > 0, "presence_interval: must be positive");
+  need(o.channel_idle >= 0 && o.channel_idle <= 3600, "channel_idle: must be in 0..3600 seconds");
+  for (const auto& ch : o.channels) {
+    check_channel_name(nlohmann::json(ch.name), "channels: name");
+    need(ch.producer_token.size() >= 8,
+         "channels." + ch.name + ".producer_token: must be at least 8 characters");
+  }
   if (!is_loopback_host(o.host) && o.token.empty()) {
     throw Error("host " + o.host +
                 " is not a loopback address: set a token (--token, FACECAST_TOKEN or \"token\" in "

@@ -18,6 +18,8 @@
 namespace facecast::server {
 
 enum class OutKind { kControl, kAudio, kWeights, kJpeg };
+/// stream_start / stream_end control messages are marked, so a channel knows what is on air.
+enum class Boundary : std::uint8_t { kNone, kStart, kEnd };
 
 /// One message to send: a control message (JSON text) or a binary media message.
 struct OutMessage {
@@ -25,11 +27,12 @@ struct OutMessage {
   OutKind kind = OutKind::kControl;
   std::uint32_t stream = 0;
   std::uint32_t frames = 0;  // media frames in it (weights, JPEG)
+  Boundary boundary = Boundary::kNone;
 
   bool media() const noexcept { return kind != OutKind::kControl; }
   static OutMessage control(std::string text) {
-    return OutMessage{std::make_shared<const std::string>(std::move(text)), OutKind::kControl, 0,
-                      0};
+    return OutMessage{std::make_shared<const std::string>(std::move(text)), OutKind::kControl, 0, 0,
+                      Boundary::kNone};
   }
 };
 

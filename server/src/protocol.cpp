@@ -115,7 +115,9 @@ SpeakRequest parse_speak(const json& j, const ProtocolLimits& limits) {
     if (key == "type" || key == "id") continue;
     if (key == "text") {
       r.text = get_string(v, "text");
-      if (r.text->empty()) throw Error("text: empty");
+      const auto more = j.find("more");
+      const bool open = more != j.end() && more->is_boolean() && more->get<bool>();
+      if (r.text->empty() && !open) throw Error("text: empty");
       check_text_length(*r.text, "text", limits);
     } else if (key == "timestamps") {
       if (!v.is_object())
@@ -173,10 +175,16 @@ SpeakRequest parse_speak(const json& j, const ProtocolLimits& limits) {
       r.rate = get_number(v, "rate", 0.5, 20);
     } else if (key == "idle") {
       r.idle = get_bool(v, "idle");
+    } else if (key == "channel") {
+      r.channel = check_channel_name(v, "channel");
+    } else if (key == "more") {
+      r.more = get_bool(v, "more");
     } else {
       throw Error("speak: unknown field '" + key + "'");
     }
   }
+  if (r.more && r.timestamps) throw Error("more: only with text (append adds text)");
+  if (r.more && !r.text) r.text = "";
   if (r.text.has_value() == r.timestamps.has_value())
     throw Error("speak: give exactly one of text and timestamps");
   if (r.timestamps) {
@@ -341,7 +349,8 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
   const std::string type = get_string(*type_it, "type");
   const auto id_it = j.find("id");
   std::string the_id;
-  if (id_it != j.end() && (type == "speak" || type == "cancel")) {
+  if (id_it != j.end() &&
+      (type == "speak" || type == "cancel" || type == "append" || type == "end")) {
     the_id = get_id(*id_it);
     if (id) *id = the_id;
   }
@@ -351,12 +360,13 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
     r.id = std::move(the_id);
     return r;
   }
+  if (auto live = parse_live_message(type, j, the_id, limits)) return std::move(*live);
   if (type == "cancel") {
     for (const auto& [key, v] : j.items()) {
       if (key != "type" && key != "id") throw Error("cancel: unknown field '" + key + "'");
     }
     if (the_id.empty()) throw Error("id: missing");
-    return CancelRequest{std::move(the_id)};
+    return CancelRequest{std::move(the_id), {}};
   }
   if (type == "ping") {
     PingRequest p;
@@ -369,7 +379,8 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
     }
     return p;
   }
-  throw Error("type: unknown message type '" + type + "' (speak, cancel or ping)");
+  throw Error("type: unknown message type '" + type +
+              "' (speak, cancel, ping, append, end, subscribe, unsubscribe or produce)");
 }
 
 // ---- server messages

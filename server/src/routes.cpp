@@ -4,6 +4,7 @@
 #include <regex>
 
 #include "api.hpp"
+#include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "log.hpp"
 
@@ -62,12 +63,16 @@ std::optional<std::time_t> parse_http_date(std::string_view s) {
   return timegm(&tm);
 }
 
+}  // namespace
+
 bool constant_time_equal(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   unsigned char diff = 0;
   for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
   return diff == 0;
 }
+
+namespace {
 
 void count_status(State& state, unsigned status) {
   const unsigned cls = status / 100;
@@ -272,15 +277,18 @@ std::optional<std::string> query_value(std::string_view query, std::string_view 
   return std::nullopt;
 }
 
+std::optional<std::string> request_token(const Request& req, const Target& target) {
+  const auto auth = req[http::field::authorization];
+  if (auth.size() > 7 && beast::iequals(auth.substr(0, 7), "Bearer "))
+    return std::string(auth.substr(7));
+  return query_value(target.query, "token");
+}
+
 bool token_ok(const State& state, const Request& req, const Target& target) {
   const std::string& token = state.options.token;
   if (token.empty()) return true;
-  const auto auth = req[http::field::authorization];
-  if (auth.size() > 7 && beast::iequals(auth.substr(0, 7), "Bearer ") &&
-      constant_time_equal(auth.substr(7), token))
-    return true;
-  const auto q = query_value(target.query, "token");
-  return q && constant_time_equal(*q, token);
+  const auto given = request_token(req, target);
+  return given && constant_time_equal(*given, token);
 }
 
 bool origin_ok(const State& state, const Request& req) {
@@ -336,19 +344,31 @@ http::message_generator handle_request(State& state, Request&& req) {
                             {"uptime", state.uptime()},
                             {"version", FACECAST_VERSION}});
     }
+    if (path == "/readyz") {
+      require_method(req, {http::verb::get, http::verb::head});
+      const bool ready = state.ready && !state.stopping;
+      return json_response(state, req, ready ? http::status::ok : http::status::service_unavailable,
+                           {{"status", ready            ? "ready"
+                                       : state.stopping ? "draining"
+                                                        : "starting"}});
+    }
     if (path == "/metrics") {
       require_method(req, {http::verb::get, http::verb::head});
       http::response<http::string_body> res{http::status::ok, req.version()};
       res.set(http::field::content_type, "text/plain; version=0.0.4; charset=utf-8");
       res.set(http::field::cache_control, "no-store");
       res.keep_alive(req.keep_alive());
-      if (req.method() != http::verb::head) res.body() = state.metrics.render(state.uptime());
+      if (req.method() != http::verb::head) {
+        res.body() = state.metrics.render(state.uptime());
+        if (state.channels) res.body() += channel_metrics(*state.channels);
+      }
       return finish(state, std::move(res));
     }
     if (path == "/ws") {
       throw RequestError(Code::kInvalidInput,
                          "/ws is a WebSocket endpoint (subprotocol facecast.v1)", 426);
     }
+    if (path.starts_with("/api/channels/")) return channel_api(state, req, t);
     if (path == "/api" || path.starts_with("/api/")) {
       if (!token_ok(state, req, t))
         throw RequestError(Code::kUnauthorized,

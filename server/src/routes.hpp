@@ -17,8 +17,14 @@ Target parse_target(std::string_view target);
 /// The value of `key` in a query string, percent-decoded.
 std::optional<std::string> query_value(std::string_view query, std::string_view key);
 
+/// Compares secrets in time independent of where they differ.
+bool constant_time_equal(std::string_view a, std::string_view b);
+/// The token a request carries (Authorization: Bearer T, else ?token=T), or nullopt.
+std::optional<std::string> request_token(const Request& req, const Target& target);
 /// True when the request carries the configured token (or no token is configured).
 bool token_ok(const State& state, const Request& req, const Target& target);
+/// /api/channels/{c} and /api/channels/{c}/speak (channel.cpp).
+http::message_generator channel_api(State& state, const Request& req, const Target& target);
 /// True when a browser Origin may open a WebSocket (see ServerOptions::allowed_origins).
 bool origin_ok(const State& state, const Request& req);
 /// Body limit of a request (max_upload for POST /api/rigs and /api/render, else max_body).

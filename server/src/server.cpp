@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "beast.hpp"
+#include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
@@ -30,11 +31,17 @@ void raise_file_limit() {
 
 struct Server::Impl {
   explicit Impl(ServerOptions options);
+  // The channels hold the State: drop them (no thread runs any more) so that it can go.
+  ~Impl() {
+    if (state) state->channels.reset();
+  }
 
   void do_accept();
   void on_accept(beast::error_code ec, tcp::socket socket);
   void begin_shutdown();
   void check_shutdown();
+  void begin_drain();
+  void check_drain();
 
   std::shared_ptr<State> state;
   net::io_context ioc;
@@ -46,6 +53,8 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   std::thread jobs_stopper;    // cancels jobs during shutdown
   bool shutting_down = false;  // on the io_context
+  bool draining = false;
+  std::chrono::steady_clock::time_point drain_deadline;
   std::mutex mutex;
   bool started = false;
 };
@@ -60,6 +69,7 @@ Server::Impl::Impl(ServerOptions options)
   log::set_level(options.log_level);
   raise_file_limit();
   state = std::make_shared<State>(std::move(options));
+  state->channels = std::make_shared<ChannelRegistry>(state, ioc.get_executor());
   const auto& o = state->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
@@ -115,12 +125,43 @@ void Server::Impl::begin_shutdown() {
   acceptor.close(ec);
   signals.cancel(ec);
   state->shut_down_sessions();
+  state->channels->close_all();
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
   jobs_stopper = std::thread([s = state] { s->jobs.shutdown(); });
   shutdown_deadline = std::chrono::steady_clock::now() +
                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                           std::chrono::duration<double>(state->options.shutdown_timeout));
   check_shutdown();
+}
+
+// SIGTERM: stop accepting (and /readyz says so), refuse new utterances, let the running ones
+// finish for up to drain_timeout, then shut down (close every WebSocket with 1001).
+void Server::Impl::begin_drain() {
+  if (shutting_down || draining) return;
+  draining = true;
+  state->stopping = true;
+  log::info("draining", {{"streams", state->metrics.active_streams.load()},
+                         {"timeout_s", state->options.drain_timeout}});
+  beast::error_code ec;
+  acceptor.close(ec);
+  state->channels->stop_idle();
+  drain_deadline = std::chrono::steady_clock::now() + from_seconds(state->options.drain_timeout);
+  check_drain();
+}
+
+void Server::Impl::check_drain() {
+  if (shutting_down) return;
+  const bool done =
+      state->metrics.active_streams.load() == 0 && state->metrics.speak_queue_depth.load() == 0;
+  if (done || std::chrono::steady_clock::now() >= drain_deadline) {
+    if (!done) log::warn("drain_timeout", {{"streams", state->metrics.active_streams.load()}});
+    begin_shutdown();
+    return;
+  }
+  shutdown_timer.expires_after(std::chrono::milliseconds(50));
+  shutdown_timer.async_wait([this](beast::error_code ec) {
+    if (!ec) check_drain();
+  });
 }
 
 void Server::Impl::check_shutdown() {
@@ -158,6 +199,14 @@ void Server::handle_signals() {
   impl_->signals.async_wait([this](beast::error_code ec, int signal) {
     if (ec) return;
     log::info("signal", {{"signal", signal == SIGINT ? "SIGINT" : "SIGTERM"}});
+    if (signal == SIGTERM) {
+      impl_->begin_drain();
+      // A second signal during the drain stops at once.
+      impl_->signals.async_wait([this](beast::error_code e, int) {
+        if (!e) impl_->begin_shutdown();
+      });
+      return;
+    }
     impl_->begin_shutdown();
   });
 }
@@ -196,6 +245,7 @@ void Server::start() {
     } catch (const std::exception& e) {
       log::warn("warm_up_failed", {{"error", e.what()}});
     }
+    s->ready = true;
   });
   for (int i = 0; i < o.io_threads; ++i) {
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "log.hpp"
+#include "text_pieces.hpp"
 
 namespace facecast::server {
 
@@ -14,6 +15,13 @@ struct SpeakQueue::Item {
   std::uint32_t seed = 1;
   bool cancelled = false;
   std::shared_ptr<PreparedSpeech> prepared;
+  // Incremental text (request.more): text not yet in a piece, complete pieces not yet prepared,
+  // prepared pieces waiting for the stream to start.
+  std::string buffer;
+  std::deque<std::string> pieces;
+  std::deque<std::shared_ptr<PreparedSpeech>> ready;
+  bool ended = false, preparing = false;
+  int spoken = 0;  // pieces prepared so far
 };
 
 SpeakQueue::SpeakQueue(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
@@ -45,6 +53,8 @@ void SpeakQueue::take_tokens(Clock::time_point now) {
 
 void SpeakQueue::speak(SpeakRequest&& request) {
   const auto now = Clock::now();
+  if (state_->stopping)
+    throw RequestError(Code::kUnavailable, "speak: the server is shutting down (draining)");
   take_tokens(now);
   if (const auto n = queued(); static_cast<int>(n) >= state_->options.max_queued_speaks) {
     throw RequestError(Code::kLimit, "speak: " + std::to_string(n) +
@@ -70,12 +80,30 @@ void SpeakQueue::speak(SpeakRequest&& request) {
                       {"fps", item->request.fps},
                       {"audio", item->request.audio},
                       {"queued", queued() - 1}});
-  prepare(item);
+  if (item->request.more) {
+    item->buffer = std::move(*item->request.text);
+    for (auto& piece : take_pieces(item->buffer, false)) item->pieces.push_back(std::move(piece));
+    prepare_piece(item);
+  } else {
+    prepare(item, item->request, item->seed, &SpeakQueue::on_prepared);
+  }
+  start_next();
+}
+
+void SpeakQueue::speak_prepared(SpeakRequest&& request, std::shared_ptr<PreparedSpeech> prepared) {
+  if (closed_) return;
+  auto item = std::make_shared<Item>();
+  item->request = std::move(request);
+  item->received = Clock::now();
+  item->prepared = std::move(prepared);
+  pending_.push_back(std::move(item));
+  waiting_.set(static_cast<long>(pending_.size()));
   start_next();
 }
 
 void SpeakQueue::cancel(const CancelRequest& request) {
   if (active_ && active_->id() == request.id) {
+    active_item_->cancelled = true;  // no more pieces
     active_->cancel();
     return;
   }
@@ -98,6 +126,8 @@ void SpeakQueue::close() {
     active_->stop();
     active_.reset();
   }
+  if (active_item_) active_item_->cancelled = true;
+  active_item_.reset();
   for (auto& i : pending_) i->cancelled = true;
   pending_.clear();
   waiting_.set(0);
@@ -110,19 +140,22 @@ void SpeakQueue::remove(std::deque<std::shared_ptr<Item>>::iterator it) {
 
 // ---- preparation (worker pool) ----------------------------------------------------------------
 
-void SpeakQueue::prepare(const std::shared_ptr<Item>& item) {
-  net::post(state_->workers, [self = shared_from_this(), item] {
-    std::shared_ptr<PreparedSpeech> prepared;
-    std::optional<Problem> problem;
-    try {
-      prepared = prepare_speech(*self->state_, item->request, item->seed);
-    } catch (...) {
-      problem = describe(std::current_exception());
-    }
-    net::post(self->strand_, [self, item, prepared = std::move(prepared), problem] {
-      self->on_prepared(item, prepared, problem);
-    });
-  });
+// Prepares `request` on the worker pool; `done` gets the result (or the problem) on the strand.
+void SpeakQueue::prepare(const std::shared_ptr<Item>& item, SpeakRequest request,
+                         std::uint32_t seed, Done done) {
+  net::post(state_->workers,
+            [self = shared_from_this(), item, request = std::move(request), seed, done] {
+              std::shared_ptr<PreparedSpeech> prepared;
+              std::optional<Problem> problem;
+              try {
+                prepared = prepare_speech(*self->state_, request, seed);
+              } catch (...) {
+                problem = describe(std::current_exception());
+              }
+              net::post(self->strand_, [self, item, prepared = std::move(prepared), problem, done] {
+                ((*self).*done)(item, prepared, problem);
+              });
+            });
 }
 
 void SpeakQueue::on_prepared(const std::shared_ptr<Item>& item,
@@ -151,15 +184,109 @@ void SpeakQueue::start_next() {
   const std::shared_ptr<Item> item = std::move(front);
   remove(pending_.begin());
   const auto asked_at = std::max(item->received, *item->front_at);
-  active_ = std::make_shared<StreamPacer>(state_, strand_, sink_, conn_, std::move(item->request),
-                                          std::move(item->prepared), asked_at,
-                                          [this] { on_stream_end(); });
+  const bool open = item->request.more;
+  active_item_ = item;
+  active_ = std::make_shared<StreamPacer>(
+      state_, strand_, sink_, conn_, item->request, std::move(item->prepared), asked_at,
+      [this] { on_stream_end(); }, open);
   active_->start();
+  if (!open || active_item_ != item) return;
+  for (auto& piece : item->ready) active_->append(std::move(piece));
+  item->ready.clear();
+  close_if_done(item);
 }
 
 void SpeakQueue::on_stream_end() {
   active_.reset();
+  active_item_.reset();
   start_next();
+}
+
+// ---- incremental text ---------------------------------------------------------------------------
+
+std::shared_ptr<SpeakQueue::Item> SpeakQueue::open_item(const std::string& id, const char* what) {
+  std::shared_ptr<Item> item;
+  if (active_item_ && active_item_->request.id == id) item = active_item_;
+  for (const auto& i : pending_) {
+    if (i->request.id == id) item = i;
+  }
+  if (!item)
+    throw Error(std::string(what) + ": no utterance '" + id + "' is playing or queued",
+                ErrorCode::kNotFound);
+  if (!item->request.more)
+    throw Error(std::string(what) + ": utterance '" + id +
+                "' is not open (speak with \"more\": true)");
+  if (item->ended || item->cancelled)
+    throw Error(std::string(what) + ": utterance '" + id + "' has ended");
+  return item;
+}
+
+void SpeakQueue::append(const AppendRequest& request) {
+  const auto item = open_item(request.id, "append");
+  item->buffer += request.text;
+  for (auto& piece : take_pieces(item->buffer, false)) item->pieces.push_back(std::move(piece));
+  prepare_piece(item);
+}
+
+void SpeakQueue::end(const EndRequest& request) {
+  const auto item = open_item(request.id, "end");
+  item->ended = true;
+  for (auto& piece : take_pieces(item->buffer, true)) item->pieces.push_back(std::move(piece));
+  if (item->spoken == 0 && item->pieces.empty() && !item->preparing) {
+    // Nothing was said: the utterance ends without a stream.
+    if (const auto it = std::find(pending_.begin(), pending_.end(), item); it != pending_.end())
+      remove(it);
+    sink_.send(
+        OutMessage::control(stream_end_message(StreamEnd{request.id, std::nullopt, 0, 0, false})));
+    start_next();
+    return;
+  }
+  prepare_piece(item);
+  close_if_done(item);
+}
+
+// One piece at a time, in order, on the worker pool.
+void SpeakQueue::prepare_piece(const std::shared_ptr<Item>& item) {
+  if (item->preparing || item->pieces.empty() || item->cancelled) return;
+  item->preparing = true;
+  SpeakRequest piece = item->request;
+  piece.text = std::move(item->pieces.front());
+  item->pieces.pop_front();
+  const std::uint32_t seed = item->seed + static_cast<std::uint32_t>(item->spoken);
+  prepare(item, std::move(piece), seed, &SpeakQueue::on_piece);
+}
+
+void SpeakQueue::on_piece(const std::shared_ptr<Item>& item,
+                          std::shared_ptr<PreparedSpeech> prepared,
+                          std::optional<Problem> problem) {
+  item->preparing = false;
+  if (closed_ || item->cancelled) return;
+  if (problem) {
+    sink_.send_error(item->request.id, *problem);  // that piece is left out
+  } else if (++item->spoken == 1) {
+    item->prepared = std::move(prepared);
+  } else if (active_item_ == item) {
+    active_->append(std::move(prepared));
+  } else {
+    item->ready.push_back(std::move(prepared));
+  }
+  prepare_piece(item);
+  if (item->spoken == 0 && item->ended && item->pieces.empty() && !item->preparing) {
+    if (const auto it = std::find(pending_.begin(), pending_.end(), item); it != pending_.end())
+      remove(it);
+    sink_.send(OutMessage::control(
+        stream_end_message(StreamEnd{item->request.id, std::nullopt, 0, 0, false})));
+  }
+  start_next();
+  close_if_done(item);
+}
+
+// The open stream ends once `end` came and every piece is in it.
+void SpeakQueue::close_if_done(const std::shared_ptr<Item>& item) {
+  if (active_item_ != item || !item->ended || item->preparing || !item->pieces.empty() ||
+      !item->ready.empty())
+    return;
+  active_->close_text();
 }
 
 }  // namespace facecast::server

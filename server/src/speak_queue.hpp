@@ -31,15 +31,32 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   void cancel(const CancelRequest& request);
   /// Stops the playing stream and forgets the waiting ones; nothing is sent after this.
   void close();
+  /// Incremental text: adds text to the open utterance `id` (a speak with "more": true) and
+  /// speaks each piece as soon as it is complete; end() closes it. Throw Error (not found, not
+  /// open, already ended).
+  void append(const AppendRequest& request);
+  void end(const EndRequest& request);
+  /// Something plays or waits.
+  bool busy() const noexcept { return active_ || !pending_.empty(); }
+  /// Queues an utterance that is already prepared (a channel's idle life): no rate limit.
+  void speak_prepared(SpeakRequest&& request, std::shared_ptr<PreparedSpeech> prepared);
 
  private:
   struct Item;
 
   void take_tokens(Clock::time_point now);
-  void prepare(const std::shared_ptr<Item>& item);
+  using Done = void (SpeakQueue::*)(const std::shared_ptr<Item>&, std::shared_ptr<PreparedSpeech>,
+                                    std::optional<Problem>);
+  void prepare(const std::shared_ptr<Item>& item, SpeakRequest request, std::uint32_t seed,
+               Done done);
   void on_prepared(const std::shared_ptr<Item>& item, std::shared_ptr<PreparedSpeech> prepared,
                    std::optional<Problem> problem);
   void start_next();
+  std::shared_ptr<Item> open_item(const std::string& id, const char* what);
+  void prepare_piece(const std::shared_ptr<Item>& item);
+  void on_piece(const std::shared_ptr<Item>& item, std::shared_ptr<PreparedSpeech> prepared,
+                std::optional<Problem> problem);
+  void close_if_done(const std::shared_ptr<Item>& item);
   void on_stream_end();
   void remove(std::deque<std::shared_ptr<Item>>::iterator it);
   std::size_t queued() const { return pending_.size() + (active_ ? 1 : 0); }
@@ -52,6 +69,7 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   std::deque<std::shared_ptr<Item>> pending_;  // waiting utterances, in order
   GaugeShare waiting_;                         // speak_queue_depth: pending_.size()
   std::shared_ptr<StreamPacer> active_;
+  std::shared_ptr<Item> active_item_;  // the item active_ plays
   double tokens_;
   Clock::time_point tokens_at_ = Clock::now();
   bool closed_ = false;

@@ -49,4 +49,22 @@ std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest&
   return p;
 }
 
+std::shared_ptr<PreparedSpeech> prepare_idle(State& state, const SpeakRequest& r, double seconds,
+                                             std::uint32_t seed) {
+  auto p = std::make_shared<PreparedSpeech>();
+  p->rig = state.rigs.load(r.rig);
+  viseme::Utterance u;  // no phones: the performance is idle life over `seconds`
+  u.duration = seconds;
+  anim::AnimOptions ao = state.anim_options;
+  ao.idle = true;
+  ao.seed = seed;
+  ao.tail = 0;
+  p->performance.emplace(u, p->rig->mapping, ao);
+  p->duration = p->performance->duration();
+  p->speech_duration = 0;
+  p->frames = p->performance->frame_count(r.fps);
+  p->utterance = viseme::to_json(u);
+  return p;
+}
+
 }  // namespace facecast::server

@@ -32,6 +32,11 @@ struct PreparedSpeech {
 viseme::Options speech_options(const State& state, viseme::LangMode lang, viseme::Timing timing,
                                const std::string& voice, double rate);
 
+/// Idle life only (blinks, small head and eye motion), `seconds` long, no audio: what a channel
+/// plays between utterances.
+std::shared_ptr<PreparedSpeech> prepare_idle(State& state, const SpeakRequest& request,
+                                             double seconds, std::uint32_t seed);
+
 /// Throws facecast::Error (bad text, unknown rig, voice, ...).
 std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest& request,
                                                std::uint32_t seed);

@@ -30,6 +30,8 @@ class Closable {
   virtual void shut_down() = 0;
 };
 
+class ChannelRegistry;  // channel.hpp
+
 struct State {
   explicit State(ServerOptions opts);
 
@@ -44,7 +46,8 @@ struct State {
   RendererCache renderers;
   ProtocolLimits limits;
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
-  std::atomic<bool> stopping{false};
+  std::atomic<bool> stopping{false};  // draining or shutting down: /readyz answers 503
+  std::atomic<bool> ready{false};     // warmed up: /readyz answers 200
   std::atomic<std::uint64_t> next_connection{1};
   std::atomic<std::uint32_t> next_stream{1};
   std::atomic<long> connections{0};
@@ -52,6 +55,8 @@ struct State {
   // Short work: speech analysis, rendering, request bodies. Declared after everything it uses.
   boost::asio::thread_pool workers;
   Jobs jobs;
+  // The configured channels; set by the server before any thread runs, dropped after they ended.
+  std::shared_ptr<ChannelRegistry> channels;
 
   double uptime() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

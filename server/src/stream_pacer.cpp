@@ -17,7 +17,7 @@ constexpr double kSlack = 0.0005;
 StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor strand,
                          StreamSink& sink, std::string conn, SpeakRequest request,
                          std::shared_ptr<PreparedSpeech> prepared, Clock::time_point asked_at,
-                         std::function<void()> on_end)
+                         std::function<void()> on_end, bool open)
     : state_(std::move(state)),
       o_(state_->options),
       strand_(std::move(strand)),
@@ -34,7 +34,11 @@ StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor stra
       frames_mode_(request_.output == Output::kFrames),
       names_(static_cast<int>(p_->rig->mapping.shape_names().size())),
       end_frame_(p_->frames),
-      last_(static_cast<std::size_t>(names_ + 3), 0.0f) {
+      last_(static_cast<std::size_t>(names_ + 3), 0.0f),
+      open_(open),
+      end_time_(p_->duration) {
+  segments_.push_back(Segment{0.0, p_});
+  if (open_) end_frame_ = std::numeric_limits<int>::max();
   if (p_->sample_rate > 0)
     audio_chunk_ =
         std::max<std::size_t>(1, static_cast<std::size_t>(o_.audio_chunk * p_->sample_rate));
@@ -56,8 +60,13 @@ void StreamPacer::start() {
   s.height = request_.height;
   s.rig = p_->rig->id;
   s.lead = o_.lead;
-  sink_->send(
-      OutMessage::control(stream_start_message(s, p_->rig->mapping.shape_names(), p_->utterance)));
+  auto start_message =
+      OutMessage::control(stream_start_message(s, p_->rig->mapping.shape_names(), p_->utterance));
+  if (open_)
+    start_message.data =
+        std::make_shared<const std::string>(open_stream_start(*start_message.data));
+  start_message.boundary = Boundary::kStart;
+  sink_->send(std::move(start_message));
   if (stopped_) return;
   start_ = Clock::now();
   playing_.set(1);
@@ -74,6 +83,7 @@ void StreamPacer::cancel() {
   if (cancelling_ || stopped_) return;
   const auto keep = shared_from_this();
   cancelling_ = true;
+  open_ = false;
   fade_start_ = next_frame_;
   fade_from_ = last_;
   const int fade_frames =
@@ -90,6 +100,47 @@ void StreamPacer::stop() {
   ++timer_generation_;  // a pending wake-up is for nothing
   timer_.cancel();
   playing_.set(0);
+}
+
+// ---- incremental text ------------------------------------------------------------------------
+
+void StreamPacer::append(std::shared_ptr<PreparedSpeech> piece) {
+  if (stopped_ || !open_) return;
+  const auto keep = shared_from_this();
+  const Segment& last = segments_.back();
+  const int rate = p_->sample_rate;
+  // Nothing already sent may change: the piece starts after the sent frames and audio.
+  double t0 = std::max(last.t0 + last.p->speech_duration, next_frame_ / fps_);
+  if (rate > 0) t0 = std::max(t0, static_cast<double>(audio_next_) / rate);
+  SegmentInfo info;
+  info.id = request_.id;
+  info.stream = stream_;
+  info.index = static_cast<int>(segments_.size());
+  info.start = t0;
+  info.duration = piece->duration;
+  info.first_frame = static_cast<int>(std::ceil(t0 * fps_ - 1e-9));
+  info.end_frame = static_cast<int>(std::ceil((t0 + piece->duration) * fps_ - 1e-9));
+  if (rate > 0) {
+    auto& pcm = p_->pcm;
+    const auto first = static_cast<std::size_t>(std::llround(t0 * rate));
+    pcm.resize(first, 0);  // silence up to the piece (or cut the silence sent ahead of it)
+    pcm.insert(pcm.end(), piece->pcm.begin(), piece->pcm.end());
+    info.first_sample = first;
+    info.end_sample = pcm.size();
+  }
+  end_time_ = t0 + piece->duration;
+  sink_->send(OutMessage::control(segment_message(info, piece->utterance)));
+  segments_.push_back(Segment{t0, std::move(piece)});
+  if (!stopped_) tick();
+}
+
+void StreamPacer::close_text() {
+  if (stopped_ || !open_) return;
+  const auto keep = shared_from_this();
+  open_ = false;
+  end_frame_ = std::max(next_frame_, static_cast<int>(std::ceil(end_time_ * fps_ - 1e-9)));
+  if (p_->pcm.size() < audio_next_) p_->pcm.resize(audio_next_);
+  tick();
 }
 
 // ---- timing ------------------------------------------------------------------------------------
@@ -125,7 +176,8 @@ void StreamPacer::tick() {
   const bool renders_full =
       frames_mode_ && static_cast<int>(in_flight_.size()) >= o_.frames_in_flight;
   if (next_frame_ < end_frame_ && !renders_full) next = frame_due(next_frame_) - ahead;
-  if (!cancelling_ && audio_next_ < p_->pcm.size()) next = std::min(next, audio_due() - ahead);
+  if (!cancelling_ && (audio_next_ < p_->pcm.size() || open_))
+    next = std::min(next, audio_due() - ahead);
   if (std::isinf(next)) return;  // waiting for renders; on_rendered ticks
   arm_timer(std::max(next, elapsed + o_.min_tick));
 }
@@ -143,8 +195,11 @@ void StreamPacer::arm_timer(double at) {
 
 // Sends every audio chunk whose send time is at or before `horizon` (seconds since start).
 void StreamPacer::send_audio(double horizon) {
-  const auto& pcm = p_->pcm;
-  while (audio_next_ < pcm.size() && audio_due() <= horizon + kSlack) {
+  auto& pcm = p_->pcm;
+  if (p_->sample_rate <= 0) return;
+  while ((audio_next_ < pcm.size() || open_) && audio_due() <= horizon + kSlack) {
+    // An open stream waiting for text sends silence, so the client's audio clock keeps running.
+    if (open_ && pcm.size() < audio_next_ + audio_chunk_) pcm.resize(audio_next_ + audio_chunk_);
     const std::size_t n = std::min(audio_chunk_, pcm.size() - audio_next_);
     auto msg = std::make_shared<const std::string>(
         audio_message(stream_, static_cast<std::uint32_t>(audio_next_), p_->sample_rate,
@@ -285,8 +340,11 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
     anim::fade_to_rest(fade_from_, (frame - fade_start_ + 1) / fps_, o_.cancel_fade, out);
   } else {
     const auto n = static_cast<std::size_t>(names_);
+    const double t = frame / fps_;
+    while (segment_ + 1 < segments_.size() && segments_[segment_ + 1].t0 <= t) ++segment_;
+    const Segment& seg = segments_[segment_];
     anim::HeadPose head;
-    p_->performance->sample(frame / fps_, std::span<float>(out.data(), n), &head);
+    seg.p->performance->sample(t - seg.t0, std::span<float>(out.data(), n), &head);
     out[n] = head.yaw;
     out[n + 1] = head.pitch;
     out[n + 2] = head.roll;
@@ -297,7 +355,9 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
 
 void StreamPacer::finish() {
   const StreamEnd end{request_.id, stream_, sent_, dropped_, cancelling_};
-  sink_->send(OutMessage::control(stream_end_message(end)));
+  auto end_message = OutMessage::control(stream_end_message(end));
+  end_message.boundary = Boundary::kEnd;
+  sink_->send(std::move(end_message));
   state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
   if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
   log::info("stream_end", {{"conn", conn_},

@@ -47,9 +47,10 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
  public:
   /// `asked_at`: when the utterance was asked for or reached the front of its queue, the later
   /// (time to first frame counts from there). `on_end` runs after `stream_end` was queued.
+  /// `open`: incremental text; append() adds pieces until close_text().
   StreamPacer(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
               std::string conn, SpeakRequest request, std::shared_ptr<PreparedSpeech> prepared,
-              Clock::time_point asked_at, std::function<void()> on_end);
+              Clock::time_point asked_at, std::function<void()> on_end, bool open = false);
 
   const std::string& id() const noexcept { return request_.id; }
 
@@ -59,6 +60,15 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   void cancel();
   /// Ends at once, silently: nothing more is sent and on_end is not called.
   void stop();
+
+  /// Incremental text (docs/algorithms.md#incremental-text): the next piece of an open stream
+  /// starts when the previous piece's speech ends, or at the first time nothing was sent for
+  /// yet (frames and audio), the later; until then the face keeps its idle life and the audio is
+  /// silence. Sends a `segment` message.
+  void append(std::shared_ptr<PreparedSpeech> piece);
+  /// No more pieces: the stream ends when the last piece (and its tail) has been sent.
+  void close_text();
+  bool open() const noexcept { return open_; }
 
  private:
   struct Render {
@@ -113,6 +123,15 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   std::deque<Render> in_flight_;  // launch order = frame order
   std::optional<Problem> render_error_;
   bool stopped_ = false;
+
+  struct Segment {
+    double t0 = 0;  // seconds from the stream's start
+    std::shared_ptr<PreparedSpeech> p;
+  };
+  std::vector<Segment> segments_;  // in time order; the first is p_ at 0
+  std::size_t segment_ = 0;        // the segment of the last frame sampled
+  bool open_ = false;
+  double end_time_ = 0;  // end of the last segment (with its tail)
 };
 
 }  // namespace facecast::server

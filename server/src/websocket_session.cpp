@@ -21,6 +21,7 @@ WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<State> 
 
 WebSocketSession::~WebSocketSession() {
   speaks_->close();
+  leave_channel();
   state_->remove_session(id_);
 }
 
@@ -108,6 +109,7 @@ void WebSocketSession::handle_text(std::string_view text) {
   std::string id;
   try {
     ClientMessage m = parse_client_message(text, state_->limits, &id);
+    if (route_live(m)) return;
     if (auto* speak = std::get_if<SpeakRequest>(&m)) {
       speaks_->speak(std::move(*speak));
     } else if (auto* cancel = std::get_if<CancelRequest>(&m)) {
@@ -235,6 +237,7 @@ void WebSocketSession::on_closed() {
   if (closed_) return;
   closed_ = true;
   speaks_->close();
+  leave_channel();
   watchdog_.cancel();
   close_timer_.cancel();
   const auto reason = ws_.reason();

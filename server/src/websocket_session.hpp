@@ -14,6 +14,7 @@
 #include <string>
 
 #include "beast.hpp"
+#include "channel.hpp"
 #include "clock.hpp"
 #include "out_queue.hpp"
 #include "speak_queue.hpp"
@@ -23,7 +24,8 @@ namespace facecast::server {
 
 class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
                          public Closable,
-                         public StreamSink {
+                         public StreamSink,
+                         public ChannelMember {
  public:
   WebSocketSession(tcp::socket&& socket, std::shared_ptr<State> state,
                    std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, std::string remote);
@@ -38,8 +40,15 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::uint32_t send(OutMessage message) override;
   bool media_full() override;
   void send_error(const std::optional<std::string>& id, const Problem& problem) override;
+  // ChannelMember (thread-safe)
+  void deliver(OutMessage message) override;
 
  private:
+  // Channels and incremental text (websocket_live.cpp): true when `m` was one of theirs.
+  bool route_live(ClientMessage& m);
+  std::shared_ptr<Channel> channel_named(const std::string& name) const;
+  void leave_channel();
+
   void on_accept(beast::error_code ec);
   void do_read();
   void on_read(beast::error_code ec, std::size_t bytes);
@@ -63,6 +72,8 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   beast::flat_buffer buffer_;
   OutQueue queue_;
   std::shared_ptr<SpeakQueue> speaks_;
+  std::shared_ptr<Channel> subscribed_;  // the channel this connection watches
+  std::vector<std::string> producing_;   // channels whose producer token it gave
 
   net::steady_timer watchdog_;
   std::optional<Clock::time_point> stalled_since_;

@@ -240,10 +240,14 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.shutdown_timeout == d.shutdown_timeout);
   CHECK(file.allowed_origins == d.allowed_origins);
   CHECK(file.log_level == d.log_level);
+  CHECK(file.channels.empty());
+  CHECK(file.presence_interval == d.presence_interval);
+  CHECK(file.channel_idle == d.channel_idle);
+  CHECK(file.drain_timeout == d.drain_timeout);
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 41);  // 40 settings + "_doc"
+  CHECK(j.size() == 45);  // 44 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
@@ -259,6 +263,11 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
     return "";
   };
   CHECK_THAT(load_error(R"({"prot": 1})"), Catch::Contains("unknown key 'prot'"));
+  CHECK_THAT(load_error(R"({"channels": {"show": {}}})"), Catch::Contains("producer_token"));
+  CHECK_THAT(load_error(R"({"channels": {"show": {"producer_token": "short"}}})"),
+             Catch::Contains("at least 8"));
+  CHECK_THAT(load_error(R"({"channels": {"a b": {"producer_token": "long-enough"}}})"),
+             Catch::Contains("not allowed"));
   CHECK_THAT(load_error(R"({"port": "x"})"), Catch::Contains("port: expected an integer"));
   CHECK_THAT(load_error(R"({"port": 70000})"), Catch::Contains("port"));
   CHECK_THAT(load_error(R"({"lead": -1})"), Catch::Contains("lead"));

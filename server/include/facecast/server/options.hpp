@@ -62,12 +62,23 @@ struct ServerOptions {
   double ws_handshake_timeout = 30;  // WebSocket handshake and close
   double ws_idle_timeout = 60;       // no traffic: ping at half of it, close at it
   double shutdown_timeout = 3;       // SIGINT/SIGTERM: hard stop after this long
+  double drain_timeout = 10;         // SIGTERM: running utterances may finish for this long
 
   // WebSocket Origin check: browsers may connect from the server's own origin and from these
   // ("*" allows any). Clients that send no Origin (not browsers) are allowed.
   std::vector<std::string> allowed_origins;
 
   std::string log_level = "info";  // debug | info | warn | error
+
+  // Live shows (docs/protocol.md, "Channels"): the channels that exist, each with the token its
+  // producers present; anyone allowed on /ws may subscribe.
+  struct Channel {
+    std::string name;
+    std::string producer_token;
+  };
+  std::vector<Channel> channels;
+  double presence_interval = 1.0;  // seconds between two `presence` messages of a channel
+  double channel_idle = 10;        // idle-life streams of this length between utterances (0: off)
 };
 
 /// Reads a server config (JSON object, every key optional, unknown keys rejected) over the

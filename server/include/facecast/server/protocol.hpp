@@ -89,17 +89,38 @@ struct SpeakRequest {
   std::string voice = "en-us";
   double rate = 4.5;
   bool idle = true;
+  std::string channel;  // empty: this connection's own stream; else a channel it produces
+  bool more = false;    // `append` messages add text until `end` (incremental text)
 };
 
 struct CancelRequest {
   std::string id;
+  std::string channel;
+};
+
+/// Live shows (docs/protocol.md, "Channels" and "Incremental text").
+struct SubscribeRequest {
+  std::string channel;
+};
+struct UnsubscribeRequest {
+  std::string channel;
+};
+struct ProduceRequest {
+  std::string channel, token;
+};
+struct AppendRequest {
+  std::string id, text, channel;
+};
+struct EndRequest {
+  std::string id, channel;
 };
 
 struct PingRequest {
   nlohmann::json t;  // echoed (null when absent)
 };
 
-using ClientMessage = std::variant<SpeakRequest, CancelRequest, PingRequest>;
+using ClientMessage = std::variant<SpeakRequest, CancelRequest, PingRequest, SubscribeRequest,
+                                   UnsubscribeRequest, ProduceRequest, AppendRequest, EndRequest>;
 
 struct ProtocolLimits {
   std::size_t max_text = 2000;  // characters (code points) of text
@@ -112,6 +133,13 @@ struct ProtocolLimits {
 /// `id` (optional) receives the message's id as soon as it is known, so an error can name it.
 ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& limits,
                                    std::string* id = nullptr);
+
+/// The live-show messages (subscribe, unsubscribe, produce, append, end) and the `channel` field
+/// of speak/cancel; nullopt for other types. `id` is the message's id, already checked.
+std::optional<ClientMessage> parse_live_message(const std::string& type, const nlohmann::json& j,
+                                                std::string id, const ProtocolLimits& limits);
+/// A channel name: 1-64 of A-Z a-z 0-9 _ - . (throws Error naming `field`).
+std::string check_channel_name(const nlohmann::json& v, std::string_view field);
 
 /// Throws Error when JSON text nests arrays/objects deeper than `max_depth` (checked before
 /// parsing, so that nothing later recurses deeply).
@@ -158,6 +186,29 @@ std::string stream_end_message(const StreamEnd& end);
 std::string pong_message(const nlohmann::json& t, double server_time);
 
 std::string error_message(const std::optional<std::string>& id, const Problem& problem);
+
+/// Channels: the answer to `subscribe` (`playing` is the id of the utterance on air, if any), and
+/// the subscriber count when it changed (at most once per presence_interval).
+std::string subscribed_message(const std::string& channel, long subscribers,
+                               const std::optional<std::string>& playing);
+std::string presence_message(const std::string& channel, long subscribers);
+/// Incremental text: a piece of utterance `id` placed at `start` seconds of stream `stream`, with
+/// its frames [first_frame, end_frame) and audio [first_sample, end_sample).
+struct SegmentInfo {
+  std::string id;
+  std::uint32_t stream = 0;
+  int index = 0;
+  double start = 0, duration = 0;
+  int first_frame = 0, end_frame = 0;
+  std::size_t first_sample = 0, end_sample = 0;
+};
+std::string segment_message(const SegmentInfo& segment, const nlohmann::json& utterance);
+/// The stream_start of an open (incremental) utterance: frames, duration, speech_duration and
+/// audio.samples are null (unknown yet), "open": true.
+std::string open_stream_start(const std::string& stream_start);
+/// Answers to `produce` and `unsubscribe`.
+std::string producing_message(const std::string& channel);
+std::string unsubscribed_message(const std::string& channel);
 /// {"error": {"code", "message"}} for HTTP bodies.
 std::string error_body(const Problem& problem);
 

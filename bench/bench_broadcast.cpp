@@ -1,0 +1,264 @@
+// The broadcast case of bench_server: one channel, N subscribers (default 10,000) on one server,
+// a producer speaking utterance after utterance (60 fps weights, 2 frames a message, with audio).
+// Every subscriber measures each frame against its schedule: the arrival of its stream_start +
+// pts - lead (frames sent earlier than lead count as on time).
+#include "bench_broadcast.hpp"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "facecast/server/protocol.hpp"
+
+namespace bench {
+namespace {
+
+namespace net = boost::asio;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+using tcp = net::ip::tcp;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double secs(Clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+double rss_mb(pid_t pid, const char* key) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(key, 0) == 0) return std::stod(line.substr(std::string(key).size())) / 1024.0;
+  return 0;
+}
+
+double cpu_s(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(in)), {});
+  std::istringstream f(s.substr(s.rfind(')') + 2));
+  std::string x;
+  double ut = 0, st = 0;
+  for (int i = 3; i <= 15; ++i) {
+    f >> x;
+    if (i == 14) ut = std::stod(x);
+    if (i == 15) st = std::stod(x);
+  }
+  return (ut + st) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+const char* kLines[] = {
+    "Good evening and welcome to the live show, it is great to have you all here tonight.",
+    "大家好，欢迎来到今天的直播，我们马上开始。",
+    "Today we look at how a face can follow speech in real time for thousands of viewers.",
+    "Thank you for watching, and remember to share the stream with your friends.",
+};
+
+// One subscriber; the producer is a subscriber that also speaks after each stream_end.
+class Viewer : public std::enable_shared_from_this<Viewer> {
+ public:
+  Viewer(net::io_context& ioc, const BroadcastArgs& a, unsigned short port, bool producer)
+      : ws_(net::make_strand(ioc)), a_(a), port_(port), producer_(producer) {}
+  void start() {
+    beast::get_lowest_layer(ws_).async_connect(
+        tcp::endpoint(net::ip::make_address("127.0.0.1"), port_),
+        [self = shared_from_this()](beast::error_code ec) {
+          if (ec) return self->fail("connect: " + ec.message());
+          self->ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& r) {
+            r.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
+          }));
+          self->ws_.async_handshake("127.0.0.1", "/ws", [self](beast::error_code e) {
+            if (e) return self->fail("handshake: " + e.message());
+            json sub = {{"type", "subscribe"}, {"channel", self->a_.channel}};
+            self->write(sub.dump());
+            if (self->producer_)
+              self->write(json{
+                  {"type", "produce"}, {"channel", self->a_.channel}, {"token", self->a_.token}}
+                              .dump());
+            self->read();
+          });
+        });
+  }
+  void speak_now(Clock::time_point stop_at) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), stop_at] {
+      self->stop_at_ = stop_at;
+      self->speak();
+    });
+  }
+  std::atomic<bool> subscribed{false}, failed{false};
+  std::uint64_t frames = 0, on_time = 0, streams = 0;
+  std::vector<float> lateness;
+  std::string error;
+  std::atomic<bool> finished{false};
+
+ private:
+  void write(std::string text) {
+    out_.push_back(std::move(text));
+    if (out_.size() == 1) do_write();
+  }
+  void do_write() {
+    ws_.text(true);
+    ws_.async_write(net::buffer(out_.front()),
+                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                      if (ec) return self->fail("write: " + ec.message());
+                      self->out_.erase(self->out_.begin());
+                      if (!self->out_.empty()) self->do_write();
+                    });
+  }
+  void speak() {
+    if (Clock::now() >= stop_at_) {
+      finished = true;
+      return;
+    }
+    write(json{{"type", "speak"},
+               {"id", "b" + std::to_string(++n_)},
+               {"channel", a_.channel},
+               {"fps", a_.fps},
+               {"audio", true},
+               {"text", kLines[n_ % 4]}}
+              .dump());
+  }
+  void read() {
+    ws_.async_read(buf_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return self->fail("read: " + ec.message());
+      self->on_message(Clock::now());
+      self->buf_.consume(self->buf_.size());
+      self->read();
+    });
+  }
+  void on_message(Clock::time_point now) {
+    const auto data = buf_.data();
+    const std::string_view msg(static_cast<const char*>(data.data()), data.size());
+    if (ws_.got_text()) {
+      // The type without parsing: a stream_start carries the whole utterance timeline, and 10,000
+      // parses of it would make the load generator, not the server, late.
+      const auto at = msg.find("\"type\":\"");
+      const std::string_view type =
+          at == std::string_view::npos ? "" : msg.substr(at + 8, msg.find('"', at + 8) - at - 8);
+      if (type == "subscribed") subscribed = true;
+      if (type == "stream_start") start_ = now;  // lead: the server's default, 0.1 s
+      if (type == "stream_end") {
+        ++streams;
+        if (producer_) speak();
+      }
+      if (type == "error" && producer_ && error.empty()) error = std::string(msg);
+      return;
+    }
+    const auto h = facecast::server::read_header(msg);
+    if (h.kind != facecast::server::MediaKind::kWeights) return;
+    for (std::uint32_t k = 0; k < h.count; ++k) {
+      const double late = secs(now - start_) - std::max(0.0, h.pts + k / a_.fps - lead_);
+      ++frames;
+      on_time += late <= 0.050;
+      if ((frames & 15) == 0) lateness.push_back(static_cast<float>(late));  // 1 in 16 kept
+    }
+  }
+  void fail(const std::string& why) {
+    if (!failed.exchange(true)) error = why;
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  const BroadcastArgs& a_;
+  unsigned short port_;
+  bool producer_;
+  beast::flat_buffer buf_;
+  std::vector<std::string> out_;
+  Clock::time_point start_, stop_at_;
+  double lead_ = 0.1;
+  int n_ = 0;
+};
+
+double percentile(std::vector<float> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(p / 100.0 * (v.size() - 1))];
+}
+
+}  // namespace
+
+void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
+  net::io_context ioc;
+  std::vector<std::shared_ptr<Viewer>> viewers;
+  auto producer = std::make_shared<Viewer>(ioc, a, port, true);
+  viewers.push_back(producer);
+  for (int i = 1; i < a.subscribers; ++i)
+    viewers.push_back(std::make_shared<Viewer>(ioc, a, port, false));
+  std::vector<std::thread> threads;
+  auto work = net::make_work_guard(ioc);
+  for (int i = 0; i < std::max(1, a.client_threads); ++i) threads.emplace_back([&] { ioc.run(); });
+  // Connect over `ramp` seconds (a burst of 10,000 handshakes overflows the listen backlog).
+  const auto t_connect = Clock::now();
+  for (std::size_t i = 0; i < viewers.size(); ++i) {
+    net::post(ioc, [v = viewers[i]] { v->start(); });
+    if (i % 100 == 99)
+      std::this_thread::sleep_for(std::chrono::duration<double>(a.ramp * 100 / viewers.size()));
+  }
+  for (;;) {
+    std::size_t ready = 0, failed = 0;
+    for (const auto& v : viewers) {
+      ready += v->subscribed;
+      failed += v->failed;
+    }
+    if (ready + failed == viewers.size()) {
+      std::printf("\nbroadcast: %zu subscribed (%zu failed) in %.1f s, server RSS %.0f MB\n", ready,
+                  failed, secs(Clock::now() - t_connect), rss_mb(pid, "VmRSS:"));
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  const double cpu0 = cpu_s(pid);
+  const auto t0 = Clock::now();
+  producer->speak_now(
+      t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(a.seconds)));
+  double peak = 0;
+  while (!producer->finished && !producer->failed) {
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    peak = std::max(peak, rss_mb(pid, "VmRSS:"));
+  }
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the last frames
+  const double wall = secs(Clock::now() - t0);
+  const double cpu = cpu_s(pid) - cpu0;
+  work.reset();
+  ioc.stop();
+  for (auto& t : threads) t.join();
+  std::uint64_t frames = 0, on_time = 0, streams = 0, failed = 0;
+  std::vector<float> late;
+  for (const auto& v : viewers) {
+    frames += v->frames;
+    on_time += v->on_time;
+    streams += v->streams;
+    failed += v->failed;
+    late.insert(late.end(), v->lateness.begin(), v->lateness.end());
+  }
+  std::printf(
+      "  %d subscribers x %.0f s of %.0f fps weights + audio: %llu streams seen, %llu frames, "
+      "%llu subscribers failed%s%s\n",
+      a.subscribers, wall, a.fps, static_cast<unsigned long long>(streams),
+      static_cast<unsigned long long>(frames), static_cast<unsigned long long>(failed),
+      producer->error.empty() ? "" : "; producer: ", producer->error.c_str());
+  std::printf("  frames within 50 ms of schedule: %.3f %%\n",
+              100.0 * on_time / std::max<std::uint64_t>(1, frames));
+  std::printf("  lateness: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
+              1e3 * percentile(late, 50), 1e3 * percentile(late, 99), 1e3 * percentile(late, 99.9),
+              1e3 * percentile(late, 100));
+  std::printf("  server RSS peak %.0f MB (VmHWM %.0f MB), server CPU %.0f %% of one core\n", peak,
+              rss_mb(pid, "VmHWM:"), 100.0 * cpu / wall);
+  viewers.clear();
+  std::fflush(stdout);
+}
+
+}  // namespace bench

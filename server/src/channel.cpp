@@ -1,0 +1,281 @@
+#include "channel.hpp"
+
+#include <future>
+
+#include "log.hpp"
+#include "routes.hpp"
+#include "speech.hpp"
+
+namespace facecast::server {
+
+Channel::Channel(std::shared_ptr<State> state, net::any_io_executor strand, std::string name,
+                 std::string producer_token)
+    : state_(std::move(state)),
+      strand_(std::move(strand)),
+      name_(std::move(name)),
+      token_(std::move(producer_token)),
+      presence_timer_(strand_) {
+  queue_ = std::make_shared<SpeakQueue>(state_, strand_, *this, "ch:" + name_,
+                                        std::hash<std::string>{}(name_));
+}
+
+bool Channel::producer_token_ok(std::string_view token) const noexcept {
+  return constant_time_equal(token, token_);
+}
+
+void Channel::subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who) {
+  net::post(strand_, [self = shared_from_this(), member, who = std::move(who)] {
+    const auto m = who.lock();
+    if (!m || self->closed_) return;
+    if (!self->index_.contains(member)) {
+      self->index_[member] = self->members_.size();
+      self->members_.emplace_back(member, who);
+      self->count_.store(static_cast<long>(self->members_.size()));
+      self->presence_changed();
+    }
+    m->deliver(OutMessage::control(subscribed_message(
+        self->name_, static_cast<long>(self->members_.size()), self->on_air_id_)));
+    // A late joiner starts at the current frame: the stream_start, then what comes next.
+    if (self->on_air_) m->deliver(*self->on_air_);
+    self->maybe_idle();
+  });
+}
+
+void Channel::unsubscribe(std::uint64_t member) {
+  net::post(strand_, [self = shared_from_this(), member] {
+    const auto it = self->index_.find(member);
+    if (it == self->index_.end()) return;
+    const std::size_t at = it->second;
+    self->index_.erase(it);
+    if (at + 1 != self->members_.size()) {  // swap-remove: O(1)
+      self->members_[at] = std::move(self->members_.back());
+      self->index_[self->members_[at].first] = at;
+    }
+    self->members_.pop_back();
+    self->count_.store(static_cast<long>(self->members_.size()));
+    self->presence_changed();
+  });
+}
+
+void Channel::request(ClientMessage message, std::weak_ptr<ChannelMember> producer, Reply reply) {
+  net::post(strand_, [self = shared_from_this(), message = std::move(message),
+                      producer = std::move(producer), reply = std::move(reply)]() mutable {
+    try {
+      if (self->closed_)
+        throw RequestError(Code::kUnavailable, "channel '" + self->name_ + "' is closed");
+      if (auto* speak = std::get_if<SpeakRequest>(&message)) {
+        if (!producer.expired()) self->producer_ = producer;
+        self->queue_->speak(std::move(*speak));
+        // Idle life gives way: it fades to rest, then the utterance starts.
+        if (self->on_air_id_ == kIdleId)
+          self->queue_->cancel(CancelRequest{std::string(kIdleId), {}});
+      } else if (auto* append = std::get_if<AppendRequest>(&message)) {
+        self->queue_->append(*append);
+      } else if (auto* end = std::get_if<EndRequest>(&message)) {
+        self->queue_->end(*end);
+      } else if (auto* cancel = std::get_if<CancelRequest>(&message)) {
+        self->queue_->cancel(*cancel);
+      } else {
+        throw Error("channel: not a producer request");
+      }
+    } catch (...) {
+      reply(describe(std::current_exception()));
+      return;
+    }
+    reply(std::nullopt);
+  });
+}
+
+void Channel::close() {
+  net::post(strand_, [self = shared_from_this()] {
+    self->closed_ = true;
+    self->queue_->close();
+    self->presence_timer_.cancel();
+    self->on_air_.reset();
+    self->on_air_id_.reset();
+  });
+}
+
+void Channel::stop_idle() {
+  net::post(strand_, [self = shared_from_this()] {
+    if (self->on_air_id_ == kIdleId) self->queue_->cancel(CancelRequest{std::string(kIdleId), {}});
+  });
+}
+
+// ---- fan-out (on the strand) -------------------------------------------------------------------
+
+std::uint32_t Channel::send(OutMessage message) {
+  if (message.boundary == Boundary::kStart) {
+    on_air_ = message;
+    on_air_id_ = nlohmann::json::parse(*message.data).value("id", "");
+  }
+  if (message.boundary == Boundary::kEnd) {
+    on_air_.reset();
+    on_air_id_.reset();
+    // After the queue moved on (it does so right after this call): idle life if nothing plays.
+    net::post(strand_, [self = shared_from_this()] { self->maybe_idle(); });
+  }
+  broadcast(message);
+  return 0;  // drops happen per subscriber; stream_end counts what the channel sent
+}
+
+void Channel::send_error(const std::optional<std::string>& id, const Problem& problem) {
+  state_->metrics.protocol_errors_total.fetch_add(1);
+  log::info("channel_error", {{"channel", name_},
+                              {"id", id ? *id : std::string("null")},
+                              {"code", to_string(problem.code)},
+                              {"message", problem.message}});
+  const auto message = OutMessage::control(error_message(id, problem));
+  broadcast(message);
+  if (const auto p = producer_.lock()) p->deliver(message);
+}
+
+// One shared buffer for everyone: delivering copies the OutMessage (a shared_ptr), never the
+// bytes. Members that are gone are skipped; they unsubscribe when they close.
+void Channel::broadcast(const OutMessage& message) {
+  for (const auto& [id, who] : members_) {
+    if (const auto m = who.lock()) m->deliver(message);
+  }
+}
+
+// At most one `presence` per presence_interval, and only when the count changed.
+void Channel::presence_changed() {
+  if (presence_armed_ || closed_) return;
+  presence_armed_ = true;
+  presence_timer_.expires_after(from_seconds(state_->options.presence_interval));
+  presence_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+    self->presence_armed_ = false;
+    if (ec || self->closed_) return;
+    const long n = static_cast<long>(self->members_.size());
+    if (n == self->presence_sent_) return;
+    self->presence_sent_ = n;
+    self->broadcast(OutMessage::control(presence_message(self->name_, n)));
+  });
+}
+
+// Between utterances a channel with subscribers plays idle life (blinks, small head and eye
+// motion) in streams of channel_idle seconds, so viewers never see a frozen face.
+void Channel::maybe_idle() {
+  const double seconds = state_->options.channel_idle;
+  if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy() ||
+      state_->stopping)
+    return;
+  idle_preparing_ = true;
+  SpeakRequest r;
+  r.id = std::string(kIdleId);
+  r.audio = false;
+  r.timing = viseme::Timing::kModel;
+  const std::uint32_t seed =
+      static_cast<std::uint32_t>(std::hash<std::string>{}(name_)) + ++idle_count_;
+  net::post(state_->workers, [self = shared_from_this(), r, seconds, seed]() mutable {
+    std::shared_ptr<PreparedSpeech> prepared;
+    try {
+      prepared = prepare_idle(*self->state_, r, seconds, seed);
+    } catch (const std::exception& e) {
+      log::warn("channel_idle_failed", {{"channel", self->name_}, {"error", e.what()}});
+    }
+    net::post(self->strand_, [self, r = std::move(r), prepared = std::move(prepared)]() mutable {
+      self->idle_preparing_ = false;
+      if (!prepared || self->closed_ || self->queue_->busy() || self->state_->stopping) return;
+      self->queue_->speak_prepared(std::move(r), std::move(prepared));
+    });
+  });
+}
+
+// ---- registry ----------------------------------------------------------------------------------
+
+ChannelRegistry::ChannelRegistry(const std::shared_ptr<State>& state,
+                                 const net::any_io_executor& io) {
+  for (const auto& c : state->options.channels) {
+    channels_.push_back(
+        std::make_shared<Channel>(state, net::make_strand(io), c.name, c.producer_token));
+  }
+}
+
+std::shared_ptr<Channel> ChannelRegistry::find(std::string_view name) const {
+  for (const auto& c : channels_) {
+    if (c->name() == name) return c;
+  }
+  return nullptr;
+}
+
+void ChannelRegistry::close_all() {
+  for (const auto& c : channels_) c->close();
+}
+
+void ChannelRegistry::stop_idle() {
+  for (const auto& c : channels_) c->stop_idle();
+}
+
+std::string channel_metrics(const ChannelRegistry& channels) {
+  if (channels.all().empty()) return {};
+  std::string out =
+      "# HELP facecast_channel_subscribers Subscribers of a channel.\n"
+      "# TYPE facecast_channel_subscribers gauge\n";
+  for (const auto& c : channels.all())  // names are [A-Za-z0-9_.-]: no label escaping needed
+    out += "facecast_channel_subscribers{channel=\"" + c->name() + "\"} " +
+           std::to_string(c->subscribers()) + "\n";
+  return out;
+}
+
+// ---- HTTP --------------------------------------------------------------------------------------
+
+namespace {
+
+// POST /api/channels/{c}/speak: the body is a `speak` message (type and id optional).
+http::message_generator post_channel_speak(State& state, const Request& req, Channel& channel) {
+  nlohmann::json body;
+  try {
+    body = nlohmann::json::parse(req.body());
+  } catch (const nlohmann::json::exception&) {
+    throw Error("body: malformed JSON");
+  }
+  if (!body.is_object()) throw Error("body: expected a JSON object (a speak message)");
+  body["type"] = "speak";
+  if (!body.contains("id")) body["id"] = "h" + std::to_string(state.next_stream.load());
+  body["channel"] = channel.name();
+  ClientMessage m = parse_client_message(body.dump(), state.limits);
+  const std::string id = std::get<SpeakRequest>(m).id;
+  // Runs on a worker (POST is heavy): waiting for the channel's strand blocks no I/O thread.
+  auto answer = std::make_shared<std::promise<std::optional<Problem>>>();
+  auto done = answer->get_future();
+  channel.request(std::move(m), {},
+                  [answer](std::optional<Problem> p) { answer->set_value(std::move(p)); });
+  if (done.wait_for(std::chrono::seconds(10)) != std::future_status::ready)
+    throw RequestError(Code::kUnavailable, "channel '" + channel.name() + "' did not answer");
+  if (const auto problem = done.get())
+    throw RequestError(problem->code, problem->message, problem->status);
+  return json_response(state, req, http::status::accepted,
+                       {{"channel", channel.name()}, {"id", id}});
+}
+
+}  // namespace
+
+http::message_generator channel_api(State& state, const Request& req, const Target& target) {
+  std::string_view rest =
+      std::string_view(target.path).substr(std::string_view("/api/channels/").size());
+  const auto slash = rest.find('/');
+  const std::string name(rest.substr(0, slash));
+  const std::string_view tail = slash == std::string_view::npos ? "" : rest.substr(slash);
+  const auto channel = state.channels ? state.channels->find(name) : nullptr;
+  if (tail == "/speak") {
+    if (req.method() != http::verb::post)
+      throw RequestError(Code::kMethod, "/api/channels/{c}/speak takes POST");
+    const auto token = request_token(req, target);
+    if (!channel) throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
+    if (!token || !channel->producer_token_ok(*token))
+      throw RequestError(Code::kUnauthorized,
+                         "the channel's producer token is required (Authorization: Bearer)");
+    return post_channel_speak(state, req, *channel);
+  }
+  if (!token_ok(state, req, target))
+    throw RequestError(Code::kUnauthorized,
+                       "a token is required (?token= or Authorization: Bearer)");
+  if (!tail.empty() || !channel) throw Error("not found: " + target.path, ErrorCode::kNotFound);
+  if (req.method() != http::verb::get && req.method() != http::verb::head)
+    throw RequestError(Code::kMethod, "/api/channels/{c} takes GET");
+  return json_response(state, req, http::status::ok,
+                       {{"channel", channel->name()}, {"subscribers", channel->subscribers()}});
+}
+
+}  // namespace facecast::server
