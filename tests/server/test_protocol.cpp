@@ -247,7 +247,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 45);  // 44 settings + "_doc"
+  CHECK(j.size() == 46);  // 45 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
