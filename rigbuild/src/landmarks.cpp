@@ -205,6 +205,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   // The neutral alone (the renderer takes at most 256 shapes; the views need none).
   anim::Rig neutral = head;
   neutral.shapes.clear();
+  // Matte: specular highlights move with the view and read as edges to the detector.
+  for (auto& m : neutral.materials) {
+    m.roughness = 1.0f;
+    m.metallic = 0.0f;
+  }
   render::RenderOptions ro;
   ro.width = ro.height = options.image_size;
   ro.margin = options.frame_margin;
