@@ -11,7 +11,8 @@
 
 namespace facecast::rigbuild {
 
-/// A camera in front of the head (render::frame_avatar with `margin`, face framing): the first, wide view.
+/// A camera in front of the head (render::frame_avatar with `margin`, face framing): the first,
+/// wide view.
 render::Camera wide_camera(const anim::Rig& head, float margin, int image_size);
 /// `wide` turned to look at `centre` (the face dlib found in it) and zoomed by `zoom`.
 render::Camera face_camera(const render::Camera& wide, const Eigen::Vector3d& centre, double zoom);

@@ -1,5 +1,6 @@
-// The renderer's GLSL program (docs/algorithms.md#rendering). The layout constants come from gpu_rig.hpp, #defined in front of
-// the sources, so the shaders and the C++ packing cannot disagree.
+// The renderer's GLSL program (docs/algorithms.md#rendering). The layout constants come from
+// gpu_rig.hpp, #defined in front of the sources, so the shaders and the C++ packing cannot
+// disagree.
 #include "shaders.hpp"
 
 #include <sstream>
