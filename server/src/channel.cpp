@@ -184,8 +184,9 @@ void Channel::maybe_idle() {
 
 // ---- registry ----------------------------------------------------------------------------------
 
-ChannelRegistry::ChannelRegistry(const std::shared_ptr<State>& state,
-                                 const net::any_io_executor& io) {
+ChannelRegistry::ChannelRegistry(const std::shared_ptr<State>& state, net::io_context& io) {
+  // A strand of the io_context's own executor (not of a polymorphic one): it fits inside an
+  // any_io_executor without a shared, fence-counted target (ThreadSanitizer cannot model fences).
   for (const auto& c : state->options.channels) {
     channels_.push_back(
         std::make_shared<Channel>(state, net::make_strand(io), c.name, c.producer_token));

@@ -90,7 +90,7 @@ inline constexpr std::string_view kIdleId = "~idle";
 /// The configured channels (ServerOptions::channels); the set is fixed at start.
 class ChannelRegistry {
  public:
-  ChannelRegistry(const std::shared_ptr<State>& state, const net::any_io_executor& io);
+  ChannelRegistry(const std::shared_ptr<State>& state, net::io_context& io);
   /// Null when there is no channel `name`.
   std::shared_ptr<Channel> find(std::string_view name) const;
   const std::vector<std::shared_ptr<Channel>>& all() const { return channels_; }

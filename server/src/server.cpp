@@ -69,7 +69,7 @@ Server::Impl::Impl(ServerOptions options)
   log::set_level(options.log_level);
   raise_file_limit();
   state = std::make_shared<State>(std::move(options));
-  state->channels = std::make_shared<ChannelRegistry>(state, ioc.get_executor());
+  state->channels = std::make_shared<ChannelRegistry>(state, ioc);
   const auto& o = state->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
