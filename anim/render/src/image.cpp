@@ -133,7 +133,10 @@ Image decode_image(std::string_view bytes, std::string_view what, int max_side) 
                 ErrorCode::kUnsupported);
   Image img{spec.width, spec.height, 4, {}};
   img.pixels.assign(static_cast<std::size_t>(spec.width) * spec.height * 4, 255);
-  // Read the file's channels into the first ones of RGBA; grey is expanded below.
+  // Read the file's channels into the first ones of RGBA; grey is expanded below. On the calling
+  // thread: renderers are made on worker threads already (and OIIO's own pool hides its writes
+  // into our buffer from ThreadSanitizer).
+  in->threads(1);
   const OIIO::stride_t pixel = 4;
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
     throw Error(name + ": cannot decode: " + one_line(in->geterror()));
