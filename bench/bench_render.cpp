@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <random>
 #include <thread>
 
@@ -25,8 +26,16 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
+// CPU time of the whole process (every thread, llvmpipe's rasterizer threads too), in ms: the
+// figure that does not depend on what else runs on the machine.
+double process_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+
 struct Figures {
-  double render_ms = 0, jpeg_ms = 0;
+  double render_ms = 0, jpeg_ms = 0, cpu_ms = 0;
   std::size_t bytes = 0;
 };
 
@@ -36,6 +45,7 @@ Figures stream(const render::Renderer& r, std::size_t shapes, int frames, unsign
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   Figures f;
+  const double cpu0 = process_cpu_ms();
   for (int i = 0; i < frames; ++i) {
     for (auto& x : w) x = 0.5f * u(rng);
     auto a = Clock::now();
@@ -45,6 +55,7 @@ Figures stream(const render::Renderer& r, std::size_t shapes, int frames, unsign
     f.render_ms += std::chrono::duration<double, std::milli>(b - a).count();
     f.jpeg_ms += ms_since(b);
   }
+  f.cpu_ms = process_cpu_ms() - cpu0;
   return f;
 }
 
@@ -63,6 +74,9 @@ void bench(const char* label, const anim::Rig& rig, int frames, int msaa) {
   std::printf("  640x480 msaa %d: render %.2f ms + JPEG %.2f ms = %.1f fps (%zu KB/frame)\n", msaa,
               one.render_ms / frames, one.jpeg_ms / frames,
               1000.0 * frames / (one.render_ms + one.jpeg_ms), one.bytes / frames / 1024);
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  std::printf("  CPU per frame (all threads) %.2f ms: at most %.1f fps on %u cores\n",
+              one.cpu_ms / frames, 1000.0 * cores * frames / one.cpu_ms, cores);
   // Two streams at once: each thread renders and encodes its own frames.
   Figures two[2];
   t0 = Clock::now();

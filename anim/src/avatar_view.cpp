@@ -104,7 +104,8 @@ class ViewBuilder {
       data.part.vertex_count = owner.vertex_count;
       data.part.skinned = owner.skinned;
     }
-    append_triangles(prim, mode, data.part, at);
+    append_triangles(prim, mode, data.part,
+                     fresh ? data.lin : parts_[static_cast<std::size_t>(it->second)].lin, at);
     parts_.push_back(std::move(data));
   }
 
@@ -226,8 +227,10 @@ class ViewBuilder {
     }
   }
 
+  // A vertex whose map mirrors (negative determinant) turns its triangles' winding back, so that
+  // counter-clockwise stays the front face in the rig as glTF defines it in the file.
   void append_triangles(const tinygltf::Primitive& prim, int mode, const ViewPart& part,
-                        const std::string& at) {
+                        const std::vector<Eigen::Matrix3f>& lin, const std::string& at) {
     const auto count = static_cast<std::uint32_t>(part.vertex_count);
     std::vector<std::uint32_t> idx;
     if (prim.indices >= 0) {
@@ -248,6 +251,7 @@ class ViewBuilder {
             : static_cast<int>(m_.materials.size());  // the default material
     const int group = group_of(part.mesh);
     const auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+      if (a < lin.size() && lin[a].determinant() < 0) std::swap(b, c);
       tris_.emplace_back(part.first_vertex + static_cast<int>(a),
                          part.first_vertex + static_cast<int>(b),
                          part.first_vertex + static_cast<int>(c));

@@ -317,7 +317,11 @@ ParsedObj parse(std::string_view text, std::string_view name) {
     if (vn_of[v] >= 0 && nrm[vn_of[v]].norm() > 1e-12f)
       rig.normals.row(v) = nrm[vn_of[v]].normalized();
   }
-  for (auto& m : mat_names) rig.materials.push_back(Material::solid(m));
+  // OBJ cannot say which side a face shows; open sheets (eye shells, an inner mouth) are common.
+  for (auto& m : mat_names) {
+    rig.materials.push_back(Material::solid(m));
+    rig.materials.back().double_sided = true;
+  }
   rig.groups = std::move(group_names);
   if (rig.groups.empty()) rig.triangle_group.clear();
   return out;

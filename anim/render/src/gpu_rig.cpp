@@ -1,6 +1,6 @@
-// Packing a rig for the GPU: morph deltas bucketed by vertex into a float texture, triangles
-// grouped by material, materials and their decoded textures, tangents for normal maps, and the
-// head pose's per-vertex weights from the skeleton.
+// Packing a rig for the GPU: sparse morph deltas per shape (blended on the CPU each frame),
+// triangles grouped by material, materials and their decoded textures, tangents for normal maps,
+// and the head pose's per-vertex weights from the skeleton.
 #include "gpu_rig.hpp"
 
 #include <Eigen/Geometry>
@@ -18,25 +18,20 @@ namespace {
 using anim::Rig;
 
 // Per shape: position deltas and normal deltas (shape normals minus neutral normals) wherever
-// either is non-zero; then bucketed by vertex into the delta texture.
+// either is non-zero.
 void pack_morphs(const Rig& rig, PackedRig& p) {
   const int nv = rig.vertex_count();
-
-  struct Entry {
-    int shape;
-    Eigen::Vector3f dp, dn;
-  };
-  std::vector<std::vector<Entry>> per_vertex(static_cast<std::size_t>(nv));
   const anim::Positions base_n = anim::vertex_normals(rig.positions, rig.triangles);
   anim::Positions moved, moved_n;
-  for (int s = 0; s < p.shape_count; ++s) {
-    const auto& sh = rig.shapes[static_cast<std::size_t>(s)];
+  std::vector<char> touched(static_cast<std::size_t>(nv));
+  for (const auto& sh : rig.shapes) {
     moved = rig.positions;
     for (std::size_t i = 0; i < sh.vertices.size(); ++i)
       moved.row(sh.vertices[i]) += sh.deltas.row(static_cast<Eigen::Index>(i));
     anim::vertex_normals(moved, rig.triangles, moved_n);
-    std::vector<char> touched(static_cast<std::size_t>(nv), 0);
+    std::fill(touched.begin(), touched.end(), 0);
     for (int v : sh.vertices) touched[static_cast<std::size_t>(v)] = 1;
+    PackedMorph& m = p.morphs.emplace_back();
     std::size_t k = 0;
     for (int v = 0; v < nv; ++v) {
       const Eigen::Vector3f dn = (moved_n.row(v) - base_n.row(v)).transpose();
@@ -47,27 +42,10 @@ void pack_morphs(const Rig& rig, PackedRig& p) {
         while (sh.vertices[k] != v) ++k;
         dp = sh.deltas.row(static_cast<Eigen::Index>(k)).transpose();
       }
-      per_vertex[static_cast<std::size_t>(v)].push_back({s, dp, dn});
+      m.vertices.push_back(static_cast<std::uint32_t>(v));
+      m.deltas.insert(m.deltas.end(), {dp.x(), dp.y(), dp.z(), dn.x(), dn.y(), dn.z()});
     }
   }
-  p.morph.resize(static_cast<std::size_t>(nv) * 2);
-  std::size_t entries = 0;
-  for (int v = 0; v < nv; ++v) {
-    p.morph[2 * v] = static_cast<std::int32_t>(entries);
-    p.morph[2 * v + 1] = static_cast<std::int32_t>(per_vertex[static_cast<std::size_t>(v)].size());
-    entries += per_vertex[static_cast<std::size_t>(v)].size();
-  }
-  p.delta_rows = std::max<int>(
-      1, static_cast<int>((entries * kTexelsPerEntry + kDeltaWidth - 1) / kDeltaWidth));
-  p.deltas.assign(static_cast<std::size_t>(kDeltaWidth) * p.delta_rows * 4, 0.0f);
-  std::size_t e = 0;
-  for (const auto& list : per_vertex)
-    for (const auto& en : list) {
-      float* t = &p.deltas[e * kTexelsPerEntry * 4];
-      t[0] = en.dp.x(), t[1] = en.dp.y(), t[2] = en.dp.z(), t[3] = static_cast<float>(en.shape);
-      t[4] = en.dn.x(), t[5] = en.dn.y(), t[6] = en.dn.z(), t[7] = 0;
-      ++e;
-    }
 }
 
 // uv' = offset + R(rotation) * (scale .* uv), as a 3x3 matrix on (u, v, 1) (KHR_texture_transform).
@@ -118,6 +96,7 @@ void pack_materials(const Rig& rig, PackedRig& p) {
     pm.roughness = m.roughness;
     pm.alpha_mode = m.alpha_mode;
     pm.alpha_cutoff = m.alpha_cutoff;
+    pm.double_sided = m.double_sided;
     pm.normal_scale = m.normal_texture.strength;
     pm.occlusion_strength = m.occlusion_texture.strength;
     const anim::TextureRef* refs[kSlotCount] = {&m.base_color_texture,
@@ -232,14 +211,14 @@ void pack_ranges(const Rig& rig, PackedRig& p) {
 
 PackedRig pack_rig(const Rig& rig) {
   rig.validate("render rig");
-  if (rig.shapes.size() > static_cast<std::size_t>(kMaxShapes))
-    throw Error("renderer: " + std::to_string(rig.shapes.size()) + " shapes, at most " +
-                    std::to_string(kMaxShapes) + " are supported",
-                ErrorCode::kUnsupported);
   PackedRig p;
   p.shape_count = static_cast<int>(rig.shapes.size());
-  p.positions.assign(rig.positions.data(), rig.positions.data() + rig.positions.size());
-  p.normals.assign(rig.normals.data(), rig.normals.data() + rig.normals.size());
+  p.neutral.resize(static_cast<std::size_t>(rig.vertex_count()) * kBlendedStride);
+  for (int v = 0; v < rig.vertex_count(); ++v)
+    for (int c = 0; c < 3; ++c) {
+      p.neutral[static_cast<std::size_t>(v) * kBlendedStride + c] = rig.positions(v, c);
+      p.neutral[static_cast<std::size_t>(v) * kBlendedStride + 3 + c] = rig.normals(v, c);
+    }
   if (rig.uvs.rows())
     p.uvs.assign(rig.uvs.data(), rig.uvs.data() + rig.uvs.size());
   else
@@ -252,6 +231,22 @@ PackedRig pack_rig(const Rig& rig) {
   pack_head(rig, p);
   pack_ranges(rig, p);
   return p;
+}
+
+void blend(const PackedRig& p, std::span<const float> weights, std::vector<float>& out) {
+  out = p.neutral;
+  const std::size_t n = std::min(weights.size(), p.morphs.size());
+  for (std::size_t s = 0; s < n; ++s) {
+    const float w = weights[s];
+    if (w == 0.0f) continue;
+    const PackedMorph& m = p.morphs[s];
+    const float* d = m.deltas.data();
+    for (const std::uint32_t v : m.vertices) {
+      float* o = &out[static_cast<std::size_t>(v) * kBlendedStride];
+      for (int c = 0; c < kBlendedStride; ++c) o[c] += w * d[c];
+      d += kBlendedStride;
+    }
+  }
 }
 
 }  // namespace facecast::render::detail

@@ -5,24 +5,20 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "facecast/anim/rig.hpp"
 
 namespace facecast::render::detail {
 
-/// Length of the shader's weight array: the most shapes a rig may have.
-constexpr int kMaxShapes = 256;
-/// Texels per morph entry in the delta texture: (position delta, shape index), (normal delta, 0).
-constexpr int kTexelsPerEntry = 2;
-/// Texels per row of the delta texture; a multiple of kTexelsPerEntry, so an entry's texels stay
-/// on one row.
-constexpr int kDeltaWidth = 4096;
-static_assert(kDeltaWidth % kTexelsPerEntry == 0);
-/// Vertex attribute locations.
-constexpr int kPositionAttribute = 0, kNormalAttribute = 1, kMorphAttribute = 2, kUvAttribute = 3,
-              kTangentAttribute = 4, kSkinAttribute = 5;
-/// Texture units: the morph deltas, then one per material texture slot, then the background.
+/// Vertex attribute locations. Position and normal come interleaved from one buffer that each frame
+/// rewrites (the blended mesh); the others are static.
+constexpr int kPositionAttribute = 0, kNormalAttribute = 1, kUvAttribute = 2, kTangentAttribute = 3,
+              kSkinAttribute = 4;
+/// Floats per vertex in the blended buffer: position xyz, normal xyz.
+constexpr int kBlendedStride = 6;
+/// Texture units: one per material texture slot, then the background.
 enum TextureSlot {
   kBaseColorSlot,
   kMetallicRoughnessSlot,
@@ -31,8 +27,7 @@ enum TextureSlot {
   kEmissiveSlot,
   kSlotCount
 };
-constexpr int kDeltaUnit = 0, kFirstMaterialUnit = 1,
-              kBackgroundUnit = kFirstMaterialUnit + kSlotCount;
+constexpr int kFirstMaterialUnit = 0, kBackgroundUnit = kFirstMaterialUnit + kSlotCount;
 
 /// A decoded texture as the GPU takes it: RGBA8 rows from the top, sRGB or linear.
 struct PackedTexture {
@@ -47,6 +42,7 @@ struct PackedMaterial {
   Eigen::Vector3f emissive{0, 0, 0};
   float metallic = 0, roughness = 1, alpha_cutoff = 0.5f, normal_scale = 1, occlusion_strength = 1;
   anim::AlphaMode alpha_mode = anim::AlphaMode::kOpaque;
+  bool double_sided = false;  // else back faces are culled (glTF: counter-clockwise is front)
   int texture[kSlotCount] = {-1, -1, -1, -1, -1};  // into PackedRig::textures, -1: none
   Eigen::Matrix3f uv_transform[kSlotCount];
 };
@@ -60,15 +56,20 @@ struct HeadJoints {
   Eigen::Vector3f neck{0, 0, 0}, head{0, 0, 0};  // pivots
 };
 
+/// One shape's sparse deltas: the vertices it moves or whose normal it changes, and per vertex
+/// kBlendedStride floats (position delta, normal delta).
+struct PackedMorph {
+  std::vector<std::uint32_t> vertices;
+  std::vector<float> deltas;
+};
+
 /// The rig packed once on the CPU, shared read-only by every GL context.
 struct PackedRig {
-  std::vector<float> positions, normals;  // #V * 3
-  std::vector<float> uvs;                 // #V * 2 (zeros without UVs)
-  std::vector<float> tangents;            // #V * 4 (xyz, handedness); empty without normal maps
-  std::vector<float> skin;                // #V * 2: neck-only weight, head weight
-  std::vector<std::int32_t> morph;        // #V * 2: first entry, entry count
-  std::vector<float> deltas;              // kDeltaWidth * delta_rows * 4 (RGBA32F texels)
-  int delta_rows = 0;
+  std::vector<float> neutral;          // #V * kBlendedStride: position, normal
+  std::vector<float> uvs;              // #V * 2 (zeros without UVs)
+  std::vector<float> tangents;         // #V * 4 (xyz, handedness); empty without normal maps
+  std::vector<float> skin;             // #V * 2: neck-only weight, head weight
+  std::vector<PackedMorph> morphs;     // per shape
   std::vector<std::uint32_t> indices;  // triangles sorted by material
   struct Range {
     std::size_t first = 0, count = 0;   // into `indices`
@@ -82,10 +83,13 @@ struct PackedRig {
   int shape_count = 0;
 };
 
-/// Per vertex, the shapes that move it or change its normal (position and normal deltas), in the
-/// delta texture; triangles grouped by material; textures decoded (an image used both as colour
-/// and as data is decoded once, uploaded twice). Throws Error for an invalid rig, an undecodable
-/// texture or more than kMaxShapes shapes.
+/// Per shape, the vertices it moves or whose normal it changes (position and normal deltas);
+/// triangles grouped by material; textures decoded (an image used both as colour and as data is
+/// decoded once, uploaded twice). Throws Error for an invalid rig or an undecodable texture.
 PackedRig pack_rig(const anim::Rig& rig);
+
+/// The blended mesh for `weights` into `out` (#V * kBlendedStride): the neutral plus w_s times
+/// the deltas of every shape with w_s != 0. Costs the non-zero shapes' entries, not the mesh.
+void blend(const PackedRig& p, std::span<const float> weights, std::vector<float>& out);
 
 }  // namespace facecast::render::detail

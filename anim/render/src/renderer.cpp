@@ -1,5 +1,7 @@
 // The renderer: rig data packed once on the CPU (gpu_rig.cpp), uploaded once per pooled GL
-// context, blended in the vertex shader (shaders.cpp) from the per-frame weights.
+// context; each frame blends the shapes with non-zero weights on the CPU and streams the mesh's
+// positions and normals (llvmpipe runs vertex shaders on one thread: a per-vertex loop over
+// every shape there cost more than the rasterization).
 #include "facecast/render/renderer.hpp"
 
 #include <Eigen/Geometry>
@@ -78,17 +80,23 @@ HeadMatrices head_matrices(const anim::HeadPose& pose, const detail::HeadJoints&
 // One pooled GL context with its own copy of the rig and its framebuffers.
 struct Slot {
   detail::Context context;
-  GLuint program = 0, vao = 0, buffers[7] = {}, delta_tex = 0;
+  enum { kBlendedBuffer, kUvBuffer, kTangentBuffer, kSkinBuffer, kIndexBuffer, kBufferCount };
+  GLuint vao = 0, buffers[kBufferCount] = {};
+  std::vector<float> mesh;  // this frame's mesh, detail::kBlendedStride floats per vertex
   GLuint background_program = 0, background_vao = 0, background_tex = 0;
   float background_scale[2] = {1, 1};
   std::vector<GLuint> textures;  // PackedRig::textures
   GLuint white_tex = 0;          // bound to the slots a material leaves empty
   GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
-  struct Uniforms {
-    GLint weights = -1, mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
-          metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, alpha_mode = -1,
-          alpha_cutoff = -1, has_texture = -1, uv = -1, background_scale = -1;
-  } u;
+  // The avatar's program twice: without `discard` (opaque and blended materials: llvmpipe then
+  // tests depth before shading) and with it (alpha MASK).
+  struct Program {
+    GLuint id = 0;
+    GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
+          metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, blend = -1,
+          alpha_cutoff = -1, has_texture = -1, uv = -1;
+  } programs[2];
+  GLint background_scale_at = -1;
   int width = 0, height = 0, samples = 0;
   std::string renderer_name;
 
@@ -107,71 +115,64 @@ struct Slot {
   void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    program = detail::link_program();
-    const auto at = [&](const char* name) { return glGetUniformLocation(program, name); };
-    u = {at("u_weights"),
-         at("u_mvp"),
-         at("u_neck"),
-         at("u_head"),
-         at("u_eye"),
-         at("u_base_color"),
-         at("u_emissive"),
-         at("u_metallic_roughness"),
-         at("u_normal_scale"),
-         at("u_occlusion_strength"),
-         at("u_alpha_mode"),
-         at("u_alpha_cutoff"),
-         at("u_has_texture"),
-         at("u_uv"),
-         -1};
-    glUseProgram(program);
-    glUniform1i(at("u_deltas"), detail::kDeltaUnit);
-    GLint units[detail::kSlotCount];
-    for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
-    glUniform1iv(at("u_textures"), detail::kSlotCount, units);
-    check_gl("glLinkProgram");
+    for (const bool mask : {false, true}) {
+      Program& g = programs[mask];
+      g.id = detail::link_program(mask);
+      const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
+      g = {g.id,
+           at("u_mvp"),
+           at("u_neck"),
+           at("u_head"),
+           at("u_eye"),
+           at("u_base_color"),
+           at("u_emissive"),
+           at("u_metallic_roughness"),
+           at("u_normal_scale"),
+           at("u_occlusion_strength"),
+           at("u_blend"),
+           at("u_alpha_cutoff"),
+           at("u_has_texture"),
+           at("u_uv")};
+      glUseProgram(g.id);
+      GLint units[detail::kSlotCount];
+      for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
+      glUniform1iv(at("u_textures"), detail::kSlotCount, units);
+      check_gl("glLinkProgram");
+    }
 
     glGenVertexArrays(1, &vao);
     glBindVertexArray(vao);
-    glGenBuffers(7, buffers);
-    const auto attribute = [&](int index, const std::vector<float>& data, int size) {
-      glBindBuffer(GL_ARRAY_BUFFER, buffers[index]);
+    glGenBuffers(kBufferCount, buffers);
+    const auto attribute = [&](int buffer, int index, const std::vector<float>& data, int size) {
+      glBindBuffer(GL_ARRAY_BUFFER, buffers[buffer]);
       glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)),
                    data.data(), GL_STATIC_DRAW);
       glVertexAttribPointer(static_cast<GLuint>(index), size, GL_FLOAT, GL_FALSE, 0, nullptr);
       glEnableVertexAttribArray(static_cast<GLuint>(index));
     };
-    static_assert(detail::kPositionAttribute == 0 && detail::kNormalAttribute == 1 &&
-                  detail::kMorphAttribute == 2 && detail::kUvAttribute == 3 &&
-                  detail::kTangentAttribute == 4 && detail::kSkinAttribute == 5);
-    attribute(detail::kPositionAttribute, p.positions, 3);
-    attribute(detail::kNormalAttribute, p.normals, 3);
-    attribute(detail::kUvAttribute, p.uvs, 2);
-    attribute(detail::kSkinAttribute, p.skin, 2);
+    attribute(kUvBuffer, detail::kUvAttribute, p.uvs, 2);
+    attribute(kSkinBuffer, detail::kSkinAttribute, p.skin, 2);
     if (p.tangents.empty())
       glVertexAttrib4f(detail::kTangentAttribute, 1, 0, 0, 1);
     else
-      attribute(detail::kTangentAttribute, p.tangents, 4);
-    static_assert(sizeof(p.morph[0]) == sizeof(GLint) && sizeof(p.indices[0]) == sizeof(GLuint));
-    glBindBuffer(GL_ARRAY_BUFFER, buffers[detail::kMorphAttribute]);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(p.morph.size() * sizeof(GLint)),
-                 p.morph.data(), GL_STATIC_DRAW);
-    glVertexAttribIPointer(detail::kMorphAttribute, 2, GL_INT, 0, nullptr);
-    glEnableVertexAttribArray(detail::kMorphAttribute);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[6]);
+      attribute(kTangentBuffer, detail::kTangentAttribute, p.tangents, 4);
+    // Positions and normals interleaved in one buffer that draw() rewrites each frame.
+    glBindBuffer(GL_ARRAY_BUFFER, buffers[kBlendedBuffer]);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(p.neutral.size() * sizeof(float)),
+                 p.neutral.data(), GL_STREAM_DRAW);
+    constexpr GLsizei stride = detail::kBlendedStride * sizeof(float);
+    glVertexAttribPointer(detail::kPositionAttribute, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
+    glVertexAttribPointer(detail::kNormalAttribute, 3, GL_FLOAT, GL_FALSE, stride,
+                          reinterpret_cast<const void*>(3 * sizeof(float)));
+    glEnableVertexAttribArray(detail::kPositionAttribute);
+    glEnableVertexAttribArray(detail::kNormalAttribute);
+    static_assert(sizeof(p.indices[0]) == sizeof(GLuint));
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[kIndexBuffer]);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER,
                  static_cast<GLsizeiptr>(p.indices.size() * sizeof(GLuint)), p.indices.data(),
                  GL_STATIC_DRAW);
     check_gl("glBufferData (mesh)");
 
-    glGenTextures(1, &delta_tex);
-    glActiveTexture(GL_TEXTURE0 + detail::kDeltaUnit);
-    glBindTexture(GL_TEXTURE_2D, delta_tex);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, detail::kDeltaWidth, p.delta_rows, 0, GL_RGBA,
-                 GL_FLOAT, p.deltas.data());
-    check_gl("glTexImage2D (morph deltas)");
     upload_textures(p);
     init_framebuffers(o);
   }
@@ -208,7 +209,7 @@ struct Slot {
     background_program = detail::link_background_program();
     glUseProgram(background_program);
     glUniform1i(glGetUniformLocation(background_program, "u_image"), detail::kBackgroundUnit);
-    u.background_scale = glGetUniformLocation(background_program, "u_scale");
+    background_scale_at = glGetUniformLocation(background_program, "u_scale");
     glGenVertexArrays(1, &background_vao);
     glActiveTexture(GL_TEXTURE0 + detail::kBackgroundUnit);
     std::vector<std::uint8_t> rgba(static_cast<std::size_t>(image.width) * image.height * 4, 255);
@@ -261,12 +262,18 @@ struct Slot {
 
   void draw_range(const PackedRig& p, const PackedRig::Range& r) {
     const detail::PackedMaterial& m = p.materials[static_cast<std::size_t>(r.material)];
+    const Program& u = programs[m.alpha_mode == anim::AlphaMode::kMask];
+    glUseProgram(u.id);
+    if (m.double_sided)
+      glDisable(GL_CULL_FACE);
+    else
+      glEnable(GL_CULL_FACE);
     glUniform4fv(u.base_color, 1, m.base_color.data());
     glUniform3fv(u.emissive, 1, m.emissive.data());
     glUniform2f(u.metallic_roughness, m.metallic, m.roughness);
     glUniform1f(u.normal_scale, m.normal_scale);
     glUniform1f(u.occlusion_strength, m.occlusion_strength);
-    glUniform1i(u.alpha_mode, static_cast<int>(m.alpha_mode));
+    glUniform1i(u.blend, m.alpha_mode == anim::AlphaMode::kBlend);
     glUniform1f(u.alpha_cutoff, m.alpha_cutoff);
     GLint has[detail::kSlotCount];
     for (int slot = 0; slot < detail::kSlotCount; ++slot) {
@@ -292,7 +299,7 @@ struct Slot {
     if (background_program) {
       glDisable(GL_DEPTH_TEST);
       glUseProgram(background_program);
-      glUniform2fv(u.background_scale, 1, background_scale);
+      glUniform2fv(background_scale_at, 1, background_scale);
       glActiveTexture(GL_TEXTURE0 + detail::kBackgroundUnit);
       glBindTexture(GL_TEXTURE_2D, background_tex);
       glBindVertexArray(background_vao);
@@ -300,28 +307,34 @@ struct Slot {
     }
     glEnable(GL_DEPTH_TEST);
     glDepthMask(GL_TRUE);
-    glUseProgram(program);
-    glActiveTexture(GL_TEXTURE0 + detail::kDeltaUnit);
-    glBindTexture(GL_TEXTURE_2D, delta_tex);
-    float w[detail::kMaxShapes] = {};
-    std::copy(weights.begin(), weights.end(), w);
-    glUniform1fv(u.weights, detail::kMaxShapes, w);
+    detail::blend(p, weights, mesh);
+    glBindBuffer(GL_ARRAY_BUFFER, buffers[kBlendedBuffer]);
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(mesh.size() * sizeof(float)),
+                    mesh.data());
     const float aspect = static_cast<float>(width) / static_cast<float>(height);
     const Eigen::Matrix4f view = look_at(cam.eye, cam.target, cam.up);
     const Eigen::Matrix4f mvp =
         perspective(cam.fov_y_deg * 3.14159265f / 180.0f, aspect, cam.near_plane, cam.far_plane) *
         view;
-    glUniformMatrix4fv(u.mvp, 1, GL_FALSE, mvp.data());
-    glUniformMatrix4fv(u.neck, 1, GL_FALSE, pose.neck.data());
-    glUniformMatrix4fv(u.head, 1, GL_FALSE, pose.head.data());
-    glUniform3fv(u.eye, 1, cam.eye.data());
+    for (const Program& g : programs) {
+      glUseProgram(g.id);
+      glUniformMatrix4fv(g.mvp, 1, GL_FALSE, mvp.data());
+      glUniformMatrix4fv(g.neck, 1, GL_FALSE, pose.neck.data());
+      glUniformMatrix4fv(g.head, 1, GL_FALSE, pose.head.data());
+      glUniform3fv(g.eye, 1, cam.eye.data());
+    }
     glBindVertexArray(vao);
-    // Opaque and masked ranges first, then blended ones far to near without writing depth.
+    // Opaque ranges first, then masked ones, then blended ones far to near without writing depth.
+    const auto mode = [&](const PackedRig::Range& r) {
+      return p.materials[static_cast<std::size_t>(r.material)].alpha_mode;
+    };
+    for (const auto& r : p.ranges)
+      if (mode(r) == anim::AlphaMode::kOpaque) draw_range(p, r);
     std::vector<const PackedRig::Range*> blended;
     for (const auto& r : p.ranges) {
-      if (p.materials[static_cast<std::size_t>(r.material)].alpha_mode == anim::AlphaMode::kBlend)
+      if (mode(r) == anim::AlphaMode::kBlend)
         blended.push_back(&r);
-      else
+      else if (mode(r) == anim::AlphaMode::kMask)
         draw_range(p, r);
     }
     if (!blended.empty()) {
@@ -362,10 +375,9 @@ struct Slot {
   ~Slot() {
     try {
       context.make_current();
-      glDeleteTextures(1, &delta_tex);
       glDeleteTextures(static_cast<GLsizei>(textures.size()), textures.data());
       glDeleteTextures(1, &white_tex);
-      glDeleteBuffers(7, buffers);
+      glDeleteBuffers(kBufferCount, buffers);
       glDeleteVertexArrays(1, &vao);
       if (background_program) {
         glDeleteTextures(1, &background_tex);
@@ -379,7 +391,7 @@ struct Slot {
         glDeleteRenderbuffers(1, &resolve_rb);
         glDeleteFramebuffers(1, &resolve_fbo);
       }
-      glDeleteProgram(program);
+      for (const Program& g : programs) glDeleteProgram(g.id);
       context.release();
     } catch (...) {
     }

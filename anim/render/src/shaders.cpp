@@ -16,12 +16,9 @@ namespace {
 const char* kVertexShader = R"(
 layout(location = POSITION_ATTRIBUTE) in vec3 a_pos;
 layout(location = NORMAL_ATTRIBUTE) in vec3 a_nrm;
-layout(location = MORPH_ATTRIBUTE) in ivec2 a_morph;  // first entry, entry count
 layout(location = UV_ATTRIBUTE) in vec2 a_uv;
 layout(location = TANGENT_ATTRIBUTE) in vec4 a_tan;
 layout(location = SKIN_ATTRIBUTE) in vec2 a_skin;  // weight of the neck's motion, of the head's
-uniform sampler2D u_deltas;  // TEXELS_PER_ENTRY texels per entry: (dpos, shape), (dnrm, 0)
-uniform float u_weights[MAX_SHAPES];
 uniform mat4 u_mvp;
 uniform mat4 u_neck;  // head pose: the neck's rotation about its joint
 uniform mat4 u_head;  // the head's: the neck's followed by the head's own
@@ -30,22 +27,11 @@ out vec3 v_nrm;
 out vec2 v_uv;
 out vec4 v_tan;
 void main() {
-  vec3 p = a_pos;
-  vec3 n = a_nrm;
-  for (int i = 0; i < a_morph.y; ++i) {
-    int e = (a_morph.x + i) * TEXELS_PER_ENTRY;
-    ivec2 at = ivec2(e % DELTA_WIDTH, e / DELTA_WIDTH);
-    vec4 d = texelFetch(u_deltas, at, 0);
-    float w = u_weights[int(d.w)];
-    if (w != 0.0) {
-      p += w * d.xyz;
-      n += w * texelFetch(u_deltas, at + ivec2(1, 0), 0).xyz;
-    }
-  }
+  // a_pos and a_nrm are the blended mesh (renderer.cpp blends the shapes on the CPU).
   mat4 m = (1.0 - a_skin.x - a_skin.y) * mat4(1.0) + a_skin.x * u_neck + a_skin.y * u_head;
-  vec4 world = m * vec4(p, 1.0);
+  vec4 world = m * vec4(a_pos, 1.0);
   v_pos = world.xyz;
-  v_nrm = mat3(m) * n;
+  v_nrm = mat3(m) * a_nrm;
   v_tan = vec4(mat3(m) * a_tan.xyz, a_tan.w);
   v_uv = a_uv;
   gl_Position = u_mvp * world;
@@ -65,7 +51,7 @@ uniform vec3 u_emissive;
 uniform vec2 u_metallic_roughness;
 uniform float u_normal_scale;
 uniform float u_occlusion_strength;
-uniform int u_alpha_mode;  // 0 opaque, 1 mask, 2 blend
+uniform bool u_blend;  // alpha BLEND: keep the alpha; otherwise opaque
 uniform float u_alpha_cutoff;
 uniform int u_has_texture[SLOT_COUNT];
 uniform mat3 u_uv[SLOT_COUNT];
@@ -77,27 +63,34 @@ vec3 to_srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
 }
-// A macro, not a function: sampler arrays take constant indices only.
-#define sample_slot(slot, fallback) \
-  (u_has_texture[slot] == 0 ? (fallback) \
-                            : texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy))
+// `var` = the slot's texel, or `fallback` without a texture. A macro, not a function: sampler
+// arrays take constant indices only. An `if` on the uniform, not `?:`, so that llvmpipe skips the
+// fetch (a select evaluates both sides).
+#define SAMPLE(var, slot, fallback) \
+  vec4 var = fallback;              \
+  if (u_has_texture[slot] != 0) var = texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy)
 vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float rough) {
   float nl = max(dot(n, l), 0.0);
   if (nl <= 0.0) return vec3(0.0);
   vec3 h = normalize(l + v);
   float nv = max(dot(n, v), 1e-4), nh = max(dot(n, h), 0.0), vh = max(dot(v, h), 0.0);
-  float a2 = pow(max(rough * rough, 1e-3), 2.0);
-  float d = a2 / (PI * pow(nh * nh * (a2 - 1.0) + 1.0, 2.0));
-  float k = pow(rough + 1.0, 2.0) / 8.0;
+  float a = max(rough * rough, 1e-3), a2 = a * a;
+  float q = nh * nh * (a2 - 1.0) + 1.0;
+  float d = a2 / (PI * q * q);
+  float k = (rough + 1.0) * (rough + 1.0) / 8.0;
   float g = nv / (nv * (1.0 - k) + k) * nl / (nl * (1.0 - k) + k);
-  vec3 f = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
+  float m = 1.0 - vh, m2 = m * m;
+  vec3 f = f0 + (1.0 - f0) * (m2 * m2 * m);
   vec3 spec = d * g * f / (4.0 * nv * nl + 1e-4);
   return ((1.0 - f) * albedo / PI + spec) * radiance * nl;
 }
 void main() {
-  vec4 base = u_base_color * sample_slot(BASE_COLOR_SLOT, vec4(1.0));
-  if (u_alpha_mode == 1 && base.a < u_alpha_cutoff) discard;
-  vec4 mr = sample_slot(METALLIC_ROUGHNESS_SLOT, vec4(1.0));
+  SAMPLE(base_texel, BASE_COLOR_SLOT, vec4(1.0));
+  vec4 base = u_base_color * base_texel;
+#if ALPHA_MASK
+  if (base.a < u_alpha_cutoff) discard;
+#endif
+  SAMPLE(mr, METALLIC_ROUGHNESS_SLOT, vec4(1.0));
   float metal = clamp(u_metallic_roughness.x * mr.b, 0.0, 1.0);
   float rough = clamp(u_metallic_roughness.y * mr.g, 0.04, 1.0);
   vec3 v = normalize(u_eye - v_pos);
@@ -107,11 +100,13 @@ void main() {
   if (u_has_texture[NORMAL_SLOT] != 0) {
     vec3 t = normalize(v_tan.xyz - n * dot(n, v_tan.xyz));
     vec3 b = cross(n, t) * v_tan.w * side;
-    vec3 tn = sample_slot(NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0)).xyz * 2.0 - 1.0;
+    SAMPLE(normal_texel, NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0));
+    vec3 tn = normal_texel.xyz * 2.0 - 1.0;
     tn.xy *= u_normal_scale;
     n = normalize(mat3(t, b, n) * tn);
   }
-  float ao = 1.0 + u_occlusion_strength * (sample_slot(OCCLUSION_SLOT, vec4(1.0)).r - 1.0);
+  SAMPLE(occlusion, OCCLUSION_SLOT, vec4(1.0));
+  float ao = 1.0 + u_occlusion_strength * (occlusion.r - 1.0);
   vec3 albedo = base.rgb * (1.0 - metal);
   vec3 f0 = mix(vec3(0.04), base.rgb, metal);
   vec3 c = light(n, v, normalize(vec3(-0.45, 0.55, 0.75)), 2.6, albedo, f0, rough)
@@ -119,8 +114,9 @@ void main() {
          + light(n, v, normalize(vec3(0.0, 0.4, -1.0)), 1.2, albedo, f0, rough);
   vec3 ambient = mix(vec3(0.20, 0.19, 0.18), vec3(0.34, 0.36, 0.40), 0.5 + 0.5 * n.y);
   c += ao * ambient * (albedo + f0 * 0.5);
-  c += u_emissive * sample_slot(EMISSIVE_SLOT, vec4(1.0)).rgb;
-  frag = vec4(to_srgb(c), u_alpha_mode == 2 ? base.a : 1.0);
+  SAMPLE(emissive, EMISSIVE_SLOT, vec4(1.0));
+  c += u_emissive * emissive.rgb;
+  frag = vec4(to_srgb(c), u_blend ? base.a : 1.0);
 }
 )";
 
@@ -145,12 +141,8 @@ void main() { frag = vec4(texture(u_image, v_uv).rgb, 1.0); }
 std::string prelude() {
   std::ostringstream s;
   s << "#version 330 core\n"
-    << "#define MAX_SHAPES " << kMaxShapes << "\n"
-    << "#define DELTA_WIDTH " << kDeltaWidth << "\n"
-    << "#define TEXELS_PER_ENTRY " << kTexelsPerEntry << "\n"
     << "#define POSITION_ATTRIBUTE " << kPositionAttribute << "\n"
     << "#define NORMAL_ATTRIBUTE " << kNormalAttribute << "\n"
-    << "#define MORPH_ATTRIBUTE " << kMorphAttribute << "\n"
     << "#define UV_ATTRIBUTE " << kUvAttribute << "\n"
     << "#define TANGENT_ATTRIBUTE " << kTangentAttribute << "\n"
     << "#define SKIN_ATTRIBUTE " << kSkinAttribute << "\n"
@@ -210,8 +202,10 @@ GLuint link(const char* vertex, const char* fragment, const char* what) {
 
 }  // namespace
 
-GLuint link_program() {
-  return link(kVertexShader, kFragmentShader, "avatar");
+GLuint link_program(bool alpha_mask) {
+  const std::string fragment =
+      std::string("#define ALPHA_MASK ") + (alpha_mask ? "1" : "0") + "\n" + kFragmentShader;
+  return link(kVertexShader, fragment.c_str(), "avatar");
 }
 
 GLuint link_background_program() {

@@ -8,11 +8,12 @@ namespace facecast::render::detail {
 /// Throws Error(kInternal) "<call> failed: GL error 0x..." when glGetError reports one.
 void check_gl(const char* call);
 
-/// Compiles and links the program on the current context: morph blending from the delta texture
-/// and the head pose in the vertex shader, metallic-roughness shading of the material's textures
-/// and sRGB output in the fragment shader. The GPU layout constants of gpu_rig.hpp are #defined at
-/// the top of the sources. Throws Error(kInternal) with the compiler's log.
-GLuint link_program();
+/// Compiles and links the program on the current context: the head pose on the blended mesh in
+/// the vertex shader, metallic-roughness shading of the material's textures and sRGB output in
+/// the fragment shader, which discards below the alpha cutoff when `alpha_mask` (only then: a
+/// shader that may discard cannot test depth before shading). The GPU layout constants of
+/// gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with the log.
+GLuint link_program(bool alpha_mask);
 /// The background image's program: a screen-covering triangle (drawn with no vertex buffer).
 GLuint link_background_program();
 
