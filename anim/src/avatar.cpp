@@ -81,6 +81,7 @@ Rig make_avatar(const AvatarParams& params) {
   rig.landmarks = m.landmarks;
   rig.uvs = m.uvs;
   rig.textures = m.textures;
+  rig.meshes = m.meshes;
   for (const auto& name : avatar_shape_names()) {
     auto it = std::find_if(shapes.begin(), shapes.end(),
                            [&](const Blendshape& s) { return s.name == name; });

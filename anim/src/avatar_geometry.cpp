@@ -3,6 +3,7 @@
 // See avatar.hpp for the overview.
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "avatar_generator.hpp"
 
@@ -135,6 +136,53 @@ Eigen::Vector3f polyline_at(const std::vector<Eigen::Vector3f>& line, float t) {
   return line.back();
 }
 
+// The vertices reordered so that each of the avatar's meshes (as real avatars split theirs: the
+// head with lids and lashes, teeth, tongue, each eye) is one consecutive range; the GLB writes one
+// glTF mesh per range and the file keeps the rig's vertex order.
+void split_meshes(Model& m) {
+  const auto mesh_of = [](const VertexInfo& i) {
+    switch (i.part) {
+      case Part::kTeethUpper:
+      case Part::kTeethLower:
+        return 1;
+      case Part::kTongue:
+        return 2;
+      case Part::kEyeball:
+        return 3 + i.side;
+      default:
+        return 0;  // skin and lids
+    }
+  };
+  const auto nv = static_cast<int>(m.pos.rows());
+  std::vector<int> order(static_cast<std::size_t>(nv));  // new -> old
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return mesh_of(m.info[static_cast<std::size_t>(a)]) <
+           mesh_of(m.info[static_cast<std::size_t>(b)]);
+  });
+  std::vector<int> index(static_cast<std::size_t>(nv));  // old -> new
+  for (int v = 0; v < nv; ++v)
+    index[static_cast<std::size_t>(order[static_cast<std::size_t>(v)])] = v;
+  const Positions pos = m.pos;
+  const UVs uvs = m.uvs;
+  const std::vector<VertexInfo> info = m.info;
+  for (int v = 0; v < nv; ++v) {
+    const int old = order[static_cast<std::size_t>(v)];
+    m.pos.row(v) = pos.row(old);
+    if (uvs.rows()) m.uvs.row(v) = uvs.row(old);
+    m.info[static_cast<std::size_t>(v)] = info[static_cast<std::size_t>(old)];
+  }
+  for (Eigen::Index t = 0; t < m.tris.rows(); ++t)
+    for (int c = 0; c < 3; ++c) m.tris(t, c) = index[static_cast<std::size_t>(m.tris(t, c))];
+  for (Landmark& l : m.landmarks) l.vertex = index[static_cast<std::size_t>(l.vertex)];
+  const char* names[] = {"Head", "Teeth", "Tongue", "EyeLeft", "EyeRight"};
+  for (int v = 0; v < nv; ++v) {
+    const int k = mesh_of(m.info[static_cast<std::size_t>(v)]);
+    if (m.meshes.empty() || m.meshes.back().name != names[k]) m.meshes.push_back({names[k], v, 0});
+    ++m.meshes.back().vertex_count;
+  }
+}
+
 Model build_geometry(const AvatarParams& params) {
   Generator g(params);
   g.setup_head();
@@ -196,6 +244,7 @@ Model build_geometry(const AvatarParams& params) {
   m.landmarks.push_back({"nose_tip", nose});
   m.landmarks.push_back({"chin", chin});
   g.paint_textures(m);
+  split_meshes(m);
   return m;
 }
 

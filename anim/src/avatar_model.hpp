@@ -79,6 +79,7 @@ struct Model {
   std::vector<Landmark> landmarks;
   UVs uvs;                        // skin, lids and eyeballs (avatar_textures.cpp); 0 elsewhere
   std::vector<Texture> textures;  // the skin's and the irises'
+  std::vector<MeshRange> meshes;  // Head (skin, lids, lashes), Teeth, Tongue, EyeLeft, EyeRight
 };
 
 Model build_geometry(const AvatarParams& params);

@@ -3,6 +3,7 @@
 #include "facecast/anim/avatar_view.hpp"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
@@ -51,6 +52,7 @@ class ViewBuilder {
     bool any_targets = false;
     for (const auto& mesh : m_.meshes)
       for (const auto& p : mesh.primitives) any_targets |= !p.targets.empty();
+    const int head = opt_.all_meshes || any_targets ? -1 : head_joint_node();
     for (const int node : g_.order) {
       const int mi = m_.nodes[static_cast<std::size_t>(node)].mesh;
       if (mi < 0) continue;
@@ -61,6 +63,7 @@ class ViewBuilder {
       bool has_targets = false;
       for (const auto& p : mesh.primitives) has_targets |= !p.targets.empty();
       if (!opt_.all_meshes && any_targets && !has_targets) continue;
+      if (head >= 0 && !on_head(node, head)) continue;
       for (std::size_t pi = 0; pi < mesh.primitives.size(); ++pi)
         add_primitive(node, mi, static_cast<int>(pi));
     }
@@ -69,6 +72,51 @@ class ViewBuilder {
   }
 
  private:
+  // The node of the skeleton's head joint (by name, find_joint), or -1.
+  int head_joint_node() const {
+    std::vector<std::string> names;
+    for (const auto& n : m_.nodes) names.push_back(n.name);
+    const int head = find_joint(names, "head");
+    if (head < 0) return -1;
+    for (const auto& skin : m_.skins)
+      if (std::find(skin.joints.begin(), skin.joints.end(), head) != skin.joints.end()) return head;
+    return -1;
+  }
+
+  bool under(int node, int ancestor) const {
+    for (int n = node; n >= 0; n = g_.parent[static_cast<std::size_t>(n)])
+      if (n == ancestor) return true;
+    return false;
+  }
+
+  // Without morph targets anywhere, the face is what the head carries: a mesh under the head
+  // joint (teeth, eyes placed by a node), or a skinned mesh whose first primitive puts at least
+  // half its skin weight on the head joint and the joints under it (head, eyes, lashes); not the
+  // body, clothes or hands.
+  bool on_head(int node, int head) const {
+    if (under(node, head)) return true;
+    const auto& n = m_.nodes[static_cast<std::size_t>(node)];
+    if (n.skin < 0 || static_cast<std::size_t>(n.skin) >= m_.skins.size()) return false;
+    const auto& prim = m_.meshes[static_cast<std::size_t>(n.mesh)].primitives;
+    if (prim.empty()) return false;
+    const auto j_it = prim[0].attributes.find("JOINTS_0");
+    const auto w_it = prim[0].attributes.find("WEIGHTS_0");
+    if (j_it == prim[0].attributes.end() || w_it == prim[0].attributes.end()) return false;
+    const auto& joints = m_.skins[static_cast<std::size_t>(n.skin)].joints;
+    const std::string at = what_ + ": meshes[" + std::to_string(n.mesh) + "]";
+    const auto j = read_uints(m_, j_it->second, 4, at + " JOINTS_0");
+    const auto w = read_floats(m_, w_it->second, 4, at + " WEIGHTS_0");
+    if (j.size() != static_cast<std::size_t>(w.rows()) * 4) return false;
+    double on = 0, total = 0;
+    for (Eigen::Index v = 0; v < w.rows(); ++v)
+      for (int c = 0; c < 4; ++c) {
+        const std::uint32_t k = j[static_cast<std::size_t>(v) * 4 + static_cast<std::size_t>(c)];
+        total += w(v, c);
+        if (k < joints.size() && under(joints[k], head)) on += w(v, c);
+      }
+    return total > 0 && on >= 0.5 * total;
+  }
+
   int group_of(int mesh) {
     const auto [it, fresh] = group_of_.try_emplace(mesh, static_cast<int>(groups_.size()));
     if (fresh) {

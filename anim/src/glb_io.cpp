@@ -1,14 +1,16 @@
 // GLB (binary glTF 2.0) reading and writing with tinygltf.
 //
-// Layout written: one buffer; one mesh (or, with GlbOptions::mesh_per_group, one per Rig group with
-// the vertices its triangles use, in rig order); in a mesh, POSITION, NORMAL, TEXCOORD_0 (and
+// Layout written: one buffer; one mesh, or one per Rig::meshes range (consecutive vertices, so the
+// file keeps the rig's vertex order), or with GlbOptions::mesh_per_group one per Rig group with
+// the vertices its triangles use, in rig order; in a mesh, POSITION, NORMAL, TEXCOORD_0 (and
 // JOINTS_0/WEIGHTS_0 for a skinned rig) accessors shared by every primitive (one primitive per
 // material, each with its own uint32 indices), so a one-mesh file keeps the rig's vertex order
-// exactly; one POSITION morph target per shape (per group: the shapes that move it), stored dense
-// as deltas with min/max; shape names in mesh.extras.targetNames (three.js and Blender read them);
-// default weights 0. Landmarks go to mesh.extras.facecast.landmarks. Textures are written as the
-// Rig holds them (encoded bytes), materials as glTF metallic-roughness with KHR_texture_transform;
-// the skeleton as joint nodes at their rest origins with one skin.
+// exactly; one POSITION morph target per shape (per group: the shapes that move it), as deltas
+// with min/max, sparse (the rows that move) when fewer than half the rows move; shape names in
+// mesh.extras.targetNames (three.js and Blender read them); default weights 0. Landmarks go to
+// mesh.extras.facecast.landmarks. Textures are written as the Rig holds them (encoded bytes),
+// materials as glTF metallic-roughness with KHR_texture_transform; the skeleton as joint nodes at
+// their rest origins with one skin.
 #include <tiny_gltf.h>
 #include <map>
 #include <sstream>
@@ -57,6 +59,39 @@ class GlbWriter {
         a.maxValues.push_back(m.rows() ? m.col(c).maxCoeff() : 0.0);
       }
     }
+    model.accessors.push_back(a);
+    return static_cast<int>(model.accessors.size()) - 1;
+  }
+
+  // A morph target as a sparse accessor (no bufferView: zeros, then the rows that move) when
+  // fewer than half its rows move; dense otherwise. min/max over all rows, as POSITION needs.
+  int add_target_accessor(const Positions& d) {
+    std::vector<std::uint32_t> rows;
+    for (Eigen::Index r = 0; r < d.rows(); ++r)
+      if (!d.row(r).isZero(0.0f)) rows.push_back(static_cast<std::uint32_t>(r));
+    if (2 * rows.size() >= static_cast<std::size_t>(d.rows()))
+      return add_float_accessor(d, TINYGLTF_TYPE_VEC3, true);
+    if (rows.empty()) rows.push_back(0);  // a sparse accessor holds at least one row
+    Positions values(static_cast<Eigen::Index>(rows.size()), 3);
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      values.row(static_cast<Eigen::Index>(i)) = d.row(rows[i]);
+    tinygltf::Accessor a;
+    a.bufferView = -1;
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = static_cast<std::size_t>(d.rows());
+    a.type = TINYGLTF_TYPE_VEC3;
+    for (Eigen::Index c = 0; c < 3; ++c) {
+      a.minValues.push_back(d.rows() ? d.col(c).minCoeff() : 0.0);
+      a.maxValues.push_back(d.rows() ? d.col(c).maxCoeff() : 0.0);
+    }
+    a.sparse.isSparse = true;
+    a.sparse.count = static_cast<int>(rows.size());
+    a.sparse.indices.bufferView = add_view(rows.data(), rows.size() * sizeof(std::uint32_t), 0);
+    a.sparse.indices.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    a.sparse.indices.byteOffset = 0;
+    a.sparse.values.byteOffset = 0;
+    a.sparse.values.bufferView =
+        add_view(values.data(), static_cast<std::size_t>(values.size()) * sizeof(float), 0);
     model.accessors.push_back(a);
     return static_cast<int>(model.accessors.size()) - 1;
   }
@@ -244,7 +279,7 @@ tinygltf::Mesh add_mesh(GlbWriter& w, const Rig& rig, const std::vector<int>& ve
   for (const auto& s : rig.shapes) {
     const Positions d = rows(s.dense(rig.vertex_count()));
     if (!all_shapes && d.isZero(0.0f)) continue;
-    targets.push_back(w.add_float_accessor(d, TINYGLTF_TYPE_VEC3, true));
+    targets.push_back(w.add_target_accessor(d));
     names.push_back(s.name);
   }
   tinygltf::Mesh mesh;
@@ -289,11 +324,13 @@ std::string glb_bytes(const Rig& rig, const GlbOptions& options) {
   // The meshes: one of all vertices in rig order, or one per group (its vertices in rig order).
   std::vector<std::vector<int>> faces(1), verts(1);
   std::vector<std::string> names{"face"};
+  bool every_shape = true;  // rig meshes list every shape (the view then keeps the rig's order)
   if (options.mesh_per_group &&
       rig.triangle_group.size() == static_cast<std::size_t>(rig.triangle_count()) &&
       !rig.groups.empty()) {
     faces.assign(rig.groups.size(), {});
     names = rig.groups;
+    every_shape = false;  // a group lists the shapes that move it
     for (int f = 0; f < rig.triangle_count(); ++f)
       faces[static_cast<std::size_t>(rig.triangle_group[static_cast<std::size_t>(f)])].push_back(f);
     verts.assign(rig.groups.size(), {});
@@ -304,13 +341,23 @@ std::string glb_bytes(const Rig& rig, const GlbOptions& options) {
       for (int v = 0; v < rig.vertex_count(); ++v)
         if (used[static_cast<std::size_t>(v)]) verts[g].push_back(v);
     }
+  } else if (!rig.meshes.empty()) {
+    faces.assign(rig.meshes.size(), {});
+    verts.assign(rig.meshes.size(), {});
+    names.clear();
+    for (const auto& r : rig.meshes) names.push_back(r.name);
+    for (int f = 0; f < rig.triangle_count(); ++f)
+      faces[static_cast<std::size_t>(rig.mesh_of(rig.triangles(f, 0)))].push_back(f);
+    for (std::size_t k = 0; k < rig.meshes.size(); ++k)
+      for (int i = 0; i < rig.meshes[k].vertex_count; ++i)
+        verts[k].push_back(rig.meshes[k].first_vertex + i);
   } else {
     for (int f = 0; f < rig.triangle_count(); ++f) faces[0].push_back(f);
     for (int v = 0; v < rig.vertex_count(); ++v) verts[0].push_back(v);
   }
   for (std::size_t g = 0; g < faces.size(); ++g) {
     if (faces[g].empty()) continue;
-    tinygltf::Mesh mesh = add_mesh(w, rig, verts[g], faces[g], faces.size() == 1);
+    tinygltf::Mesh mesh = add_mesh(w, rig, verts[g], faces[g], every_shape);
     mesh.name = names[g];
     m.meshes.push_back(std::move(mesh));
     tinygltf::Node node;

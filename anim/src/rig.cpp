@@ -50,6 +50,12 @@ std::vector<std::string> Rig::shape_names() const {
   return names;
 }
 
+int Rig::mesh_of(int vertex) const {
+  const auto it = std::upper_bound(meshes.begin(), meshes.end(), vertex,
+                                   [](int v, const MeshRange& m) { return v < m.first_vertex; });
+  return it == meshes.begin() ? -1 : static_cast<int>(it - meshes.begin()) - 1;
+}
+
 void Rig::validate(std::string_view what) const {
   const std::string w(what);
   const int nv = vertex_count();
@@ -83,6 +89,23 @@ void Rig::validate(std::string_view what) const {
   const auto check_name = [&](const std::string& kind, const std::string& name) {
     if (!is_valid_utf8(name)) throw Error(w + ": " + kind + " name is not valid UTF-8");
   };
+  if (!meshes.empty()) {
+    int next = 0;
+    for (const auto& m : meshes) {
+      check_name("mesh", m.name);
+      if (m.first_vertex != next || m.vertex_count <= 0)
+        throw Error(w + ": mesh '" + m.name + "' does not start where the previous one ends");
+      next += m.vertex_count;
+    }
+    if (next != nv)
+      throw Error(w + ": the meshes cover " + std::to_string(next) + " of " + std::to_string(nv) +
+                  " vertices");
+    for (int f = 0; f < triangle_count(); ++f) {
+      const auto in = [&](int v) { return mesh_of(v); };
+      if (in(triangles(f, 1)) != in(triangles(f, 0)) || in(triangles(f, 2)) != in(triangles(f, 0)))
+        throw Error(w + ": triangle " + std::to_string(f) + " joins two meshes");
+    }
+  }
   for (const auto& m : materials) check_name("material", m.name);
   for (const auto& g : groups) check_name("group", g);
   for (const auto& s : shapes) check_name("shape", s.name);

@@ -12,6 +12,7 @@
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/picture.hpp"
@@ -134,7 +135,8 @@ void run_build(BuildArgs& a) {
   const anim::Rig tmpl = a.tmpl.empty()
                              ? anim::read_obj_shapes(a.tmpl_neutral, a.tmpl_shapes, {"identity*"})
                              : anim::load_rig(a.tmpl);
-  const anim::Rig target = anim::load_rig(a.target);
+  const rigbuild::BuildTarget user = rigbuild::BuildTarget::read(a.target);
+  const anim::Rig& target = user.neutral();
   const std::filesystem::path cache = read_build_files(a, tmpl, target);
   if (!a.ve_pair.empty()) {
     int i = -1, j = -1;
@@ -145,7 +147,8 @@ void run_build(BuildArgs& a) {
   const auto r = rigbuild::build_rig(tmpl, target, opt, terminal_progress());
   if (!cache.empty() && !opt.correspondence) rigbuild::save_correspondence(cache, r.correspondence);
 
-  anim::write_glb(a.out, r.rig);
+  // An avatar target keeps its file: the new shapes go into its own meshes.
+  write_file_atomic(a.out, user.glb_bytes(r.rig));
   if (r.landmarks) {
     std::fprintf(stderr, "landmarks: %zu marker pairs from %d of %zu views (%.2f s)\n",
                  r.landmarks->markers.size(), r.landmarks->target.views_found,
@@ -258,7 +261,9 @@ void add_rig_build_commands(CLI::App& rig) {
       ->check(CLI::ExistingFile);
   b->add_option("--template-shapes", a->tmpl_shapes, "Folder of template shape OBJs")
       ->check(CLI::ExistingDirectory);
-  b->add_option("--target", a->target, "The user's neutral head (OBJ or GLB)")
+  b->add_option("--target", a->target,
+                "The user's neutral head (OBJ), or avatar (GLB, .gltf, VRM: the output is that "
+                "file with the new shapes in its face meshes)")
       ->required()
       ->check(CLI::ExistingFile);
   b->add_option("--markers", a->markers,

@@ -4,6 +4,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "log.hpp"
 #include "routes.hpp"
@@ -137,15 +138,12 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
     throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
   const std::string& format = str(mesh->at("format"), "mesh.format");
   const std::string& data = str(mesh->at("data"), "mesh.data");
-  anim::Rig target;
-  if (format == "obj") {
-    target = anim::parse_obj(data, "mesh");
-  } else if (format == "glb") {
-    target = anim::parse_glb(base64_decode(data, "mesh.data"), "mesh");
-  } else {
-    throw Error("mesh.format: '" + format + "' is not obj or glb");
-  }
-  target.shapes.clear();  // only the neutral is used
+  if (format != "obj" && format != "glb" && format != "vrm")
+    throw Error("mesh.format: '" + format + "' is not obj, glb or vrm");
+  // An avatar (glb, vrm) is kept: the built shapes go into its own meshes.
+  auto user = std::make_shared<rigbuild::BuildTarget>(rigbuild::BuildTarget::parse(
+      format == "obj" ? data : base64_decode(data, "mesh.data"), format, "mesh"));
+  anim::Rig& target = user->neutral();
   target.validate("mesh");
   const auto tmpl = state.rigs.load(template_id);
 
@@ -156,18 +154,21 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
                                           target.vertex_count(), "markers");
   else
     rigbuild::reorder_triangles_like(*tmpl->rig, target);
-  auto shared_target = std::make_shared<const anim::Rig>(std::move(target));
+  const int vertices = target.vertex_count();
+  std::shared_ptr<const rigbuild::BuildTarget> shared_target = std::move(user);
   const std::string job =
       state.jobs.submit("rig", [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {
         const auto t0 = std::chrono::steady_clock::now();
-        const auto r = rigbuild::build_rig(*tmpl->rig, *shared_target, opt, ctx.progress_fn());
+        const auto r =
+            rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
         const json report = rigbuild::build_report_json(r, opt);
         ctx.progress("storing", 1.0);
-        const std::string id = state.rigs.add(name, tmpl->id, r.rig, report,
-                                              opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
-                                                  ? r.virtual_edges
-                                                  : std::vector<rigbuild::VirtualEdge>{},
-                                              r.ve_stats);
+        const std::string id =
+            state.rigs.add(name, tmpl->id, r.rig, shared_target->glb_bytes(r.rig), report,
+                           opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
+                               ? r.virtual_edges
+                               : std::vector<rigbuild::VirtualEdge>{},
+                           r.ve_stats);
         state.metrics.rig_build_seconds.observe(
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
@@ -175,7 +176,7 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
   log::info("rig_upload", {{"job", job},
                            {"name", name},
                            {"template", tmpl->id},
-                           {"vertices", shared_target->vertex_count()},
+                           {"vertices", vertices},
                            {"markers", markers != nullptr}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});

@@ -131,15 +131,15 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
   try {
     auto loaded = std::make_shared<LoadedRig>();
     loaded->id = id;
-    if (id == kBuiltin) {
-      // default_avatar() lives for the whole process.
-      loaded->rig =
-          std::shared_ptr<const anim::Rig>(&anim::default_avatar(), [](const anim::Rig*) {});
-    } else {
+    {
       const auto t0 = std::chrono::steady_clock::now();
-      // Every mesh (hair, body, clothes too): the frames show the whole avatar.
-      loaded->rig = std::make_shared<const anim::Rig>(
-          anim::make_view(anim::AvatarDocument::read(glb_path(id)), {.all_meshes = true}).rig);
+      // Every mesh (hair, body, clothes too): the frames show the whole avatar. The built-in one
+      // goes through its GLB too, as users' files do.
+      anim::AvatarDocument doc = id == kBuiltin
+                                     ? anim::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
+                                     : anim::AvatarDocument::read(glb_path(id));
+      loaded->rig =
+          std::make_shared<const anim::Rig>(anim::make_view(doc, {.all_meshes = true}).rig);
       log::info(
           "rig_loaded",
           {{"rig", id},
@@ -234,7 +234,8 @@ void RigRegistry::store(const RigInfo& info,
 }
 
 std::string RigRegistry::add(const std::string& name, const std::string& template_id,
-                             const anim::Rig& rig, const nlohmann::json& report,
+                             const anim::Rig& rig, const std::string& glb,
+                             const nlohmann::json& report,
                              const std::vector<rigbuild::VirtualEdge>& edges,
                              const rigbuild::VirtualEdgeStats& stats) {
   RigInfo info;
@@ -245,7 +246,7 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
   info.vertices = rig.vertex_count();
   info.virtual_edges = !edges.empty();
   info.created = now_seconds();
-  store(info, {{"rig.glb", anim::glb_bytes(rig)}, {"report.json", report.dump(2) + "\n"}},
+  store(info, {{"rig.glb", glb}, {"report.json", report.dump(2) + "\n"}},
         {{"id", info.id},
          {"name", name},
          {"template", template_id},

@@ -58,9 +58,11 @@ class RigRegistry {
   /// GLB bytes of the built-in avatar, made on first call.
   std::shared_ptr<const std::string> builtin_glb();
 
-  /// Stores a built rig and returns its new id ("r1", "r2", ...).
+  /// Stores a built rig (`glb`: its file, rigbuild::BuildTarget::glb_bytes) and returns its new
+  /// id.
   std::string add(const std::string& name, const std::string& template_id, const anim::Rig& rig,
-                  const nlohmann::json& report, const std::vector<rigbuild::VirtualEdge>& edges,
+                  const std::string& glb, const nlohmann::json& report,
+                  const std::vector<rigbuild::VirtualEdge>& edges,
                   const rigbuild::VirtualEdgeStats& stats);
   /// Stores a user's avatar (GLB or VRM bytes) as it is, byte for byte, after checking that it
   /// parses and that the animation can drive it; throws Error naming `what` otherwise.

@@ -14,8 +14,10 @@
 namespace facecast::anim {
 
 struct ViewOptions {
-  /// false: the primitives of meshes with morph targets (every mesh when none has any), the face
-  /// the animation drives; true: every triangle mesh (hair, body, clothes too), for rendering.
+  /// false: the face the animation drives and the rig builder gives shapes to: the primitives of
+  /// meshes with morph targets; when none has any, the meshes the skeleton's head joint carries
+  /// (under it, or skinned mostly to it and the joints under it), or every mesh without a head
+  /// joint. true: every triangle mesh (hair, body, clothes too), for rendering.
   bool all_meshes = false;
 };
 

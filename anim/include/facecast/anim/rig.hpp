@@ -96,6 +96,13 @@ struct Landmark {
   int vertex = 0;
 };
 
+/// One glTF mesh of a rig written as several (the head, teeth, eyes ... as real avatars have them):
+/// a consecutive range of vertices, and the triangles on them.
+struct MeshRange {
+  std::string name;
+  int first_vertex = 0, vertex_count = 0;
+};
+
 struct Rig {
   Positions positions;                 // #V by 3, the neutral face
   Positions normals;                   // #V by 3, unit length
@@ -108,7 +115,9 @@ struct Rig {
   std::vector<Blendshape> shapes;
   std::vector<Landmark> landmarks;
   std::vector<Texture> textures;  // images the materials sample (through uvs)
-  Skeleton skeleton;              // empty when the avatar is not skinned
+  /// The meshes the rig is written as, covering every vertex in order; empty: one mesh.
+  std::vector<MeshRange> meshes;
+  Skeleton skeleton;  // empty when the avatar is not skinned
   /// #V by 4 joint indices into skeleton and their weights (summing to 1), or 0 rows when the
   /// avatar is not skinned.
   Eigen::Matrix<int, Eigen::Dynamic, 4, Eigen::RowMajor> joints;
@@ -119,6 +128,8 @@ struct Rig {
   /// Index of the shape named `name`, or -1.
   int find_shape(std::string_view name) const;
   std::vector<std::string> shape_names() const;
+  /// Index into `meshes` of the range holding `vertex` (-1 without meshes).
+  int mesh_of(int vertex) const;
   /// Checks sizes, index ranges and finiteness; throws facecast::Error naming `what` and the
   /// problem.
   void validate(std::string_view what = "rig") const;
