@@ -72,15 +72,18 @@ class ViewBuilder {
   }
 
  private:
-  // The node of the skeleton's head joint (by name, find_joint), or -1.
+  // The node of the skeleton's head joint (a skin joint named as find_joint knows), or -1.
   int head_joint_node() const {
+    std::vector<int> joints;
     std::vector<std::string> names;
-    for (const auto& n : m_.nodes) names.push_back(n.name);
-    const int head = find_joint(names, "head");
-    if (head < 0) return -1;
     for (const auto& skin : m_.skins)
-      if (std::find(skin.joints.begin(), skin.joints.end(), head) != skin.joints.end()) return head;
-    return -1;
+      for (const int j : skin.joints)
+        if (j >= 0 && static_cast<std::size_t>(j) < m_.nodes.size()) {
+          joints.push_back(j);
+          names.push_back(m_.nodes[static_cast<std::size_t>(j)].name);
+        }
+    const int k = find_joint(names, "head");
+    return k < 0 ? -1 : joints[static_cast<std::size_t>(k)];
   }
 
   bool under(int node, int ancestor) const {

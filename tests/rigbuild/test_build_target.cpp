@@ -1,0 +1,201 @@
+// A rig build into a user's avatar file: the default avatar as a skinned multi-mesh avatar with a
+// body, its morph targets removed; the build from the default template writes the shapes back
+// into its own face meshes and keeps everything else (Khronos validator clean).
+#include <tiny_gltf.h>
+
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "facecast/anim/avatar.hpp"
+#include "facecast/anim/avatar_view.hpp"
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/build_target.hpp"
+
+namespace fs = std::filesystem;
+using namespace facecast;
+
+namespace {
+
+fs::path out_dir() {
+  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "build-target";
+  fs::create_directories(dir);
+  return dir;
+}
+
+int add_accessor(tinygltf::Model& m, const void* data, std::size_t bytes, int component, int type,
+                 std::size_t count) {
+  auto& buf = m.buffers[0].data;
+  while (buf.size() % 4) buf.push_back(0);
+  tinygltf::BufferView v;
+  v.buffer = 0;
+  v.byteOffset = buf.size();
+  v.byteLength = bytes;
+  const auto* p = static_cast<const unsigned char*>(data);
+  buf.insert(buf.end(), p, p + bytes);
+  m.bufferViews.push_back(v);
+  tinygltf::Accessor a;
+  a.bufferView = static_cast<int>(m.bufferViews.size()) - 1;
+  a.componentType = component;
+  a.type = type;
+  a.count = count;
+  m.accessors.push_back(a);
+  return static_cast<int>(m.accessors.size()) - 1;
+}
+
+// Every vertex of `prim` bound to joint `joint` alone.
+void bind(tinygltf::Model& m, tinygltf::Primitive& prim, std::uint16_t joint) {
+  const std::size_t n = m.accessors[static_cast<std::size_t>(prim.attributes.at("POSITION"))].count;
+  std::vector<std::uint16_t> j(n * 4, 0);
+  std::vector<float> w(n * 4, 0.0f);
+  for (std::size_t v = 0; v < n; ++v) j[v * 4] = joint, w[v * 4] = 1.0f;
+  prim.attributes["JOINTS_0"] = add_accessor(
+      m, j.data(), j.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4, n);
+  prim.attributes["WEIGHTS_0"] =
+      add_accessor(m, w.data(), w.size() * 4, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, n);
+}
+
+// The default avatar's GLB with its morph targets removed, a skeleton (Hips > Neck > Head) that
+// carries the face meshes by the head, and a body box under them bound to the hips.
+std::string avatar_without_shapes() {
+  anim::AvatarDocument doc =
+      anim::AvatarDocument::parse(anim::glb_bytes(anim::default_avatar()), "avatar.glb");
+  tinygltf::Model& m = doc.model();
+  for (auto& mesh : m.meshes) {
+    for (auto& p : mesh.primitives) p.targets.clear();
+    mesh.weights.clear();
+    mesh.extras = tinygltf::Value();
+  }
+  const std::vector<int> face_nodes = m.scenes[0].nodes;
+  // Joints at their rest places; inverse bind matrices undo them.
+  const float at[3][3] = {{0, -8, 0}, {0, 4, 0}, {0, 2, 0}};  // local translations
+  const char* names[3] = {"Hips", "Neck", "Head"};
+  std::vector<float> ibm;
+  float world_y = 0;
+  const int first = static_cast<int>(m.nodes.size());
+  for (int k = 0; k < 3; ++k) {
+    tinygltf::Node n;
+    n.name = names[k];
+    n.translation = {at[k][0], at[k][1], at[k][2]};
+    if (k < 2) n.children = {first + k + 1};
+    m.nodes.push_back(n);
+    world_y += at[k][1];
+    const float inv[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -world_y, 0, 1};
+    ibm.insert(ibm.end(), inv, inv + 16);
+  }
+  tinygltf::Skin skin;
+  skin.joints = {first, first + 1, first + 2};
+  skin.inverseBindMatrices = add_accessor(m, ibm.data(), ibm.size() * 4,
+                                          TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_MAT4, 3);
+  m.skins.push_back(skin);
+  for (const int n : face_nodes) {
+    m.nodes[static_cast<std::size_t>(n)].skin = 0;
+    for (auto& p :
+         m.meshes[static_cast<std::size_t>(m.nodes[static_cast<std::size_t>(n)].mesh)].primitives)
+      bind(m, p, 2);
+  }
+  // The body: a box below the head, bound to the hips.
+  const float box[8][3] = {{-5, -16, -3}, {5, -16, -3}, {5, -9, -3}, {-5, -9, -3},
+                           {-5, -16, 3},  {5, -16, 3},  {5, -9, 3},  {-5, -9, 3}};
+  const std::uint32_t faces[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                   3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+  tinygltf::Primitive body;
+  body.attributes["POSITION"] =
+      add_accessor(m, box, sizeof box, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, 8);
+  m.accessors.back().minValues = {-5, -16, -3};
+  m.accessors.back().maxValues = {5, -9, 3};
+  body.indices = add_accessor(m, faces, sizeof faces, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                              TINYGLTF_TYPE_SCALAR, 36);
+  tinygltf::Material plain;
+  plain.name = "M_Body";
+  m.materials.push_back(plain);
+  body.material = static_cast<int>(m.materials.size()) - 1;
+  body.mode = TINYGLTF_MODE_TRIANGLES;
+  bind(m, body, 0);
+  tinygltf::Mesh body_mesh;
+  body_mesh.name = "Body";
+  body_mesh.primitives.push_back(body);
+  m.meshes.push_back(body_mesh);
+  tinygltf::Node body_node;
+  body_node.name = "Body";
+  body_node.mesh = static_cast<int>(m.meshes.size()) - 1;
+  body_node.skin = 0;
+  m.nodes.push_back(body_node);
+  m.scenes[0].nodes.push_back(first);
+  m.scenes[0].nodes.push_back(static_cast<int>(m.nodes.size()) - 1);
+  return doc.glb_bytes();
+}
+
+bool validator_clean(const fs::path& path) {
+  const std::string cmd = "node " + std::string(FACECAST_SOURCE_DIR) +
+                          "/scripts/validate-gltf.mjs '" + path.string() + "' > '" + path.string() +
+                          ".validation' 2>&1";
+  const int rc = std::system(cmd.c_str());
+  if (rc != 0) UNSCOPED_INFO(read_file(path.string() + ".validation"));
+  return rc == 0;
+}
+
+// |a - b| / |b| over all vertices.
+double relative_difference(const anim::Rig& a, const anim::Rig& b, const std::string& shape) {
+  const int sa = a.find_shape(shape), sb = b.find_shape(shape);
+  REQUIRE(sa >= 0);
+  REQUIRE(sb >= 0);
+  const anim::Positions da = a.shapes[static_cast<std::size_t>(sa)].dense(a.vertex_count());
+  const anim::Positions db = b.shapes[static_cast<std::size_t>(sb)].dense(b.vertex_count());
+  return (da - db).norm() / db.norm();
+}
+
+}  // namespace
+
+TEST_CASE("a build into an avatar file writes the shapes into its face meshes and keeps the rest",
+          "[rigbuild][avatar]") {
+  const fs::path in = out_dir() / "no-shapes.glb", out = out_dir() / "rebuilt.glb";
+  write_file_atomic(in, avatar_without_shapes());
+  const anim::Rig& tmpl = anim::default_avatar();
+
+  const rigbuild::BuildTarget target = rigbuild::BuildTarget::read(in);
+  REQUIRE(target.is_avatar());
+  // The face is what the head joint carries: the five face meshes, not the body.
+  CHECK(target.neutral().vertex_count() == tmpl.vertex_count());
+  CHECK(target.neutral().shapes.empty());
+
+  const auto r = rigbuild::build_rig(tmpl, target.neutral(), rigbuild::load_build_options());
+  write_file_atomic(out, target.glb_bytes(r.rig));
+  CHECK(validator_clean(out));
+
+  const auto before = anim::AvatarDocument::read(in);
+  const auto after = anim::AvatarDocument::read(out);
+  const tinygltf::Model &a = before.model(), &b = after.model();
+  REQUIRE(a.meshes.size() == b.meshes.size());
+  CHECK(a.nodes.size() == b.nodes.size());
+  CHECK(a.skins.size() == b.skins.size());
+  CHECK(b.skins[0].joints == a.skins[0].joints);
+  CHECK(a.materials.size() == b.materials.size());
+  REQUIRE(a.images.size() == b.images.size());
+  for (std::size_t i = 0; i < a.images.size(); ++i) {
+    const auto bytes = [](const tinygltf::Model& m, std::size_t k) {
+      const auto& v = m.bufferViews[static_cast<std::size_t>(m.images[k].bufferView)];
+      const auto& d = m.buffers[static_cast<std::size_t>(v.buffer)].data;
+      return std::string(reinterpret_cast<const char*>(d.data() + v.byteOffset), v.byteLength);
+    };
+    CHECK(bytes(a, i) == bytes(b, i));
+  }
+  for (const auto& mesh : b.meshes) {
+    INFO(mesh.name);
+    if (mesh.name == "Body")
+      CHECK(mesh.primitives[0].targets.empty());  // the template moves nothing there
+    else if (mesh.name == "Head")
+      CHECK(mesh.primitives[0].targets.size() >= 40);
+  }
+
+  // Same topology as the template: the shapes come back as the template's.
+  const anim::AvatarView view = anim::make_view(after);
+  CHECK(view.rig.vertex_count() == tmpl.vertex_count());
+  for (const char* shape : {"jawOpen", "eyeBlinkLeft", "mouthSmileLeft", "eyeLookInLeft"}) {
+    INFO(shape);
+    CHECK(relative_difference(view.rig, tmpl, shape) < 0.05);
+  }
+}
