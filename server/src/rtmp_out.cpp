@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <future>
 
 #include "facecast/core/error.hpp"
 #include "log.hpp"
@@ -244,11 +245,12 @@ bool RtmpOutput::spawn() {
       state_->video_options.ffmpeg, "-hide_banner", "-loglevel", "warning",
       // Input 0: the pictures, raw RGB at the output rate.
       "-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size",
-      std::to_string(r.width) + "x" + std::to_string(r.height), "-framerate", fps,
-      "-probesize", "32", "-analyzeduration", "0", "-thread_queue_size", "64", "-i", "pipe:0",
+      std::to_string(r.width) + "x" + std::to_string(r.height), "-framerate", fps, "-probesize",
+      "32", "-analyzeduration", "0", "-thread_queue_size", "64", "-i", "pipe:0",
       // Input 1: the sound, PCM16 mono.
       "-f", "s16le", "-ar", std::to_string(kRate), "-ac", "1", "-probesize", "32",
-      "-analyzeduration", "0", "-thread_queue_size", "1024", "-i", "pipe:3", "-map", "0:v:0", "-map", "1:a:0",
+      "-analyzeduration", "0", "-thread_queue_size", "1024", "-i", "pipe:3", "-map", "0:v:0",
+      "-map", "1:a:0",
       // H.264 with a keyframe every 2 s, constant bitrate, no B-frame delay; AAC.
       "-c:v", "libx264", "-preset", "veryfast", "-tune", "zerolatency", "-pix_fmt", "yuv420p", "-g",
       std::to_string(static_cast<int>(std::lround(2 * r.fps))), "-b:v", kbps(r.video_kbps),

@@ -10,11 +10,12 @@
 // [round(k * R / fps), round((k + 1) * R / fps)) of the output rate R, so audio and video advance
 // from one clock and the mouth keeps within a frame of the sound however late the messages come
 // (docs/algorithms.md#rtmp-out). Between streams the face holds the last pose with silence; a
-// frame whose deadline passed by more than a frame is repeated instead of rendered. When ffmpeg
+// frame whose deadline passed by more than a frame repeats the last picture. When ffmpeg
 // exits (the ingest server went away) it is started again after `kRestartSeconds`.
 #include <atomic>
 #include <cstdint>
 #include <deque>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>

@@ -44,7 +44,7 @@ int status_of(unsigned short port, http::verb verb, const std::string& target) {
 
 }  // namespace
 
-TEST_CASE("job records and videos survive a restart; DELETE removes them", "[jobs][operations]") {
+TEST_CASE("job records and videos survive a restart, and DELETE removes them", "[jobs][operations]") {
   TestServer s;
   const std::string id = start_render(s.port(), "Kept.");
   const auto done = ended_job(s.port(), id, 120 * slowdown());
@@ -115,7 +115,7 @@ TEST_CASE("a job cut off by a crash reads as interrupted after the restart", "[j
   CHECK_THAT(j["error"]["message"].get<std::string>(), Catch::Contains("interrupted"));
 }
 
-TEST_CASE("DELETE /api/rigs removes a stored rig; built-in and default rigs stay",
+TEST_CASE("DELETE /api/rigs removes a stored rig, built-in and default rigs stay",
           "[rigs][operations]") {
   TestServer s;
   const auto r =
