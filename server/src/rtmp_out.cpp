@@ -10,7 +10,6 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <future>
 
 #include "facecast/core/error.hpp"
 #include "log.hpp"
