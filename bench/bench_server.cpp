@@ -468,7 +468,7 @@ void run_weights(const Args& a, const fctest::ServeProcess& server) {
     std::printf("  machine load average (1 min) at the end: %.2f\n", load[0]);
   const std::string m = http_get(server.port(), "/metrics");
   const auto ttff = histogram(m, "facecast_time_to_first_frame_seconds", 0.99);
-  const auto analysis = histogram(m, "facecast_analysis_seconds", 0.99);
+  const auto analysis = histogram(m, "facecast_analysis_duration_seconds", 0.99);
   std::printf(
       "  server side: time to first frame mean %.1f ms, p99 <= %.0f ms; analysis mean %.1f ms, "
       "p99 <= %.0f ms\n",
@@ -495,7 +495,7 @@ void run_frames(const Args& a, const fctest::ServeProcess& server) {
     for (const auto& m : c.stats.error_messages) std::printf("    error: %s\n", m.c_str());
   }
   const auto render =
-      histogram(http_get(server.port(), "/metrics"), "facecast_render_seconds", 0.5);
+      histogram(http_get(server.port(), "/metrics"), "facecast_render_duration_seconds", 0.5);
   std::printf("  render + JPEG per frame on the server: mean %.1f ms (median <= %.0f ms)\n",
               1e3 * render.first, 1e3 * render.second);
 }

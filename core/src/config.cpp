@@ -4,11 +4,13 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/install.hpp"
 
 namespace facecast {
 
 std::filesystem::path config_dir() {
   if (const char* env = std::getenv("FACECAST_CONFIG_DIR"); env && *env) return env;
+  if (const auto share = installed_share_dir(); !share.empty()) return share / "configs";
   return FACECAST_DEFAULT_CONFIG_DIR;
 }
 

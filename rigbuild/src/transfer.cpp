@@ -94,6 +94,7 @@ struct Transfer::Impl {
   Dense solve(const Dense& rhs) const {
     if (setup.solver == SolverKind::kCholmod) {
       // CHOLMOD solves all right-hand sides in one supernodal (BLAS-3) sweep.
+      const OpenMpThreads omp_threads;  // CHOLMOD's OpenMP regions, within the thread budget
       return const_cast<Cholmod&>(cholmod).solve(rhs);
     }
     // Eigen's solve is const and thread-safe: split the columns over the cores.
@@ -178,6 +179,7 @@ Transfer::Transfer(TransferSetup setup) : impl_(std::make_unique<Impl>()) {
   if (I.free_n == 0) {
     // Every vertex is prescribed: nothing to factor.
   } else if (S.solver == SolverKind::kCholmod) {
+    const OpenMpThreads omp_threads;
     I.cholmod.compute(M);
     ok = I.cholmod.info() == Eigen::Success;
   } else {

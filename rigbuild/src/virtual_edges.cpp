@@ -120,7 +120,8 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
 
   // Per vertex: its `per_vertex` shortest qualifying partners.
   std::vector<std::vector<Candidate>> best(static_cast<std::size_t>(n));
-  const unsigned workers = worker_count(static_cast<std::size_t>(n));
+  const WorkerLease lease(static_cast<std::size_t>(n));
+  const unsigned workers = lease.workers();
   std::vector<long> cand_count(workers, 0), qual_count(workers, 0);
   parallel_workers(workers, [&](unsigned w) {
     LocalGeodesic geo(graph);

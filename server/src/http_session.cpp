@@ -191,7 +191,8 @@ void HttpSession::handle() {
   }
   log::debug("http_request", {{"conn", conn_},
                               {"method", std::string(req.method_string())},
-                              {"target", std::string(req.target())}});
+                              {"target", std::string(req.target())},
+                              log::Field::if_set("forwarded_for", req["X-Forwarded-For"])});
   if (is_heavy(req)) {
     net::post(state_->workers, [self = shared_from_this(), req = std::move(req),
                                 keep_alive]() mutable {
@@ -207,8 +208,12 @@ void HttpSession::handle() {
 
 void HttpSession::fail(const Problem& problem, bool keep_alive) {
   const unsigned version = parser_ && parser_->is_header_done() ? parser_->get().version() : 11;
-  log::info("http_refused",
-            {{"conn", conn_}, {"status", problem.status}, {"message", problem.message}});
+  const std::string_view forwarded =
+      parser_ && parser_->is_header_done() ? parser_->get()["X-Forwarded-For"] : "";
+  log::info("http_refused", {{"conn", conn_},
+                             {"status", problem.status},
+                             {"message", problem.message},
+                             log::Field::if_set("forwarded_for", forwarded)});
   send(error_response(*state_, version, keep_alive, problem), keep_alive);
 }
 

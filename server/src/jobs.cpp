@@ -10,20 +10,27 @@
 
 namespace facecast::server {
 namespace {
-constexpr std::size_t kKeepFinished = 256;
+
+constexpr std::size_t kKeepFinished = 256;  // ended jobs kept in memory (the store keeps all)
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
+void remove_files(const JobRecord& r) {
+  for (const auto& [name, path] : r.files) {
+    std::error_code ec;
+    std::filesystem::remove(path, ec);
+    if (ec) log::warn("job_file_remove_failed", {{"job", r.id}, {"file", path.string()}});
+  }
+}
+
+}  // namespace
+
 struct Jobs::Job {
-  std::string id, kind;
+  JobRecord record;
   Work work;
-  std::string state = "queued";  // queued | running | done | failed
-  std::string stage;
-  double progress = 0;
-  nlohmann::json result;  // null until done
-  std::optional<Problem> error;
-  std::map<std::string, std::filesystem::path> files;
-  std::chrono::system_clock::time_point created = std::chrono::system_clock::now();
-  double seconds = 0;
+  bool deleted = false;  // DELETE while running: cancelled, nothing kept
 };
 
 class Jobs::Context final : public JobContext {
@@ -33,71 +40,160 @@ class Jobs::Context final : public JobContext {
     std::lock_guard lock(jobs_.mutex_);
     if (jobs_.stopping_)
       throw Error("cancelled: the server is shutting down", ErrorCode::kInternal);
-    job_.stage = std::string(stage);
-    job_.progress = std::clamp(fraction, 0.0, 1.0);
+    if (job_.deleted) throw Error("cancelled: the job was deleted", ErrorCode::kInternal);
+    job_.record.stage = std::string(stage);
+    job_.record.progress = std::clamp(fraction, 0.0, 1.0);
   }
   void add_file(const std::string& name, const std::filesystem::path& path) override {
     std::lock_guard lock(jobs_.mutex_);
-    job_.files[name] = path;
+    job_.record.files[name] = path;
   }
-  const std::string& id() const override { return job_.id; }
+  const std::string& id() const override { return job_.record.id; }
 
  private:
   Jobs& jobs_;
   Job& job_;
 };
 
-Jobs::Jobs(Metrics& metrics, int threads, int max_jobs) : metrics_(metrics), max_jobs_(max_jobs) {
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { worker(); });
+Jobs::Jobs(Metrics& metrics, JobsOptions options)
+    : metrics_(metrics),
+      options_(std::move(options)),
+      budget_(static_cast<unsigned>(std::max(1, options_.threads))) {
+  if (!options_.store.empty()) {
+    store_ = std::make_unique<JobStore>(options_.store);
+    next_id_ = store_->max_number() + 1;
+    // Jobs that were queued or running when the last process ended cannot resume: their work
+    // (meshes, options) lived in that process.
+    for (JobRecord r : store_->unfinished()) {
+      r.state = "failed";
+      r.error =
+          Problem{Code::kUnavailable, "interrupted: the server stopped before it finished", 503};
+      r.finished = unix_now();
+      store_->put(r);
+      log::warn("job_interrupted", {{"job", r.id}, {"kind", r.kind}});
+    }
+    expire();
+  }
+  for (int i = 0; i < options_.threads; ++i) threads_.emplace_back([this] { worker(); });
 }
 
 Jobs::~Jobs() {
   shutdown();
 }
 
+void Jobs::save(const JobRecord& record) const {
+  if (!store_) return;
+  try {
+    store_->put(record);
+  } catch (const std::exception& e) {
+    log::error("job_store_failed", {{"job", record.id}, {"error", e.what()}});
+  }
+}
+
 std::string Jobs::submit(const std::string& kind, Work work) {
+  if (store_) expire();
   std::lock_guard lock(mutex_);
   if (stopping_) throw RequestError(Code::kUnavailable, "the server is shutting down");
   long pending = 0;
-  for (const auto& [id, job] : jobs_) pending += job->state == "queued" || job->state == "running";
-  if (pending >= max_jobs_) {
+  for (const auto& [id, job] : jobs_) pending += !job->record.ended();
+  if (pending >= options_.max_jobs) {
     throw RequestError(Code::kLimit,
                        std::to_string(pending) + " jobs are queued or running (max_jobs " +
-                           std::to_string(max_jobs_) + "); try again later",
+                           std::to_string(options_.max_jobs) + "); try again later",
                        429);
   }
   auto job = std::make_shared<Job>();
-  job->id = "j" + std::to_string(next_id_++);
-  job->kind = kind;
+  job->record.id = "j" + std::to_string(next_id_++);
+  job->record.kind = kind;
+  job->record.created = unix_now();
   job->work = std::move(work);
-  jobs_[job->id] = job;
+  save(job->record);
+  jobs_[job->record.id] = job;
   queue_.push_back(job);
   metrics_.jobs_queued.fetch_add(1);
   cv_.notify_one();
-  log::info("job_queued", {{"job", job->id}, {"kind", kind}});
-  return job->id;
+  log::info("job_queued", {{"job", job->record.id}, {"kind", kind}});
+  return job->record.id;
+}
+
+std::optional<JobRecord> Jobs::record(const std::string& id) const {
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = jobs_.find(id);
+    if (it != jobs_.end()) return it->second->record;
+  }
+  if (!store_) return std::nullopt;
+  try {
+    return store_->get(id);
+  } catch (const std::exception& e) {
+    log::error("job_store_failed", {{"job", id}, {"error", e.what()}});
+    return std::nullopt;
+  }
 }
 
 std::optional<nlohmann::json> Jobs::get(const std::string& id) const {
-  std::lock_guard lock(mutex_);
-  const auto it = jobs_.find(id);
-  if (it == jobs_.end()) return std::nullopt;
-  const Job& j = *it->second;
-  nlohmann::json out = {{"id", j.id},       {"kind", j.kind},         {"state", j.state},
-                        {"stage", j.stage}, {"progress", j.progress}, {"result", j.result},
-                        {"error", nullptr}, {"seconds", j.seconds}};
-  if (j.error) out["error"] = {{"code", to_string(j.error->code)}, {"message", j.error->message}};
-  return out;
+  const auto r = record(id);
+  if (!r) return std::nullopt;
+  return r->to_json();
 }
 
 std::optional<std::filesystem::path> Jobs::file(const std::string& id,
                                                 const std::string& name) const {
-  std::lock_guard lock(mutex_);
-  const auto it = jobs_.find(id);
-  if (it == jobs_.end() || it->second->state != "done") return std::nullopt;
-  const auto f = it->second->files.find(name);
-  if (f == it->second->files.end()) return std::nullopt;
+  const auto r = record(id);
+  if (!r || r->state != "done") return std::nullopt;
+  const auto f = r->files.find(name);
+  if (f == r->files.end()) return std::nullopt;
   return f->second;
+}
+
+bool Jobs::remove(const std::string& id) {
+  std::optional<JobRecord> ended;
+  bool found = false;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = jobs_.find(id);
+    if (it != jobs_.end()) {
+      found = true;
+      Job& job = *it->second;
+      if (job.record.state == "queued") {
+        std::erase(queue_, it->second);
+        metrics_.jobs_queued.fetch_sub(1);
+      } else if (job.record.state == "running") {
+        job.deleted = true;  // the worker cancels it and removes what it wrote
+      } else {
+        ended = job.record;
+      }
+      std::erase(finished_, id);
+      jobs_.erase(it);
+    }
+  }
+  if (store_) {
+    if (!ended && !found) ended = store_->get(id);
+    found = store_->remove(id) || found;
+  }
+  if (ended) remove_files(*ended);
+  if (found) log::info("job_deleted", {{"job", id}});
+  return found;
+}
+
+void Jobs::expire() {
+  if (!store_ || options_.retention <= 0) return;
+  std::vector<JobRecord> old;
+  try {
+    old = store_->take_ended_before(unix_now() - options_.retention);
+  } catch (const std::exception& e) {
+    log::error("job_store_failed", {{"error", e.what()}});
+    return;
+  }
+  for (const auto& r : old) {
+    {
+      std::lock_guard lock(mutex_);
+      jobs_.erase(r.id);
+      std::erase(finished_, r.id);
+    }
+    remove_files(r);
+    log::info("job_expired", {{"job", r.id}, {"kind", r.kind}});
+  }
 }
 
 void Jobs::shutdown() {
@@ -107,8 +203,11 @@ void Jobs::shutdown() {
     threads.swap(threads_);
     stopping_ = true;
     for (auto& job : queue_) {
-      job->state = "failed";
-      job->error = Problem{Code::kUnavailable, "cancelled: the server is shutting down", 503};
+      job->record.state = "failed";
+      job->record.error =
+          Problem{Code::kUnavailable, "cancelled: the server is shutting down", 503};
+      job->record.finished = unix_now();
+      save(job->record);
       metrics_.jobs_queued.fetch_sub(1);
       metrics_.jobs_failed_total.fetch_add(1);
     }
@@ -132,54 +231,72 @@ void Jobs::worker() {
       if (queue_.empty()) return;  // stopping
       job = queue_.front();
       queue_.pop_front();
-      job->state = "running";
+      job->record.state = "running";
+      save(job->record);
       metrics_.jobs_queued.fetch_sub(1);
       metrics_.jobs_running.fetch_add(1);
     }
-    log::info("job_started", {{"job", job->id}, {"kind", job->kind}});
-    const auto t0 = std::chrono::steady_clock::now();
-    Context ctx(*this, *job);
-    nlohmann::json result;
-    std::optional<Problem> error;
-    try {
-      result = job->work(ctx);
-    } catch (...) {
-      error = describe(std::current_exception());
+    run(*job);
+  }
+}
+
+void Jobs::run(Job& job) {
+  const std::string& id = job.record.id;
+  log::info("job_started", {{"job", id}, {"kind", job.record.kind}});
+  const auto t0 = std::chrono::steady_clock::now();
+  Context ctx(*this, job);
+  nlohmann::json result;
+  std::optional<Problem> error;
+  try {
+    const rigbuild::ThreadBudgetScope threads(budget_);  // parallel loops stay within job_workers
+    result = job.work(ctx);
+  } catch (...) {
+    error = describe(std::current_exception());
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  bool deleted;
+  {
+    std::lock_guard lock(mutex_);
+    JobRecord& r = job.record;
+    deleted = job.deleted;
+    r.seconds = secs;
+    r.finished = unix_now();
+    job.work = nullptr;  // release what the work captured (meshes, rigs)
+    if (error) {
+      r.state = "failed";
+      r.error = error;
+      metrics_.jobs_failed_total.fetch_add(1);
+    } else {
+      r.state = "done";
+      r.stage = "done";
+      r.progress = 1;
+      r.result = std::move(result);
+      metrics_.jobs_done_total.fetch_add(1);
     }
-    const double secs =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    {
-      std::lock_guard lock(mutex_);
-      job->seconds = secs;
-      job->work = nullptr;  // release what the work captured (meshes, rigs)
-      if (error) {
-        job->state = "failed";
-        job->error = error;
-        metrics_.jobs_failed_total.fetch_add(1);
-      } else {
-        job->state = "done";
-        job->stage = "done";
-        job->progress = 1;
-        job->result = std::move(result);
-        metrics_.jobs_done_total.fetch_add(1);
-      }
-      metrics_.jobs_running.fetch_sub(1);
-      finished_.push_back(job->id);
+    metrics_.jobs_running.fetch_sub(1);
+    if (!deleted) {
+      save(r);
+      finished_.push_back(id);
       while (finished_.size() > kKeepFinished) {
         jobs_.erase(finished_.front());
         finished_.pop_front();
       }
     }
-    if (error) {
-      log::warn("job_failed", {{"job", job->id},
-                               {"kind", job->kind},
-                               {"code", to_string(error->code)},
-                               {"error", error->message},
-                               {"s", secs}});
-    } else {
-      log::info("job_done", {{"job", job->id}, {"kind", job->kind}, {"s", secs}});
-    }
   }
+  if (deleted) {
+    remove_files(job.record);
+    if (store_) store_->remove(id);  // the row it had while running
+    log::info("job_cancelled", {{"job", id}, {"reason", "deleted"}});
+  } else if (error) {
+    log::warn("job_failed", {{"job", id},
+                             {"kind", job.record.kind},
+                             {"code", to_string(error->code)},
+                             {"error", error->message},
+                             {"s", secs}});
+  } else {
+    log::info("job_done", {{"job", id}, {"kind", job.record.kind}, {"s", secs}});
+  }
+  if (store_) expire();
 }
 
 }  // namespace facecast::server

@@ -1,12 +1,16 @@
 #pragma once
 // Long work (rig builds, video renders) on its own small thread pool, never on the I/O threads.
 // A job is queued -> running -> done | failed; GET /api/jobs/{id} shows its stage and progress.
-// Shutdown cancels: the next progress report of a running job throws, queued jobs fail at once.
+// Records are kept in a JobStore (SQLite) when one is given: a restart keeps finished jobs and
+// marks the ones it interrupted as failed; ended jobs and their files (videos) are removed after
+// the retention time. Shutdown cancels: the next progress report of a running job throws, queued
+// jobs fail at once. The rig builds of all jobs share a ThreadBudget of `threads` threads.
 #include <condition_variable>
 #include <deque>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -16,13 +20,15 @@
 #include <nlohmann/json.hpp>
 
 #include "facecast/core/progress.hpp"
+#include "facecast/rigbuild/threads.hpp"
+#include "job_store.hpp"
 #include "metrics.hpp"
 
 namespace facecast::server {
 
 class JobContext {
  public:
-  /// Records progress; throws Error once the server is shutting down.
+  /// Records progress; throws Error once the server is shutting down or the job was deleted.
   virtual void progress(std::string_view stage, double fraction) = 0;
   /// A file this job produced, served by GET /api/jobs/{id}/{name}.
   virtual void add_file(const std::string& name, const std::filesystem::path& path) = 0;
@@ -35,12 +41,20 @@ class JobContext {
   ~JobContext() = default;
 };
 
+struct JobsOptions {
+  int threads = 1;                   // job_workers
+  int max_jobs = 8;                  // queued + running
+  std::filesystem::path store;       // SQLite file; empty: records only in memory
+  double retention = 7 * 24 * 3600;  // seconds an ended job and its files are kept (0: forever)
+};
+
 class Jobs {
  public:
   /// Work returns the job's "result" JSON, or throws (the job fails with the error's message).
   using Work = std::function<nlohmann::json(JobContext&)>;
 
-  Jobs(Metrics& metrics, int threads, int max_jobs);
+  /// Opens the store (throws Error naming it when it cannot) and starts the threads.
+  Jobs(Metrics& metrics, JobsOptions options);
   ~Jobs();
   Jobs(const Jobs&) = delete;
   Jobs& operator=(const Jobs&) = delete;
@@ -50,6 +64,11 @@ class Jobs {
   /// The GET /api/jobs/{id} body, or nullopt.
   std::optional<nlohmann::json> get(const std::string& id) const;
   std::optional<std::filesystem::path> file(const std::string& id, const std::string& name) const;
+  /// DELETE /api/jobs/{id}: forgets the job and removes its files; a queued job never runs, a
+  /// running one is cancelled at its next progress report. False when there is no such job.
+  bool remove(const std::string& id);
+  /// Removes the jobs that ended more than the retention time ago, with their files.
+  void expire();
   /// Cancels everything and joins the threads (idempotent).
   void shutdown();
 
@@ -57,16 +76,21 @@ class Jobs {
   struct Job;
   class Context;
   void worker();
+  void run(Job& job);
+  void save(const JobRecord& record) const;  // to the store, if any; logs a failure
+  std::optional<JobRecord> record(const std::string& id) const;
 
   Metrics& metrics_;
-  int max_jobs_;
+  JobsOptions options_;
+  std::unique_ptr<JobStore> store_;
+  rigbuild::ThreadBudget budget_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::map<std::string, std::shared_ptr<Job>> jobs_;
   std::deque<std::shared_ptr<Job>> queue_;
-  std::deque<std::string> finished_;  // oldest first, for trimming
+  std::deque<std::string> finished_;  // oldest first, for trimming the memory
   bool stopping_ = false;
-  int next_id_ = 1;
+  long next_id_ = 1;
   std::vector<std::thread> threads_;
 };
 

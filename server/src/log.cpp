@@ -73,13 +73,16 @@ void write(Level level, std::string_view event, std::initializer_list<Field> fie
   line += ' ';
   line += event;
   for (const auto& f : fields) {
+    if (std::holds_alternative<std::monostate>(f.value)) continue;
     line += ' ';
     line += f.key;
     line += '=';
     std::visit(
         [&](const auto& v) {
           using T = std::decay_t<decltype(v)>;
-          if constexpr (std::is_same_v<T, std::string_view> || std::is_same_v<T, std::string>) {
+          if constexpr (std::is_same_v<T, std::monostate>) {
+          } else if constexpr (std::is_same_v<T, std::string_view> ||
+                               std::is_same_v<T, std::string>) {
             append_value(line, v);
           } else if constexpr (std::is_same_v<T, const char*>) {
             append_value(line, v ? std::string_view(v) : std::string_view("null"));

@@ -15,10 +15,18 @@ enum class Level { kDebug = 0, kInfo = 1, kWarn = 2, kError = 3 };
 void set_level(std::string_view name);  // debug | info | warn | error
 bool enabled(Level level) noexcept;
 
-using Value = std::variant<std::string_view, std::string, const char*, long long, double, bool>;
+// std::monostate: the field is left out of the line.
+using Value = std::variant<std::monostate, std::string_view, std::string, const char*, long long,
+                           double, bool>;
 struct Field {
   std::string_view key;
   Value value;
+  /// A field written only when `v` is not empty (e.g. headers that only proxies add).
+  static Field if_set(std::string_view k, std::string_view v) {
+    Field f(k, v);
+    if (v.empty()) f.value = std::monostate{};
+    return f;
+  }
   Field(std::string_view k, std::string_view v) : key(k), value(v) {}
   Field(std::string_view k, const std::string& v) : key(k), value(std::string_view(v)) {}
   Field(std::string_view k, const char* v) : key(k), value(v) {}

@@ -1,5 +1,6 @@
 #include "metrics.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -91,14 +92,21 @@ Metrics::Metrics()
       analysis_seconds({0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5}),
       render_seconds({0.002, 0.005, 0.01, 0.015, 0.02, 0.03, 0.05, 0.1, 0.25}),
       rig_build_seconds({1, 5, 10, 30, 60, 120, 300, 600, 1800}),
-      video_render_seconds({1, 5, 10, 30, 60, 120, 300, 600}) {}
+      video_render_seconds({1, 5, 10, 30, 60, 120, 300, 600}),
+      start_time(std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                     .count()) {}
 
-std::string Metrics::render(double uptime_seconds) const {
+std::string Metrics::render() const {
   std::string out;
   out.reserve(8192);
   auto g = [](const auto& a) { return a.load(std::memory_order_relaxed); };
-  metric(out, "facecast_uptime_seconds", "gauge", "Seconds since the server started.",
-         uptime_seconds);
+  metric(out, "process_start_time_seconds", "gauge",
+         "Start time of the process since the Unix epoch in seconds.", start_time);
+  header(out, "facecast_build_info", "gauge", "The running build (always 1).");
+  sample(out, "facecast_build_info",
+         "version=\"" FACECAST_VERSION "\",compiler=\"" __VERSION__
+         "\",build_type=\"" FACECAST_BUILD_TYPE "\"",
+         "1");
   metric(out, "facecast_http_connections", "gauge", "Open HTTP connections (not upgraded).",
          g(http_connections));
   metric(out, "facecast_websocket_connections", "gauge", "Open WebSocket connections.",
@@ -123,7 +131,7 @@ std::string Metrics::render(double uptime_seconds) const {
          g(audio_samples_sent_total));
   metric(out, "facecast_websocket_messages_received_total", "counter",
          "WebSocket messages received.", g(ws_messages_received_total));
-  metric(out, "facecast_websocket_bytes_sent_total", "counter", "WebSocket payload bytes written.",
+  metric(out, "facecast_websocket_sent_bytes_total", "counter", "WebSocket payload bytes written.",
          g(ws_bytes_sent_total));
   metric(out, "facecast_slow_clients_closed_total", "counter",
          "Connections closed with 1008 for not reading.", g(slow_clients_closed_total));
@@ -131,10 +139,12 @@ std::string Metrics::render(double uptime_seconds) const {
          g(protocol_errors_total));
   metric(out, "facecast_http_requests_total", "counter", "HTTP requests handled.",
          g(http_requests_total));
-  header(out, "facecast_http_responses_total", "counter", "HTTP responses by status class.");
-  for (int c = 1; c <= 5; ++c) {
-    sample(out, "facecast_http_responses_total", "class=\"" + std::to_string(c) + "xx\"",
-           std::to_string(g(http_responses_by_class[static_cast<std::size_t>(c)])));
+  header(out, "facecast_http_responses_total", "counter", "HTTP responses by status code.");
+  for (std::size_t code = 100; code < http_responses_by_code.size(); ++code) {
+    const auto n = g(http_responses_by_code[code]);
+    if (n)
+      sample(out, "facecast_http_responses_total", "code=\"" + std::to_string(code) + "\"",
+             std::to_string(n));
   }
   header(out, "facecast_jobs", "gauge", "Jobs (rig builds, video renders) by state.");
   sample(out, "facecast_jobs", "state=\"queued\"", std::to_string(g(jobs_queued)));
@@ -142,17 +152,18 @@ std::string Metrics::render(double uptime_seconds) const {
   metric(out, "facecast_jobs_done_total", "counter", "Jobs finished.", g(jobs_done_total));
   metric(out, "facecast_jobs_failed_total", "counter", "Jobs failed or cancelled.",
          g(jobs_failed_total));
-  histogram(out, "facecast_http_request_seconds",
+  histogram(out, "facecast_http_request_duration_seconds",
             "HTTP request latency (request read to response written).", http_request_seconds);
   histogram(out, "facecast_time_to_first_frame_seconds",
             "From a speak reaching the front of its queue to its first frame being queued.",
             time_to_first_frame_seconds);
-  histogram(out, "facecast_analysis_seconds", "Speech analysis and animation set-up per utterance.",
-            analysis_seconds);
-  histogram(out, "facecast_render_seconds", "Rendering and JPEG encoding of one frame.",
+  histogram(out, "facecast_analysis_duration_seconds",
+            "Speech analysis and animation set-up per utterance.", analysis_seconds);
+  histogram(out, "facecast_render_duration_seconds", "Rendering and JPEG encoding of one frame.",
             render_seconds);
-  histogram(out, "facecast_rig_build_seconds", "Rig build jobs.", rig_build_seconds);
-  histogram(out, "facecast_video_render_seconds", "Video render jobs.", video_render_seconds);
+  histogram(out, "facecast_rig_build_duration_seconds", "Rig build jobs.", rig_build_seconds);
+  histogram(out, "facecast_video_render_duration_seconds", "Video render jobs.",
+            video_render_seconds);
   return out;
 }
 

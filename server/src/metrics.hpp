@@ -75,7 +75,7 @@ struct Metrics {
   std::atomic<std::uint64_t> protocol_errors_total{0};
   // HTTP
   std::atomic<std::uint64_t> http_requests_total{0};
-  std::array<std::atomic<std::uint64_t>, 6> http_responses_by_class{};  // 1xx..5xx (index 1..5)
+  std::array<std::atomic<std::uint64_t>, 600> http_responses_by_code{};  // index: status 100..599
   // Jobs
   std::atomic<long> jobs_queued{0};
   std::atomic<long> jobs_running{0};
@@ -89,7 +89,10 @@ struct Metrics {
   Histogram rig_build_seconds;
   Histogram video_render_seconds;
 
-  std::string render(double uptime_seconds) const;
+  /// Unix time at which the server started (process_start_time_seconds).
+  double start_time = 0;
+
+  std::string render() const;
 };
 
 }  // namespace facecast::server

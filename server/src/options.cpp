@@ -1,5 +1,6 @@
 #include "facecast/server/options.hpp"
 
+#include <algorithm>
 #include <boost/asio/ip/address.hpp>
 
 #include "facecast/core/config_reader.hpp"
@@ -14,6 +15,22 @@ bool is_loopback_host(const std::string& host) {
   const auto addr = boost::asio::ip::make_address(host, ec);
   return !ec && addr.is_loopback();
 }
+
+namespace {
+
+// channels.<name>.rtmp: {"url", "size": [w, h], "fps", "video_kbps", "audio_kbps", "delay"}.
+void read_rtmp(ConfigReader& channel, ServerOptions::Rtmp& r) {
+  ConfigReader& c = channel.section("rtmp");
+  c.require("url", r.url);
+  std::vector<int> size{r.width, r.height};
+  c.read("size", size).read("fps", r.fps).read("video_kbps", r.video_kbps);
+  c.read("audio_kbps", r.audio_kbps).read("delay", r.delay);
+  if (size.size() != 2) c.fail("size", "expected [width, height]");
+  r.width = size[0];
+  r.height = size[1];
+}
+
+}  // namespace
 
 ServerOptions load_server_options(const std::filesystem::path& path) {
   // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
@@ -34,6 +51,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("max_queued_speaks", o.max_queued_speaks);
   c.read("max_fps", o.max_fps).read("max_frame_side", o.max_frame_side);
   c.read("max_jobs", o.max_jobs).read("max_render_seconds", o.max_render_seconds);
+  c.read("job_retention", o.job_retention);
   c.read("lead", o.lead);
   c.read("min_tick", o.min_tick);
   c.read("audio_chunk", o.audio_chunk);
@@ -58,7 +76,8 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
     ConfigReader ch(v, path.string() + ": channels." + name);
     ServerOptions::Channel channel{name, {}};
     ch.require("producer_token", channel.producer_token);
-    ch.reject_unknown();
+    if (ch.has("rtmp")) read_rtmp(ch, o.rtmp[name]);
+    ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
   }
   c.reject_unknown();
@@ -87,6 +106,7 @@ void validate(const ServerOptions& o) {
   need(o.max_frame_side >= 16 && o.max_frame_side <= 8192, "max_frame_side: must be in 16..8192");
   need(o.max_jobs >= 1, "max_jobs: must be at least 1");
   need(o.max_render_seconds > 0, "max_render_seconds: must be positive");
+  need(o.job_retention >= 0, "job_retention: must not be negative (0 keeps jobs forever)");
   need(o.lead >= 0 && o.lead <= 10, "lead: must be in 0..10 seconds");
   need(o.min_tick >= 0 && o.min_tick <= 1, "min_tick: must be in 0..1 seconds");
   need(o.audio_chunk >= 0.01 && o.audio_chunk <= 10, "audio_chunk: must be in 0.01..10 seconds");
@@ -114,6 +134,20 @@ void validate(const ServerOptions& o) {
     check_channel_name(nlohmann::json(ch.name), "channels: name");
     need(ch.producer_token.size() >= 8,
          "channels." + ch.name + ".producer_token: must be at least 8 characters");
+  }
+  for (const auto& [name, r] : o.rtmp) {
+    const std::string at = "channels." + name + ".rtmp.";
+    need(std::any_of(o.channels.begin(), o.channels.end(),
+                     [&](const auto& ch) { return ch.name == name; }),
+         at + "url: there is no channel '" + name + "'");
+    need(r.url.starts_with("rtmp://") || r.url.starts_with("rtmps://"),
+         at + "url: '" + r.url + "' is not an rtmp:// or rtmps:// address");
+    need(r.width >= 16 && r.height >= 16 && r.width <= o.max_frame_side &&
+             r.height <= o.max_frame_side && r.width % 2 == 0 && r.height % 2 == 0,
+         at + "size: even numbers in 16..max_frame_side");
+    need(r.fps >= 1 && r.fps <= 60, at + "fps: must be in 1..60");
+    need(r.video_kbps >= 100 && r.audio_kbps >= 16, at + "video_kbps >= 100, audio_kbps >= 16");
+    need(r.delay >= 0.1 && r.delay <= 10, at + "delay: must be in 0.1..10 seconds");
   }
   if (!is_loopback_host(o.host) && o.token.empty()) {
     throw Error("host " + o.host +

@@ -67,6 +67,10 @@ class RigRegistry {
   /// Stores a user's avatar (GLB or VRM bytes) as it is, byte for byte, after checking that it
   /// parses and that the animation can drive it; throws Error naming `what` otherwise.
   std::string import(const std::string& name, const std::string& bytes, const std::string& what);
+  /// Forgets a stored rig and removes its folder (renamed away first, so a crash never leaves
+  /// half a rig); streams that hold it keep it until they end. False when there is no such rig;
+  /// throws Error (forbidden) for the built-in rig. Defined in operations_api.cpp.
+  bool remove(const std::string& id);
 
  private:
   std::filesystem::path rigs_dir_;
@@ -93,6 +97,8 @@ class RendererCache {
       : capacity_(capacity), contexts_(contexts), base_(std::move(base)) {}
   /// Creates (and warms up: one GL context, one frame) on first use; thread-safe.
   std::shared_ptr<render::Renderer> get(const LoadedRig& rig, int width, int height);
+  /// Drops the renderers of rig `id` (after DELETE; defined in operations_api.cpp).
+  void drop(const std::string& id);
 
  private:
   struct Entry {

@@ -7,6 +7,7 @@
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "log.hpp"
+#include "operations_api.hpp"
 
 namespace facecast::server {
 namespace {
@@ -75,8 +76,8 @@ bool constant_time_equal(std::string_view a, std::string_view b) {
 namespace {
 
 void count_status(State& state, unsigned status) {
-  const unsigned cls = status / 100;
-  if (cls >= 1 && cls <= 5) state.metrics.http_responses_by_class[cls].fetch_add(1);
+  if (status >= 100 && status < state.metrics.http_responses_by_code.size())
+    state.metrics.http_responses_by_code[status].fetch_add(1);
 }
 
 template <class Body>
@@ -180,6 +181,7 @@ void require_method(const Request& req, std::initializer_list<http::verb> allowe
 const std::regex kRigGlb("/api/rigs/([A-Za-z0-9_.-]{1,64})\\.glb");
 const std::regex kRigEdges("/api/rigs/([A-Za-z0-9_.-]{1,64})/virtual_edges\\.json");
 const std::regex kJob("/api/jobs/(j[0-9]{1,9})");
+const std::regex kRig("/api/rigs/([A-Za-z0-9_.-]{1,64})");
 const std::regex kJobFile("/api/jobs/(j[0-9]{1,9})/(video\\.mp4)");
 
 http::message_generator api(State& state, Request& req, const Target& t) {
@@ -233,10 +235,15 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     return send_path(state, req, state.rigs.virtual_edges_path(id), "application/json", "no-cache");
   }
   if (std::regex_match(path, m, kJob)) {
-    require_method(req, {http::verb::get, http::verb::head});
+    if (req.method() == http::verb::delete_) return delete_job(state, req, m[1]);
+    require_method(req, {http::verb::get, http::verb::head, http::verb::delete_});
     const auto job = state.jobs.get(m[1]);
     if (!job) throw Error("job '" + std::string(m[1]) + "' does not exist", ErrorCode::kNotFound);
     return json_response(state, req, http::status::ok, *job);
+  }
+  if (std::regex_match(path, m, kRig) && !path.ends_with(".glb")) {
+    require_method(req, {http::verb::delete_});
+    return delete_rig(state, req, m[1]);
   }
   if (std::regex_match(path, m, kJobFile)) {
     require_method(req, {http::verb::get, http::verb::head});
@@ -317,7 +324,7 @@ std::size_t body_limit(const State& state, const Request& req) {
 }
 
 bool is_heavy(const Request& req) {
-  if (req.method() == http::verb::post) return true;
+  if (req.method() == http::verb::post || req.method() == http::verb::delete_) return true;
   return req.target().starts_with("/api/rigs/");
 }
 
@@ -359,7 +366,7 @@ http::message_generator handle_request(State& state, Request&& req) {
       res.set(http::field::cache_control, "no-store");
       res.keep_alive(req.keep_alive());
       if (req.method() != http::verb::head) {
-        res.body() = state.metrics.render(state.uptime());
+        res.body() = state.metrics.render();
         if (state.channels) res.body() += channel_metrics(*state.channels);
       }
       return finish(state, std::move(res));

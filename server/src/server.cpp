@@ -12,6 +12,7 @@
 #include "facecast/core/error.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
+#include "rtmp_out.hpp"
 #include "speech.hpp"
 #include "state.hpp"
 
@@ -33,6 +34,7 @@ struct Server::Impl {
   explicit Impl(ServerOptions options);
   // The channels hold the State: drop them (no thread runs any more) so that it can go.
   ~Impl() {
+    rtmp.clear();  // each stops (idempotent) and lets go of its channel
     if (state) state->channels.reset();
   }
 
@@ -51,8 +53,9 @@ struct Server::Impl {
   net::steady_timer shutdown_timer;
   std::chrono::steady_clock::time_point shutdown_deadline;
   std::vector<std::thread> threads;
-  std::thread jobs_stopper;    // cancels jobs during shutdown
-  bool shutting_down = false;  // on the io_context
+  std::thread jobs_stopper;  // cancels jobs and ends the RTMP outputs during shutdown
+  std::vector<std::shared_ptr<RtmpOutput>> rtmp;  // channels published as live video
+  bool shutting_down = false;                     // on the io_context
   bool draining = false;
   std::chrono::steady_clock::time_point drain_deadline;
   std::mutex mutex;
@@ -70,6 +73,7 @@ Server::Impl::Impl(ServerOptions options)
   raise_file_limit();
   state = std::make_shared<State>(std::move(options));
   state->channels = std::make_shared<ChannelRegistry>(state, ioc);
+  rtmp = start_rtmp_outputs(state);
   const auto& o = state->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
@@ -127,7 +131,10 @@ void Server::Impl::begin_shutdown() {
   state->shut_down_sessions();
   state->channels->close_all();
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
-  jobs_stopper = std::thread([s = state] { s->jobs.shutdown(); });
+  jobs_stopper = std::thread([s = state, rtmp = rtmp] {
+    for (const auto& r : rtmp) r->stop();
+    s->jobs.shutdown();
+  });
   shutdown_deadline = std::chrono::steady_clock::now() +
                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                           std::chrono::duration<double>(state->options.shutdown_timeout));

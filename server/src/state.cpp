@@ -26,7 +26,8 @@ State::State(ServerOptions opts)
       renderers(options.max_renderers, options.render_contexts, render_options),
       limits{options.max_text, options.max_fps, options.max_frame_side},
       workers(static_cast<std::size_t>(options.workers)),
-      jobs(metrics, options.job_workers, options.max_jobs) {}
+      jobs(metrics, JobsOptions{options.job_workers, options.max_jobs,
+                                options.data / "jobs.sqlite3", options.job_retention}) {}
 
 RigInfo State::existing_rig(const std::string& id) const {
   const std::string rig = rigs.resolve(id);

@@ -37,6 +37,7 @@ void WebSocketSession::run(Request request, bool subprotocol) {
     res.set(http::field::server, "facecast");
     if (subprotocol) res.set(http::field::sec_websocket_protocol, kSubprotocol);
   }));
+  forwarded_for_ = request["X-Forwarded-For"];  // the client behind a proxy, for the logs
   ws_.read_message_max(o.max_message);
   ws_.auto_fragment(false);
   state_->add_session(id_, weak_from_this());
@@ -67,7 +68,9 @@ void WebSocketSession::on_accept(beast::error_code ec) {
     close_with(websocket::close_code::going_away, "server shutting down");
     return;
   }
-  log::info("ws_open", {{"conn", conn_}, {"remote", remote_}});
+  log::info(
+      "ws_open",
+      {{"conn", conn_}, {"remote", remote_}, log::Field::if_set("forwarded_for", forwarded_for_)});
   std::vector<std::string> rigs;
   for (const auto& r : state_->rigs.list()) rigs.push_back(r.id);
   send(OutMessage::control(hello_message("facecast " FACECAST_VERSION, rigs, state_->options)));

@@ -67,8 +67,9 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::unique_ptr<ConnectionSlot> slot_;
   GaugeShare open_;  // ws_connections: 1
   std::uint64_t id_;
-  std::string conn_;    // "c12", in every log line
-  std::string remote_;  // address:port
+  std::string conn_;           // "c12", in every log line
+  std::string remote_;         // address:port
+  std::string forwarded_for_;  // X-Forwarded-For of the upgrade request ("" without a proxy)
   beast::flat_buffer buffer_;
   OutQueue queue_;
   std::shared_ptr<SpeakQueue> speaks_;

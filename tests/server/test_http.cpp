@@ -39,12 +39,28 @@ TEST_CASE("healthz and metrics answer", "[http]") {
        {"facecast_websocket_connections", "facecast_active_streams", "facecast_write_queue_depth",
         "facecast_speak_queue_depth", "facecast_frames_sent_total{output=\"weights\"}",
         "facecast_frames_dropped_total{output=\"frames\"}",
-        "facecast_time_to_first_frame_seconds_count", "facecast_http_request_seconds_count",
-        "facecast_render_seconds_count", "facecast_rig_build_seconds_count"}) {
+        "facecast_time_to_first_frame_seconds_count",
+        "facecast_http_request_duration_seconds_count", "facecast_render_duration_seconds_count",
+        "facecast_rig_build_duration_seconds_count", "facecast_analysis_duration_seconds_count",
+        "facecast_video_render_duration_seconds_count", "facecast_websocket_sent_bytes_total"}) {
     INFO(name);
     CHECK(metric_value(r.body, name) >= 0);
   }
   CHECK(metric_value(r.body, "facecast_http_requests_total") >= 2);
+  // Prometheus conventions: start time (Unix seconds), a build_info gauge, status codes.
+  const double now =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const double start = metric_value(r.body, "process_start_time_seconds");
+  CHECK(start <= now);
+  CHECK(start > now - 600);
+  CHECK(std::regex_search(r.body,
+                          std::regex(R"(\nfacecast_build_info\{version="[0-9.]+",compiler="[^"]+",)"
+                                     R"(build_type="[^"]*"\} 1\n)")));
+  CHECK(metric_value(r.body, "facecast_http_responses_total{code=\"200\"}") >= 1);
+  CHECK(r.body.find("facecast_uptime_seconds") == std::string::npos);
+  http_request(s.port(), http::verb::get, "/no-such-file");
+  r = http_request(s.port(), http::verb::get, "/metrics");
+  CHECK(metric_value(r.body, "facecast_http_responses_total{code=\"404\"}") >= 1);
 }
 
 TEST_CASE("static files have MIME types and conditional GET", "[http][static]") {

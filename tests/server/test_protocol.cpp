@@ -222,6 +222,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.max_frame_side == d.max_frame_side);
   CHECK(file.max_jobs == d.max_jobs);
   CHECK(file.max_render_seconds == d.max_render_seconds);
+  CHECK(file.job_retention == d.job_retention);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
   CHECK(file.audio_chunk == d.audio_chunk);
@@ -247,7 +248,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 46);  // 45 settings + "_doc"
+  CHECK(j.size() == 47);  // 46 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

@@ -13,6 +13,7 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/install.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "pinyin_detail.hpp"
 #include "utf8.hpp"
@@ -145,6 +146,7 @@ Lexicon::Sources Lexicon::default_sources() {
 
 std::filesystem::path Lexicon::default_cache() {
   if (const char* e = std::getenv("FACECAST_ZH_LEXICON"); e && *e) return e;
+  if (const auto share = installed_share_dir(); !share.empty()) return share / "zh_lexicon.txt";
   return FACECAST_ZH_LEXICON_CACHE;
 }
 

@@ -3,6 +3,7 @@
 // test checks that they agree); README.md ("The server") and docs/protocol.md document each one.
 #include <cstddef>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,7 @@ struct ServerOptions {
   int max_frame_side = 1920;          // largest width/height of frames and videos
   int max_jobs = 8;                   // rig builds and renders queued or running
   double max_render_seconds = 120;    // longest video POST /api/render makes
+  double job_retention = 604800;      // seconds ended jobs and their videos are kept (0: forever)
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;         // frames are sent this many seconds before their presentation time
@@ -72,13 +74,24 @@ struct ServerOptions {
 
   // Live shows (docs/protocol.md, "Channels"): the channels that exist, each with the token its
   // producers present; anyone allowed on /ws may subscribe.
+  // A channel published as a live video (RTMP: H.264 + AAC in FLV, through ffmpeg); see
+  // docs/protocol.md, "Live video out".
+  struct Rtmp {
+    std::string url;  // rtmp://host/app/key; empty: not published
+    int width = 640, height = 360;
+    double fps = 30;
+    int video_kbps = 2000;
+    int audio_kbps = 128;
+    double delay = 0.5;  // seconds from a stream's start to its first published frame
+  };
   struct Channel {
     std::string name;
     std::string producer_token;
   };
   std::vector<Channel> channels;
-  double presence_interval = 1.0;  // seconds between two `presence` messages of a channel
-  double channel_idle = 10;        // idle-life streams of this length between utterances (0: off)
+  std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)
+  double presence_interval = 1.0;    // seconds between two `presence` messages of a channel
+  double channel_idle = 10;          // idle-life streams of this length between utterances (0: off)
 };
 
 /// Reads a server config (JSON object, every key optional, unknown keys rejected) over the

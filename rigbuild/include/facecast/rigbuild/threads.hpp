@@ -1,0 +1,46 @@
+#pragma once
+// How many threads a rig build may use. By default the build's parallel loops take one thread per
+// core; a program that shares the machine (the server: live streams run beside rig builds) gives
+// the builds a ThreadBudget, and every parallel loop started on a thread that holds the budget
+// borrows its extra threads from it, so that all the builds holding one budget together run on at
+// most `threads` threads (each build's own thread counts as one).
+#include <atomic>
+
+namespace facecast::rigbuild {
+
+class ThreadBudget {
+ public:
+  /// `threads` >= 1: the most threads the holders run on together, their own included.
+  explicit ThreadBudget(unsigned threads) noexcept : free_(threads) {}
+  ThreadBudget(const ThreadBudget&) = delete;
+  ThreadBudget& operator=(const ThreadBudget&) = delete;
+
+  /// Takes up to `wanted` threads (never blocks); returns how many it took.
+  unsigned acquire(unsigned wanted) noexcept;
+  void release(unsigned count) noexcept;
+  /// Threads not taken at this moment.
+  unsigned available() const noexcept { return free_.load(); }
+
+ private:
+  std::atomic<unsigned> free_;
+};
+
+/// For its lifetime, the calling thread runs rig-build work under `budget`: the scope takes one
+/// thread from the budget (the caller's own; it waits for one when all are taken) and the
+/// parallel loops started on this thread borrow the rest. Scopes do not nest on one thread.
+class ThreadBudgetScope {
+ public:
+  explicit ThreadBudgetScope(ThreadBudget& budget);
+  ~ThreadBudgetScope();
+  ThreadBudgetScope(const ThreadBudgetScope&) = delete;
+  ThreadBudgetScope& operator=(const ThreadBudgetScope&) = delete;
+
+ private:
+  ThreadBudget& budget_;
+  int previous_omp_threads_;
+};
+
+/// The budget the calling thread runs under (nullptr: none, one thread per core).
+ThreadBudget* current_thread_budget() noexcept;
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,54 @@
+#include "operations_api.hpp"
+
+#include "facecast/core/error.hpp"
+#include "log.hpp"
+#include "routes.hpp"
+
+namespace facecast::server {
+
+namespace fs = std::filesystem;
+
+bool RigRegistry::remove(const std::string& id) {
+  const fs::path dir = rigs_dir_ / id;
+  // A name that start-up removes as a crash leftover (it contains ".tmp").
+  const fs::path gone = rigs_dir_ / (id + ".tmp.deleted");
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = infos_.find(id);
+    if (it == infos_.end()) return false;
+    if (it->second.builtin)
+      throw RequestError(Code::kForbidden, "rig '" + id + "' is built in and cannot be deleted");
+    std::error_code ec;
+    fs::remove_all(gone, ec);
+    fs::rename(dir, gone, ec);
+    if (ec && fs::exists(dir))
+      throw Error(dir.string() + ": cannot remove the rig: " + ec.message(), ErrorCode::kInternal);
+    infos_.erase(it);
+    loaded_.erase(id);
+  }
+  std::error_code ec;
+  fs::remove_all(gone, ec);
+  log::info("rig_deleted", {{"rig", id}, {"dir", dir.string()}});
+  return true;
+}
+
+void RendererCache::drop(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  std::erase_if(entries_, [&](const auto& e) { return std::get<0>(e.first) == id; });
+}
+
+http::message_generator delete_rig(State& state, const Request& req, const std::string& id) {
+  if (id == state.options.default_rig)
+    throw RequestError(Code::kForbidden,
+                       "rig '" + id + "' is the server's default_rig and cannot be deleted");
+  if (!state.rigs.remove(id)) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+  state.renderers.drop(id);
+  return json_response(state, req, http::status::ok, {{"deleted", id}});
+}
+
+http::message_generator delete_job(State& state, const Request& req, const std::string& id) {
+  if (!state.jobs.remove(id)) throw Error("job '" + id + "' does not exist", ErrorCode::kNotFound);
+  return json_response(state, req, http::status::ok, {{"deleted", id}});
+}
+
+}  // namespace facecast::server
