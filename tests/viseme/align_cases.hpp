@@ -242,4 +242,39 @@ inline std::vector<double> onset_errors(const viseme::Utterance& u, const AlignC
   return e;
 }
 
+/// |aligned - true| phone onsets, seconds. Chinese: the same front end on both sides, so phone i
+/// matches phone i. English: festival's and flite's phones are not espeak-ng's, so phones are
+/// compared inside each word only where both sides have the same number of them (`compared` counts
+/// the true phones that were; the rest are left out).
+inline std::vector<double> phone_onset_errors(const viseme::Utterance& u, const AlignCase& c,
+                                              std::size_t* compared = nullptr) {
+  std::vector<double> e;
+  const auto spoken = [](const std::vector<viseme::Phone>& v) {
+    std::vector<viseme::Phone> out;
+    for (const auto& p : v)
+      if (p.phone != "pau" && p.end > p.start) out.push_back(p);
+    return out;
+  };
+  const auto truth = spoken(c.phones), mine = spoken(u.phones);
+  if (c.lang == "zh") {
+    if (truth.size() == mine.size())
+      for (std::size_t i = 0; i < truth.size(); ++i)
+        e.push_back(std::abs(mine[i].start - truth[i].start));
+  } else {
+    for (std::size_t w = 0; w < c.onsets.size() && w < u.words.size(); ++w) {
+      const double t0 = c.onsets[w], t1 = w + 1 < c.onsets.size() ? c.onsets[w + 1] : 1e9;
+      const double m0 = u.words[w].start, m1 = u.words[w].end;
+      std::vector<double> a, b;
+      for (const auto& p : truth)
+        if (p.start >= t0 - 1e-6 && p.start < t1 - 1e-6) a.push_back(p.start);
+      for (const auto& p : mine)
+        if (p.start >= m0 - 1e-6 && p.start < m1 - 1e-6) b.push_back(p.start);
+      if (a.size() == b.size())
+        for (std::size_t i = 0; i < a.size(); ++i) e.push_back(std::abs(a[i] - b[i]));
+    }
+  }
+  if (compared) *compared += e.size();
+  return e;
+}
+
 }  // namespace facecast::test

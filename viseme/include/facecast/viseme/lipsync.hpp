@@ -34,9 +34,9 @@ struct LipsyncOptions {
   double closure_max = 0.15;    // a silence after voicing shows as a closure this long at most
   int lookahead_frames = 3;     // class decision waits this many 10 ms frames
   int context_frames = 2;       // ... and sums the log-likelihoods of this many past frames
-  double switch_margin = 2.0;   // log-likelihood lead a new class needs (hysteresis)
+  double switch_margin = 5.0;   // log-likelihood lead a new class needs (hysteresis)
   double jaw_range_db = 30;     // loudness range (dB below the speech level) mapped to the jaw
-  double jaw_min = 0.25;        // strength of a sounding viseme at the bottom of that range
+  double jaw_min = 0.1;         // strength of a sounding viseme at the bottom of that range
   double jaw_max = 1.0;         // ... and at (or above) the speech level
   double delay = 0.06;          // live: weights trail the analysed audio by this (anticipation)
   double window = 0.6;          // live: seconds of past events kept for coarticulation
