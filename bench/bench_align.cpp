@@ -29,11 +29,8 @@ double mean(const std::vector<double>& v) {
 }  // namespace
 
 int main() {
-  const std::filesystem::path dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align";
-  std::filesystem::create_directories(dir);
-  std::vector<test::AlignCase> cases = test::festival_cases(dir);
-  for (auto& c : test::flite_cases(dir)) cases.push_back(std::move(c));
-  for (auto& c : test::chinese_cases(dir)) cases.push_back(std::move(c));
+  std::vector<test::AlignCase> cases =
+      test::all_cases(std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align");
   if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
     std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
   const viseme::AlignOptions options = viseme::load_align_options();

@@ -18,11 +18,8 @@
 using namespace facecast;
 
 int main() {
-  const std::filesystem::path dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align";
-  std::filesystem::create_directories(dir);
-  std::vector<test::AlignCase> cases = test::festival_cases(dir);
-  for (auto& c : test::flite_cases(dir)) cases.push_back(std::move(c));
-  for (auto& c : test::chinese_cases(dir)) cases.push_back(std::move(c));
+  std::vector<test::AlignCase> cases =
+      test::all_cases(std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align");
   const viseme::LipsyncOptions lo = viseme::load_lipsync_options();
   std::map<std::string, test::LipsyncScore> scores;
   for (const auto& c : cases) {

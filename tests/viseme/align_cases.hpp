@@ -230,6 +230,15 @@ inline std::vector<AlignCase> chinese_cases(const std::filesystem::path& dir) {
   return out;
 }
 
+/// festival, flite and Chinese cases made in `dir` (created), for the benchmarks.
+inline std::vector<AlignCase> all_cases(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::vector<AlignCase> cases = festival_cases(dir);
+  for (auto& c : flite_cases(dir)) cases.push_back(std::move(c));
+  for (auto& c : chinese_cases(dir)) cases.push_back(std::move(c));
+  return cases;
+}
+
 /// |aligned - true| word onsets, seconds; words matched in order (English by spelling, Chinese by
 /// the shared segmentation). Throws when the word counts differ.
 inline std::vector<double> onset_errors(const viseme::Utterance& u, const AlignCase& c) {

@@ -58,7 +58,7 @@ set -e
 [[ $rc != 0 && $err == *"junk.mp3: not audio"* && $(wc -l <<<"$err") == 1 ]] || fail "bad audio: $err"
 # --audio without --text: audio-only lip-sync; bad audio is a one-line error naming the file.
 out=$("$facecast" visemes --audio "$tmp/speech.mp3" --tags "(smile,30,0.2)@0.4")
-grep -q '"viseme": "aa"' <<<"$out" || fail "visemes --audio (audio-only): $out"
+grep -Eq '"viseme": "(aa|E|I|O|U)"' <<<"$out" || fail "visemes --audio (audio-only): $out"
 grep -q '"strength"' <<<"$out" || fail "visemes --audio: no strengths"
 grep -q '"name": "smile"' <<<"$out" || fail "visemes --audio --tags: $out"
 : >"$tmp/empty.wav"

@@ -102,6 +102,7 @@ TEST_CASE("lipsync: silence and bad tags are one-line errors", "[viseme][lipsync
   const Utterance u = analyze("hello", o);
   const Audio a = audio_from_pcm16(u.pcm, u.sample_rate);
   CHECK_THROWS_WITH(lipsync(a, {}, {}, "(smile,99,1)@0"), Contains("0..63"));
+  CHECK_THROWS_WITH(lipsync(a, {}, {}, "(happy,9,1)@0"), Contains("unknown expression 'happy'"));
   CHECK_THROWS_WITH(lipsync(a, {}, {}, "smile@1"),
                     Contains("expected (name,intensity,seconds)@time"));
 }

@@ -9,6 +9,7 @@
 
 #include "facecast/core/error.hpp"
 #include "lipsync_features.hpp"
+#include "tables.hpp"
 
 namespace facecast::viseme {
 
@@ -149,6 +150,10 @@ std::vector<ExpressionEvent> parse_tags(std::string_view tags) {
       throw Error("expression tag '" + tok + "': expected (name,intensity,seconds)@time");
     ExpressionEvent e;
     e.name = tok.substr(1, c1 - 1);
+    const auto& known = detail::tables().expressions;
+    if (std::find(known.begin(), known.end(), e.name) == known.end())
+      throw Error("expression tag '" + tok + "': unknown expression '" + e.name +
+                  "' (names are in configs/viseme/expressions.json)");
     try {
       e.intensity = std::stoi(tok.substr(c1 + 1, c2 - c1 - 1));
       e.ramp = std::stod(tok.substr(c2 + 1, close - c2 - 1));
