@@ -39,7 +39,7 @@ TEST_CASE("lipsync option defaults mirror configs/viseme/lipsync.json", "[viseme
   CHECK(d.mpeg4 == c.mpeg4);
 }
 
-TEST_CASE("lipsync templates: every sounding class learned; bad tables are errors",
+TEST_CASE("lipsync templates: every sounding class learned, bad tables are errors",
           "[viseme][lipsync]") {
   const LipsyncTemplates& t = LipsyncTemplates::builtin();
   CHECK(t.dims > 0);
@@ -49,7 +49,7 @@ TEST_CASE("lipsync templates: every sounding class learned; bad tables are error
   CHECK_THROWS_WITH(LipsyncTemplates::parse(R"({"dims": 3})", "t.json"), Contains("dims 3"));
 }
 
-TEST_CASE("lipsync: streaming in random chunks equals one push; latency within budget",
+TEST_CASE("lipsync: streaming in random chunks equals one push, latency within budget",
           "[viseme][lipsync]") {
   Options o;
   o.timing = Timing::kTts;
