@@ -38,7 +38,7 @@ struct LipsyncOptions {
   double jaw_range_db = 30;     // loudness range (dB below the speech level) mapped to the jaw
   double jaw_min = 0.1;         // strength of a sounding viseme at the bottom of that range
   double jaw_max = 1.0;         // ... and at (or above) the speech level
-  double delay = 0.06;          // live: weights trail the analysed audio by this (anticipation)
+  double delay = 0.04;          // live: weights trail the analysed audio by this (anticipation)
   double window = 0.6;          // live: seconds of past events kept for coarticulation
   /// The viseme each class shows, per set, in SoundClass order.
   std::array<std::string, kSoundClasses> oculus = {"sil", "PP", "SS", "DD", "aa",
