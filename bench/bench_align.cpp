@@ -29,15 +29,14 @@ double mean(const std::vector<double>& v) {
 }  // namespace
 
 int main() {
-  const std::filesystem::path dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align";
-  std::filesystem::create_directories(dir);
-  std::vector<test::AlignCase> cases = test::festival_cases(dir);
-  for (auto& c : test::flite_cases(dir)) cases.push_back(std::move(c));
-  for (auto& c : test::chinese_cases(dir)) cases.push_back(std::move(c));
+  std::vector<test::AlignCase> cases =
+      test::all_cases(std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align");
   if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
     std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
   const viseme::AlignOptions options = viseme::load_align_options();
-  std::map<std::string, std::vector<double>> errors;  // per language and per source
+  std::map<std::string, std::vector<double>> errors;        // per language and per source
+  std::map<std::string, std::vector<double>> phone_errors;  // per language
+  std::map<std::string, std::size_t> true_phones;
   double seconds = 0, audio_seconds = 0;
   for (const auto& c : cases) {
     const viseme::Audio audio = viseme::read_audio(c.audio);
@@ -47,6 +46,8 @@ int main() {
     audio_seconds += audio.seconds();
     const auto e = test::onset_errors(u, c);
     const std::string source = c.name.substr(0, c.name.find(' '));
+    for (double x : test::phone_onset_errors(u, c)) phone_errors[c.lang].push_back(x);
+    for (const auto& p : c.phones) true_phones[c.lang] += p.phone != "pau" && p.end > p.start;
     for (double x : e) {
       errors[c.lang].push_back(x);
       errors[c.lang + " (" + source + ")"].push_back(x);
@@ -62,6 +63,11 @@ int main() {
   for (const auto& [name, e] : errors)
     std::printf("%-28s %6zu %6.1f %6.1f %6.1f\n", name.c_str(), e.size(), mean(e) * 1000,
                 percentile(e, 0.95) * 1000, percentile(e, 1.0) * 1000);
+  std::printf("phone-onset error, ms        phones  mean    p95    max  (compared of true)\n");
+  for (const auto& [name, e] : phone_errors)
+    std::printf("%-28s %6zu %6.1f %6.1f %6.1f  (%zu of %zu)\n", name.c_str(), e.size(),
+                mean(e) * 1000, percentile(e, 0.95) * 1000, percentile(e, 1.0) * 1000, e.size(),
+                true_phones[name]);
   std::printf("alignment speed: %.1f s for %.1f s of audio (%.0fx real time)\n", seconds,
               audio_seconds, audio_seconds / seconds);
 }

@@ -63,7 +63,8 @@ std::vector<DominanceEvent> dominance_events(const std::vector<viseme::VisemeEve
     events.push_back({rest ? -1 : it->second, e.start, e.end, 0.5 * (e.start + e.end),
                       rest                            ? 0.5
                       : contains(closure, it->second) ? closure_alpha
-                                                      : 1.0});
+                                                      : 1.0,
+                      e.strength});
   }
   return events;
 }
@@ -80,7 +81,7 @@ std::vector<float> dominance_blend(std::span<const DominanceEvent> events, int c
     if (std::abs(dt) * theta > 8) continue;
     const double d = e.alpha * std::exp(-theta * std::abs(dt));
     total += d;
-    if (e.channel >= 0) acc[e.channel] += d;
+    if (e.channel >= 0) acc[e.channel] += d * e.strength;
   }
   std::vector<float> value(channels, 0.0f);
   for (int c = 0; c < channels; ++c)

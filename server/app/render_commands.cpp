@@ -12,6 +12,7 @@
 #include "facecast/render/renderer.hpp"
 #include "facecast/render/video.hpp"
 #include "facecast/viseme/align.hpp"
+#include "facecast/viseme/lipsync.hpp"
 #include "progress.hpp"
 #include "speech_input.hpp"
 
@@ -62,7 +63,10 @@ void render_speech(const RenderArgs& a, const anim::Rig& rig, render::RenderOpti
   const bool file = audio != "tts" && audio != "none";
   // Text with an audio file: the text is aligned to that speech (and the video carries it).
   const auto u =
-      speech_utterance(a.speech, audio == "tts", file && !a.speech.text.empty() ? audio : "");
+      file && !a.speech.given()
+          ? viseme::lipsync(viseme::read_audio(audio, viseme::load_audio_options()),
+                            viseme::load_options(), viseme::load_lipsync_options())
+          : speech_utterance(a.speech, audio == "tts", file && !a.speech.text.empty() ? audio : "");
   std::vector<int16_t> pcm = u.pcm;
   int rate = u.sample_rate;
   if (audio == "none") {
@@ -97,7 +101,7 @@ void add_render_commands(CLI::App& app) {
   r->add_option("--audio", a->audio,
                 "Speech audio for the video: tts (espeak-ng; default with --text), none (default "
                 "with --timestamps), or an audio file (any format ffmpeg/libsndfile reads; with "
-                "--text the text is aligned to it)");
+                "--text the text is aligned to it; alone, audio-only lip-sync)");
   r->add_option("--fps", a->fps, "Video frame rate (default from configs/anim/render.json)")
       ->check(CLI::Range(1.0, 240.0));
   r->add_option("--rig", a->rig, "Rig (GLB or OBJ); default: the built-in avatar")
@@ -123,7 +127,10 @@ void add_render_commands(CLI::App& app) {
   r->add_option("--head", a->head, "A pose's head turn: yaw,pitch,roll in degrees");
   r->callback([a] {
     render::RenderOptions opt = render::load_render_options();
-    const bool speech = a->speech.given();
+    // An audio file alone: audio-only lip-sync (docs/algorithms.md#audio-lipsync).
+    const bool audio_only =
+        !a->speech.given() && !a->audio.empty() && a->audio != "tts" && a->audio != "none";
+    const bool speech = a->speech.given() || audio_only;
     std::tie(opt.width, opt.height) = parse_size(!a->size.empty() ? a->size
                                                  : speech         ? "1280x720"
                                                                   : "640x480");

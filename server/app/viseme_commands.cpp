@@ -19,7 +19,7 @@ struct CommonArgs {
 
 struct VisemesArgs {
   CommonArgs common;
-  std::string text, input, format = "json", phoneset = "auto", audio;
+  std::string text, input, format = "json", phoneset = "auto", audio, tags;
   std::vector<std::string> from;
 };
 
@@ -102,8 +102,14 @@ void run_visemes(const VisemesArgs& a) {
   if (!a.audio.empty()) {
     if (!a.input.empty() || !a.from.empty()) throw Error("--audio combines with --text only");
     const viseme::Audio audio = viseme::read_audio(a.audio, viseme::load_audio_options());
-    if (a.text.empty())
-      throw Error("visemes --audio without --text: audio-only lip-sync is not available yet");
+    if (a.text.empty()) {
+      try {  // audio-only lip-sync (docs/algorithms.md#audio-lipsync)
+        return print(viseme::lipsync(audio, o, viseme::load_lipsync_options(), a.tags), a.format,
+                     false);
+      } catch (const Error& e) {
+        throw Error(a.audio + ": " + e.what());
+      }
+    }
     return print(viseme::align(a.text, audio, o, viseme::load_align_options()), a.format, false);
   }
   if (sources != 1) throw Error("give exactly one of --text, --input or --from");
@@ -144,7 +150,10 @@ void add_viseme_commands(CLI::App& app) {
                                "timestamps, to timed visemes");
   v->add_option("--text", va->text, "Text to analyze (with --audio: the words spoken in it)");
   v->add_option("--audio", va->audio,
-                "Speech audio (any format ffmpeg/libsndfile reads): times the --text on it");
+                "Speech audio (any format ffmpeg/libsndfile reads): times the --text on it; "
+                "without --text, audio-only lip-sync");
+  v->add_option("--tags", va->tags,
+                "With --audio and no --text: expression tags at times, \"(smile,40,0.5)@1.2 ...\"");
   v->add_option("--input", va->input,
                 "File (or - for stdin) with one utterance per line: JSON Lines out");
   v->add_option("--from", va->from,

@@ -1,5 +1,6 @@
 #include "websocket_session.hpp"
 
+#include "live_audio.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -100,8 +101,8 @@ void WebSocketSession::on_read(beast::error_code ec, std::size_t) {
     const auto data = buffer_.data();
     handle_text(std::string_view(static_cast<const char*>(data.data()), data.size()));
   } else {
-    send_error(std::nullopt, Problem{Code::kInvalidInput,
-                                     "binary messages are not accepted; send JSON text", 400});
+    const auto data = buffer_.data();
+    handle_binary(std::string_view(static_cast<const char*>(data.data()), data.size()));
   }
   buffer_.consume(buffer_.size());
   do_read();

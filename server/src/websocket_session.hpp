@@ -22,6 +22,8 @@
 
 namespace facecast::server {
 
+struct LiveAudio;
+
 class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
                          public Closable,
                          public StreamSink,
@@ -53,6 +55,10 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void do_read();
   void on_read(beast::error_code ec, std::size_t bytes);
   void handle_text(std::string_view text);
+  // Live audio in (websocket_audio.cpp).
+  void handle_binary(std::string_view bytes);
+  void send_audio_weights(int first, int count, const std::vector<float>& values);
+  void end_audio();
 
   void do_write();
   void on_write(beast::error_code ec, std::size_t bytes);
@@ -75,6 +81,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::shared_ptr<SpeakQueue> speaks_;
   std::shared_ptr<Channel> subscribed_;  // the channel this connection watches
   std::vector<std::string> producing_;   // channels whose producer token it gave
+  std::unique_ptr<LiveAudio> audio_;     // the open live audio stream, if any
 
   net::steady_timer watchdog_;
   std::optional<Clock::time_point> stalled_since_;

@@ -163,6 +163,14 @@ void WsClient::send(const std::string& text) {
   if (ec) throw std::runtime_error("websocket write: " + ec.message());
 }
 
+void WsClient::send_binary(const std::string& bytes) {
+  ws_.binary(true);
+  const auto ec = run_op(
+      ioc_, 15, [&](auto handler) { ws_.async_write(net::buffer(bytes), std::move(handler)); },
+      [&] { beast::get_lowest_layer(ws_).cancel(); });
+  if (ec) throw std::runtime_error("websocket write: " + ec.message());
+}
+
 std::optional<WsClient::Message> WsClient::read(double timeout) {
   if (closed_) return std::nullopt;
   buffer_.consume(buffer_.size());

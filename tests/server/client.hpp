@@ -76,6 +76,8 @@ class WsClient {
 
   void send(const std::string& text);
   void send(const nlohmann::json& j) { send(j.dump()); }
+  /// One binary message.
+  void send_binary(const std::string& bytes);
   /// The next message, or nullopt on timeout or close (see closed()).
   std::optional<Message> read(double timeout);
   /// The next text message, skipping binary ones; throws on timeout/close.

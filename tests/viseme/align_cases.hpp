@@ -16,14 +16,30 @@
 #include <vector>
 
 #include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/import.hpp"
 #include "facecast/viseme/wav.hpp"
 
 namespace facecast::test {
 
 struct AlignCase {
   std::string name, lang, text, audio;
-  std::vector<double> onsets;  // true onset of each word of the utterance, seconds
+  std::vector<double> onsets;         // true onset of each word of the utterance, seconds
+  std::vector<viseme::Phone> phones;  // true phones (festival/flite names; zh: facecast's units)
+  std::vector<viseme::VisemeEvent> visemes;  // the text path's Oculus visemes on the true timing
 };
+
+// The text path's Oculus visemes on true ARPAbet-like phone times (festival's and flite's phone
+// names are ARPAbet in lower case, "pau" for pauses).
+inline void add_true_visemes(AlignCase& c) {
+  nlohmann::json phones = nlohmann::json::array();
+  for (const auto& p : c.phones)
+    phones.push_back({{"phone", p.phone}, {"start", p.start}, {"end", p.end}});
+  viseme::Options o;
+  o.set = viseme::VisemeSet::kOculus;
+  c.visemes = viseme::import_timestamps(viseme::TimestampFormat::kJson, phones.dump(), o,
+                                        viseme::PhoneSet::kArpabet, c.name)
+                  .visemes;
+}
 
 inline std::string run_capture(const std::string& command) {
   std::string out;
@@ -79,7 +95,9 @@ inline std::vector<AlignCase> festival_cases(const std::filesystem::path& dir) {
         << (dir / ("fest" + std::to_string(i) + ".wav")).string() << "\" 'riff)\n"
         << "(format t \"S " << i << "\\n\")\n"
         << "(mapcar (lambda (w) (format t \"%f\\n\" (item.feat w \"word_start\"))) "
-           "(utt.relation.items u 'Word))\n";
+           "(utt.relation.items u 'Word))\n"
+        << "(mapcar (lambda (s) (format t \"P %s %f\\n\" (item.name s) "
+           "(item.feat s \"segment_end\"))) (utt.relation.items u 'Segment))\n";
   }
   scm.close();
   std::istringstream out(run_capture("festival -b " + (dir / "festival.scm").string()));
@@ -91,11 +109,21 @@ inline std::vector<AlignCase> festival_cases(const std::filesystem::path& dir) {
                        "en",
                        s[i],
                        (dir / ("fest" + std::to_string(i) + ".wav")).string(),
+                       {},
+                       {},
                        {}});
+    } else if (line.rfind("P ", 0) == 0 && !cases.empty()) {
+      std::istringstream in(line.substr(2));
+      viseme::Phone p;
+      in >> p.phone >> p.end;
+      auto& ph = cases.back().phones;
+      p.start = ph.empty() ? 0 : ph.back().end;
+      ph.push_back(p);
     } else if (!cases.empty() && !line.empty()) {
       cases.back().onsets.push_back(std::stod(line));
     }
   }
+  for (auto& c : cases) add_true_visemes(c);
   return cases;
 }
 
@@ -117,7 +145,11 @@ inline std::vector<AlignCase> flite_cases(const std::filesystem::path& dir) {
       phones.push_back({tok.substr(0, colon), prev});
       prev = end;
     }
-    AlignCase c{"flite " + voice + " " + std::to_string(i), "en", s[i], wav, {}};
+    AlignCase c{"flite " + voice + " " + std::to_string(i), "en", s[i], wav, {}, {}, {}};
+    for (std::size_t k = 0; k < phones.size(); ++k)
+      c.phones.push_back({phones[k].first, phones[k].second,
+                          k + 1 < phones.size() ? phones[k + 1].second : prev, ""});
+    add_true_visemes(c);
     std::size_t at = 0;
     for (const std::string& w : word_tokens(s[i])) {
       std::istringstream one(run_capture("flite -voice " + voice + " -t '" + w + "' -o none -ps"));
@@ -142,6 +174,7 @@ inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
   o.timing = viseme::Timing::kTts;
   o.zh_voice = voice;
   o.espeak_speed = speed;
+  o.set = viseme::VisemeSet::kOculus;  // the true visemes for the audio-only benchmark
   const std::string text = chinese_sentences()[i];
   const viseme::Utterance u = viseme::analyze(text, o);
   const std::string base = (dir / ("zh" + std::to_string(i))).string();
@@ -173,11 +206,16 @@ inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
               "zh",
               text,
               out,
+              {},
+              {},
               {}};
-  for (const auto& w : u.words) {
-    int k = w.start < cut[1] ? 0 : w.start < cut[2] ? 1 : 2;
-    c.onsets.push_back(out_start[k] + (w.start - cut[k]) * scale[k]);
-  }
+  const auto map = [&](double t) {
+    const int k = t < cut[1] ? 0 : t < cut[2] ? 1 : 2;
+    return out_start[k] + (t - cut[k]) * scale[k];
+  };
+  for (const auto& w : u.words) c.onsets.push_back(map(w.start));
+  for (const auto& p : u.phones) c.phones.push_back({p.phone, map(p.start), map(p.end), p.lang});
+  for (const auto& v : u.visemes) c.visemes.push_back({v.viseme, map(v.start), map(v.end), 1});
   return c;
 }
 
@@ -192,6 +230,15 @@ inline std::vector<AlignCase> chinese_cases(const std::filesystem::path& dir) {
   return out;
 }
 
+/// festival, flite and Chinese cases made in `dir` (created), for the benchmarks.
+inline std::vector<AlignCase> all_cases(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  std::vector<AlignCase> cases = festival_cases(dir);
+  for (auto& c : flite_cases(dir)) cases.push_back(std::move(c));
+  for (auto& c : chinese_cases(dir)) cases.push_back(std::move(c));
+  return cases;
+}
+
 /// |aligned - true| word onsets, seconds; words matched in order (English by spelling, Chinese by
 /// the shared segmentation). Throws when the word counts differ.
 inline std::vector<double> onset_errors(const viseme::Utterance& u, const AlignCase& c) {
@@ -201,6 +248,41 @@ inline std::vector<double> onset_errors(const viseme::Utterance& u, const AlignC
   std::vector<double> e;
   for (std::size_t i = 0; i < u.words.size(); ++i)
     e.push_back(std::abs(u.words[i].start - c.onsets[i]));
+  return e;
+}
+
+/// |aligned - true| phone onsets, seconds. Chinese: the same front end on both sides, so phone i
+/// matches phone i. English: festival's and flite's phones are not espeak-ng's, so phones are
+/// compared inside each word only where both sides have the same number of them (`compared` counts
+/// the true phones that were; the rest are left out).
+inline std::vector<double> phone_onset_errors(const viseme::Utterance& u, const AlignCase& c,
+                                              std::size_t* compared = nullptr) {
+  std::vector<double> e;
+  const auto spoken = [](const std::vector<viseme::Phone>& v) {
+    std::vector<viseme::Phone> out;
+    for (const auto& p : v)
+      if (p.phone != "pau" && p.end > p.start) out.push_back(p);
+    return out;
+  };
+  const auto truth = spoken(c.phones), mine = spoken(u.phones);
+  if (c.lang == "zh") {
+    if (truth.size() == mine.size())
+      for (std::size_t i = 0; i < truth.size(); ++i)
+        e.push_back(std::abs(mine[i].start - truth[i].start));
+  } else {
+    for (std::size_t w = 0; w < c.onsets.size() && w < u.words.size(); ++w) {
+      const double t0 = c.onsets[w], t1 = w + 1 < c.onsets.size() ? c.onsets[w + 1] : 1e9;
+      const double m0 = u.words[w].start, m1 = u.words[w].end;
+      std::vector<double> a, b;
+      for (const auto& p : truth)
+        if (p.start >= t0 - 1e-6 && p.start < t1 - 1e-6) a.push_back(p.start);
+      for (const auto& p : mine)
+        if (p.start >= m0 - 1e-6 && p.start < m1 - 1e-6) b.push_back(p.start);
+      if (a.size() == b.size())
+        for (std::size_t i = 0; i < a.size(); ++i) e.push_back(std::abs(a[i] - b[i]));
+    }
+  }
+  if (compared) *compared += e.size();
   return e;
 }
 

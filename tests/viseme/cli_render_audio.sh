@@ -18,4 +18,12 @@ python3 -c "import sys; sys.exit(0 if 0.45 < float(sys.argv[1]) < 0.65 else 1)" 
 "$facecast" render --audio "$tmp/speech.mp3" --text "$text" --size 160x120 --out "$tmp/out.mp4" 2>/dev/null
 streams=$(ffprobe -v error -show_entries stream=codec_type -of csv=p=0 "$tmp/out.mp4" | sort | tr '\n' ' ')
 [[ $streams == "audio video " ]] || fail "streams: $streams"
+# The audio alone: audio-only lip-sync; the first sounding viseme waits for the speech too.
+"$facecast" visemes --audio "$tmp/speech.mp3" >"$tmp/a.json"
+first=$(python3 -c "import json,sys; print([v for v in json.load(open(sys.argv[1]))['visemes'] if v['viseme'] != 'sil'][0]['start'])" "$tmp/a.json")
+python3 -c "import sys; sys.exit(0 if 0.4 < float(sys.argv[1]) < 0.7 else 1)" "$first" ||
+  fail "audio-only: first viseme at $first s, speech starts at 0.5 s"
+"$facecast" render --audio "$tmp/speech.mp3" --size 160x120 --out "$tmp/alone.mp4" 2>/dev/null
+streams=$(ffprobe -v error -show_entries stream=codec_type -of csv=p=0 "$tmp/alone.mp4" | sort | tr '\n' ' ')
+[[ $streams == "audio video " ]] || fail "audio-only streams: $streams"
 echo "cli_render_audio: all passed"

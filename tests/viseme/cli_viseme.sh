@@ -56,4 +56,17 @@ set +e
 err=$("$facecast" visemes --audio "$tmp/junk.mp3" --text "hi" 2>&1 >/dev/null); rc=$?
 set -e
 [[ $rc != 0 && $err == *"junk.mp3: not audio"* && $(wc -l <<<"$err") == 1 ]] || fail "bad audio: $err"
+# --audio without --text: audio-only lip-sync; bad audio is a one-line error naming the file.
+out=$("$facecast" visemes --audio "$tmp/speech.mp3" --tags "(smile,30,0.2)@0.4")
+grep -Eq '"viseme": "(aa|E|I|O|U)"' <<<"$out" || fail "visemes --audio (audio-only): $out"
+grep -q '"strength"' <<<"$out" || fail "visemes --audio: no strengths"
+grep -q '"name": "smile"' <<<"$out" || fail "visemes --audio --tags: $out"
+: >"$tmp/empty.wav"
+sox -n -r 16000 -c 1 "$tmp/quiet.wav" trim 0 1
+for f in junk.mp3 empty.wav quiet.wav; do
+  set +e
+  err=$("$facecast" visemes --audio "$tmp/$f" 2>&1 >/dev/null); rc=$?
+  set -e
+  [[ $rc != 0 && $err == *"$tmp/$f"* && $(wc -l <<<"$err") == 1 ]] || fail "audio-only, $f: $err"
+done
 echo "cli_viseme: all passed"

@@ -75,7 +75,9 @@ json to_json(const Utterance& u) {
                 {"end", round_time(s.end)}};
   });
   j["visemes"] = array_of(u.visemes, [](const VisemeEvent& v) {
-    return json{{"viseme", v.viseme}, {"start", round_time(v.start)}, {"end", round_time(v.end)}};
+    json e{{"viseme", v.viseme}, {"start", round_time(v.start)}, {"end", round_time(v.end)}};
+    if (v.strength != 1) e["strength"] = std::round(v.strength * 1000) / 1000;
+    return e;
   });
   j["expressions"] = array_of(u.expressions, [](const ExpressionEvent& e) {
     return json{{"name", e.name},
@@ -105,8 +107,10 @@ Utterance utterance_from_json(const json& j) {
                     get<double>(e, "start", w), get<double>(e, "end", w)};
   });
   u.visemes = list<VisemeEvent>(j, "visemes", [](const json& e, const std::string& w) {
+    const double strength = e.contains("strength") ? get<double>(e, "strength", w) : 1.0;
+    if (!(strength >= 0 && strength <= 1)) throw Error(w + ": strength must be 0..1");
     return VisemeEvent{get<std::string>(e, "viseme", w), get<double>(e, "start", w),
-                       get<double>(e, "end", w)};
+                       get<double>(e, "end", w), strength};
   });
   u.expressions = list<ExpressionEvent>(j, "expressions", [](const json& e, const std::string& w) {
     return ExpressionEvent{get<std::string>(e, "name", w), get<int>(e, "intensity", w),

@@ -26,7 +26,8 @@ float hermite_slope(float a0, float a1, float g, double u);
 struct DominanceEvent {
   int channel = -1;  // index into the set's viseme names; -1 for the pause viseme (rest)
   double start = 0, end = 0, centre = 0;
-  double alpha = 1;  // dominance strength: closure_alpha for closure visemes, 1 others, 0.5 rest
+  double alpha = 1;     // dominance strength: closure_alpha for closure visemes, 1 others, 0.5 rest
+  double strength = 1;  // the viseme event's strength: scales its channel's share, not alpha
 };
 
 /// One event per viseme of `visemes`. `names` are the set's viseme names in channel order (the

@@ -39,6 +39,9 @@ struct Syllable {
 struct VisemeEvent {
   std::string viseme;  // a name of the utterance's set
   double start = 0, end = 0;
+  /// Scales the viseme's channel in its coarticulation key (1 from text; the audio-only lip-sync
+  /// sets it from the loudness, so the jaw follows it). JSON: "strength", only when not 1.
+  double strength = 1;
 };
 
 /// An expression tag "(name, intensity, seconds)" at its place in the speech; the animation ramps

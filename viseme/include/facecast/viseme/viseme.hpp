@@ -4,6 +4,7 @@
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/import.hpp"
+#include "facecast/viseme/lipsync.hpp"
 #include "facecast/viseme/options.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "facecast/viseme/text.hpp"

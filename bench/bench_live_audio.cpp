@@ -1,0 +1,201 @@
+// Live audio-only lip-sync through `facecast serve` (docs/protocol.md, "Live audio in"): N clients
+// (default 50) each stream espeak-ng speech as 20 ms PCM16 chunks in real time over the WebSocket
+// and read the weights back. Latency of a frame = its arrival - the sending of the chunk that holds
+// the audio of its time (pts): the end-to-end delay from an audio chunk to its weights. Prints the
+// p50 / p99 / max over all frames. Usage: bench_live_audio [clients] [seconds]
+#include <unistd.h>
+#include <algorithm>
+#include <atomic>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "facecast/server/protocol.hpp"
+#include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/audio.hpp"
+#include "serve_process.hpp"
+
+namespace {
+
+namespace net = boost::asio;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+using tcp = net::ip::tcp;
+using Clock = std::chrono::steady_clock;
+constexpr int kRate = 16000, kChunk = 320;  // 20 ms
+
+struct Shared {
+  std::vector<std::int16_t> pcm;  // the speech every client loops
+  std::mutex mutex;
+  std::vector<double> latency;
+  std::atomic<int> errors{0}, ended{0};
+};
+
+class Client : public std::enable_shared_from_this<Client> {
+ public:
+  Client(net::io_context& ioc, unsigned short port, Shared& s, std::size_t offset, int chunks)
+      : ws_(net::make_strand(ioc)),
+        timer_(ws_.get_executor()),
+        port_(port),
+        s_(s),
+        offset_(offset),
+        chunks_(chunks) {}
+  void start() {
+    beast::get_lowest_layer(ws_).async_connect(
+        tcp::endpoint(net::ip::make_address("127.0.0.1"), port_),
+        [self = shared_from_this()](beast::error_code ec) {
+          if (ec) return self->fail("connect");
+          self->ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& r) {
+            r.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
+          }));
+          self->ws_.async_handshake("127.0.0.1", "/ws", [self](beast::error_code e) {
+            if (e) return self->fail("handshake");
+            self->read();
+            self->next_ = Clock::now();
+            self->send();
+          });
+        });
+  }
+
+ private:
+  void send() {
+    if (sent_ == chunks_ || writing_) return;
+    const auto now = Clock::now();
+    if (now < next_) {
+      timer_.expires_at(next_);
+      timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+        if (!ec) self->send();
+      });
+      return;
+    }
+    const bool last = sent_ + 1 == chunks_;
+    out_.assign(24 + 2 * kChunk, '\0');
+    out_[0] = 4, out_[1] = 1, out_[2] = last ? 1 : 0;
+    const auto put = [&](std::size_t at, std::uint32_t v) {
+      for (int k = 0; k < 4; ++k)
+        out_[at + static_cast<std::size_t>(k)] = static_cast<char>(v >> (8 * k));
+    };
+    put(4, kRate);
+    put(8, static_cast<std::uint32_t>(sent_ * kChunk));
+    put(12, kChunk);
+    for (int i = 0; i < kChunk; ++i) {
+      const auto v = static_cast<std::uint16_t>(
+          s_.pcm[(offset_ + static_cast<std::size_t>(sent_ * kChunk + i)) % s_.pcm.size()]);
+      out_[24 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v & 0xff);
+      out_[25 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v >> 8);
+    }
+    sent_at_.push_back(now);
+    ++sent_;
+    next_ += std::chrono::milliseconds(20);
+    writing_ = true;
+    ws_.binary(true);
+    ws_.async_write(net::buffer(out_),
+                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                      self->writing_ = false;
+                      if (ec) return self->fail("write");
+                      self->send();
+                    });
+  }
+  void read() {
+    ws_.async_read(buf_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return;
+      self->on_message();
+      self->buf_.consume(self->buf_.size());
+      if (!self->done_) self->read();
+    });
+  }
+  void on_message() {
+    const auto now = Clock::now();
+    const auto d = buf_.data();
+    const std::string_view m(static_cast<const char*>(d.data()), d.size());
+    if (ws_.got_text()) {
+      if (m.find("\"stream_end\"") != std::string_view::npos) {
+        done_ = true;
+        ++s_.ended;
+        ws_.async_close(websocket::close_code::normal,
+                        [self = shared_from_this()](beast::error_code) {});
+      } else if (m.find("\"error\"") != std::string_view::npos) {
+        fail(std::string(m));
+      }
+      return;
+    }
+    const auto h = facecast::server::read_header(m);
+    std::lock_guard lock(s_.mutex);
+    for (std::uint32_t k = 0; k < h.count; ++k) {
+      const double pts = h.pts + k / 60.0;
+      const auto chunk = static_cast<std::size_t>(pts * kRate / kChunk);
+      if (chunk < sent_at_.size())
+        s_.latency.push_back(std::chrono::duration<double>(now - sent_at_[chunk]).count());
+    }
+  }
+  void fail(const std::string& why) {
+    if (s_.errors++ < 3) std::fprintf(stderr, "client: %s\n", why.c_str());
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  net::steady_timer timer_;
+  unsigned short port_;
+  Shared& s_;
+  std::size_t offset_;
+  int chunks_, sent_ = 0;
+  bool writing_ = false, done_ = false;
+  Clock::time_point next_;
+  std::vector<Clock::time_point> sent_at_;  // written and read on the client's strand
+  std::string out_;
+  beast::flat_buffer buf_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int clients = argc > 1 ? std::atoi(argv[1]) : 50;
+  const double seconds = argc > 2 ? std::atof(argv[2]) : 20;
+  Shared s;
+  facecast::viseme::Options o;
+  o.timing = facecast::viseme::Timing::kTts;
+  const auto u = facecast::viseme::analyze(
+      "Hello everyone, thanks for joining the stream today. 今天我们聊一聊新的功能。", o);
+  s.pcm = facecast::viseme::to_pcm16(
+      facecast::viseme::audio_from_pcm16(u.pcm, u.sample_rate, {kRate}).samples);
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("bench-live-audio-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const fctest::ServeProcess server(FACECAST_EXE, {"--data", (dir / "data").string()}, 60,
+                                    (dir / "server.log").string());
+  net::io_context ioc;
+  const int chunks = static_cast<int>(seconds * kRate / kChunk);
+  std::vector<std::shared_ptr<Client>> all;
+  for (int c = 0; c < clients; ++c) {
+    all.push_back(std::make_shared<Client>(
+        ioc, server.port(), s, static_cast<std::size_t>(c) * 7919 % s.pcm.size(), chunks));
+    all.back()->start();
+  }
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) threads.emplace_back([&] { ioc.run(); });
+  for (auto& t : threads) t.join();
+  std::sort(s.latency.begin(), s.latency.end());
+  const auto at = [&](double p) {
+    return s.latency.empty()
+               ? 0.0
+               : s.latency[std::min(
+                     s.latency.size() - 1,
+                     static_cast<std::size_t>(p * static_cast<double>(s.latency.size())))];
+  };
+  std::printf(
+      "live audio lip-sync: %d clients x %.0f s of 20 ms chunks; %zu frames, %d streams "
+      "ended, %d errors\n",
+      clients, seconds, s.latency.size(), s.ended.load(), s.errors.load());
+  std::printf("chunk -> weights latency: p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", at(0.5) * 1000,
+              at(0.99) * 1000, at(1.0) * 1000);
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+  return s.errors > 0 ? 1 : 0;
+}

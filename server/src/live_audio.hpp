@@ -1,0 +1,77 @@
+#pragma once
+// Live audio-only lip-sync of one WebSocket connection (docs/protocol.md, "Live audio in";
+// docs/algorithms.md#audio-lipsync): the client sends PCM16 chunks as binary messages of kind 4,
+// the server answers with a weights stream at 60 fps. The analyser's viseme events go through the
+// same coarticulation and mixing as the text path: a Performance over the last `window` seconds of
+// events is built per chunk and sampled `delay` behind the analysed audio.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "facecast/anim/animation.hpp"
+#include "facecast/viseme/audio.hpp"
+#include "facecast/viseme/lipsync.hpp"
+#include "rigs.hpp"
+
+namespace facecast::server {
+
+inline constexpr std::uint8_t kAudioInKind = 4;
+inline constexpr std::uint16_t kAudioInLast = 1;  // flags: the stream ends with this chunk
+
+/// A client's audio chunk: the 24-byte header (kind 4, version 1, u16 flags, u32 sample_rate,
+/// u32 first sample, u32 count, f64 reserved) and count PCM16 samples.
+struct AudioChunk {
+  int sample_rate = 0;
+  std::uint32_t first = 0;
+  bool last = false;
+  std::vector<std::int16_t> samples;
+};
+/// Throws Error naming the field (size, kind, version, rate 8000..48000, count vs payload).
+AudioChunk read_audio_chunk(std::string_view bytes);
+
+/// PCM in, frames of weights (rig shapes + headYaw/Pitch/Roll) out. Not thread-safe.
+class LiveLipsync {
+ public:
+  LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
+              const viseme::LipsyncOptions& options, viseme::VisemeSet set, int input_rate,
+              double fps);
+  /// Appends the frames this chunk completes to `values` (frame-major); returns their count.
+  int push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values);
+  /// The end of the audio: the remaining frames up to its end.
+  int finish(std::vector<float>& values);
+
+  int input_rate() const { return resampler_.from_rate(); }
+  std::uint64_t samples() const { return samples_; }  // received so far
+  int frames() const { return next_frame_; }          // sent so far
+  std::size_t values_per_frame() const { return rig_->mapping.shape_names().size() + 3; }
+  const LoadedRig& rig() const { return *rig_; }
+  double fps() const { return fps_; }
+
+ private:
+  int emit(double until, std::vector<float>& values);
+
+  std::shared_ptr<const LoadedRig> rig_;
+  anim::AnimOptions anim_;
+  viseme::LipsyncOptions options_;
+  viseme::VisemeSet set_;
+  double fps_;
+  viseme::StreamResampler resampler_;
+  viseme::LipsyncAnalyzer analyzer_;
+  std::vector<float> resampled_;
+  std::vector<viseme::LipsyncFrame> frames_;
+  std::vector<viseme::VisemeEvent> events_;
+  double analysed_ = 0;  // seconds of audio the analyser has decided
+  std::uint64_t samples_ = 0;
+  int next_frame_ = 0;
+};
+
+/// A connection's open live audio stream.
+struct LiveAudio {
+  LiveLipsync engine;
+  std::uint32_t stream = 0;
+  std::string id;  // "audio-<stream>", the stream_start / stream_end id
+};
+
+}  // namespace facecast::server

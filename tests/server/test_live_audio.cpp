@@ -1,0 +1,103 @@
+// Live audio in (docs/protocol.md, "Live audio in"): PCM16 chunks as binary messages of kind 4
+// open a weights stream, the chunk flagged last ends it with every frame up to the audio's end;
+// bad chunks get an error and the connection and stream stay open.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "client.hpp"
+#include "facecast/viseme/analyze.hpp"
+#include "facecast/viseme/audio.hpp"
+
+using namespace fctest;
+
+namespace {
+
+std::string chunk(int rate, std::uint32_t first, const std::int16_t* pcm, std::uint32_t count,
+                  bool last, std::uint8_t kind = 4) {
+  std::string b(24 + 2 * static_cast<std::size_t>(count), '\0');
+  b[0] = static_cast<char>(kind), b[1] = 1, b[2] = last ? 1 : 0;
+  const auto put = [&](std::size_t at, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k)
+      b[at + static_cast<std::size_t>(k)] = static_cast<char>(v >> (8 * k));
+  };
+  put(4, static_cast<std::uint32_t>(rate));
+  put(8, first);
+  put(12, count);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const auto v = static_cast<std::uint16_t>(pcm[i]);
+    b[24 + 2 * i] = static_cast<char>(v & 0xff);
+    b[25 + 2 * i] = static_cast<char>(v >> 8);
+  }
+  return b;
+}
+
+}  // namespace
+
+TEST_CASE("live audio chunks stream weights back and end with stream_end", "[ws][audio]") {
+  facecast::viseme::Options o;
+  o.timing = facecast::viseme::Timing::kTts;
+  const auto u = facecast::viseme::analyze("Open the big window, please", o);
+  const int rate = u.sample_rate;  // espeak-ng's 22050 Hz: the server resamples
+  TestServer s;
+  WsClient c(s.port());
+  REQUIRE(c.read_json(10)["type"] == "hello");
+  // Bad first: no stream open, a wrong kind, a short message.
+  c.send_binary(chunk(rate, 5, u.pcm.data(), 10, false));
+  CHECK(c.read_json(10)["code"] == "invalid_input");
+  c.send_binary(chunk(rate, 0, u.pcm.data(), 10, false, 9));
+  CHECK(c.read_json(10)["message"].get<std::string>().find("kind 9") != std::string::npos);
+  c.send_binary("xx");
+  CHECK(c.read_json(10)["code"] == "invalid_input");
+  const std::uint32_t n = 441;  // 20 ms
+  std::uint32_t at = 0;
+  for (; at + n < u.pcm.size(); at += n) {
+    c.send_binary(chunk(rate, at, u.pcm.data() + at, n, false));
+    if (at == 10 * n) c.send_binary(chunk(rate, at, u.pcm.data(), n, false));  // not following on
+  }
+  c.send_binary(
+      chunk(rate, at, u.pcm.data() + at, static_cast<std::uint32_t>(u.pcm.size() - at), true));
+  nlohmann::json start, end, error;
+  std::vector<float> jaw;
+  std::uint32_t expected_first = 0;
+  std::size_t names = 0, jaw_index = 0;
+  while (end.is_null()) {
+    const auto m = c.read(30);
+    REQUIRE(m);
+    if (m->text) {
+      const auto j = m->json();
+      if (j["type"] == "stream_start") {
+        start = j;
+        names = j["names"].size() + j["extra"].size();
+        const auto& list = j["names"];
+        jaw_index =
+            static_cast<std::size_t>(std::find(list.begin(), list.end(), "jawOpen") - list.begin());
+      }
+      if (j["type"] == "stream_end") end = j;
+      if (j["type"] == "error") error = j;
+      continue;
+    }
+    const auto h = facecast::server::read_header(m->data);
+    CHECK(h.first == expected_first);
+    CHECK(std::abs(h.pts - h.first / 60.0) < 1e-9);
+    expected_first = h.first + h.count;
+    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
+    REQUIRE(values.size() == h.count * names);
+    for (std::uint32_t k = 0; k < h.count; ++k) jaw.push_back(values[k * names + jaw_index]);
+  }
+  CHECK(start["id"] == "audio-" + std::to_string(start["stream"].get<int>()));
+  CHECK(start["fps"] == 60);
+  CHECK(start["frames"].is_null());
+  REQUIRE(!error.is_null());
+  CHECK(error["message"].get<std::string>().find("follow on") != std::string::npos);
+  const double seconds = static_cast<double>(u.pcm.size()) / rate;
+  CHECK(end["frames"] == static_cast<int>(std::floor(seconds * 60)) + 1);
+  CHECK(jaw.size() == end["frames"].get<std::size_t>());
+  // The mouth opens on the vowels and is closed at the start (leading silence).
+  CHECK(*std::max_element(jaw.begin(), jaw.end()) > 0.2f);
+  CHECK(jaw.front() < 0.05f);
+  // The connection still works.
+  c.send(nlohmann::json{{"type", "ping"}, {"t", 1}});
+  CHECK(c.read_json(10)["type"] == "pong");
+}

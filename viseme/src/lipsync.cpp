@@ -1,0 +1,195 @@
+// The streaming audio-only lip-sync analyser: see docs/algorithms.md#audio-lipsync.
+#include "facecast/viseme/lipsync.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <sstream>
+
+#include "facecast/core/error.hpp"
+#include "lipsync_features.hpp"
+#include "tables.hpp"
+
+namespace facecast::viseme {
+
+struct LipsyncAnalyzer::Impl {
+  struct Scored {
+    detail::FeatureFrame f;
+    std::array<double, kSoundClasses> ll{};
+  };
+  Impl(int sample_rate, const LipsyncOptions& o, const LipsyncTemplates& t)
+      : options(o), templates(t), features(sample_rate, o, t.cepstral_mean), rate(sample_rate) {}
+
+  LipsyncOptions options;
+  const LipsyncTemplates& templates;
+  detail::FeatureStream features;
+  int rate;
+  std::deque<Scored> window;  // context + the decided frame + look-ahead
+  std::size_t decided = 0;    // index in `window` of the next frame to decide
+  SoundClass current = SoundClass::kSilence;
+  double last_sounding = -1e9;  // time of the last sounding frame
+  std::vector<detail::FeatureFrame> scratch;
+
+  void add(const detail::FeatureFrame& f, std::vector<LipsyncFrame>& out) {
+    Scored s{f, {}};
+    if (f.silent)
+      s.ll.fill(0);
+    else
+      templates.score(f.x.data(), s.ll);
+    window.push_back(s);
+    while (decided + static_cast<std::size_t>(options.lookahead_frames) < window.size())
+      out.push_back(decide());
+  }
+
+  // The class of window[decided]: silence by level (a closure right after sounding frames), else
+  // the sounding class whose log-likelihood summed over the context and look-ahead is highest
+  // (with its prior), changing only by `switch_margin` over the current class.
+  LipsyncFrame decide() {
+    const Scored& s = window[decided];
+    LipsyncFrame out{s.f.time, SoundClass::kSilence, s.f.loudness};
+    if (s.f.silent) {
+      const bool after_voice = s.f.time - last_sounding <= options.closure_max;
+      out.cls = after_voice && current != SoundClass::kSilence ? SoundClass::kClosure
+                                                               : SoundClass::kSilence;
+    } else {
+      std::array<double, kSoundClasses> sum{};
+      const std::size_t from = decided > static_cast<std::size_t>(options.context_frames)
+                                   ? decided - static_cast<std::size_t>(options.context_frames)
+                                   : 0;
+      for (std::size_t i = from; i < window.size(); ++i)
+        if (!window[i].f.silent)
+          for (int k = 1; k < kSoundClasses; ++k)
+            sum[static_cast<std::size_t>(k)] += window[i].ll[static_cast<std::size_t>(k)];
+      int best = 1;
+      for (int k = 1; k < kSoundClasses; ++k) {
+        sum[static_cast<std::size_t>(k)] += templates.log_prior[static_cast<std::size_t>(k)];
+        if (sum[static_cast<std::size_t>(k)] > sum[static_cast<std::size_t>(best)]) best = k;
+      }
+      const auto cur = static_cast<std::size_t>(current);
+      const bool keep = current != SoundClass::kSilence && current != SoundClass::kClosure &&
+                        sum[static_cast<std::size_t>(best)] - sum[cur] < options.switch_margin;
+      out.cls = keep ? current : static_cast<SoundClass>(best);
+      last_sounding = s.f.time;
+    }
+    current = out.cls;
+    ++decided;
+    // Keep only the context the next decision needs.
+    while (decided > static_cast<std::size_t>(options.context_frames)) {
+      window.pop_front();
+      --decided;
+    }
+    return out;
+  }
+};
+
+LipsyncAnalyzer::LipsyncAnalyzer(int rate, const LipsyncOptions& o, const LipsyncTemplates& t)
+    : impl_(std::make_unique<Impl>(rate, o, t)) {
+  if (t.dims == 0) throw Error("lip-sync: templates are empty");
+}
+LipsyncAnalyzer::~LipsyncAnalyzer() = default;
+LipsyncAnalyzer::LipsyncAnalyzer(LipsyncAnalyzer&&) noexcept = default;
+LipsyncAnalyzer& LipsyncAnalyzer::operator=(LipsyncAnalyzer&&) noexcept = default;
+
+void LipsyncAnalyzer::push(const float* samples, std::size_t n, std::vector<LipsyncFrame>& out) {
+  auto& s = impl_->scratch;
+  s.clear();
+  impl_->features.push(samples, n, s);
+  for (const auto& f : s) impl_->add(f, out);
+}
+
+void LipsyncAnalyzer::finish(std::vector<LipsyncFrame>& out) {
+  auto& s = impl_->scratch;
+  s.clear();
+  impl_->features.finish(s);
+  for (const auto& f : s) impl_->add(f, out);
+  while (impl_->decided < impl_->window.size()) out.push_back(impl_->decide());
+}
+
+double LipsyncAnalyzer::latency() const {
+  // A frame is scored when the next one is complete (deltas), decided lookahead frames later.
+  const auto& f = impl_->features;
+  return f.window_seconds() / 2 + (impl_->options.lookahead_frames + 1) * f.hop_seconds();
+}
+
+int LipsyncAnalyzer::sample_rate() const {
+  return impl_->rate;
+}
+
+void append_lipsync_events(const std::vector<LipsyncFrame>& frames, VisemeSet set,
+                           const LipsyncOptions& o, double hop, std::vector<VisemeEvent>& events) {
+  for (const LipsyncFrame& f : frames) {
+    const std::string& name = o.viseme(set, f.cls);
+    const bool sounding = f.cls != SoundClass::kSilence;
+    const double strength =
+        sounding ? o.jaw_min + (o.jaw_max - o.jaw_min) * static_cast<double>(f.loudness) : 1.0;
+    const double start = f.time - hop / 2, end = f.time + hop / 2;
+    if (!events.empty() && events.back().viseme == name &&
+        std::abs(events.back().end - start) < hop / 4) {
+      VisemeEvent& e = events.back();
+      const double n = std::max(1.0, std::round((e.end - e.start) / hop));
+      e.strength = (e.strength * n + strength) / (n + 1);
+      e.end = end;
+    } else {
+      events.push_back({name, std::max(0.0, start), end, strength});
+    }
+  }
+}
+
+namespace {
+
+// "(name,intensity,seconds)@time ..." -> expression events.
+std::vector<ExpressionEvent> parse_tags(std::string_view tags) {
+  std::vector<ExpressionEvent> out;
+  std::istringstream in{std::string(tags)};
+  for (std::string tok; in >> tok;) {
+    const auto close = tok.find(")@");
+    const auto c1 = tok.find(','), c2 = tok.find(',', c1 == std::string::npos ? 0 : c1 + 1);
+    if (tok.front() != '(' || close == std::string::npos || c1 == std::string::npos ||
+        c2 == std::string::npos || c2 > close)
+      throw Error("expression tag '" + tok + "': expected (name,intensity,seconds)@time");
+    ExpressionEvent e;
+    e.name = tok.substr(1, c1 - 1);
+    const auto& known = detail::tables().expressions;
+    if (std::find(known.begin(), known.end(), e.name) == known.end())
+      throw Error("expression tag '" + tok + "': unknown expression '" + e.name +
+                  "' (names are in configs/viseme/expressions.json)");
+    try {
+      e.intensity = std::stoi(tok.substr(c1 + 1, c2 - c1 - 1));
+      e.ramp = std::stod(tok.substr(c2 + 1, close - c2 - 1));
+      e.start = std::stod(tok.substr(close + 2));
+    } catch (const std::exception&) {
+      throw Error("expression tag '" + tok + "': intensity, seconds and time must be numbers");
+    }
+    if (e.intensity < 0 || e.intensity > 63 || e.ramp < 0 || e.start < 0)
+      throw Error("expression tag '" + tok + "': intensity 0..63, seconds and time >= 0");
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+}  // namespace
+
+Utterance lipsync(const Audio& audio, const Options& options, const LipsyncOptions& lo,
+                  std::string_view tags) {
+  LipsyncAnalyzer analyzer(audio.sample_rate, lo);
+  std::vector<LipsyncFrame> frames;
+  analyzer.push(audio.samples.data(), audio.samples.size(), frames);
+  analyzer.finish(frames);
+  Utterance u;
+  u.set = options.set.value_or(VisemeSet::kOculus);
+  u.duration = audio.seconds();
+  append_lipsync_events(frames, u.set, lo,
+                        frames.size() > 1 ? frames[1].time - frames[0].time : 0.01, u.visemes);
+  const bool speech = std::any_of(frames.begin(), frames.end(), [](const LipsyncFrame& f) {
+    return f.cls != SoundClass::kSilence && f.cls != SoundClass::kClosure;
+  });
+  if (!speech) throw Error("lip-sync: the audio holds no speech (all silent)");
+  for (auto& e : u.visemes) e.end = std::min(e.end, u.duration);
+  u.expressions = parse_tags(tags);
+  u.pcm = to_pcm16(audio.samples);
+  u.sample_rate = audio.sample_rate;
+  return u;
+}
+
+}  // namespace facecast::viseme

@@ -1,0 +1,72 @@
+#pragma once
+// The frame features of the audio-only lip-sync, shared by the analyser and the build-time
+// template generator (so both see exactly the same numbers). See docs/algorithms.md#audio-lipsync.
+#include <array>
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <vector>
+
+#include "facecast/viseme/lipsync.hpp"
+#include "features.hpp"
+
+namespace facecast::viseme::detail {
+
+inline constexpr int kLipsyncCepstra = 12;  // c1..c12
+/// Feature vector: cepstra (speaker-normalised), their deltas, relative level / 10, its delta,
+/// voicing, zero-crossing rate x 4.
+inline constexpr int kLipsyncDims = 2 * kLipsyncCepstra + 4;
+
+/// A frame before look-ahead: what one window alone gives.
+struct RawFrame {
+  double time = 0;
+  float level_db = 0;  // 10 log10(mean square)
+  float voicing = 0;   // peak normalised autocorrelation at 60..400 Hz lags (8 kHz), 0..1
+  float zcr = 0;       // zero crossings per sample
+  std::array<float, kLipsyncCepstra> cep{};
+};
+
+/// A frame ready for classification.
+struct FeatureFrame {
+  double time = 0;
+  bool silent = true;
+  float loudness = 0;  // 0..1, see LipsyncOptions::jaw_range_db
+  std::array<float, kLipsyncDims> x{};
+};
+
+/// PCM -> FeatureFrames, one frame of look-ahead (deltas). Speaker normalisation: the cepstral
+/// mean over speech frames and the speech level adapt over the first adapt_seconds (cumulative,
+/// started from the templates' mean with prior_frames of weight), then follow an exponential mean
+/// of that length. The silence floor follows the quietest frames (rising 2 dB/s).
+class FeatureStream {
+ public:
+  FeatureStream(int sample_rate, const LipsyncOptions& options,
+                const std::vector<float>& cep_prior);
+  void push(const float* samples, std::size_t n, std::vector<FeatureFrame>& out);
+  void finish(std::vector<FeatureFrame>& out);
+  double hop_seconds() const { return hop_seconds_; }
+  double window_seconds() const { return window_seconds_; }
+
+ private:
+  RawFrame analyze(const float* frame);
+  FeatureFrame complete(const RawFrame& prev, const RawFrame& cur, const RawFrame& next);
+  void adapt(const RawFrame& f);
+
+  LipsyncOptions options_;
+  std::unique_ptr<MfccAnalyzer> mfcc_;
+  std::vector<float> buffer_;  // samples not yet consumed by a frame
+  std::size_t frames_ = 0;
+  double hop_seconds_ = 0.01, window_seconds_ = 0.025;
+  int rate_ = 0;
+  std::deque<RawFrame> pending_;  // raw frames awaiting their successor
+  RawFrame previous_{};
+  bool has_previous_ = false;
+  // Speaker normalisation state.
+  std::array<double, kLipsyncCepstra> cep_mean_{};
+  double cep_weight_ = 0;
+  double speech_db_ = -26, speech_weight_ = 0;
+  double floor_db_ = 0;
+  bool started_ = false;
+};
+
+}  // namespace facecast::viseme::detail
