@@ -90,6 +90,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     return correspond(tmpl, target, options, r.landmarks, progress);
   });
   time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
+  time.registration = r.correspondence.registration_seconds;
   const bool same_topology = options.markers.empty() && !r.landmarks;
   const TemplateShapes source =
       timed(progress, "gradients", time.gradients, [&] { return template_shapes(tmpl); });

@@ -77,7 +77,8 @@ struct Correspondence {
   Similarity alignment;
   Points registered;  // the template neutral registered onto the target
   double seconds = 0;
-  double mean_marker_error = 0;  // after registration, in target units
+  double registration_seconds = 0;  // of `seconds`: step 2
+  double mean_marker_error = 0;     // after registration, in target units
 };
 
 /// Same topology: triangle t <-> t, vertex v <-> v.
