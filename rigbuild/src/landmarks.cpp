@@ -78,10 +78,13 @@ dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
   return img;
 }
 
-// dlib's largest face in `image` (the HOG scan over the pyramid: about a second on a 400 px
-// image on a shared machine, so it runs on the wide view only).
+// dlib's largest face in `image` (the HOG scan over the pyramid: tens of milliseconds on a
+// 400 px view, so it runs on the wide view only).
 std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
-  dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();  // one per call
+  // dlib builds the detector from its serialized form in about a second: once per process, copied
+  // per call (its operator() is not const).
+  static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
+  dlib::frontal_face_detector detector = prototype;
   const std::vector<dlib::rectangle> faces = detector(img);
   if (faces.empty()) return std::nullopt;
   return *std::max_element(faces.begin(), faces.end(),
@@ -388,8 +391,10 @@ AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
     else
       reference.row(k).setConstant(kNaN);
   }
+  const std::optional<Points> known_bias = known_landmark_bias(tmpl);
   LandmarkTimings bias_timings;
-  const Points bias = landmark_bias(tmpl, reference, options, &bias_timings);
+  const Points bias =
+      known_bias ? *known_bias : landmark_bias(tmpl, reference, options, &bias_timings);
   for (auto [slot, add] : {std::pair{&out.template_timings.render, bias_timings.render},
                            {&out.template_timings.detect, bias_timings.detect},
                            {&out.template_timings.predict, bias_timings.predict},

@@ -89,6 +89,11 @@ Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const Landm
 /// nullopt when neither knows the rig.
 std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& rig);
 
+/// The template's landmark_bias stored in its entry of configs/rigbuild/template_landmarks.json
+/// ("bias", 68 rows, template units; computed with the default LandmarkOptions), so a build need
+/// not render and detect the template; nullopt when the entry has none.
+std::optional<Points> known_landmark_bias(const anim::Rig& rig);
+
 /// The template's landmarks as marker pairs with the target's detected ones ("dlib_NN"), the
 /// landmarks dropped on either side left out. Throws Error when fewer than 8 remain.
 std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& template_vertices,
