@@ -88,8 +88,8 @@ std::optional<Points> known_landmark_bias(const anim::Rig& rig) {
   const nlohmann::json* t = template_entry(j, rig);
   if (!t || !t->contains("bias")) return std::nullopt;
   const auto& rows = t->at("bias");
-  const std::string where = path.string() + ": templates." + t->value("name", std::string("?")) +
-                            ".bias";
+  const std::string where =
+      path.string() + ": templates." + t->value("name", std::string("?")) + ".bias";
   if (!rows.is_array() || rows.size() != kLandmarkCount)
     throw Error(where + ": expected 68 rows [x, y, z]");
   Points bias(kLandmarkCount, 3);

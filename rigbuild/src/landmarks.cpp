@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <future>
 #include <limits>
 #include <map>
 #include <memory>
@@ -80,11 +81,15 @@ dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
 
 // dlib's largest face in `image` (the HOG scan over the pyramid: tens of milliseconds on a
 // 400 px view, so it runs on the wide view only).
-std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
-  // dlib builds the detector from its serialized form in about a second: once per process, copied
-  // per call (its operator() is not const).
+// dlib builds the detector from its serialized form in about a second: once per process, copied
+// per use (its operator() is not const).
+const dlib::frontal_face_detector& face_detector() {
   static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
-  dlib::frontal_face_detector detector = prototype;
+  return prototype;
+}
+
+std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
+  dlib::frontal_face_detector detector = face_detector();
   const std::vector<dlib::rectangle> faces = detector(img);
   if (faces.empty()) return std::nullopt;
   return *std::max_element(faces.begin(), faces.end(),
@@ -218,7 +223,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   if (options.image_size < 64 || options.image_size > 4096)
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
                 " out of range (64..4096)");
-  const dlib::shape_predictor& sp = shape_predictor(options.predictor);
+  // dlib's models are read (once per process) while the views are set up.
+  auto models = std::async(std::launch::async, [&] {
+    face_detector();
+    return &shape_predictor(options.predictor);
+  });
   // The neutral alone (the renderer takes at most 256 shapes; the views need none).
   anim::Rig neutral = head;
   neutral.shapes.clear();
@@ -251,12 +260,14 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   const render::Camera wide = wide_camera(head, options.frame_margin, options.image_size);
   render::Camera front = wide;
   dlib::rectangle box;
+  const dlib::shape_predictor* sp = nullptr;
   {
     renderer.set_camera(wide);
     lap(time.lift);
     render::Image image = renderer.render({});
     lap(time.render);
     const auto img = to_dlib(image);
+    sp = models.get();
     const auto face = find_face(img);
     lap(time.detect);
     if (!face) {
@@ -266,7 +277,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
       return out;
     }
     std::array<Eigen::Vector2d, kLandmarkCount> px;
-    predict(img, sp, *face, px);
+    predict(img, *sp, *face, px);
     lap(time.predict);
     Eigen::Vector2d lo = px[0], hi = px[0];
     for (const auto& p : px) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
@@ -298,7 +309,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     lap(time.lift);
     view.image = renderer.render({});
     lap(time.render);
-    predict(to_dlib(view.image), sp, box, view.pixels);
+    predict(to_dlib(view.image), *sp, box, view.pixels);
     lap(time.predict);
     view.found = true;
     ++out.views_found;

@@ -32,8 +32,8 @@ void check_stored_bias(const anim::Rig& tmpl, const Points& computed, const Poin
   std::ostringstream json;
   json << std::setprecision(5);
   for (int k = 0; k < kLandmarkCount; ++k)
-    json << (k ? ", [" : "[[") << computed(k, 0) << ", " << computed(k, 1) << ", "
-         << computed(k, 2) << "]";
+    json << (k ? ", [" : "[[") << computed(k, 0) << ", " << computed(k, 1) << ", " << computed(k, 2)
+         << "]";
   json << "]";
   INFO("computed bias: " << json.str());
   const auto stored = known_landmark_bias(tmpl);

@@ -61,7 +61,7 @@ struct SurfacePoint {
 
 struct RegistrationOptions {
   std::vector<double> closest_weights{1, 10, 100, 1000};  // w_C per step
-  int iterations_per_step = 3;
+  int iterations_per_step = 2;
   double smoothness = 1.0;    // w_S
   double identity = 0.01;     // w_I
   double rest_pull = 1e-4;    // pull towards the similarity-aligned template (keeps it regular)

@@ -56,7 +56,8 @@ struct LandmarkView {
 /// Where detect_landmarks spends its time (seconds): the bench and `rig build` print them.
 struct LandmarkTimings {
   double render = 0;   // the views, on the GPU (EGL), read back
-  double detect = 0;   // dlib's HOG face detector on the wide view
+  double detect = 0;   // dlib's HOG face detector on the wide view, and the wait for dlib's
+                       // models (read once per process, while the views are set up)
   double predict = 0;  // dlib's shape predictor on every view
   double lift = 0;     // the CPU z-buffers and the lifting onto the skin
   double fuse = 0;     // the median over the views, the outlier tests, the nearest vertices
