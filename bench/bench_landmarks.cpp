@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
@@ -30,6 +31,26 @@ double cpu_seconds() {
 void print_landmarks(const char* side, const rigbuild::LandmarkTimings& t) {
   std::printf("  %-9s landmarks: render %.2f, detect %.2f, predict %.2f, lift %.2f, fuse %.2f s\n",
               side, t.render, t.detect, t.predict, t.lift, t.fuse);
+}
+
+// How far a blink closes the lids: 1 - (lid gap with the shape) / (lid gap at rest), the gap
+// being the mean distance of the landmark pairs 37-41 and 38-40 (the subject's right eye) or
+// 43-47 and 44-46 (left), at the vertices `v` (the template's or the target's landmarks).
+double closure(const anim::Rig& rig, const std::array<int, rigbuild::kLandmarkCount>& v,
+               const std::string& shape, bool left) {
+  const int k = rig.find_shape(shape);
+  if (k < 0) return 0;
+  const anim::Positions posed =
+      rig.positions + rig.shapes[static_cast<std::size_t>(k)].dense(rig.vertex_count());
+  const int o = left ? 6 : 0;
+  double rest = 0, closed = 0;
+  for (auto [a, b] : {std::pair{37, 41}, std::pair{38, 40}}) {
+    const int va = v[static_cast<std::size_t>(a + o)], vb = v[static_cast<std::size_t>(b + o)];
+    if (va < 0 || vb < 0) return 0;
+    rest += (rig.positions.row(va) - rig.positions.row(vb)).norm();
+    closed += (posed.row(va) - posed.row(vb)).norm();
+  }
+  return 1 - closed / rest;
 }
 
 void bench(const char* name, const anim::Rig& tmpl, const std::filesystem::path& head) {
@@ -61,6 +82,13 @@ void bench(const char* name, const anim::Rig& tmpl, const std::filesystem::path&
     print_landmarks("target", r.landmarks->target.timings);
     std::printf("  %zu marker pairs from %d views\n", r.landmarks->markers.size(),
                 r.landmarks->target.views_found);
+    for (const char* shape : {"eyeBlink_L", "eyeBlink_R"})
+      for (bool left : {false, true})
+        std::printf(
+            "  %s closes the %s lids at their landmark vertices by %.0f %% (template %.0f %%)\n",
+            shape, left ? "left (42-47)" : "right (36-41)",
+            100 * closure(r.rig, r.landmarks->target.vertex, shape, left),
+            100 * closure(tmpl, r.landmarks->template_vertices, shape, left));
   }
   const auto& t = r.timings;
   std::printf(
