@@ -2,6 +2,7 @@
 #include "facecast/rigbuild/build.hpp"
 
 #include <chrono>
+#include <future>
 #include <optional>
 
 #include "facecast/core/error.hpp"
@@ -86,13 +87,22 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   const Points rest = target.positions.cast<double>();
   const Faces& faces = target.triangles;
   const MeshParts parts(target.vertex_count(), faces);
+  // The template's shapes and gradients need no correspondence: made on another thread meanwhile
+  // (the landmarks and the registration's factorizations leave a core idle much of the time).
+  auto gradients = std::async(std::launch::async, [&] {
+    const auto t0 = Clock::now();
+    TemplateShapes shapes = template_shapes(tmpl);
+    time.gradients = std::chrono::duration<double>(Clock::now() - t0).count();
+    return shapes;
+  });
   r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
     return correspond(tmpl, target, options, r.landmarks, progress);
   });
   time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
+  time.registration = r.correspondence.registration_seconds;
   const bool same_topology = options.markers.empty() && !r.landmarks;
-  const TemplateShapes source =
-      timed(progress, "gradients", time.gradients, [&] { return template_shapes(tmpl); });
+  report(progress, "gradients", 0.0);
+  const TemplateShapes source = gradients.get();
   const Moved moved = classify_motion(r.correspondence, source, options.still_tolerance);
   const Placement placement = place_components(tmpl, rest, faces, parts, r.correspondence, source,
                                                moved, options, same_topology);

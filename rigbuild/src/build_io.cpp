@@ -80,11 +80,15 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
   contacts["enabled"] = options.contacts.enabled;
   contacts["watched_pairs"] = r.watched_pairs;
   j["contacts"] = contacts;
-  j["timings_s"] = {
-      {"landmarks", r.timings.landmarks}, {"correspondence", r.timings.correspondence},
-      {"gradients", r.timings.gradients}, {"virtual_edges", r.timings.detect},
-      {"factor", r.timings.factor},       {"solve", r.timings.solve},
-      {"contacts", r.timings.contacts},   {"total", r.timings.total}};
+  j["timings_s"] = {{"landmarks", r.timings.landmarks},
+                    {"correspondence", r.timings.correspondence},
+                    {"registration", r.timings.registration},
+                    {"gradients", r.timings.gradients},
+                    {"virtual_edges", r.timings.detect},
+                    {"factor", r.timings.factor},
+                    {"solve", r.timings.solve},
+                    {"contacts", r.timings.contacts},
+                    {"total", r.timings.total}};
   if (r.landmarks)
     j["landmarks"] = {{"markers", r.landmarks->markers.size()},
                       {"views", r.landmarks->target.views.size()},

@@ -341,6 +341,8 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
   c.registered =
       register_template(x0, template_faces, MeshGraph(x0, template_faces), markers, marker_targets,
                         target_surface, options.max_distance * diag, options, progress);
+  c.registration_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   double merr = 0;
   for (std::size_t i = 0; i < markers.size(); ++i)
     merr += (c.registered.row(markers[i].template_vertex) -

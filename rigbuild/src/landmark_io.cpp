@@ -37,6 +37,20 @@ LandmarkOptions load_landmark_options() {
   return o;
 }
 
+namespace {
+
+// The entry of template_landmarks.json made for `rig` (its vertex and triangle counts), or null.
+const nlohmann::json* template_entry(const nlohmann::json& j, const anim::Rig& rig) {
+  if (!j.contains("templates")) return nullptr;
+  for (const auto& t : j["templates"])
+    if (t.value("vertices", -1) == rig.vertex_count() &&
+        t.value("triangles", -1) == rig.triangle_count())
+      return &t;
+  return nullptr;
+}
+
+}  // namespace
+
 std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& rig) {
   std::array<int, kLandmarkCount> out;
   out.fill(-1);
@@ -52,25 +66,41 @@ std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& 
   if (stored == kLandmarkCount) return out;
   const auto path = config_path("rigbuild/template_landmarks.json");
   const nlohmann::json j = load_json(path);
-  if (!j.contains("templates")) return std::nullopt;
-  for (const auto& t : j["templates"]) {
-    if (t.value("vertices", -1) != rig.vertex_count() ||
-        t.value("triangles", -1) != rig.triangle_count())
-      continue;
-    const auto& ids = t.at("landmarks");
-    if (!ids.is_array() || ids.size() != kLandmarkCount)
-      throw Error(path.string() + ": templates." + t.value("name", std::string("?")) +
-                  ".landmarks: expected 68 vertex indices");
-    for (int k = 0; k < kLandmarkCount; ++k) {
-      const int v = ids[static_cast<std::size_t>(k)].get<int>();
-      if (v < -1 || v >= rig.vertex_count())
-        throw Error(path.string() + ": templates." + t.value("name", std::string("?")) +
-                    ".landmarks[" + std::to_string(k) + "]: vertex out of range");
-      out[static_cast<std::size_t>(k)] = v;
-    }
-    return out;
+  const nlohmann::json* t = template_entry(j, rig);
+  if (!t) return std::nullopt;
+  const auto& ids = t->at("landmarks");
+  if (!ids.is_array() || ids.size() != kLandmarkCount)
+    throw Error(path.string() + ": templates." + t->value("name", std::string("?")) +
+                ".landmarks: expected 68 vertex indices");
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const int v = ids[static_cast<std::size_t>(k)].get<int>();
+    if (v < -1 || v >= rig.vertex_count())
+      throw Error(path.string() + ": templates." + t->value("name", std::string("?")) +
+                  ".landmarks[" + std::to_string(k) + "]: vertex out of range");
+    out[static_cast<std::size_t>(k)] = v;
   }
-  return std::nullopt;
+  return out;
+}
+
+std::optional<Points> known_landmark_bias(const anim::Rig& rig) {
+  const auto path = config_path("rigbuild/template_landmarks.json");
+  const nlohmann::json j = load_json(path);
+  const nlohmann::json* t = template_entry(j, rig);
+  if (!t || !t->contains("bias")) return std::nullopt;
+  const auto& rows = t->at("bias");
+  const std::string where =
+      path.string() + ": templates." + t->value("name", std::string("?")) + ".bias";
+  if (!rows.is_array() || rows.size() != kLandmarkCount)
+    throw Error(where + ": expected 68 rows [x, y, z]");
+  Points bias(kLandmarkCount, 3);
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const auto& row = rows[static_cast<std::size_t>(k)];
+    if (!row.is_array() || row.size() != 3 || !row[0].is_number() || !row[1].is_number() ||
+        !row[2].is_number())
+      throw Error(where + "[" + std::to_string(k) + "]: expected [x, y, z]");
+    for (int i = 0; i < 3; ++i) bias(k, i) = row[static_cast<std::size_t>(i)].get<double>();
+  }
+  return bias;
 }
 
 void write_markers_json(const std::filesystem::path& path, const std::vector<MarkerPair>& markers) {

@@ -6,8 +6,10 @@
 #include <dlib/image_processing/frontal_face_detector.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <future>
 #include <limits>
 #include <map>
 #include <memory>
@@ -29,6 +31,19 @@ constexpr std::array<std::array<int, 2>, 29> kMirror = {{
     {37, 44}, {38, 43}, {39, 42}, {40, 47}, {41, 46}, {48, 54}, {49, 53}, {50, 52},
     {59, 55}, {58, 56}, {60, 64}, {61, 63}, {67, 65},
 }};
+
+// Adds the time since the last call (or construction) to the slot named.
+class Lap {
+ public:
+  void operator()(double& slot) {
+    const auto now = std::chrono::steady_clock::now();
+    slot += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
 
 bool is_jaw(int k) {
   return k <= 16;
@@ -64,10 +79,17 @@ dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
   return img;
 }
 
-// dlib's largest face in `image` (the HOG scan over the pyramid: about a second on a 400 px
-// image on a shared machine, so it runs on the wide view only).
+// dlib's largest face in `image` (the HOG scan over the pyramid: tens of milliseconds on a
+// 400 px view, so it runs on the wide view only).
+// dlib builds the detector from its serialized form in about a second: once per process, copied
+// per use (its operator() is not const).
+const dlib::frontal_face_detector& face_detector() {
+  static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
+  return prototype;
+}
+
 std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
-  dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();  // one per call
+  dlib::frontal_face_detector detector = face_detector();
   const std::vector<dlib::rectangle> faces = detector(img);
   if (faces.empty()) return std::nullopt;
   return *std::max_element(faces.begin(), faces.end(),
@@ -201,7 +223,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   if (options.image_size < 64 || options.image_size > 4096)
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
                 " out of range (64..4096)");
-  const dlib::shape_predictor& sp = shape_predictor(options.predictor);
+  // dlib's models are read (once per process) while the views are set up.
+  auto models = std::async(std::launch::async, [&] {
+    face_detector();
+    return &shape_predictor(options.predictor);
+  });
   // The neutral alone (the renderer takes at most 256 shapes; the views need none).
   anim::Rig neutral = head;
   neutral.shapes.clear();
@@ -215,7 +241,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   ro.margin = options.frame_margin;
   ro.contexts = 1;
   ro.background = Eigen::Vector3f(0.05f, 0.05f, 0.05f);
+  Lap lap;
+  HeadLandmarks out;
+  auto& time = out.timings;
   render::Renderer renderer(neutral, ro);
+  lap(time.render);
 
   const Points rest = head.positions.cast<double>();
   const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
@@ -224,19 +254,22 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     skin[static_cast<std::size_t>(t)] =
         comps.label[static_cast<std::size_t>(head.triangles(t, 0))] == comps.largest;
   const double diagonal = (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).norm();
-
-  HeadLandmarks out;
   // The face framed: found in a wide frontal view, then filling face_fill of the image. The
   // detector's box, zoomed with the view, starts the shape predictor in every view (the views
   // orbit the face's centre, so the face stays there).
   const render::Camera wide = wide_camera(head, options.frame_margin, options.image_size);
   render::Camera front = wide;
   dlib::rectangle box;
+  const dlib::shape_predictor* sp = nullptr;
   {
     renderer.set_camera(wide);
+    lap(time.lift);
     render::Image image = renderer.render({});
+    lap(time.render);
     const auto img = to_dlib(image);
+    sp = models.get();
     const auto face = find_face(img);
+    lap(time.detect);
     if (!face) {
       out.views.push_back({0.0, std::move(image), false, {}, {}});
       out.points = Points::Constant(kLandmarkCount, 3, kNaN);
@@ -244,7 +277,8 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
       return out;
     }
     std::array<Eigen::Vector2d, kLandmarkCount> px;
-    predict(img, sp, *face, px);
+    predict(img, *sp, *face, px);
+    lap(time.predict);
     Eigen::Vector2d lo = px[0], hi = px[0];
     for (const auto& p : px) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
     const SkinBuffer buffer(rest, head.triangles, skin, wide, options.image_size, 0.02 * diagonal);
@@ -272,8 +306,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     view.yaw = yaw;
     const render::Camera camera = orbit(front, yaw);
     renderer.set_camera(camera);
+    lap(time.lift);
     view.image = renderer.render({});
-    predict(to_dlib(view.image), sp, box, view.pixels);
+    lap(time.render);
+    predict(to_dlib(view.image), *sp, box, view.pixels);
+    lap(time.predict);
     view.found = true;
     ++out.views_found;
     auto& points = lifted.emplace_back();
@@ -286,6 +323,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     }
     out.views.push_back(std::move(view));
   }
+  lap(time.lift);
   out.points = fuse(out.views, lifted, options.contour_yaw);
   out.vertex.fill(-1);
 
@@ -311,6 +349,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
       }
     }
   }
+  lap(time.fuse);
   return out;
 }
 
@@ -331,9 +370,10 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
   return out;
 }
 
-Points landmark_bias(const anim::Rig& tmpl, const Points& reference,
-                     const LandmarkOptions& options) {
+Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
+                     LandmarkTimings* timings) {
   const HeadLandmarks found = detect_landmarks(tmpl, options, &reference);
+  if (timings) *timings = found.timings;
   Points bias = reference - found.points;
   for (int k = 0; k < kLandmarkCount; ++k)
     if (!valid(bias, k)) bias.row(k).setZero();
@@ -347,6 +387,7 @@ AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
     out.template_vertices = *known;
   } else {
     const HeadLandmarks t = detect_landmarks(tmpl, options);
+    out.template_timings = t.timings;
     if (t.views_found == 0)
       throw Error(
           "template: no face found in its " + std::to_string(t.views.size()) +
@@ -361,7 +402,16 @@ AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
     else
       reference.row(k).setConstant(kNaN);
   }
-  const Points bias = landmark_bias(tmpl, reference, options);
+  const std::optional<Points> known_bias = known_landmark_bias(tmpl);
+  LandmarkTimings bias_timings;
+  const Points bias =
+      known_bias ? *known_bias : landmark_bias(tmpl, reference, options, &bias_timings);
+  for (auto [slot, add] : {std::pair{&out.template_timings.render, bias_timings.render},
+                           {&out.template_timings.detect, bias_timings.detect},
+                           {&out.template_timings.predict, bias_timings.predict},
+                           {&out.template_timings.lift, bias_timings.lift},
+                           {&out.template_timings.fuse, bias_timings.fuse}})
+    *slot += add;
   out.target = detect_landmarks(target, options, &reference, &bias);
   if (out.target.views_found == 0)
     throw Error("target: no face found in its " + std::to_string(out.target.views.size()) +

@@ -197,11 +197,13 @@ void run_build(BuildArgs& a) {
   }
   std::fprintf(
       stderr,
-      "wrote %s: %d vertices, %zu shapes, %zu virtual edges (%s); %.2f s (correspondence %.2f, "
-      "virtual edges %.2f, factor %.2f, solve %.2f, contacts %.2f)\n",
+      "wrote %s: %d vertices, %zu shapes, %zu virtual edges (%s); %.2f s (correspondence %.2f: "
+      "landmarks %.2f, registration %.2f; virtual edges %.2f, factor %.2f, solve %.2f, contacts "
+      "%.2f)\n",
       a.out.c_str(), r.rig.vertex_count(), r.rig.shapes.size(), r.virtual_edges.size(),
-      a.ve_mode.c_str(), r.timings.total, r.timings.correspondence, r.timings.detect,
-      r.timings.factor, r.timings.solve, r.timings.contacts);
+      a.ve_mode.c_str(), r.timings.total, r.timings.correspondence, r.timings.landmarks,
+      r.timings.registration, r.timings.detect, r.timings.factor, r.timings.solve,
+      r.timings.contacts);
 }
 
 struct CheckArgs {

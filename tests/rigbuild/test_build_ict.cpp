@@ -109,7 +109,8 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   BuildOptions opt;
   opt.markers = read_markers(markers, tmpl.vertex_count(), target.vertex_count());
   const auto r = build_rig(tmpl, target, opt);
-  CHECK(r.timings.correspondence <= 10.0);
+  // Times are figures, not checks (the machine is shared): bench/bench_landmarks prints them.
+  WARN("MakeHuman with markers: correspondence " << r.timings.correspondence << " s");
   REQUIRE(r.rig.shapes.size() == 57);
   // The correspondence saved and loaded again is reused (here for a build without contacts).
   const auto saved = test::scratch_dir() / "mh.correspondence";

@@ -2,6 +2,7 @@
 // identities against their known landmark vertices, and MakeHuman and MediaPipe heads.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 #include "facecast/anim/avatar.hpp"
@@ -24,6 +25,23 @@ Points landmark_points(const anim::Rig& rig, const std::array<int, kLandmarkCoun
   return p;
 }
 
+// The bias stored in configs/rigbuild/template_landmarks.json (known_landmark_bias) is the one
+// landmark_bias computes, within 2% of the inter-ocular distance; prints the entry's "bias" to
+// regenerate it.
+void check_stored_bias(const anim::Rig& tmpl, const Points& computed, const Points& reference) {
+  std::ostringstream json;
+  json << std::setprecision(5);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    json << (k ? ", [" : "[[") << computed(k, 0) << ", " << computed(k, 1) << ", " << computed(k, 2)
+         << "]";
+  json << "]";
+  INFO("computed bias: " << json.str());
+  const auto stored = known_landmark_bias(tmpl);
+  REQUIRE(stored);
+  const double iod = (reference.row(36) - reference.row(45)).norm();
+  CHECK((*stored - computed).rowwise().norm().maxCoeff() <= 0.02 * iod);
+}
+
 }  // namespace
 
 TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of the true ones",
@@ -36,6 +54,7 @@ TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of 
   const LandmarkOptions options = load_landmark_options();
   const Points reference = landmark_points(neutral, *truth_ids);
   const Points bias = landmark_bias(neutral, reference, options);
+  check_stored_bias(neutral, bias, reference);
   double worst_mean = 0;
   for (const char* name : {"identity003.obj", "identity007.obj"}) {
     anim::Rig head = neutral;
@@ -216,4 +235,8 @@ TEST_CASE("the default avatar's stored landmarks are where the detector finds th
              (avatar.positions.row(s) - avatar.positions.row(d)).norm() <= 0.05 * iod;
   }
   CHECK(agree >= 55);
+  Points reference(kLandmarkCount, 3);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    reference.row(k) = avatar.positions.row((*stored)[static_cast<std::size_t>(k)]).cast<double>();
+  check_stored_bias(avatar, landmark_bias(avatar, reference, load_landmark_options()), reference);
 }

@@ -87,7 +87,8 @@ struct ComponentInfo {
 };
 
 struct BuildTimings {
-  double landmarks = 0;  // part of correspondence
+  double landmarks = 0;     // part of correspondence
+  double registration = 0;  // part of correspondence (correspondence.hpp's step 2)
   double correspondence = 0, gradients = 0, detect = 0, factor = 0, solve = 0, contacts = 0,
          total = 0;
 };

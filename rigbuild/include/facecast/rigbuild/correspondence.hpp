@@ -61,7 +61,7 @@ struct SurfacePoint {
 
 struct RegistrationOptions {
   std::vector<double> closest_weights{1, 10, 100, 1000};  // w_C per step
-  int iterations_per_step = 3;
+  int iterations_per_step = 2;
   double smoothness = 1.0;    // w_S
   double identity = 0.01;     // w_I
   double rest_pull = 1e-4;    // pull towards the similarity-aligned template (keeps it regular)
@@ -77,7 +77,8 @@ struct Correspondence {
   Similarity alignment;
   Points registered;  // the template neutral registered onto the target
   double seconds = 0;
-  double mean_marker_error = 0;  // after registration, in target units
+  double registration_seconds = 0;  // of `seconds`: step 2
+  double mean_marker_error = 0;     // after registration, in target units
 };
 
 /// Same topology: triangle t <-> t, vertex v <-> v.

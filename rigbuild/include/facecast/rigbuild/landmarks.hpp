@@ -53,8 +53,19 @@ struct LandmarkView {
   std::array<bool, kLandmarkCount> lifted{};             // each landmark reached the skin
 };
 
+/// Where detect_landmarks spends its time (seconds): the bench and `rig build` print them.
+struct LandmarkTimings {
+  double render = 0;   // the views, on the GPU (EGL), read back
+  double detect = 0;   // dlib's HOG face detector on the wide view, and the wait for dlib's
+                       // models (read once per process, while the views are set up)
+  double predict = 0;  // dlib's shape predictor on every view
+  double lift = 0;     // the CPU z-buffers and the lifting onto the skin
+  double fuse = 0;     // the median over the views, the outlier tests, the nearest vertices
+};
+
 struct HeadLandmarks {
   std::vector<LandmarkView> views;
+  LandmarkTimings timings;
   Points points;  // 68 by 3, the fused surface points; NaN rows where dropped
   std::array<int, kLandmarkCount> vertex{};  // the nearest skin vertex, or -1 where dropped
   int views_found = 0;
@@ -71,13 +82,18 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
 /// by a convention (the brows of a bald grey head, the lid margins): per landmark, the
 /// template's `reference` point minus the point detected on the template (zero where dropped),
 /// in the template's frame.
-Points landmark_bias(const anim::Rig& tmpl, const Points& reference,
-                     const LandmarkOptions& options);
+Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
+                     LandmarkTimings* timings = nullptr);
 
 /// The rig's 68 landmark vertices: landmarks named "dlib_00".."dlib_67" stored with it, else the
 /// entry of configs/rigbuild/template_landmarks.json with its vertex and triangle counts;
 /// nullopt when neither knows the rig.
 std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& rig);
+
+/// The template's landmark_bias stored in its entry of configs/rigbuild/template_landmarks.json
+/// ("bias", 68 rows, template units; computed with the default LandmarkOptions), so a build need
+/// not render and detect the template; nullopt when the entry has none.
+std::optional<Points> known_landmark_bias(const anim::Rig& rig);
 
 /// The template's landmarks as marker pairs with the target's detected ones ("dlib_NN"), the
 /// landmarks dropped on either side left out. Throws Error when fewer than 8 remain.
@@ -90,7 +106,8 @@ struct AutoMarkers {
   std::vector<MarkerPair> markers;
   HeadLandmarks target;
   std::array<int, kLandmarkCount> template_vertices{};
-  double seconds = 0;  // the views, detection and fusion
+  double seconds = 0;                // the views, detection and fusion
+  LandmarkTimings template_timings;  // the template's side (its bias, its landmarks if unknown)
 };
 AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
                          const LandmarkOptions& options);
