@@ -73,13 +73,13 @@ nlohmann::json camera_json(const OrthoCamera& c) {
   return {{"model", "scale-orthographic"}, {"R", R}, {"s", c.s}, {"t", {c.t.x(), c.t.y()}}};
 }
 
-// The fitted head as a rig: the template's topology and materials, the skin materials sampling
-// the baked texture (u scaled onto its tiles).
-anim::Rig textured_head(const PhotoTemplate& tmpl, const PhotoFit& fit,
+}  // namespace
+
+anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positions,
                         const render::Image& texture) {
   anim::Rig rig = tmpl.rig;
   rig.shapes.clear();
-  rig.positions = fit.positions;
+  rig.positions = positions;
   rig.normals = anim::vertex_normals(rig.positions, rig.triangles);
   anim::Texture tex;
   tex.name = "photo_skin";
@@ -108,8 +108,6 @@ anim::Rig textured_head(const PhotoTemplate& tmpl, const PhotoFit& fit,
   }
   return rig;
 }
-
-}  // namespace
 
 PhotoOptions load_photo_options() {
   ConfigReader c = ConfigReader::open(config_path("rigbuild/photo.json"));
@@ -194,7 +192,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   t = std::chrono::steady_clock::now();
   const render::Image texture =
       bake_photo_texture(tmpl, out.fit, front, side, options, &out.texture_coverage);
-  anim::Rig head = textured_head(tmpl, out.fit, texture);
+  anim::Rig head = textured_head(tmpl, out.fit.positions, texture);
   timing["texture"] = seconds_since(t);
   t = std::chrono::steady_clock::now();
   if (options.shapes && !tmpl.rig.shapes.empty()) {

@@ -18,9 +18,18 @@ constexpr int kJawEnd = 16;  // landmarks 0..16: the jaw line, silhouette points
 // used landmark is paired with.
 struct View {
   const PhotoLandmarks* marks = nullptr;
-  std::vector<int> used;
+  std::vector<int> used;      // landmarks this photo contributes
+  std::vector<char> contour;  // per landmark: matched to the silhouette
   OrthoCamera camera;
   std::array<int, kLandmarkCount> vertex{};
+  const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
+
+  // Where landmark k sits on a head at `p`: its vertex plus the detector's convention offset.
+  Eigen::Vector3d point(const anim::Positions& p, int k) const {
+    const auto i = static_cast<std::size_t>(k);
+    const Eigen::Vector3d x = p.row(vertex[i]).cast<double>().transpose();
+    return contour[i] ? x : x + (*bias)[i];
+  }
 };
 
 Eigen::Vector3d row(const anim::Positions& p, int v) {
@@ -47,7 +56,7 @@ void match_contour(const anim::Positions& positions, const anim::Positions& norm
                    const std::vector<std::vector<int>>& candidates, View& view) {
   const Eigen::Vector3d towards = view.camera.towards();
   for (int k : view.used) {
-    if (k > kJawEnd) continue;
+    if (!view.contour[static_cast<std::size_t>(k)]) continue;
     const Eigen::Vector2d& q = view.marks->points[static_cast<std::size_t>(k)];
     double best = std::numeric_limits<double>::infinity();
     for (int v : candidates[static_cast<std::size_t>(k)]) {
@@ -65,7 +74,7 @@ void fit_camera(const anim::Positions& positions, View& view) {
   std::vector<Eigen::Vector3d> pts;
   std::vector<Eigen::Vector2d> px;
   for (int k : view.used) {
-    pts.push_back(row(positions, view.vertex[static_cast<std::size_t>(k)]));
+    pts.push_back(view.point(positions, k));
     px.push_back(view.marks->points[static_cast<std::size_t>(k)]);
   }
   view.camera = fit_ortho_camera(pts, px);
@@ -85,7 +94,7 @@ Eigen::VectorXd solve_coefficients(const PhotoTemplate& tmpl, const std::vector<
     for (int k : view.used) {
       const int v = view.vertex[static_cast<std::size_t>(k)];
       const Eigen::Vector2d q = view.marks->points[static_cast<std::size_t>(k)];
-      const Eigen::Vector2d p0 = view.camera.project(row(tmpl.rig.positions, v));
+      const Eigen::Vector2d p0 = view.camera.project(view.point(tmpl.rig.positions, k));
       Eigen::Vector2d r = (q - p0) * unit;
       r.y() = -r.y();  // y up
       Eigen::Matrix<double, 2, Eigen::Dynamic> A(2, K);
@@ -109,8 +118,7 @@ anim::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c)
 double rms_pixels(const anim::Positions& p, const View& view) {
   double sum = 0;
   for (int k : view.used)
-    sum += (view.camera.project(row(p, view.vertex[static_cast<std::size_t>(k)])) -
-            view.marks->points[static_cast<std::size_t>(k)])
+    sum += (view.camera.project(view.point(p, k)) - view.marks->points[static_cast<std::size_t>(k)])
                .squaredNorm();
   return std::sqrt(sum / std::max<std::size_t>(1, view.used.size()));
 }
@@ -159,13 +167,19 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   const double iod = (row(X0, tmpl.landmarks[36]) - row(X0, tmpl.landmarks[45])).norm();
   std::vector<View> views(side ? 2 : 1);
   views[0].marks = &front;
-  for (int k = 0; k < kLandmarkCount; ++k) views[0].used.push_back(k);
+  views[0].contour.assign(kLandmarkCount, 0);
+  std::fill_n(views[0].contour.begin(), kJawEnd + 1, 1);
   if (side) {
     views[1].marks = side;
+    views[1].contour.assign(kLandmarkCount, 0);
+    views[1].contour[8] = 1;
     views[1].used = side_points(*side);
-    if (views[1].used.size() < 6) throw Error("side photo: too few usable landmarks");
   }
-  for (auto& v : views) v.vertex = tmpl.landmarks;
+  for (int k = 0; k < kLandmarkCount; ++k) views[0].used.push_back(k);
+  for (auto& v : views) {
+    v.vertex = tmpl.landmarks;
+    v.bias = &tmpl.bias;
+  }
   const auto candidates = jaw_candidates(tmpl, 0.3 * iod);
 
   PhotoFit fit;
@@ -189,6 +203,10 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   if (side) fit.side_rms = rms_pixels(p, views[1]);
 
   const auto centres = calibration_moves(p, views, &fit.moved_rms);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    for (const auto& c : centres)
+      if (c.vertex == views[0].vertex[static_cast<std::size_t>(k)])
+        fit.landmark_moves[static_cast<std::size_t>(k)] = c.move;
   rbf_deform(p, centres, tmpl.rigid, options.rbf_radius * iod, 0.02 * iod);
   fit.positions = std::move(p);
   fit.front = views[0].camera;
@@ -196,10 +214,24 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   fit.side_vertex.fill(-1);
   if (side) {
     fit.side = views[1].camera;
-    for (int k : views[1].used)
-      fit.side_vertex[static_cast<std::size_t>(k)] = views[1].vertex[static_cast<std::size_t>(k)];
+    fit.side_vertex = views[1].vertex;
   }
   return fit;
+}
+
+std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
+                                                                  const PhotoLandmarks& front,
+                                                                  const PhotoLandmarks* side,
+                                                                  const PhotoOptions& options) {
+  PhotoTemplate plain = tmpl;
+  plain.bias = zero_landmark_vectors();
+  PhotoOptions o = options;
+  o.landmark_noise = 1e6;  // the template's own shape: no identity modes
+  const PhotoFit fit = fit_photo_shape(plain, front, side, o);
+  std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
+  for (int k = kJawEnd + 1; k < kLandmarkCount; ++k)
+    out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];
+  return out;
 }
 
 }  // namespace facecast::rigbuild

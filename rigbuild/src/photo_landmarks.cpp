@@ -78,18 +78,13 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
 std::vector<int> side_points(const PhotoLandmarks& side) {
   // The near side is the one whose cheek contour lies farther from the nose tip in the picture.
   const auto& p = side.points;
-  const double right = std::abs(p[30].x() - p[2].x()), left = std::abs(p[14].x() - p[30].x());
-  const bool near_right = right > left;  // the subject's right side faces the camera
-  std::vector<int> out;
-  for (int k = 0; k < kLandmarkCount; ++k) {
-    const double x = p[static_cast<std::size_t>(k)].x();
-    // Midline points: nose ridge and tip, lip centres, chin.
-    const bool midline =
-        (k >= 27 && k <= 30) || k == 33 || k == 8 || k == 51 || k == 57 || k == 62 || k == 66;
-    const bool near = near_right ? x <= p[30].x() : x >= p[30].x();
-    // The near half of the jaw line (the silhouette) and the near eye, brow, nostril, lip points.
-    if (midline || (near && k != 30)) out.push_back(k);
-  }
+  const bool near_right = std::abs(p[30].x() - p[2].x()) > std::abs(p[14].x() - p[30].x());
+  // The profile: nose ridge and tip, lip centres, chin; and the near eye's corners, brow ends,
+  // nostril and mouth corner.
+  std::vector<int> out{8, 27, 28, 29, 30, 33, 51, 57, 62, 66};
+  const std::vector<int> near = near_right ? std::vector<int>{17, 21, 31, 36, 39, 48}
+                                           : std::vector<int>{22, 26, 35, 42, 45, 54};
+  out.insert(out.end(), near.begin(), near.end());
   return out;
 }
 

@@ -2,6 +2,7 @@
 // depth test through the fitted camera shows it, the colours blended by the normal (seed 003,
 // section 5: k = |N.front| / (|N.front| + |N.side|)), the side photo colour-matched to the front
 // first, unseen texels filled from the nearest seen one. See docs/algorithms.md#photo-avatar.
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <deque>
@@ -133,6 +134,48 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
 
 }  // namespace
 
+void for_each_skin_texel(
+    const PhotoTemplate& tmpl, const anim::Positions& positions, int w, int h, int tiles,
+    const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f) {
+  const anim::Rig& rig = tmpl.rig;
+  const anim::Positions normals = anim::vertex_normals(positions, rig.triangles);
+  const auto uv = [&](int v) {
+    return Eigen::Vector2d(rig.uvs(v, 0) / tiles * w - 0.5, rig.uvs(v, 1) * h - 0.5);
+  };
+  const auto at = [](const anim::Positions& p, int v) {
+    return Eigen::Vector3d(p.row(v).cast<double>().transpose());
+  };
+  // Triangles across a UV seam (one UV per vertex: a corner takes the other island's) are
+  // stretched far beyond the others in UV: left out.
+  const auto stretch = [&](int t) {
+    const int a = rig.triangles(t, 0), b = rig.triangles(t, 1), c = rig.triangles(t, 2);
+    const double uv_area = std::abs((uv(b) - uv(a)).x() * (uv(c) - uv(a)).y() -
+                                    (uv(b) - uv(a)).y() * (uv(c) - uv(a)).x());
+    const double area =
+        (at(positions, b) - at(positions, a)).cross(at(positions, c) - at(positions, a)).norm();
+    return uv_area / std::max(area, 1e-12);
+  };
+  std::vector<double> stretches;
+  for (int t = 0; t < rig.triangle_count(); ++t) stretches.push_back(stretch(t));
+  std::vector<double> sorted = stretches;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double limit = 20 * sorted[sorted.size() / 2];
+  for (int t = 0; t < rig.triangle_count(); ++t) {
+    const int a = rig.triangles(t, 0), b = rig.triangles(t, 1), c = rig.triangles(t, 2);
+    if (!tmpl.skin[static_cast<std::size_t>(a)] || !tmpl.skin[static_cast<std::size_t>(b)] ||
+        !tmpl.skin[static_cast<std::size_t>(c)] || stretches[static_cast<std::size_t>(t)] > limit)
+      continue;
+    rasterize(uv(a), uv(b), uv(c), w, h, [&](int x, int y, const Eigen::Vector3d& k) {
+      const Eigen::Vector3d p =
+          k(0) * at(positions, a) + k(1) * at(positions, b) + k(2) * at(positions, c);
+      const Eigen::Vector3d n =
+          (k(0) * at(normals, a) + k(1) * at(normals, b) + k(2) * at(normals, c)).normalized();
+      f(static_cast<std::size_t>(y) * w + x, p, n);
+    });
+  }
+}
+
 render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                                  const render::Image& front, const render::Image* side,
                                  const PhotoOptions& options, double* coverage) {
@@ -152,7 +195,6 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
   }
   t.covered.assign(n, 0);
 
-  const anim::Positions normals = anim::vertex_normals(fit.positions, rig.triangles);
   const render::Image* photos[2] = {&front, side};
   const OrthoCamera* cams[2] = {&fit.front, fit.side ? &*fit.side : nullptr};
   const double iod = (fit.positions.row(tmpl.landmarks[36]) - fit.positions.row(tmpl.landmarks[45]))
@@ -163,33 +205,18 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
     if (photos[k] && cams[k])
       depth.emplace_back(fit.positions, rig.triangles, *cams[k], photos[k]->width,
                          photos[k]->height);
-  const auto uv = [&](int v) {
-    return Eigen::Vector2d(rig.uvs(v, 0) / tiles * t.w - 0.5, rig.uvs(v, 1) * t.h - 0.5);
-  };
-  for (int f = 0; f < rig.triangle_count(); ++f) {
-    const int a = rig.triangles(f, 0), b = rig.triangles(f, 1), c = rig.triangles(f, 2);
-    if (!tmpl.skin[static_cast<std::size_t>(a)] || !tmpl.skin[static_cast<std::size_t>(b)] ||
-        !tmpl.skin[static_cast<std::size_t>(c)])
-      continue;
-    rasterize(uv(a), uv(b), uv(c), t.w, t.h, [&](int x, int y, const Eigen::Vector3d& w) {
-      const std::size_t i = static_cast<std::size_t>(y) * t.w + x;
-      t.covered[i] = 1;
-      const Eigen::Vector3d p = w(0) * fit.positions.row(a).cast<double>().transpose() +
-                                w(1) * fit.positions.row(b).cast<double>().transpose() +
-                                w(2) * fit.positions.row(c).cast<double>().transpose();
-      const Eigen::Vector3d nrm = (w(0) * normals.row(a).cast<double>().transpose() +
-                                   w(1) * normals.row(b).cast<double>().transpose() +
-                                   w(2) * normals.row(c).cast<double>().transpose())
-                                      .normalized();
-      for (std::size_t k = 0; k < depth.size(); ++k) {
-        const double facing = nrm.dot(cams[k]->towards());
-        const Eigen::Vector2d at = cams[k]->project(p);
-        if (facing <= 0 || !depth[k].visible(at, cams[k]->depth(p), 0.02 * iod)) continue;
-        t.weight[k][i] = static_cast<float>(std::pow(facing, options.side_gamma));
-        t.colour[k][i] = sample(*photos[k], at);
-      }
-    });
-  }
+  for_each_skin_texel(tmpl, fit.positions, t.w, t.h, tiles,
+                      [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d& nrm) {
+                        t.covered[i] = 1;
+                        for (std::size_t k = 0; k < depth.size(); ++k) {
+                          const double facing = nrm.dot(cams[k]->towards());
+                          const Eigen::Vector2d at = cams[k]->project(p);
+                          if (facing <= 0 || !depth[k].visible(at, cams[k]->depth(p), 0.02 * iod))
+                            continue;
+                          t.weight[k][i] = static_cast<float>(std::pow(facing, options.side_gamma));
+                          t.colour[k][i] = sample(*photos[k], at);
+                        }
+                      });
   if (depth.size() > 1) match_side_colours(t);
 
   std::vector<Eigen::Vector3f> colour(n, Eigen::Vector3f::Zero());

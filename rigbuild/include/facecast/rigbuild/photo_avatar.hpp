@@ -24,6 +24,13 @@
 
 namespace facecast::rigbuild {
 
+/// One zero vector per landmark.
+inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
+  std::array<Eigen::Vector3d, kLandmarkCount> a;
+  a.fill(Eigen::Vector3d::Zero());
+  return a;
+}
+
 /// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
@@ -51,6 +58,10 @@ struct PhotoTemplate {
   std::array<int, kLandmarkCount> landmarks{};
   std::vector<char> skin;  // per vertex: on the face or back-of-head surface (textured)
   std::vector<int> rigid;  // per vertex: rigid group (0: follows the RBF; 1.. eyes, mouth)
+  /// Where the detector puts each landmark relative to its vertex, in the template's frame (zero:
+  /// the template's landmark vertices follow dlib's convention on such photos; see
+  /// measure_landmark_bias). Jaw-line points, matched to the silhouette, have none.
+  std::array<Eigen::Vector3d, kLandmarkCount> bias = zero_landmark_vectors();
 };
 
 /// Reads a template: the ICT FaceKit folder (generic_neutral_mesh.obj, expressions,
@@ -97,14 +108,32 @@ struct PhotoFit {
   std::array<int, kLandmarkCount> side_vertex{};   // -1 where not used in the side photo
   double front_rms = 0, side_rms = 0;              // landmark residual of the model fit, pixels
   double moved_rms = 0;  // RMS RBF displacement at the landmarks, model units
+  /// Per landmark, the calibration's move of its front vertex (model units).
+  std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
 };
 
-/// The side photo's usable points: those of the subject's side turned towards the camera and the
-/// midline (nose, lips, chin, brows); the far side's are dropped.
+/// The side photo's profile points (nose ridge and tip, lip centres, chin) and the near side's
+/// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
 std::vector<int> side_points(const PhotoLandmarks& side);
 
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options);
+
+/// The detector's convention on a kind of photo (renders, say): the template itself photographed
+/// that way and fitted without identity modes; per landmark the calibration's move, which
+/// PhotoTemplate::bias then adds to the landmark's vertex.
+std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
+                                                                  const PhotoLandmarks& front,
+                                                                  const PhotoLandmarks* side,
+                                                                  const PhotoOptions& options);
+
+/// The detector's convention on a kind of photo (renders, say): the template itself photographed
+/// that way and fitted without identity modes; per landmark the calibration's move, which
+/// PhotoTemplate::bias then adds to the landmark's vertex.
+std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
+                                                                  const PhotoLandmarks& front,
+                                                                  const PhotoLandmarks* side,
+                                                                  const PhotoOptions& options);
 
 /// The skin texture (2 N x N, u in [0, 2] as the template's face and back-of-head UV tiles)
 /// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo.
