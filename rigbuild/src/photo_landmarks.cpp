@@ -110,4 +110,23 @@ render::Image photo_landmark_picture(const render::Image& photo, const PhotoLand
   return out;
 }
 
+render::Image side_by_side(const std::vector<render::Image>& images) {
+  render::Image out;
+  for (const auto& i : images) {
+    out.width += i.width;
+    out.height = std::max(out.height, i.height);
+  }
+  out.pixels.assign(static_cast<std::size_t>(out.width) * out.height * 3, 0);
+  int x0 = 0;
+  for (const auto& i : images) {
+    for (int y = 0; y < i.height; ++y)
+      for (int x = 0; x < i.width; ++x)
+        for (int c = 0; c < 3; ++c)
+          out.pixels[(static_cast<std::size_t>(y) * out.width + x0 + x) * 3 +
+                     static_cast<std::size_t>(c)] = i.at(x, y, std::min(c, i.channels - 1));
+    x0 += i.width;
+  }
+  return out;
+}
+
 }  // namespace facecast::rigbuild

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "facecast/render/renderer.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
@@ -59,6 +60,17 @@ inline render::Image skin_texture(const rigbuild::PhotoTemplate& t, int n = 512)
   return img;
 }
 
+/// scikit-image's astronaut.png (public domain): from an installed python3-skimage, or the copy
+/// scripts/install-deps.sh unpacks; "" when neither exists.
+inline std::filesystem::path astronaut_path() {
+  for (const char* p :
+       {"/usr/lib/python3/dist-packages/skimage/data/astronaut.png",
+        "/opt/facecast-testdata/python3-skimage/usr/lib/python3/dist-packages/skimage/data/"
+        "astronaut.png"})
+    if (std::filesystem::exists(p)) return p;
+  return {};
+}
+
 struct PhotoShoot {
   render::Image front, side;
 };
@@ -109,26 +121,6 @@ inline double reprojection_error(const rigbuild::PhotoAvatar& a, const render::I
     sum += (got.points[k] - a.front.points[k]).norm();
   return sum / static_cast<double>(got.points.size()) /
          (a.front.points[36] - a.front.points[45]).norm();
-}
-
-/// Images side by side (top-aligned, black below shorter ones).
-inline render::Image strip(const std::vector<render::Image>& images) {
-  render::Image out;
-  for (const auto& i : images) {
-    out.width += i.width;
-    out.height = std::max(out.height, i.height);
-  }
-  out.pixels.assign(static_cast<std::size_t>(out.width) * out.height * 3, 0);
-  int x0 = 0;
-  for (const auto& i : images) {
-    for (int y = 0; y < i.height; ++y)
-      for (int x = 0; x < i.width; ++x)
-        for (int c = 0; c < 3; ++c)
-          out.pixels[(static_cast<std::size_t>(y) * out.width + x0 + x) * 3 +
-                     static_cast<std::size_t>(c)] = i.at(x, y, std::min(c, i.channels - 1));
-    x0 += i.width;
-  }
-  return out;
 }
 
 }  // namespace facecast::test

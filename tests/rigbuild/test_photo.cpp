@@ -1,5 +1,6 @@
 // The photo avatar (docs/algorithms.md#photo-avatar) on photos whose truth is known: random ICT
 // identity mixtures, given a skin-like texture and rendered from the front and the side.
+#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <iostream>
@@ -69,7 +70,7 @@ TEST_CASE("RBF calibration moves the centres exactly and carries rigid groups", 
 }
 
 TEST_CASE("photo fit of ICT identities: shape error against the truth, front and side",
-          "[photo][ict]") {
+          "[photo][ict][slow]") {
   const auto dir = test::ict_dir();
   if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
   PhotoTemplate tmpl = load_photo_template(dir);
@@ -109,9 +110,9 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
     if (seed == seeds.front())
       render::write_image(
           test::artifacts_dir("photo") / "ict_fit.png",
-          test::strip({shoot.front, shoot.side, photo_landmark_picture(shoot.front, a.front),
-                       photo_landmark_picture(shoot.side, b.side, side_points(b.side)),
-                       test::render_as_photo(b.rig, b.fit.front, shoot.front)}));
+          side_by_side({shoot.front, shoot.side, photo_landmark_picture(shoot.front, a.front),
+                        photo_landmark_picture(shoot.side, b.side, side_points(b.side)),
+                        test::render_as_photo(b.rig, b.fit.front, shoot.front)}));
   }
   const double n = static_cast<double>(seeds.size());
   std::cout << "mean ratio front " << sum_front / n << ", front+side " << sum_side / n
@@ -129,4 +130,43 @@ TEST_CASE("photo avatar: bad photos are one-line errors", "[photo]") {
                     Catch::Contains("x.jpg: photo too small"));
   render::Image blank{300, 300, 3, std::vector<std::uint8_t>(300 * 300 * 3, 90)};
   CHECK_THROWS_WITH(detect_photo_landmarks(blank, "y.png", opt), "y.png: no face found");
+}
+
+TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[photo][slow]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const auto path = test::astronaut_path();
+  if (!test::require_data(path.empty() ? "/usr/lib/python3/dist-packages/skimage/data/astronaut.png"
+                                       : path))
+    return;
+  const PhotoTemplate tmpl = load_photo_template(dir);
+  const PhotoOptions opt = load_photo_options();
+  const render::Image photo = render::read_image(path);
+  const PhotoAvatar a = avatar_from_photos(tmpl, photo, nullptr, opt);
+  std::cout << "astronaut: " << a.report["seconds"].dump() << ", texture coverage "
+            << a.texture_coverage << "\n";
+  CHECK(a.rig.shapes.size() == tmpl.rig.shapes.size());
+  CHECK(a.rig.textures.size() == 1);
+  const render::Image still = test::render_as_photo(a.rig, a.fit.front, photo);
+  const render::Image speaking =
+      test::render_as_photo(a.rig, a.fit.front, photo,
+                            {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}});
+  render::write_image(
+      test::artifacts_dir("photo") / "astronaut.png",
+      side_by_side({photo, photo_landmark_picture(photo, a.front), still, speaking}));
+  // Textured from the photo: inside the face (the landmarks' box) the render's colours are the
+  // photo's.
+  Eigen::AlignedBox2d box;
+  for (const auto& p : a.front.points) box.extend(p);
+  double diff = 0;
+  int n = 0;
+  for (int y = static_cast<int>(box.min().y()); y < static_cast<int>(box.max().y()); y += 2)
+    for (int x = static_cast<int>(box.min().x()); x < static_cast<int>(box.max().x()); x += 2, ++n)
+      for (int c = 0; c < 3; ++c) diff += std::abs(still.at(x, y, c) - photo.at(x, y, c)) / 3.0;
+  std::cout << "astronaut: mean colour difference in the face " << diff / n << "\n";
+  CHECK(diff / n < 40);
+  const double reproj = test::reprojection_error(a, photo, opt);
+  std::cout << "astronaut: landmark reprojection " << 100 * reproj << " %\n";
+  CHECK(reproj < 0.05);
+  CHECK(a.texture_coverage > 0.3);
 }

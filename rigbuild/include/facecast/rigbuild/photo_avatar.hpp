@@ -159,4 +159,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
 render::Image photo_landmark_picture(const render::Image& photo, const PhotoLandmarks& marks,
                                      const std::vector<int>& used = {});
 
+/// Images side by side, top-aligned (black below the shorter ones).
+render::Image side_by_side(const std::vector<render::Image>& images);
+
 }  // namespace facecast::rigbuild
