@@ -170,3 +170,17 @@ TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[phot
   CHECK(reproj < 0.05);
   CHECK(a.texture_coverage > 0.3);
 }
+
+TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]") {
+  const PhotoOptions d, c = load_photo_options();
+  CHECK(c.predictor == d.predictor);
+  CHECK(c.template_path == d.template_path);
+  CHECK(c.min_face == d.min_face);
+  CHECK(c.max_side == d.max_side);
+  CHECK(c.iterations == d.iterations);
+  CHECK(c.landmark_noise == d.landmark_noise);
+  CHECK(c.rbf_radius == d.rbf_radius);
+  CHECK(c.texture_size == d.texture_size);
+  CHECK(c.side_gamma == d.side_gamma);
+  CHECK(c.shapes == d.shapes);
+}
