@@ -31,8 +31,14 @@ void from_photo(const PhotoArgs& a) {
   const ProgressFn progress = terminal_progress();
   report(progress, "template", 0.0);
   const rigbuild::PhotoTemplate tmpl = rigbuild::load_photo_template(tmpl_path);
-  const rigbuild::PhotoAvatar avatar =
-      rigbuild::avatar_from_photos(tmpl, front, side ? &*side : nullptr, opt, progress);
+  const rigbuild::PhotoAvatar avatar = [&] {
+    try {
+      return rigbuild::avatar_from_photos(tmpl, front, side ? &*side : nullptr, opt, progress);
+    } catch (const Error& e) {  // name the files: "front photo: no face found (face.jpg)"
+      throw Error(std::string(e.what()) + " (" + a.front + (side ? ", " + a.side : "") + ")",
+                  e.code());
+    }
+  }();
   for (const auto* m : {&avatar.front, &avatar.side})
     if (!m->note.empty()) std::cerr << "note: " << m->note << '\n';
   render::Image picture;
