@@ -28,6 +28,18 @@ if ((${#missing[@]})); then
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
+# scikit-image's public-domain test photos (astronaut.png, for the photo-avatar tests): the package
+# cannot be installed (its scipy pulls an older Boost), so its .deb is unpacked into a fixed folder.
+skimage_dir=/opt/facecast-testdata/python3-skimage
+if [ ! -f "$skimage_dir/usr/lib/python3/dist-packages/skimage/data/astronaut.png" ]; then
+  tmp=$(mktemp -d)
+  (cd "$tmp" && apt-get download python3-skimage >/dev/null 2>&1 ||
+    { apt-get update -qq && apt-get download python3-skimage; })
+  mkdir -p "$skimage_dir"
+  dpkg-deb -x "$tmp"/python3-skimage_*.deb "$skimage_dir"
+  rm -rf "$tmp"
+fi
+
 # Node tools for the web client and its tests (versions pinned in package-lock.json).
 if [ -f package-lock.json ]; then
   if [ ! -d node_modules ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then

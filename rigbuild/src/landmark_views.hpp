@@ -3,13 +3,21 @@
 // rigbuild: the same projection the renderer uses, so a pixel dlib marks is lifted onto the
 // triangle the renderer drew there.
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "facecast/anim/rig.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 
+namespace dlib {
+class shape_predictor;
+}
+
 namespace facecast::rigbuild {
+
+/// dlib's 68-point shape predictor at `path`, read once per process (landmarks.cpp).
+const dlib::shape_predictor& shape_predictor(const std::string& path);
 
 /// A camera in front of the head (render::frame_avatar with `margin`, face framing): the first,
 /// wide view.

@@ -49,6 +49,8 @@ bool is_jaw(int k) {
   return k <= 16;
 }
 
+}  // namespace
+
 // The shape predictor, read once per path (about 100 MB); shared by every thread (its operator()
 // is const).
 const dlib::shape_predictor& shape_predictor(const std::string& path) {
@@ -70,6 +72,8 @@ const dlib::shape_predictor& shape_predictor(const std::string& path) {
   }
   return *slot;
 }
+
+namespace {
 
 dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
   dlib::array2d<dlib::rgb_pixel> img(image.height, image.width);

@@ -92,6 +92,7 @@ void add_avatar_commands(CLI::App& app) {
   auto* avatar = app.add_subcommand(
       "avatar", "The built-in procedural avatar (a stylized head with the 52 ARKit blendshapes)");
   avatar->require_subcommand(1);
+  add_avatar_photo_command(*avatar);
 
   auto def_out = std::make_shared<std::string>();
   auto* d = avatar->add_subcommand("default", "Write the default avatar as a GLB");

@@ -1,0 +1,165 @@
+#pragma once
+// An avatar from photos (docs/algorithms.md#photo-avatar): dlib's 68 landmarks in a front photo
+// (and optionally a side photo, turned up to about 45 degrees), a scale-orthographic camera per
+// photo estimated jointly with the shape (similarity + the template's identity modes by
+// regularised linear least squares, jaw-line points matched to the fit's silhouette), the
+// landmark residuals then moved exactly by an RBF deformation of the whole head (eyes and mouth
+// interior carried rigidly), a UV texture baked from the photos blended by the normal (seed 003,
+// section 5), and the template's expressions transferred onto the fitted head (build.hpp).
+//
+// Photos: y down, pixel centres at whole numbers (dlib's convention). Heads face +Z, +Y up.
+#include <array>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "facecast/anim/rig.hpp"
+#include "facecast/core/progress.hpp"
+#include "facecast/render/image.hpp"
+#include "facecast/render/renderer.hpp"
+#include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
+
+namespace facecast::rigbuild {
+
+/// One zero vector per landmark.
+inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
+  std::array<Eigen::Vector3d, kLandmarkCount> a;
+  a.fill(Eigen::Vector3d::Zero());
+  return a;
+}
+
+/// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
+struct PhotoOptions {
+  std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
+  std::string template_path;     // --template default: a template folder or rig file ("" = none)
+  int min_face = 80;             // a face box narrower than this (pixels) is "too small"
+  int max_side = 640;            // photos are scaled down to this longest side for detection
+  int iterations = 8;            // camera / coefficient alternations
+  double landmark_noise = 0.03;  // landmark noise, inter-ocular distances: the modes' prior weight
+  double rbf_radius = 1.2;       // RBF support radius, in inter-ocular distances of the template
+  int texture_size = 1024;       // texture height; the width is twice (face and back of head)
+  double side_gamma = 1.0;       // blend exponent on the normal's components (1: the seed's)
+  bool shapes = true;            // transfer the template's expressions onto the fitted head
+  BuildOptions build;            // that transfer (configs/rigbuild/build.json)
+};
+
+/// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
+PhotoOptions load_photo_options();
+
+/// A template the photo fit works with: the rig (neutral, expressions, materials, UVs), its
+/// identity modes (deltas from the neutral, one unit = one standard deviation) and its 68
+/// landmark vertices.
+struct PhotoTemplate {
+  anim::Rig rig;
+  std::vector<anim::Positions> modes;
+  std::array<int, kLandmarkCount> landmarks{};
+  std::vector<char> skin;  // per vertex: on the face or back-of-head surface (textured)
+  std::vector<int> rigid;  // per vertex: rigid group (0: follows the RBF; 1.. eyes, mouth)
+  /// Where the detector puts each landmark relative to its vertex, in the template's frame (zero:
+  /// the template's landmark vertices follow dlib's convention on such photos; see
+  /// measure_landmark_bias). Jaw-line points, matched to the silhouette, have none.
+  std::array<Eigen::Vector3d, kLandmarkCount> bias = zero_landmark_vectors();
+};
+
+/// Reads a template: the ICT FaceKit folder (generic_neutral_mesh.obj, expressions,
+/// identity000.obj..), or a rig file (.glb/.obj) whose shapes named identity* are the modes.
+/// Throws Error naming the path when it has no modes or unknown landmarks.
+PhotoTemplate load_photo_template(const std::filesystem::path& path);
+
+/// The 68 points dlib finds in a photo (the largest face).
+struct PhotoLandmarks {
+  std::array<Eigen::Vector2d, kLandmarkCount> points{};
+  int faces = 0;     // faces dlib found (the largest is used)
+  double box = 0;    // width of the face box, pixels
+  std::string note;  // e.g. "3 faces found, the largest used"
+};
+
+/// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
+PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
+                                      const PhotoOptions& options);
+
+/// Scale-orthographic camera: pixel = (s (R p).x + tx, ty - s (R p).y); depth (R p).z grows
+/// towards the camera.
+struct OrthoCamera {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  double s = 1;
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  Eigen::Vector2d project(const Eigen::Vector3d& p) const;
+  double depth(const Eigen::Vector3d& p) const { return (R * p).z(); }
+  /// The direction towards the camera in model coordinates.
+  Eigen::Vector3d towards() const { return R.row(2).transpose(); }
+};
+
+/// A renderer camera (narrow field of view, far away) that shows what `camera` projects onto a
+/// width x height photo: for rendering the result as the photo saw it.
+render::Camera render_camera(const OrthoCamera& camera, const anim::Positions& positions, int width,
+                             int height);
+
+struct PhotoFit {
+  anim::Positions positions;        // the fitted neutral, template topology
+  anim::Positions model_positions;  // the low-dimensional fit only (before the RBF)
+  Eigen::VectorXd coefficients;     // identity-mode weights
+  OrthoCamera front;
+  std::optional<OrthoCamera> side;
+  std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
+  std::array<int, kLandmarkCount> side_vertex{};   // -1 where not used in the side photo
+  double front_rms = 0, side_rms = 0;              // landmark residual of the model fit, pixels
+  double moved_rms = 0;  // RMS RBF displacement at the landmarks, model units
+  /// Per landmark, the calibration's move of its front vertex (model units).
+  std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
+};
+
+/// The side photo's profile points (nose ridge and tip, lip centres, chin) and the near side's
+/// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
+std::vector<int> side_points(const PhotoLandmarks& side);
+
+PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
+                         const PhotoLandmarks* side, const PhotoOptions& options);
+
+/// The detector's convention on a kind of photo (renders, say): the template itself photographed
+/// that way and fitted without identity modes; per landmark the calibration's move, which
+/// PhotoTemplate::bias then adds to the landmark's vertex.
+std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
+                                                                  const PhotoLandmarks& front,
+                                                                  const PhotoLandmarks* side,
+                                                                  const PhotoOptions& options);
+
+/// The detector's convention on a kind of photo (renders, say): the template itself photographed
+/// that way and fitted without identity modes; per landmark the calibration's move, which
+/// PhotoTemplate::bias then adds to the landmark's vertex.
+std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
+                                                                  const PhotoLandmarks& front,
+                                                                  const PhotoLandmarks* side,
+                                                                  const PhotoOptions& options);
+
+/// The skin texture (2 N x N, u in [0, 2] as the template's face and back-of-head UV tiles)
+/// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo.
+render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
+                                 const render::Image& front, const render::Image* side,
+                                 const PhotoOptions& options, double* coverage = nullptr);
+
+struct PhotoAvatar {
+  anim::Rig rig;  // textured, with the template's expressions transferred
+  PhotoFit fit;
+  PhotoLandmarks front, side;
+  bool has_side = false;
+  double texture_coverage = 0;
+  nlohmann::json report;
+};
+
+/// The whole pipeline. Throws Error for unusable photos.
+PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& front,
+                               const render::Image* side, const PhotoOptions& options,
+                               const ProgressFn& progress = {});
+
+/// The photo with its landmarks drawn (green; red: not used).
+render::Image photo_landmark_picture(const render::Image& photo, const PhotoLandmarks& marks,
+                                     const std::vector<int>& used = {});
+
+/// Images side by side, top-aligned (black below the shorter ones).
+render::Image side_by_side(const std::vector<render::Image>& images);
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,236 @@
+// An avatar from photos: the template, the options and the pipeline (landmarks, fit, texture,
+// expressions). See docs/algorithms.md#photo-avatar.
+#include "facecast/rigbuild/photo_avatar.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
+#include "facecast/core/error.hpp"
+#include "photo_detail.hpp"
+
+namespace facecast::rigbuild {
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool has(const std::string& s, const char* part) {
+  return s.find(part) != std::string::npos;
+}
+
+// Per vertex: skin (the face and back-of-head materials, textured from the photos) and rigid
+// groups (each eye, the mouth interior), from the materials' names.
+void classify_vertices(PhotoTemplate& t) {
+  const anim::Rig& rig = t.rig;
+  std::vector<char> skin_material(rig.materials.size(), 0);
+  std::vector<int> group_material(rig.materials.size(), 0);
+  bool any_skin = false;
+  for (std::size_t m = 0; m < rig.materials.size(); ++m) {
+    const std::string n = lower(rig.materials[m].name);
+    const bool eye =
+        has(n, "eye") || has(n, "sclera") || has(n, "iris") || has(n, "pupil") || has(n, "cornea");
+    skin_material[m] = !eye && (has(n, "face") || has(n, "skin") || has(n, "head"));
+    any_skin = any_skin || skin_material[m];
+    if (has(n, "sclera") || has(n, "iris") || has(n, "pupil") || has(n, "eyeball"))
+      group_material[m] = has(n, "right") ? 2 : 1;
+    else if (has(n, "teeth") || has(n, "gum") || has(n, "tongue"))
+      group_material[m] = 3;
+  }
+  if (!any_skin && !skin_material.empty()) skin_material[0] = 1;
+  t.skin.assign(static_cast<std::size_t>(rig.vertex_count()), 0);
+  t.rigid.assign(static_cast<std::size_t>(rig.vertex_count()), 0);
+  for (int f = 0; f < rig.triangle_count(); ++f) {
+    const auto m = static_cast<std::size_t>(
+        rig.triangle_material.empty() ? 0 : rig.triangle_material[static_cast<std::size_t>(f)]);
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(rig.triangles(f, k));
+      if (skin_material[m]) t.skin[v] = 1;
+      if (group_material[m]) t.rigid[v] = group_material[m];
+    }
+  }
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+nlohmann::json points_json(const PhotoLandmarks& m) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& p : m.points) a.push_back({p.x(), p.y()});
+  return a;
+}
+
+nlohmann::json camera_json(const OrthoCamera& c) {
+  nlohmann::json R = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) R.push_back({c.R(i, 0), c.R(i, 1), c.R(i, 2)});
+  return {{"model", "scale-orthographic"}, {"R", R}, {"s", c.s}, {"t", {c.t.x(), c.t.y()}}};
+}
+
+}  // namespace
+
+anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positions,
+                        const render::Image& texture) {
+  anim::Rig rig = tmpl.rig;
+  rig.shapes.clear();
+  rig.positions = positions;
+  rig.normals = anim::vertex_normals(rig.positions, rig.triangles);
+  anim::Texture tex;
+  tex.name = "photo_skin";
+  tex.mime_type = "image/jpeg";
+  tex.bytes = render::encode_jpeg(texture, 92);
+  tex.repeat_s = tex.repeat_t = false;
+  rig.textures.push_back(std::move(tex));
+  const int index = static_cast<int>(rig.textures.size()) - 1;
+  const float tiles = static_cast<float>(texture.width) / static_cast<float>(texture.height);
+  std::vector<char> skin_material(rig.materials.size(), 0);
+  for (int f = 0; f < rig.triangle_count(); ++f) {
+    const auto m = static_cast<std::size_t>(
+        rig.triangle_material.empty() ? 0 : rig.triangle_material[static_cast<std::size_t>(f)]);
+    bool all = true;
+    for (int k = 0; k < 3; ++k)
+      all = all && tmpl.skin[static_cast<std::size_t>(rig.triangles(f, k))];
+    if (all) skin_material[m] = 1;
+  }
+  for (std::size_t m = 0; m < rig.materials.size(); ++m) {
+    if (!skin_material[m]) continue;
+    auto& mat = rig.materials[m];
+    mat.base_color = Eigen::Vector4f(1, 1, 1, 1);
+    mat.base_color_texture = anim::TextureRef{};
+    mat.base_color_texture.texture = index;
+    mat.base_color_texture.scale = Eigen::Vector2f(1.0f / tiles, 1.0f);
+  }
+  return rig;
+}
+
+PhotoOptions load_photo_options() {
+  ConfigReader c = ConfigReader::open(config_path("rigbuild/photo.json"));
+  PhotoOptions o;
+  c.read("predictor", o.predictor)
+      .read("template", o.template_path)
+      .read("min_face", o.min_face)
+      .read("max_side", o.max_side)
+      .read("iterations", o.iterations)
+      .read("landmark_noise", o.landmark_noise)
+      .read("rbf_radius", o.rbf_radius)
+      .read("texture_size", o.texture_size)
+      .read("side_gamma", o.side_gamma)
+      .read("shapes", o.shapes);
+  if (o.min_face < 16) c.fail("min_face", "must be at least 16");
+  if (o.max_side < 128) c.fail("max_side", "must be at least 128");
+  if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
+  if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
+  if (!(o.rbf_radius > 0)) c.fail("rbf_radius", "must be positive");
+  if (o.texture_size < 64 || o.texture_size > 4096) c.fail("texture_size", "must be in 64..4096");
+  if (!(o.side_gamma > 0)) c.fail("side_gamma", "must be positive");
+  c.reject_unknown();
+  o.build = load_build_options();
+  return o;
+}
+
+PhotoTemplate load_photo_template(const std::filesystem::path& path) {
+  PhotoTemplate t;
+  if (std::filesystem::is_directory(path)) {
+    // The ICT FaceKit layout: the neutral, its expressions and identityNNN.obj modes.
+    const auto neutral = path / "generic_neutral_mesh.obj";
+    if (!std::filesystem::exists(neutral))
+      throw Error(path.string() + ": no generic_neutral_mesh.obj (not an ICT FaceKit folder)",
+                  ErrorCode::kNotFound);
+    t.rig = anim::read_obj_shapes(neutral, path, {"identity*"});
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(path))
+      if (e.path().stem().string().rfind("identity", 0) == 0 && e.path().extension() == ".obj")
+        files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) t.modes.push_back(anim::read_obj_positions(f) - t.rig.positions);
+  } else {
+    t.rig = anim::load_rig(path);
+    std::vector<anim::Blendshape> keep;
+    for (auto& s : t.rig.shapes) {
+      if (s.name.rfind("identity", 0) == 0)
+        t.modes.push_back(s.dense(t.rig.vertex_count()));
+      else
+        keep.push_back(std::move(s));
+    }
+    t.rig.shapes = std::move(keep);
+  }
+  if (t.modes.empty())
+    throw Error(path.string() + ": the template has no identity modes (identity* shapes)");
+  const auto marks = known_landmarks(t.rig);
+  if (!marks) throw Error(path.string() + ": the template's 68 landmark vertices are unknown");
+  t.landmarks = *marks;
+  for (int v : t.landmarks)
+    if (v < 0) throw Error(path.string() + ": the template lacks some of the 68 landmarks");
+  classify_vertices(t);
+  return t;
+}
+
+PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& front,
+                               const render::Image* side, const PhotoOptions& options,
+                               const ProgressFn& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PhotoAvatar out;
+  nlohmann::json timing;
+  report(progress, "landmarks", 0.0);
+  out.front = detect_photo_landmarks(front, "front photo", options);
+  if (side) {
+    out.side = detect_photo_landmarks(*side, "side photo", options);
+    out.has_side = true;
+  }
+  timing["landmarks"] = seconds_since(t0);
+  report(progress, "fit", 0.15);
+  auto t = std::chrono::steady_clock::now();
+  out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options);
+  timing["fit"] = seconds_since(t);
+  report(progress, "texture", 0.25);
+  t = std::chrono::steady_clock::now();
+  const render::Image texture =
+      bake_photo_texture(tmpl, out.fit, front, side, options, &out.texture_coverage);
+  anim::Rig head = textured_head(tmpl, out.fit.positions, texture);
+  timing["texture"] = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  if (options.shapes && !tmpl.rig.shapes.empty()) {
+    const ProgressFn inner = [&](std::string_view stage, double f) {
+      report(progress, stage, 0.35 + 0.6 * f);
+    };
+    out.rig = build_rig(tmpl.rig, head, options.build, inner).rig;
+  } else {
+    out.rig = std::move(head);
+  }
+  timing["expressions"] = seconds_since(t);
+  timing["total"] = seconds_since(t0);
+  nlohmann::json notes = nlohmann::json::array();
+  for (const auto* m : {&out.front, &out.side})
+    if (!m->note.empty()) notes.push_back(m->note);
+  out.report = {
+      {"front",
+       {{"landmarks", points_json(out.front)},
+        {"faces", out.front.faces},
+        {"camera", camera_json(out.fit.front)},
+        {"rms_pixels", out.fit.front_rms}}},
+      {"coefficients",
+       std::vector<double>(out.fit.coefficients.data(),
+                           out.fit.coefficients.data() + out.fit.coefficients.size())},
+      {"rbf_rms_move", out.fit.moved_rms},
+      {"texture",
+       {{"width", texture.width}, {"height", texture.height}, {"coverage", out.texture_coverage}}},
+      {"shapes", out.rig.shapes.size()},
+      {"notes", notes},
+      {"seconds", timing}};
+  if (out.fit.side)
+    out.report["side"] = {{"landmarks", points_json(out.side)},
+                          {"faces", out.side.faces},
+                          {"used", side_points(out.side)},
+                          {"camera", camera_json(*out.fit.side)},
+                          {"rms_pixels", out.fit.side_rms}};
+  report(progress, "done", 1.0);
+  return out;
+}
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,40 @@
+#pragma once
+// Private pieces of the photo avatar (docs/algorithms.md#photo-avatar): the camera fit and the
+// RBF calibration, shared by photo_fit.cpp and the tests of rigbuild's stages.
+#include <functional>
+#include <vector>
+
+#include "facecast/rigbuild/photo_avatar.hpp"
+
+namespace facecast::rigbuild {
+
+/// Scale-orthographic camera closest to `pixels` (photo coordinates) = projection of `points`:
+/// the affine camera by least squares, its 2x3 part replaced by the nearest scaled pair of
+/// orthonormal rows (SVD), then scale and translation refitted.
+OrthoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
+                             const std::vector<Eigen::Vector2d>& pixels);
+
+/// One exact-displacement constraint of the calibration: vertex `vertex` moves by `move`.
+struct RbfCentre {
+  int vertex = 0;
+  Eigen::Vector3d move = Eigen::Vector3d::Zero();
+};
+
+/// Moves `positions` by the Wendland-RBF field that interpolates the centres' moves (centres
+/// closer than `merge` are merged, their moves averaged); vertices of a rigid group (> 0) move by
+/// the field's mean over the group. `radius`: the kernel's support.
+void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
+                const std::vector<int>& rigid, double radius, double merge);
+
+/// Calls f(texel index, surface point, unit normal) for every texel of a w x h texture (u scaled
+/// by 1 / `tiles`) that a skin triangle of `positions` covers.
+void for_each_skin_texel(
+    const PhotoTemplate& tmpl, const anim::Positions& positions, int w, int h, int tiles,
+    const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f);
+
+/// `positions` on the template's topology as a rig without shapes, its skin materials sampling
+/// `texture` (2 N x N: u scaled onto the skin's UV tiles).
+anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positions,
+                        const render::Image& texture);
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,132 @@
+// Landmarks in photos: dlib's HOG face detector on the photo scaled down to a working size, the
+// 68-point shape predictor on the full-resolution photo in the box it found. See
+// docs/algorithms.md#photo-avatar.
+#include <dlib/image_processing.h>
+#include <dlib/image_processing/frontal_face_detector.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "facecast/core/error.hpp"
+#include "facecast/rigbuild/photo_avatar.hpp"
+#include "landmark_views.hpp"
+
+namespace facecast::rigbuild {
+namespace {
+
+// The photo scaled by `scale` (<= 1) with a box filter: each output pixel averages the source
+// pixels it covers.
+dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image, double scale) {
+  const int w = std::max(1, static_cast<int>(std::lround(image.width * scale)));
+  const int h = std::max(1, static_cast<int>(std::lround(image.height * scale)));
+  dlib::array2d<dlib::rgb_pixel> img(h, w);
+  const double step = 1.0 / scale;
+  for (int y = 0; y < h; ++y) {
+    const int y0 = static_cast<int>(y * step),
+              y1 = std::max(y0 + 1, static_cast<int>((y + 1) * step));
+    for (int x = 0; x < w; ++x) {
+      const int x0 = static_cast<int>(x * step),
+                x1 = std::max(x0 + 1, static_cast<int>((x + 1) * step));
+      int sum[3] = {0, 0, 0}, n = 0;
+      for (int yy = y0; yy < std::min(y1, image.height); ++yy)
+        for (int xx = x0; xx < std::min(x1, image.width); ++xx, ++n)
+          for (int c = 0; c < 3; ++c) sum[c] += image.at(xx, yy, c);
+      n = std::max(n, 1);
+      img[y][x] = dlib::rgb_pixel(static_cast<unsigned char>(sum[0] / n),
+                                  static_cast<unsigned char>(sum[1] / n),
+                                  static_cast<unsigned char>(sum[2] / n));
+    }
+  }
+  return img;
+}
+
+}  // namespace
+
+PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
+                                      const PhotoOptions& options) {
+  if (photo.width < options.min_face || photo.height < options.min_face)
+    throw Error(what + ": photo too small (" + std::to_string(photo.width) + "x" +
+                std::to_string(photo.height) + " pixels; a face needs at least " +
+                std::to_string(options.min_face) + ")");
+  const dlib::shape_predictor& sp = shape_predictor(options.predictor);
+  const double scale =
+      std::min(1.0, options.max_side / static_cast<double>(std::max(photo.width, photo.height)));
+  const dlib::array2d<dlib::rgb_pixel> small = to_dlib(photo, scale);
+  dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();
+  const std::vector<dlib::rectangle> faces = detector(small);
+  if (faces.empty()) throw Error(what + ": no face found");
+  const dlib::rectangle best = *std::max_element(
+      faces.begin(), faces.end(), [](const auto& a, const auto& b) { return a.area() < b.area(); });
+  PhotoLandmarks out;
+  out.faces = static_cast<int>(faces.size());
+  out.box = best.width() / scale;
+  if (out.box < options.min_face)
+    throw Error(what + ": face too small (" + std::to_string(static_cast<int>(out.box)) +
+                " pixels wide; at least " + std::to_string(options.min_face) + " needed)");
+  if (out.faces > 1)
+    out.note = what + ": " + std::to_string(out.faces) + " faces found, the largest used";
+  const dlib::rectangle box(std::lround(best.left() / scale), std::lround(best.top() / scale),
+                            std::lround(best.right() / scale), std::lround(best.bottom() / scale));
+  const dlib::array2d<dlib::rgb_pixel> full = to_dlib(photo, 1.0);
+  const dlib::full_object_detection shape = sp(full, box);
+  for (int k = 0; k < kLandmarkCount; ++k)
+    out.points[static_cast<std::size_t>(k)] = {static_cast<double>(shape.part(k).x()),
+                                               static_cast<double>(shape.part(k).y())};
+  return out;
+}
+
+std::vector<int> side_points(const PhotoLandmarks& side) {
+  // The near side is the one whose cheek contour lies farther from the nose tip in the picture.
+  const auto& p = side.points;
+  const bool near_right = std::abs(p[30].x() - p[2].x()) > std::abs(p[14].x() - p[30].x());
+  // The profile: nose ridge and tip, lip centres, chin; and the near eye's corners, brow ends,
+  // nostril and mouth corner.
+  std::vector<int> out{8, 27, 28, 29, 30, 33, 51, 57, 62, 66};
+  const std::vector<int> near = near_right ? std::vector<int>{17, 21, 31, 36, 39, 48}
+                                           : std::vector<int>{22, 26, 35, 42, 45, 54};
+  out.insert(out.end(), near.begin(), near.end());
+  return out;
+}
+
+render::Image photo_landmark_picture(const render::Image& photo, const PhotoLandmarks& marks,
+                                     const std::vector<int>& used) {
+  render::Image out = photo;
+  out.channels = 3;
+  const int r = std::max(2, photo.width / 200);
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const bool on = used.empty() || std::find(used.begin(), used.end(), k) != used.end();
+    const auto& p = marks.points[static_cast<std::size_t>(k)];
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dx = -r; dx <= r; ++dx) {
+        const int x = static_cast<int>(std::lround(p.x())) + dx;
+        const int y = static_cast<int>(std::lround(p.y())) + dy;
+        if (x < 0 || y < 0 || x >= out.width || y >= out.height) continue;
+        std::uint8_t* px = &out.pixels[(static_cast<std::size_t>(y) * out.width + x) * 3];
+        px[0] = on ? 40 : 240;
+        px[1] = on ? 230 : 40;
+        px[2] = 40;
+      }
+  }
+  return out;
+}
+
+render::Image side_by_side(const std::vector<render::Image>& images) {
+  render::Image out;
+  for (const auto& i : images) {
+    out.width += i.width;
+    out.height = std::max(out.height, i.height);
+  }
+  out.pixels.assign(static_cast<std::size_t>(out.width) * out.height * 3, 0);
+  int x0 = 0;
+  for (const auto& i : images) {
+    for (int y = 0; y < i.height; ++y)
+      for (int x = 0; x < i.width; ++x)
+        for (int c = 0; c < 3; ++c)
+          out.pixels[(static_cast<std::size_t>(y) * out.width + x0 + x) * 3 +
+                     static_cast<std::size_t>(c)] = i.at(x, y, std::min(c, i.channels - 1));
+    x0 += i.width;
+  }
+  return out;
+}
+
+}  // namespace facecast::rigbuild

@@ -1,0 +1,186 @@
+// The photo avatar (docs/algorithms.md#photo-avatar) on photos whose truth is known: random ICT
+// identity mixtures, given a skin-like texture and rendered from the front and the side.
+#include <Eigen/Geometry>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <iostream>
+
+#include "facecast/render/renderer.hpp"
+#include "facecast/rigbuild/geometry.hpp"
+#include "facecast/rigbuild/photo_avatar.hpp"
+#include "ict_truth.hpp"
+#include "photo_detail.hpp"
+#include "photo_support.hpp"
+#include "test_data.hpp"
+
+using namespace facecast;
+using namespace facecast::rigbuild;
+
+namespace {
+
+// Spread of the random identities (standard deviations of the modes).
+constexpr double kSigma = 1.0;
+
+// Error of `p` against the truth over the face skin after the best similarity: RMS distance.
+double aligned_error(const PhotoTemplate& t, const anim::Positions& p,
+                     const anim::Positions& truth) {
+  std::vector<int> face;
+  for (int v = 0; v < t.rig.vertex_count(); ++v)
+    if (t.skin[static_cast<std::size_t>(v)] && t.rig.uvs(v, 0) < 1.0f) face.push_back(v);
+  Points a(static_cast<Eigen::Index>(face.size()), 3), b(a.rows(), 3);
+  for (std::size_t i = 0; i < face.size(); ++i) {
+    a.row(static_cast<Eigen::Index>(i)) = p.row(face[i]).cast<double>();
+    b.row(static_cast<Eigen::Index>(i)) = truth.row(face[i]).cast<double>();
+  }
+  return procrustes(a, b, true).rms;
+}
+
+}  // namespace
+
+TEST_CASE("camera: a scale-orthographic projection is recovered from its points", "[photo]") {
+  OrthoCamera cam;
+  cam.R = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+          Eigen::AngleAxisd(-0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  cam.s = 7.5;
+  cam.t = {320, 240};
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<Eigen::Vector2d> px;
+  for (int i = 0; i < 20; ++i) {
+    pts.emplace_back(std::sin(i * 1.3) * 8, std::cos(i * 0.7) * 10, std::sin(i * 2.1) * 5);
+    px.push_back(cam.project(pts.back()));
+  }
+  const OrthoCamera got = fit_ortho_camera(pts, px);
+  CHECK(got.s == Approx(cam.s).epsilon(1e-6));
+  CHECK((got.R - cam.R).norm() < 1e-6);
+  CHECK((got.t - cam.t).norm() < 1e-4);
+}
+
+TEST_CASE("RBF calibration moves the centres exactly and carries rigid groups", "[photo]") {
+  anim::Positions p(5, 3);
+  p << 0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 5, 5, 5.2, 5, 5;
+  const std::vector<int> rigid{0, 0, 0, 1, 1};
+  const std::vector<RbfCentre> c{{0, {0.1, 0, 0}}, {1, {0, 0.2, 0}}, {2, {0, 0, -0.1}}};
+  anim::Positions q = p;
+  rbf_deform(q, c, rigid, 3.0, 1e-6);
+  for (const auto& k : c)
+    CHECK((q.row(k.vertex).cast<double>() - p.row(k.vertex).cast<double>() - k.move.transpose())
+              .norm() < 1e-5);
+  // The rigid pair moves by one translation: its length is kept.
+  CHECK((q.row(4) - q.row(3)).norm() == Approx((p.row(4) - p.row(3)).norm()).epsilon(1e-5));
+}
+
+TEST_CASE("photo fit of ICT identities: shape error against the truth, front and side",
+          "[photo][ict][slow]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  PhotoTemplate tmpl = load_photo_template(dir);
+  REQUIRE(tmpl.modes.size() == 10);
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  {
+    // dlib's convention on these renders, measured once on the template photographed the same way.
+    const test::PhotoShoot own = test::photograph(tmpl, tmpl.rig.positions, 40.0);
+    const PhotoLandmarks f = detect_photo_landmarks(own.front, "template front", opt);
+    const PhotoLandmarks s = detect_photo_landmarks(own.side, "template side", opt);
+    tmpl.bias = measure_landmark_bias(tmpl, f, &s, opt);
+  }
+  double sum_front = 0, sum_side = 0, sum_reproj = 0;
+  const std::vector<unsigned> seeds{101, 202, 303};
+  for (unsigned seed : seeds) {
+    const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
+    const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0);
+    const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    const PhotoAvatar a = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
+    const PhotoAvatar b = avatar_from_photos(tmpl, shoot.front, &shoot.side, opt);
+    const double front = aligned_error(tmpl, a.fit.positions, truth.target.positions) / before;
+    const double side = aligned_error(tmpl, b.fit.positions, truth.target.positions) / before;
+    std::cout << "  model only: front "
+              << aligned_error(tmpl, a.fit.model_positions, truth.target.positions) / before
+              << ", front+side "
+              << aligned_error(tmpl, b.fit.model_positions, truth.target.positions) / before
+              << "; rms px " << a.fit.front_rms << " / " << b.fit.front_rms << ", "
+              << b.fit.side_rms << "\n";
+    const double reproj = test::reprojection_error(a, shoot.front, opt);
+    std::cout << "identity seed " << seed << ": template error " << before
+              << " cm; fitted/template ratio front " << front << ", front+side " << side
+              << "; landmark reprojection " << 100 * reproj << " % of the inter-ocular distance\n";
+    sum_front += front;
+    sum_side += side;
+    sum_reproj += reproj;
+    if (seed == seeds.front())
+      render::write_image(
+          test::artifacts_dir("photo") / "ict_fit.png",
+          side_by_side({shoot.front, shoot.side, photo_landmark_picture(shoot.front, a.front),
+                        photo_landmark_picture(shoot.side, b.side, side_points(b.side)),
+                        test::render_as_photo(b.rig, b.fit.front, shoot.front)}));
+  }
+  const double n = static_cast<double>(seeds.size());
+  std::cout << "mean ratio front " << sum_front / n << ", front+side " << sum_side / n
+            << ", reprojection " << 100 * sum_reproj / n << " %\n";
+  // Not reached yet (docs/algorithms.md#photo-avatar, "Accuracy"): reported, not failed.
+  CHECK_NOFAIL(sum_front / n <= 0.5);
+  CHECK_NOFAIL(sum_side < sum_front);
+  CHECK(sum_reproj / n <= 0.02);
+}
+
+TEST_CASE("photo avatar: bad photos are one-line errors", "[photo]") {
+  PhotoOptions opt = load_photo_options();
+  render::Image tiny{40, 30, 3, std::vector<std::uint8_t>(40 * 30 * 3, 128)};
+  CHECK_THROWS_WITH(detect_photo_landmarks(tiny, "x.jpg", opt),
+                    Catch::Contains("x.jpg: photo too small"));
+  render::Image blank{300, 300, 3, std::vector<std::uint8_t>(300 * 300 * 3, 90)};
+  CHECK_THROWS_WITH(detect_photo_landmarks(blank, "y.png", opt), "y.png: no face found");
+}
+
+TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[photo][slow]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const auto path = test::astronaut_path();
+  if (!test::require_data(path.empty() ? "/usr/lib/python3/dist-packages/skimage/data/astronaut.png"
+                                       : path))
+    return;
+  const PhotoTemplate tmpl = load_photo_template(dir);
+  const PhotoOptions opt = load_photo_options();
+  const render::Image photo = render::read_image(path);
+  const PhotoAvatar a = avatar_from_photos(tmpl, photo, nullptr, opt);
+  std::cout << "astronaut: " << a.report["seconds"].dump() << ", texture coverage "
+            << a.texture_coverage << "\n";
+  CHECK(a.rig.shapes.size() == tmpl.rig.shapes.size());
+  CHECK(a.rig.textures.size() == 1);
+  const render::Image still = test::render_as_photo(a.rig, a.fit.front, photo);
+  const render::Image speaking =
+      test::render_as_photo(a.rig, a.fit.front, photo,
+                            {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}});
+  render::write_image(
+      test::artifacts_dir("photo") / "astronaut.png",
+      side_by_side({photo, photo_landmark_picture(photo, a.front), still, speaking}));
+  // Textured from the photo: inside the face (the landmarks' box) the render's colours are the
+  // photo's.
+  Eigen::AlignedBox2d box;
+  for (const auto& p : a.front.points) box.extend(p);
+  double diff = 0;
+  int n = 0;
+  for (int y = static_cast<int>(box.min().y()); y < static_cast<int>(box.max().y()); y += 2)
+    for (int x = static_cast<int>(box.min().x()); x < static_cast<int>(box.max().x()); x += 2, ++n)
+      for (int c = 0; c < 3; ++c) diff += std::abs(still.at(x, y, c) - photo.at(x, y, c)) / 3.0;
+  std::cout << "astronaut: mean colour difference in the face " << diff / n << "\n";
+  CHECK(diff / n < 40);
+  const double reproj = test::reprojection_error(a, photo, opt);
+  std::cout << "astronaut: landmark reprojection " << 100 * reproj << " %\n";
+  CHECK(reproj < 0.05);
+  CHECK(a.texture_coverage > 0.3);
+}
+
+TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]") {
+  const PhotoOptions d, c = load_photo_options();
+  CHECK(c.predictor == d.predictor);
+  CHECK(c.template_path == d.template_path);
+  CHECK(c.min_face == d.min_face);
+  CHECK(c.max_side == d.max_side);
+  CHECK(c.iterations == d.iterations);
+  CHECK(c.landmark_noise == d.landmark_noise);
+  CHECK(c.rbf_radius == d.rbf_radius);
+  CHECK(c.texture_size == d.texture_size);
+  CHECK(c.side_gamma == d.side_gamma);
+  CHECK(c.shapes == d.shapes);
+}
