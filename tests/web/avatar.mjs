@@ -3,7 +3,8 @@
 // orders, a body without any, a Hips/Spine/Neck/Head skeleton) and the same as a VRM 1.0 (humanoid
 // bones, expressions aa and blink bound to the head's targets), loaded through three-vrm. Checks:
 // weights by name reach every mesh, VRM expressions drive their bound targets, the camera frames the
-// face (not the body), the head pose turns the head bone, and the page logs no errors.
+// face (not the body), the head pose turns the head bone, and the page logs no errors. Both are
+// imported through the server (POST /api/rigs) and loaded from what it serves back.
 
 import { readFileSync, writeFileSync } from 'node:fs';
 import { createRequire } from 'node:module';
@@ -155,20 +156,29 @@ await run('avatar', async () => {
   const page = await newPage(browser, { width: 640, height: 480 });
   const files = { 'multi.glb': await glb({ vrm: false }), 'avatar.vrm': await glb({ vrm: true }) };
   for (const [name, bytes] of Object.entries(files)) writeFileSync(join(artifacts, name), bytes);
+  // The files reach the page as users' files do: imported as they are (POST /api/rigs with their
+  // content type) and served back by GET /api/rigs/{id}.glb, byte for byte.
+  const urls = {};
+  for (const [name, bytes] of Object.entries(files)) {
+    const type = name.endsWith('.vrm') ? 'model/vrm' : 'model/gltf-binary';
+    const r = await fetch(`${server.url}/api/rigs?name=${encodeURIComponent(name)}`, { method: 'POST', headers: { 'Content-Type': type }, body: bytes });
+    const body = await r.json();
+    must(`${name}: imported (201)`, r.status === 201 && body.id, `${r.status} ${JSON.stringify(body)}`);
+    urls[name] = `/api/rigs/${body.id}.glb`;
+    const back = Buffer.from(await (await fetch(`${server.url}${urls[name]}`)).arrayBuffer());
+    check(`${name}: served back unchanged`, back.equals(bytes), `${back.length} vs ${bytes.length} bytes`);
+  }
   // A page of its own with the web client's import map (read from index.html) and one canvas.
   const importMap = readFileSync(join(sourceDir, 'web/index.html'), 'utf8').match(/<script type="importmap">[\s\S]*?<\/script>/)[0];
-  files['index.html'] = `<!doctype html><html><head>${importMap}</head><body style="margin:0"><canvas id="test-view" style="width:640px;height:480px;display:block"></canvas></body></html>`;
-  await page.route('**/test-avatars/*', (route) => {
-    const name = route.request().url().split('/').pop();
-    route.fulfill({ status: 200, contentType: name.endsWith('.html') ? 'text/html' : 'model/gltf-binary', body: files[name] });
-  });
+  const html = `<!doctype html><html><head>${importMap}</head><body style="margin:0"><canvas id="test-view" style="width:640px;height:480px;display:block"></canvas></body></html>`;
+  await page.route('**/test-avatars/index.html', (route) => route.fulfill({ status: 200, contentType: 'text/html', body: html }));
   await page.goto(`${server.url}/test-avatars/index.html`);
   for (const [file, isVrm] of [['multi.glb', false], ['avatar.vrm', true]]) {
     const result = await page.evaluate(
-      async ({ file }) => {
+      async ({ url }) => {
         const { AvatarView, loadGlb } = await import('/avatar.js');
         const view = (window.__view ||= new AvatarView(document.getElementById('test-view')));
-        view.setModel(await loadGlb(`/test-avatars/${file}`));
+        view.setModel(await loadGlb(url));
         view.render(true);
         const target = view.controls.target.clone();
         view.setWeights(['jawOpen', 'eyeBlinkLeft', 'aa'], [0.5, 0.25, 0]);
@@ -180,7 +190,7 @@ await run('avatar', async () => {
         const headTurned = view.bones ? view.bones.head.quaternion.angleTo(view.rest.head) : null;
         return { names: view.names, byName, byExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
       },
-      { file },
+      { url: urls[file] },
     );
     const tag = isVrm ? 'VRM' : 'GLB';
     must(`${tag}: loads`, result.names.includes('jawOpen'), result.names.join(','));
