@@ -155,7 +155,7 @@ TEST_CASE("rig uploads with bad input are refused at once", "[rigs]") {
   };
   CHECK_THAT(error({{"name", "x"}}, 400), Catch::Contains("mesh: missing"));
   CHECK_THAT(error({{"mesh", {{"format", "stl"}, {"data", "solid"}}}}, 400),
-             Catch::Contains("'stl' is not obj or glb"));
+             Catch::Contains("'stl' is not obj, glb or vrm"));
   CHECK_THAT(error({{"mesh", {{"format", "obj"}, {"data", "v 1 2\nf 1 2 3\n"}}}}, 400),
              Catch::Contains("mesh"));
   CHECK_THAT(error({{"mesh", {{"format", "glb"}, {"data", "@@@not base64@@@"}}}}, 400),
