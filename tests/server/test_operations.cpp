@@ -44,7 +44,8 @@ int status_of(unsigned short port, http::verb verb, const std::string& target) {
 
 }  // namespace
 
-TEST_CASE("job records and videos survive a restart, and DELETE removes them", "[jobs][operations]") {
+TEST_CASE("job records and videos survive a restart, and DELETE removes them",
+          "[jobs][operations]") {
   TestServer s;
   const std::string id = start_render(s.port(), "Kept.");
   const auto done = ended_job(s.port(), id, 120 * slowdown());
