@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git ccache
   libboost1.81-dev libeigen3-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev libsuitesparse-dev catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev

@@ -25,9 +25,8 @@ if ((sanitize)); then
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   (cd build-asan && ctest --output-on-failure -j2 -LE slow)
   # ThreadSanitizer on the multi-threaded part: the server and its tests only.
-  cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF >/dev/null
-  cmake --build build-tsan -j2 --target test_server
+  scripts/build.sh build-tsan --target=test_server -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
     build-tsan/tests/server/test_server "~[slow]"
 fi
