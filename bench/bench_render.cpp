@@ -3,7 +3,7 @@
 // streams at once on two threads (what two viewers of frames mode cost); also a heavier textured
 // avatar (every material with its own 1024x1024 base-colour texture, the skin with a normal and an
 // occlusion map: 12 textures); and times the triangle self-intersection check.
-// Usage: bench_render [frames] [msaa]
+// Usage: bench_render [frames] [msaa] [avatar|textured|ict]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <random>
+#include <string>
 #include <thread>
 
 #include "facecast/anim/avatar.hpp"
@@ -125,6 +126,9 @@ anim::Rig heavily_textured(anim::Rig rig) {
 int main(int argc, char** argv) try {
   const int frames = argc > 1 ? std::atoi(argv[1]) : 100;
   const int msaa = argc > 2 ? std::atoi(argv[2]) : 0;
+  // Optional third argument: run only one case (avatar, textured or ict).
+  const std::string only = argc > 3 ? argv[3] : "";
+  const auto wanted = [&](const char* name) { return only.empty() || only == name; };
   auto t0 = Clock::now();
   const anim::Rig avatar = anim::make_avatar();
   const double generation = ms_since(t0);
@@ -132,8 +136,10 @@ int main(int argc, char** argv) try {
   const std::size_t glb = anim::glb_bytes(avatar).size();
   std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation,
               ms_since(t0), glb / 1024);
-  bench("avatar", avatar, frames, msaa);
-  bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa);
+  if (wanted("avatar")) bench("avatar", avatar, frames, msaa);
+  if (wanted("textured"))
+    bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa);
+  if (!wanted("ict")) return 0;
   const std::filesystem::path ict =
       std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
   if (!std::filesystem::exists(ict / "generic_neutral_mesh.obj")) {
