@@ -1,11 +1,14 @@
 // Rig jobs: upload -> job -> stored rig -> download -> speak with it -> listed after a restart;
 // bad uploads; video render jobs.
+#include <tiny_gltf.h>
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <thread>
 
 #include "client.hpp"
 #include "facecast/anim/avatar.hpp"
+#include "facecast/anim/avatar_document.hpp"
+#include "facecast/anim/avatar_view.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/files.hpp"
 #include "test_avatar_file.hpp"
@@ -210,6 +213,59 @@ TEST_CASE("a GLB upload of the same topology is accepted and shutdown cancels it
   }
   // Nothing half-built is left behind.
   for (const auto& e : std::filesystem::directory_iterator(data / "rigs")) FAIL(e.path().string());
+}
+
+TEST_CASE("a rig build for an avatar GLB writes its shapes into that file and keeps the rest",
+          "[rigs][jobs][avatar][slow]") {
+  TestServer s;
+  // The built-in avatar's file without morph targets: five meshes, their materials and textures.
+  // A node and a generator of the user's own that a re-export would not have.
+  facecast::anim::Rig bare = facecast::anim::default_avatar();
+  bare.shapes.clear();
+  auto doc = facecast::anim::AvatarDocument::parse(facecast::anim::glb_bytes(bare), "bare.glb");
+  doc.model().asset.generator = "a user's tool";
+  tinygltf::Node extra;
+  extra.name = "CameraTarget";
+  doc.model().nodes.push_back(extra);
+  doc.model().scenes[0].nodes.push_back(static_cast<int>(doc.model().nodes.size()) - 1);
+  const std::string glb = doc.glb_bytes();
+  const auto accepted =
+      post_json(s.port(), "/api/rigs",
+                {{"name", "Bare"}, {"mesh", {{"format", "glb"}, {"data", base64(glb)}}}}, 202);
+  const auto done = wait_job(s.port(), accepted["job"], 900 * slowdown());
+  INFO(done.dump());
+  REQUIRE(done["state"] == "done");
+  const auto back =
+      http_request(s.port(), http::verb::get, done["result"]["url"].get<std::string>());
+  REQUIRE(back.status == 200);
+
+  const auto before = facecast::anim::AvatarDocument::parse(glb, "bare.glb");
+  const auto after = facecast::anim::AvatarDocument::parse(back.body, "built.glb");
+  const tinygltf::Model &a = before.model(), &b = after.model();
+  REQUIRE(a.meshes.size() == b.meshes.size());
+  CHECK(b.asset.generator == "a user's tool");
+  REQUIRE(a.nodes.size() == b.nodes.size());
+  CHECK(b.nodes.back().name == "CameraTarget");
+  CHECK(a.materials.size() == b.materials.size());
+  REQUIRE(a.images.size() == b.images.size());
+  const auto image = [](const tinygltf::Model& m, std::size_t k) {
+    const auto& v = m.bufferViews[static_cast<std::size_t>(m.images[k].bufferView)];
+    const auto& d = m.buffers[static_cast<std::size_t>(v.buffer)].data;
+    return std::string(reinterpret_cast<const char*>(d.data() + v.byteOffset), v.byteLength);
+  };
+  for (std::size_t i = 0; i < a.images.size(); ++i) CHECK(image(a, i) == image(b, i));
+  for (std::size_t i = 0; i < b.meshes.size(); ++i) {
+    INFO(b.meshes[i].name);
+    CHECK(b.meshes[i].name == a.meshes[i].name);
+    CHECK(a.meshes[i].primitives[0].targets.empty());
+  }
+  // The new shapes live in the file's own meshes, under the template's names.
+  const auto view = facecast::anim::make_view(after);
+  CHECK(view.rig.vertex_count() == bare.vertex_count());
+  const int jaw = view.rig.find_shape("jawOpen");
+  REQUIRE(jaw >= 0);
+  CHECK(view.rig.shapes[static_cast<std::size_t>(jaw)].max_displacement() > 0.1f);
+  CHECK(view.rig.shapes.size() == facecast::anim::avatar_shape_names().size());
 }
 
 TEST_CASE("render jobs produce an MP4 video", "[jobs][render]") {
