@@ -111,9 +111,9 @@ void word_tones(std::vector<ZhSyllable>& run) {
   for (std::size_t i = 0; i < n; ++i) {
     ZhSyllable& s = run[i];
     if (done[i] || s.pinyin.empty()) continue;
-    // A full tone for one-character words that are not particles (Unihan's most frequent reading
-    // of 姐 is the neutral jie5 of 姐姐, not what 姐 alone says).
-    if (single(i) && tone_of(s.pinyin) == '5' && !in(t.particles, s.c))
+    // The neutral tone only from the table, for particles and for the suffix 子: Unihan's most
+    // frequent reading of 姐 is the jie5 of 姐姐, of 务 the wu5 of a corpus' 服务.
+    if (tone_of(s.pinyin) == '5' && !in(t.particles, s.c) && s.c != U'子')
       s.pinyin = lex.tone(s.c, toneless(s.pinyin), false);
     // AA: the second A neutral (妈妈, 看看); A一A: 一 neutral (看一看).
     if (i > 0 && run[i - 1].c == s.c && in(t.reduplicated, s.c) && !run[i - 1].pinyin.empty()) {

@@ -15,7 +15,7 @@ struct ZhSyllable {
 
 /// Lexical tones from word context (configs/viseme/tones_zh.json): words of the table found in the
 /// segmentation (alone, inside a word or as whole consecutive words) take the table's tones where
-/// the toneless reading agrees; a one-character word keeps a full tone unless it is a particle;
+/// the toneless reading agrees; other syllables keep a full tone unless they are particles or 子;
 /// AA of a reduplicating character reads the second A neutral, A一A reads 一 neutral.
 void word_tones(std::vector<ZhSyllable>& run);
 
