@@ -2,7 +2,8 @@
 // (default 50) each stream espeak-ng speech as 20 ms PCM16 chunks in real time over the WebSocket
 // and read the weights back. Latency of a frame = its arrival - the sending of the chunk that holds
 // the audio of its time (pts): the end-to-end delay from an audio chunk to its weights. Prints the
-// p50 / p99 / max over all frames. Usage: bench_live_audio [clients] [seconds]
+// p50 / p99 / max over all frames, the server's CPU time per chunk and the machine's load average
+// (the figure means little on a busy machine). Usage: bench_live_audio [clients] [seconds]
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
@@ -15,7 +16,11 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <mutex>
+#include <sstream>
+#include <string>
 #include <thread>
 
 #include "facecast/server/protocol.hpp"
@@ -53,6 +58,8 @@ class Client : public std::enable_shared_from_this<Client> {
         tcp::endpoint(net::ip::make_address("127.0.0.1"), port_),
         [self = shared_from_this()](beast::error_code ec) {
           if (ec) return self->fail("connect");
+          // A live audio client sends small messages: no Nagle delay (browsers do the same).
+          beast::get_lowest_layer(self->ws_).socket().set_option(tcp::no_delay(true), ec);
           self->ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& r) {
             r.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
           }));
@@ -153,6 +160,25 @@ class Client : public std::enable_shared_from_this<Client> {
   beast::flat_buffer buf_;
 };
 
+// CPU seconds (user + system) a process has used so far, from /proc/<pid>/stat.
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::istringstream fields(stat.substr(stat.rfind(')') + 2));
+  std::string f;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> f; ++i)
+    if (i >= 14) ticks += std::stod(f);  // fields 14 utime, 15 stime
+  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -170,6 +196,8 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   const fctest::ServeProcess server(FACECAST_EXE, {"--data", (dir / "data").string()}, 60,
                                     (dir / "server.log").string());
+  const std::string load_before = load_average();
+  const double cpu0 = cpu_seconds(server.pid());
   net::io_context ioc;
   const int chunks = static_cast<int>(seconds * kRate / kChunk);
   std::vector<std::shared_ptr<Client>> all;
@@ -181,6 +209,7 @@ int main(int argc, char** argv) {
   std::vector<std::thread> threads;
   for (int t = 0; t < 2; ++t) threads.emplace_back([&] { ioc.run(); });
   for (auto& t : threads) t.join();
+  const double cpu = cpu_seconds(server.pid()) - cpu0;
   std::sort(s.latency.begin(), s.latency.end());
   const auto at = [&](double p) {
     return s.latency.empty()
@@ -195,6 +224,9 @@ int main(int argc, char** argv) {
       clients, seconds, s.latency.size(), s.ended.load(), s.errors.load());
   std::printf("chunk -> weights latency: p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", at(0.5) * 1000,
               at(0.99) * 1000, at(1.0) * 1000);
+  std::printf("server CPU: %.2f s, %.0f us per chunk; load average before %s, after %s\n", cpu,
+              1e6 * cpu / (static_cast<double>(clients) * chunks), load_before.c_str(),
+              load_average().c_str());
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   return s.errors > 0 ? 1 : 0;

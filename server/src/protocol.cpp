@@ -179,9 +179,18 @@ SpeakRequest parse_speak(const json& j, const ProtocolLimits& limits) {
       r.channel = check_channel_name(v, "channel");
     } else if (key == "more") {
       r.more = get_bool(v, "more");
+    } else if (key == "audio_id") {
+      r.audio_id = get_name(v, "audio_id", "");
     } else {
       throw Error("speak: unknown field '" + key + "'");
     }
+  }
+  if (!r.audio_id.empty()) {  // the uploaded audio gives the times: text is optional
+    if (r.timestamps || r.more || timing)
+      throw Error("audio_id: not with timestamps, more or timing (the audio gives the times)");
+    r.audio = audio.value_or(true);
+    r.fps = fps.value_or(r.output == Output::kFrames ? 30.0 : 60.0);
+    return r;
   }
   if (r.more && r.timestamps) throw Error("more: only with text (append adds text)");
   if (r.more && !r.text) r.text = "";

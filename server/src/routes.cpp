@@ -199,6 +199,10 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     require_method(req, {http::verb::post});
     return post_render(state, req);
   }
+  if (path == "/api/audio") {
+    require_method(req, {http::verb::post});
+    return post_audio(state, req);
+  }
   if (std::regex_match(path, m, kRigGlb)) {
     require_method(req, {http::verb::get, http::verb::head});
     const std::string id = m[1];
@@ -318,7 +322,8 @@ bool origin_ok(const State& state, const Request& req) {
 std::size_t body_limit(const State& state, const Request& req) {
   if (req.method() == http::verb::post) {
     const auto t = parse_target(req.target());
-    if (t.path == "/api/rigs" || t.path == "/api/render") return state.options.max_upload;
+    if (t.path == "/api/rigs" || t.path == "/api/render" || t.path == "/api/audio")
+      return state.options.max_upload;
   }
   return state.options.max_body;
 }

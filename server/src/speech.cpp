@@ -2,8 +2,10 @@
 
 #include <chrono>
 
+#include "facecast/viseme/align.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/import.hpp"
+#include "facecast/viseme/lipsync.hpp"
 
 namespace facecast::server {
 
@@ -24,7 +26,14 @@ std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest&
   p->rig = state.rigs.load(r.rig);
   const viseme::Options vo = speech_options(state, r.lang, r.timing, r.voice, r.rate);
   viseme::Utterance u;
-  if (r.text) {
+  if (!r.audio_id.empty()) {
+    const auto audio = state.audio_uploads.get(r.audio_id);
+    if (!audio)
+      throw Error("audio_id '" + r.audio_id + "': no such upload (POST /api/audio; uploads expire)",
+                  ErrorCode::kNotFound);
+    u = r.text ? viseme::align(*r.text, *audio, vo, state.audio_uploads.align_options())
+               : viseme::lipsync(*audio, vo, state.audio_uploads.lipsync_options());
+  } else if (r.text) {
     u = viseme::analyze(*r.text, vo);
   } else {
     u = viseme::import_timestamps(r.timestamps->format, r.timestamps->data, vo,

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <unordered_map>
 
+#include "audio_uploads.hpp"
 #include "facecast/anim/animation.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/render/video.hpp"
@@ -45,6 +46,7 @@ struct State {
   render::VideoOptions video_options;    // configs/anim/render.json "video"
   RendererCache renderers;
   ProtocolLimits limits;
+  AudioUploads audio_uploads;  // POST /api/audio, spoken by `speak` with audio_id
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   std::atomic<bool> stopping{false};  // draining or shutting down: /readyz answers 503
   std::atomic<bool> ready{false};     // warmed up: /readyz answers 200

@@ -10,6 +10,7 @@
 #include "lexicon.hpp"
 #include "numbers_zh.hpp"
 #include "pinyin_detail.hpp"
+#include "tones_zh.hpp"
 #include "utf8.hpp"
 
 namespace facecast::viseme::detail {
@@ -144,7 +145,7 @@ std::string apply_rules(const std::vector<ZhChar>& run, std::size_t i, std::stri
     if (!r.next.empty() && !(i + 1 < run.size() && has(r.next, run[i + 1].c))) continue;
     if (r.prev_repeated && !(i >= 2 && run[i - 1].c == run[i - 2].c)) continue;
     if (r.at_end && i + 1 != run.size()) continue;
-    if (lex.has_reading(run[i].c, r.reading)) return r.reading;
+    if (lex.has_reading(run[i].c, toneless(r.reading))) return r.reading;
   }
   return reading;
 }
@@ -222,23 +223,38 @@ class Builder {
     const Lexicon& lex = Lexicon::get();
     std::u32string chars;
     for (const auto& z : run) chars += z.c;
-    for (const auto& seg : lex.segment(chars)) {
-      PlanWord word;
-      word.text = to_utf8(std::u32string_view(chars).substr(seg.begin, seg.end - seg.begin));
-      word.first = plan_.units.size();
+    const auto segments = lex.segment(chars);
+    // Readings in word context (docs/algorithms.md#chinese-reading, #chinese-tones).
+    std::vector<ZhSyllable> syllables(run.size());
+    for (std::size_t w = 0; w < segments.size(); ++w) {
+      const auto& seg = segments[w];
       const bool single = seg.end - seg.begin == 1;
       for (std::size_t k = seg.begin; k < seg.end; ++k) {
         std::string bare = seg.toneless[k - seg.begin];
         if (single) bare = apply_rules(run, k, bare, lex);
-        if (bare.empty()) continue;  // a character nobody knows how to read
+        const bool toned = !bare.empty() && bare.back() >= '1' && bare.back() <= '5';
+        const bool plain = bare.empty() || toned;
+        syllables[k] = {run[k].c, plain ? bare : lex.tone(run[k].c, bare, single || k > seg.begin),
+                        w};
+        if (!is_pinyin(syllables[k].pinyin)) syllables[k].pinyin.clear();
+      }
+    }
+    word_tones(syllables);
+    const std::vector<std::string> spoken = spoken_tones(syllables);
+    for (const auto& seg : segments) {
+      PlanWord word;
+      word.text = to_utf8(std::u32string_view(chars).substr(seg.begin, seg.end - seg.begin));
+      word.first = plan_.units.size();
+      for (std::size_t k = seg.begin; k < seg.end; ++k) {
+        if (syllables[k].pinyin.empty()) continue;  // a character nobody knows how to read
         PlanUnit u;
         u.lang = Lang::kZh;
         u.text = to_utf8(run[k].c);
-        u.pinyin = lex.tone(run[k].c, bare, single || k > seg.begin);
+        u.pinyin = syllables[k].pinyin;
+        u.spoken = spoken[k];
         u.src_begin = run[k].begin;
         u.src_end = run[k].end;
         u.word = plan_.words.size();
-        if (!is_pinyin(u.pinyin)) continue;
         add_unit(std::move(u));
       }
       word.last = plan_.units.size();

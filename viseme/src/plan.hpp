@@ -23,7 +23,8 @@ struct PlanPhone {
 struct PlanUnit {
   Lang lang = Lang::kZh;
   std::string text;                        // zh: the character; en: the word as written
-  std::string pinyin;                      // zh: numbered pinyin
+  std::string pinyin;                      // zh: numbered pinyin, lexical tones (the JSON's)
+  std::string spoken;                      // zh: the pinyin espeak-ng speaks (tone sandhi)
   std::size_t src_begin = 0, src_end = 0;  // characters of the input text it came from
   std::size_t word = 0;                    // index into Plan::words
   std::vector<PlanPhone> phones;

@@ -52,7 +52,7 @@ std::string phrase_text(const Plan& plan, const Phrase& ph, std::vector<int>& po
     }
     positions.push_back(chars + 1);
     const PlanUnit& unit = plan.units[u];
-    const std::string& s = unit.lang == Lang::kZh ? unit.pinyin : unit.text;
+    const std::string& s = unit.lang == Lang::kZh ? unit.spoken : unit.text;
     text += s;
     for (unsigned char c : s) chars += (c & 0xC0) != 0x80;
   }

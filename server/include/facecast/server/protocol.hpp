@@ -91,6 +91,8 @@ struct SpeakRequest {
   bool idle = true;
   std::string channel;  // empty: this connection's own stream; else a channel it produces
   bool more = false;    // `append` messages add text until `end` (incremental text)
+  // An upload (POST /api/audio): `text` is aligned to it, or without text it is lip-synced.
+  std::string audio_id;
 };
 
 struct CancelRequest {

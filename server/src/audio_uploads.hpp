@@ -1,0 +1,61 @@
+#pragma once
+// Uploaded speech audio (docs/protocol.md, "POST /api/audio" and `speak` with `audio_id`): decoded
+// once when it arrives (any format libsndfile or ffmpeg reads), kept in memory for a while, and
+// spoken by a `speak` that names it: its text aligned to it (docs/algorithms.md#forced-alignment)
+// or, without text, the face from the audio alone (#audio-lipsync).
+#include <chrono>
+#include <cstddef>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <random>
+#include <string>
+
+#include "beast.hpp"
+#include "facecast/viseme/align.hpp"
+#include "facecast/viseme/audio.hpp"
+#include "facecast/viseme/lipsync.hpp"
+
+namespace facecast::server {
+
+struct State;
+
+class AudioUploads {
+ public:
+  /// Kept at most `max_count` uploads (the oldest goes first), each for `ttl` seconds.
+  explicit AudioUploads(std::size_t max_count = 64, double ttl = 600);
+
+  /// Decodes an uploaded file; throws a one-line Error ("uploaded audio: ...") when it is empty,
+  /// not audio, shorter than audio.min_seconds or longer than align.max_seconds.
+  viseme::Audio decode(std::string_view bytes) const;
+  /// Keeps `audio`; returns its id ("a" + 16 hex digits).
+  std::string put(viseme::Audio audio);
+  /// The upload `id`, or nullptr when there is none (never uploaded, expired or evicted).
+  std::shared_ptr<const viseme::Audio> get(const std::string& id);
+
+  const viseme::AlignOptions& align_options() const { return align_; }
+  const viseme::LipsyncOptions& lipsync_options() const { return lipsync_; }
+  double ttl() const { return ttl_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Entry {
+    std::shared_ptr<const viseme::Audio> audio;
+    Clock::time_point at;
+  };
+  void expire(Clock::time_point now);  // with mutex_ held
+
+  std::size_t max_count_;
+  double ttl_;
+  viseme::AudioOptions audio_;
+  viseme::AlignOptions align_;
+  viseme::LipsyncOptions lipsync_;
+  std::mutex mutex_;
+  std::map<std::string, Entry> entries_;
+  std::mt19937_64 random_{std::random_device{}()};
+};
+
+/// POST /api/audio: the body is an audio file; answers {"audio_id", "seconds", "expires_in"}.
+http::message_generator post_audio(State& state, const Request& req);
+
+}  // namespace facecast::server
