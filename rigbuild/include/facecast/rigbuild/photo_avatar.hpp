@@ -65,7 +65,8 @@ struct PhotoTemplate {
   std::vector<int> rigid;  // per vertex: rigid group (0: follows the RBF; 1.. eyes, mouth)
   /// Where the detector puts each landmark relative to its vertex, in the template's frame (zero:
   /// the template's landmark vertices follow dlib's convention on such photos; see
-  /// measure_landmark_bias). Jaw-line points, matched to the silhouette, have none.
+  /// measure_landmark_bias). Jaw-line points use theirs only when mode_bias is measured; otherwise
+  /// they are matched to the fit's silhouette.
   std::array<Eigen::Vector3d, kLandmarkCount> bias = zero_landmark_vectors();
   /// Per identity mode, the bias's change per unit of the mode (empty: the bias is the same for
   /// every identity); see measure_detector_response.
