@@ -116,16 +116,22 @@ PhotoOptions load_photo_options() {
       .read("template", o.template_path)
       .read("min_face", o.min_face)
       .read("max_side", o.max_side)
+      .read("box_jitter", o.box_jitter)
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
+      .read("side_noise", o.side_noise)
+      .read("rbf_smoothing", o.rbf_smoothing)
       .read("rbf_radius", o.rbf_radius)
       .read("texture_size", o.texture_size)
       .read("side_gamma", o.side_gamma)
       .read("shapes", o.shapes);
   if (o.min_face < 16) c.fail("min_face", "must be at least 16");
   if (o.max_side < 128) c.fail("max_side", "must be at least 128");
+  if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
+  if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
+  if (!(o.rbf_smoothing >= 0)) c.fail("rbf_smoothing", "must be at least 0");
   if (!(o.rbf_radius > 0)) c.fail("rbf_radius", "must be positive");
   if (o.texture_size < 64 || o.texture_size > 4096) c.fail("texture_size", "must be in 64..4096");
   if (!(o.side_gamma > 0)) c.fail("side_gamma", "must be positive");

@@ -63,7 +63,7 @@ double wendland(double r, double radius) {
 }  // namespace
 
 void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
-                const std::vector<int>& rigid, double radius, double merge) {
+                const std::vector<int>& rigid, double radius, double merge, double smoothing) {
   // Merge centres that (nearly) coincide: their moves are averaged.
   std::vector<Eigen::Vector3d> at, move;
   std::vector<int> count;
@@ -88,7 +88,7 @@ void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centre
     for (Eigen::Index j = 0; j < n; ++j)
       K(i, j) = wendland((at[static_cast<std::size_t>(i)] - at[static_cast<std::size_t>(j)]).norm(),
                          radius);
-    K(i, i) += 1e-9;
+    K(i, i) += smoothing + 1e-9;
   }
   const Eigen::MatrixXd W = K.ldlt().solve(D);
   const auto field = [&](const Eigen::Vector3d& p) {

@@ -22,9 +22,11 @@ struct RbfCentre {
 
 /// Moves `positions` by the Wendland-RBF field that interpolates the centres' moves (centres
 /// closer than `merge` are merged, their moves averaged); vertices of a rigid group (> 0) move by
-/// the field's mean over the group. `radius`: the kernel's support.
+/// the field's mean over the group. `radius`: the kernel's support. `smoothing` (lambda >= 0):
+/// the kernel matrix K + lambda I, so the field approximates the moves (an isolated centre moves
+/// by 1 / (1 + lambda) of its move) instead of interpolating them exactly (lambda = 0).
 void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
-                const std::vector<int>& rigid, double radius, double merge);
+                const std::vector<int>& rigid, double radius, double merge, double smoothing = 0);
 
 /// Calls f(texel index, surface point, unit normal) for every texel of a w x h texture (u scaled
 /// by 1 / `tiles`) that a skin triangle of `positions` covers.

@@ -2,6 +2,7 @@
 // turn to the photos' landmarks (jaw-line points matched to the fit's silhouette), then the
 // residuals moved exactly by an RBF deformation. See docs/algorithms.md#photo-avatar.
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -22,18 +23,42 @@ struct View {
   std::vector<char> contour;  // per landmark: matched to the silhouette
   OrthoCamera camera;
   std::array<int, kLandmarkCount> vertex{};
+  const PhotoTemplate* tmpl = nullptr;
   const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
+  const std::vector<std::array<Eigen::Vector3d, kLandmarkCount>>* mode_bias = nullptr;
+  double noise = 1;  // this photo's landmark noise relative to the front photo's
 
-  // Where landmark k sits on a head at `p`: its vertex plus the detector's convention offset.
-  Eigen::Vector3d point(const anim::Positions& p, int k) const {
+  // Where the detector puts landmark k on the head with coefficients c (positions p): its vertex
+  // plus the detector's convention offset for that identity.
+  Eigen::Vector3d point(const anim::Positions& p, const Eigen::VectorXd& c, int k) const {
     const auto i = static_cast<std::size_t>(k);
-    const Eigen::Vector3d x = p.row(vertex[i]).cast<double>().transpose();
-    return contour[i] ? x : x + (*bias)[i];
+    Eigen::Vector3d x = p.row(vertex[i]).cast<double>().transpose();
+    if (contour[i]) return x;
+    x += (*bias)[i];
+    for (std::size_t m = 0; m < mode_bias->size(); ++m)
+      x += c(static_cast<Eigen::Index>(m)) * (*mode_bias)[m][i];
+    return x;
+  }
+  // d point / d c_m.
+  Eigen::Vector3d mode(int m, int k) const {
+    const auto i = static_cast<std::size_t>(k);
+    Eigen::Vector3d d =
+        tmpl->modes[static_cast<std::size_t>(m)].row(vertex[i]).cast<double>().transpose();
+    if (!contour[i] && static_cast<std::size_t>(m) < mode_bias->size())
+      d += (*mode_bias)[static_cast<std::size_t>(m)][i];
+    return d;
   }
 };
 
 Eigen::Vector3d row(const anim::Positions& p, int v) {
   return p.row(v).cast<double>().transpose();
+}
+
+anim::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) {
+  anim::Positions p = tmpl.rig.positions;
+  for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
+    p += static_cast<float>(c(static_cast<Eigen::Index>(m))) * tmpl.modes[m];
+  return p;
 }
 
 // Per jaw landmark, the skin vertices near the template's jaw vertex that may become its
@@ -50,94 +75,133 @@ std::vector<std::vector<int>> jaw_candidates(const PhotoTemplate& tmpl, double r
   return out;
 }
 
-// Jaw landmarks take the grazing candidate (|normal . view| small) whose projection is nearest
-// the photo's point; others keep their vertex.
-void match_contour(const anim::Positions& positions, const anim::Positions& normals,
+// Per vertex: on the silhouette seen from `towards` (an edge of the vertex joins a triangle facing
+// the camera and one facing away).
+std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
+                             const Eigen::Vector3d& towards) {
+  std::vector<signed char> facing(static_cast<std::size_t>(p.rows()), 0);
+  for (Eigen::Index f = 0; f < tris.rows(); ++f) {
+    const Eigen::Vector3d a = row(p, tris(f, 0)), b = row(p, tris(f, 1)), c = row(p, tris(f, 2));
+    const signed char bit = (b - a).cross(c - a).dot(towards) > 0 ? 1 : 2;
+    for (int k = 0; k < 3; ++k) facing[static_cast<std::size_t>(tris(f, k))] |= bit;
+  }
+  std::vector<char> out(facing.size());
+  for (std::size_t v = 0; v < facing.size(); ++v) out[v] = facing[v] == 3;
+  return out;
+}
+
+// Jaw landmarks (dlib traces the face's outline) take, among the template's own jaw vertex and
+// the silhouette vertices near it, the one projecting nearest the photo's point.
+void match_contour(const PhotoTemplate& tmpl, const anim::Positions& positions,
                    const std::vector<std::vector<int>>& candidates, View& view) {
-  const Eigen::Vector3d towards = view.camera.towards();
+  const std::vector<char> outline =
+      silhouette(positions, tmpl.rig.triangles, view.camera.towards());
   for (int k : view.used) {
-    if (!view.contour[static_cast<std::size_t>(k)]) continue;
-    const Eigen::Vector2d& q = view.marks->points[static_cast<std::size_t>(k)];
-    double best = std::numeric_limits<double>::infinity();
-    for (int v : candidates[static_cast<std::size_t>(k)]) {
-      if (std::abs(normals.row(v).cast<double>().dot(towards.transpose())) > 0.3) continue;
-      const double d = (view.camera.project(row(positions, v)) - q).squaredNorm();
+    const auto i = static_cast<std::size_t>(k);
+    if (!view.contour[i]) continue;
+    const Eigen::Vector2d& q = view.marks->points[i];
+    const auto dist = [&](int v) {
+      return (view.camera.project(row(positions, v)) - q).squaredNorm();
+    };
+    view.vertex[i] = tmpl.landmarks[i];
+    double best = dist(view.vertex[i]);
+    for (int v : candidates[i]) {
+      if (!outline[static_cast<std::size_t>(v)]) continue;
+      const double d = dist(v);
       if (d < best) {
         best = d;
-        view.vertex[static_cast<std::size_t>(k)] = v;
+        view.vertex[i] = v;
       }
     }
   }
 }
 
-void fit_camera(const anim::Positions& positions, View& view) {
+void fit_camera(const anim::Positions& positions, const Eigen::VectorXd& c, View& view) {
   std::vector<Eigen::Vector3d> pts;
   std::vector<Eigen::Vector2d> px;
   for (int k : view.used) {
-    pts.push_back(view.point(positions, k));
+    pts.push_back(view.point(positions, c, k));
     px.push_back(view.marks->points[static_cast<std::size_t>(k)]);
   }
   view.camera = fit_ortho_camera(pts, px);
 }
 
-// The identity-mode coefficients for fixed cameras: each landmark gives two equations
-// s R12 (x0 + sum_k c_k d_k) = q - b, in inter-ocular units of its photo; the prior adds
-// noise^2 |c|^2 (c ~ N(0, 1), landmark noise `noise`).
-Eigen::VectorXd solve_coefficients(const PhotoTemplate& tmpl, const std::vector<View>& views,
-                                   double iod, double noise) {
+// One Gauss-Newton step on the cameras and the identity-mode coefficients together (the camera's
+// scale and rotation trade off against the modes, so alternating between them stalls):
+//   min sum_photos sum_landmarks |pi_v(x0_k + D_k c + b_k) - q_k|^2 / (s_v IOD)^2 + sigma^2 |c|^2,
+// pi_v = scale-orthographic camera (rotation R exp([w]x), scale s, translation t).
+void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
+                       double iod, double noise) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
-  Eigen::MatrixXd AtA = Eigen::MatrixXd::Identity(K, K) * noise * noise;
-  Eigen::VectorXd Atb = Eigen::VectorXd::Zero(K);
-  for (const auto& view : views) {
-    const double unit = 1.0 / (view.camera.s * iod);
-    const Eigen::Matrix<double, 2, 3> R12 = view.camera.R.topRows<2>();
+  const Eigen::Index n = K + 6 * static_cast<Eigen::Index>(views.size());
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
+  H.topLeftCorner(K, K).diagonal().array() += noise * noise;
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  g.head(K) = -noise * noise * c;
+  const anim::Positions p = apply_modes(tmpl, c);
+  for (std::size_t vi = 0; vi < views.size(); ++vi) {
+    const View& view = views[vi];
+    const OrthoCamera& cam = view.camera;
+    const double unit = 1.0 / (cam.s * iod * view.noise);
+    const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
+    const Eigen::Matrix<double, 2, 3> R12 = cam.R.topRows<2>();
     for (int k : view.used) {
-      const int v = view.vertex[static_cast<std::size_t>(k)];
-      const Eigen::Vector2d q = view.marks->points[static_cast<std::size_t>(k)];
-      const Eigen::Vector2d p0 = view.camera.project(view.point(tmpl.rig.positions, k));
-      Eigen::Vector2d r = (q - p0) * unit;
+      const auto i = static_cast<std::size_t>(k);
+      const Eigen::Vector3d x = view.point(p, c, k);
+      Eigen::Vector2d r = view.marks->points[i] - cam.project(x);
       r.y() = -r.y();  // y up
-      Eigen::Matrix<double, 2, Eigen::Dynamic> A(2, K);
+      Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, n);
       for (Eigen::Index m = 0; m < K; ++m)
-        A.col(m) = view.camera.s * unit * R12 *
-                   tmpl.modes[static_cast<std::size_t>(m)].row(v).cast<double>().transpose();
-      AtA += A.transpose() * A;
-      Atb += A.transpose() * r;
+        J.col(m) = cam.s * R12 * view.mode(static_cast<int>(m), k);
+      Eigen::Matrix3d cross;  // d(R exp([w]x) x)/dw at w = 0 is -R [x]x
+      cross << 0, -x.z(), x.y(), x.z(), 0, -x.x(), -x.y(), x.x(), 0;
+      J.block(0, o, 2, 3) = -cam.s * R12 * cross;
+      J.col(o + 3) = R12 * x;
+      J.block(0, o + 4, 2, 2) = Eigen::Matrix2d::Identity();
+      J *= unit;
+      r *= unit;
+      H += J.transpose() * J;
+      g += J.transpose() * r;
     }
   }
-  return AtA.ldlt().solve(Atb);
+  const Eigen::VectorXd dx = H.ldlt().solve(g);
+  c += dx.head(K);
+  for (std::size_t vi = 0; vi < views.size(); ++vi) {
+    OrthoCamera& cam = views[vi].camera;
+    const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
+    const Eigen::Vector3d w = dx.segment<3>(o);
+    if (w.norm() > 0)
+      cam.R = cam.R * Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+    cam.s += dx(o + 3);
+    cam.t += Eigen::Vector2d(dx(o + 4), -dx(o + 5));
+  }
 }
 
-anim::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) {
-  anim::Positions p = tmpl.rig.positions;
-  for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
-    p += static_cast<float>(c(static_cast<Eigen::Index>(m))) * tmpl.modes[m];
-  return p;
-}
-
-double rms_pixels(const anim::Positions& p, const View& view) {
+double rms_pixels(const anim::Positions& p, const Eigen::VectorXd& c, const View& view) {
   double sum = 0;
   for (int k : view.used)
-    sum += (view.camera.project(view.point(p, k)) - view.marks->points[static_cast<std::size_t>(k)])
-               .squaredNorm();
+    sum +=
+        (view.camera.project(view.point(p, c, k)) - view.marks->points[static_cast<std::size_t>(k)])
+            .squaredNorm();
   return std::sqrt(sum / std::max<std::size_t>(1, view.used.size()));
 }
 
 // The 3D move of each landmark vertex that puts it exactly on the photos' points: per vertex,
 // the least-squares move over the photos that use it (s R12 d = residual), with a small ridge so
 // that the depth a single photo does not see stays put.
-std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const std::vector<View>& views,
-                                         double* rms) {
+std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const Eigen::VectorXd& c,
+                                         const std::vector<View>& views, double* rms) {
   std::vector<int> order;
   std::vector<Eigen::Matrix3d> AtA;
   std::vector<Eigen::Vector3d> Atb;
   for (const auto& view : views) {
-    const Eigen::Matrix<double, 2, 3> A = view.camera.s * view.camera.R.topRows<2>();
+    const Eigen::Matrix<double, 2, 3> A = view.camera.s / view.noise * view.camera.R.topRows<2>();
     for (int k : view.used) {
       const int v = view.vertex[static_cast<std::size_t>(k)];
-      Eigen::Vector2d r =
-          view.marks->points[static_cast<std::size_t>(k)] - view.camera.project(row(p, v));
+      Eigen::Vector2d r = view.marks->points[static_cast<std::size_t>(k)] -
+                          view.camera.project(view.point(p, c, k));
       r.y() = -r.y();
+      r /= view.noise;
       auto it = std::find(order.begin(), order.end(), v);
       std::size_t i = static_cast<std::size_t>(it - order.begin());
       if (it == order.end()) {
@@ -159,55 +223,53 @@ std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const std::ve
   return out;
 }
 
-}  // namespace
-
-PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
-                         const PhotoLandmarks* side, const PhotoOptions& options) {
+// The fit; `contour`: jaw-line points matched to the silhouette (else fixed vertices whose
+// detector offsets were measured).
+PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
+                   const PhotoLandmarks* side, const PhotoOptions& options, bool contour) {
   const auto& X0 = tmpl.rig.positions;
   const double iod = (row(X0, tmpl.landmarks[36]) - row(X0, tmpl.landmarks[45])).norm();
   std::vector<View> views(side ? 2 : 1);
   views[0].marks = &front;
   views[0].contour.assign(kLandmarkCount, 0);
-  std::fill_n(views[0].contour.begin(), kJawEnd + 1, 1);
+  std::fill_n(views[0].contour.begin(), kJawEnd + 1, contour ? 1 : 0);
   if (side) {
     views[1].marks = side;
     views[1].contour.assign(kLandmarkCount, 0);
-    views[1].contour[8] = 1;
+    views[1].contour[8] = contour ? 1 : 0;
     views[1].used = side_points(*side);
+    views[1].noise = options.side_noise;
   }
   for (int k = 0; k < kLandmarkCount; ++k) views[0].used.push_back(k);
   for (auto& v : views) {
     v.vertex = tmpl.landmarks;
-    v.bias = &tmpl.bias;
+    v.tmpl = &tmpl;
+    v.bias = &v == &views[0] ? &tmpl.bias : &tmpl.side_bias;
+    v.mode_bias = &v == &views[0] ? &tmpl.mode_bias : &tmpl.side_mode_bias;
   }
   const auto candidates = jaw_candidates(tmpl, 0.3 * iod);
 
   PhotoFit fit;
   fit.coefficients = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tmpl.modes.size()));
   anim::Positions p = X0;
+  for (auto& v : views) fit_camera(p, fit.coefficients, v);
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
-    for (auto& v : views) fit_camera(p, v);
-    if (it > 0) {
-      const anim::Positions normals = anim::vertex_normals(p, tmpl.rig.triangles);
-      for (auto& v : views) {
-        match_contour(p, normals, candidates, v);
-        fit_camera(p, v);
-      }
-    }
-    fit.coefficients = solve_coefficients(tmpl, views, iod, options.landmark_noise);
+    if (it > 0)
+      for (auto& v : views) match_contour(tmpl, p, candidates, v);
+    for (int step = 0; step < 3; ++step)
+      gauss_newton_step(tmpl, views, fit.coefficients, iod, options.landmark_noise);
     p = apply_modes(tmpl, fit.coefficients);
   }
-  for (auto& v : views) fit_camera(p, v);
   fit.model_positions = p;
-  fit.front_rms = rms_pixels(p, views[0]);
-  if (side) fit.side_rms = rms_pixels(p, views[1]);
+  fit.front_rms = rms_pixels(p, fit.coefficients, views[0]);
+  if (side) fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
 
-  const auto centres = calibration_moves(p, views, &fit.moved_rms);
+  const auto centres = calibration_moves(p, fit.coefficients, views, &fit.moved_rms);
   for (int k = 0; k < kLandmarkCount; ++k)
     for (const auto& c : centres)
       if (c.vertex == views[0].vertex[static_cast<std::size_t>(k)])
         fit.landmark_moves[static_cast<std::size_t>(k)] = c.move;
-  rbf_deform(p, centres, tmpl.rigid, options.rbf_radius * iod, 0.02 * iod);
+  rbf_deform(p, centres, tmpl.rigid, options.rbf_radius * iod, 0.02 * iod, options.rbf_smoothing);
   fit.positions = std::move(p);
   fit.front = views[0].camera;
   fit.front_vertex = views[0].vertex;
@@ -219,19 +281,57 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   return fit;
 }
 
+}  // namespace
+
+PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
+                         const PhotoLandmarks* side, const PhotoOptions& options) {
+  return fit_shape(tmpl, front, side, options, tmpl.mode_bias.empty());
+}
+
 std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
                                                                   const PhotoLandmarks& front,
                                                                   const PhotoLandmarks* side,
                                                                   const PhotoOptions& options) {
   PhotoTemplate plain = tmpl;
   plain.bias = zero_landmark_vectors();
+  plain.mode_bias.clear();
+  plain.side_bias = zero_landmark_vectors();
+  plain.side_mode_bias.clear();
   PhotoOptions o = options;
   o.landmark_noise = 1e6;  // the template's own shape: no identity modes
-  const PhotoFit fit = fit_photo_shape(plain, front, side, o);
+  const PhotoFit fit = fit_shape(plain, front, side, o, false);
   std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
-  for (int k = kJawEnd + 1; k < kLandmarkCount; ++k)
+  for (int k = 0; k < kLandmarkCount; ++k)
     out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];
   return out;
+}
+
+void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
+                               const PhotoOptions& options, double amplitude) {
+  using Offsets = std::array<Eigen::Vector3d, kLandmarkCount>;
+  // Per photo alone (all 68 points), the offsets on the head at `positions`: front, side.
+  const auto measure = [&](const anim::Positions& positions) {
+    PhotoTemplate t = tmpl;
+    t.rig.positions = positions;
+    const auto [front, side] = shoot(positions);
+    const PhotoLandmarks f = detect_photo_landmarks(front, "template front", options);
+    const PhotoLandmarks s = detect_photo_landmarks(side, "template side", options);
+    return std::array<Offsets, 2>{measure_landmark_bias(t, f, nullptr, options),
+                                  measure_landmark_bias(t, s, nullptr, options)};
+  };
+  const auto at = measure(tmpl.rig.positions);
+  tmpl.bias = at[0];
+  tmpl.side_bias = at[1];
+  tmpl.mode_bias.assign(tmpl.modes.size(), zero_landmark_vectors());
+  tmpl.side_mode_bias = tmpl.mode_bias;
+  for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
+    const auto plus = measure(tmpl.rig.positions + static_cast<float>(amplitude) * tmpl.modes[m]);
+    const auto minus = measure(tmpl.rig.positions - static_cast<float>(amplitude) * tmpl.modes[m]);
+    for (std::size_t k = 0; k < kLandmarkCount; ++k) {
+      tmpl.mode_bias[m][k] = (plus[0][k] - minus[0][k]) / (2 * amplitude);
+      tmpl.side_mode_bias[m][k] = (plus[1][k] - minus[1][k]) / (2 * amplitude);
+    }
+  }
 }
 
 }  // namespace facecast::rigbuild

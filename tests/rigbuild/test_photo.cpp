@@ -77,15 +77,18 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   REQUIRE(tmpl.modes.size() == 10);
   PhotoOptions opt = load_photo_options();
   opt.shapes = false;
-  {
-    // dlib's convention on these renders, measured once on the template photographed the same way.
-    const test::PhotoShoot own = test::photograph(tmpl, tmpl.rig.positions, 40.0);
-    const PhotoLandmarks f = detect_photo_landmarks(own.front, "template front", opt);
-    const PhotoLandmarks s = detect_photo_landmarks(own.side, "template side", opt);
-    tmpl.bias = measure_landmark_bias(tmpl, f, &s, opt);
-  }
+  // dlib's convention on these renders and how it follows the identity, measured on the template
+  // and on its modes photographed the same way (not on the identities below).
+  measure_detector_response(
+      tmpl,
+      [&](const anim::Positions& p) {
+        const test::PhotoShoot s = test::photograph(tmpl, p, 40.0);
+        return std::make_pair(s.front, s.side);
+      },
+      opt);
   double sum_front = 0, sum_side = 0, sum_reproj = 0;
-  const std::vector<unsigned> seeds{101, 202, 303};
+  // Identities used for nothing else (the options were chosen on seeds 11..14).
+  const std::vector<unsigned> seeds{404, 505, 606, 707};
   for (unsigned seed : seeds) {
     const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
     const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0);
@@ -117,8 +120,9 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   const double n = static_cast<double>(seeds.size());
   std::cout << "mean ratio front " << sum_front / n << ", front+side " << sum_side / n
             << ", reprojection " << 100 * sum_reproj / n << " %\n";
-  // Not reached yet (docs/algorithms.md#photo-avatar, "Accuracy"): reported, not failed.
-  CHECK_NOFAIL(sum_front / n <= 0.5);
+  CHECK(sum_front / n <= 0.5);
+  // Not reached on these identities (lower on 3 of the 4 tuning ones): reported, not failed
+  // (docs/algorithms.md#photo-avatar, "Accuracy").
   CHECK_NOFAIL(sum_side < sum_front);
   CHECK(sum_reproj / n <= 0.02);
 }
@@ -177,10 +181,56 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.template_path == d.template_path);
   CHECK(c.min_face == d.min_face);
   CHECK(c.max_side == d.max_side);
+  CHECK(c.box_jitter == d.box_jitter);
   CHECK(c.iterations == d.iterations);
   CHECK(c.landmark_noise == d.landmark_noise);
+  CHECK(c.side_noise == d.side_noise);
+  CHECK(c.rbf_smoothing == d.rbf_smoothing);
   CHECK(c.rbf_radius == d.rbf_radius);
   CHECK(c.texture_size == d.texture_size);
   CHECK(c.side_gamma == d.side_gamma);
   CHECK(c.shapes == d.shapes);
+}
+
+TEST_CASE("photo fit: exact landmarks of ICT identities give back their coefficients",
+          "[photo][ict]") {
+  // The solve alone (docs/algorithms.md#photo-avatar, step 3): the true identity's 68 landmark
+  // vertices projected by a known camera, no detector.
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const PhotoTemplate tmpl = load_photo_template(dir);
+  PhotoOptions opt = load_photo_options();
+  opt.landmark_noise = 0.003;
+  const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
+  Eigen::MatrixXd M(tmpl.rig.positions.size(), K);
+  for (Eigen::Index m = 0; m < K; ++m)
+    M.col(m) = Eigen::Map<const Eigen::VectorXf>(tmpl.modes[static_cast<std::size_t>(m)].data(),
+                                                 tmpl.rig.positions.size())
+                   .cast<double>();
+  for (unsigned seed : {7u, 8u}) {
+    const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
+    const anim::Positions d = truth.target.positions - tmpl.rig.positions;
+    const Eigen::VectorXd c = M.colPivHouseholderQr().solve(
+        Eigen::Map<const Eigen::VectorXf>(d.data(), d.size()).cast<double>());
+    OrthoCamera cam;
+    cam.R = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+            Eigen::AngleAxisd(-0.05, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    cam.s = 12;
+    cam.t = {256, 256};
+    PhotoLandmarks marks;
+    marks.faces = 1;
+    for (std::size_t k = 0; k < kLandmarkCount; ++k)
+      marks.points[k] =
+          cam.project(truth.target.positions.row(tmpl.landmarks[k]).cast<double>().transpose());
+    const PhotoFit fit = fit_photo_shape(tmpl, marks, nullptr, opt);
+    const double ratio = aligned_error(tmpl, fit.model_positions, truth.target.positions) /
+                         aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    std::cout << "exact landmarks, seed " << seed << ": coefficient error "
+              << (fit.coefficients - c).norm() / c.norm() << " (relative), shape ratio " << ratio
+              << ", camera scale " << fit.front.s << " (true 12)\n";
+    CHECK((fit.coefficients - c).norm() < 0.1 * c.norm());
+    CHECK(ratio < 0.1);
+    CHECK(fit.front.s == Approx(cam.s).epsilon(0.02));
+    CHECK((fit.front.R - cam.R).norm() < 0.02);
+  }
 }

@@ -10,9 +10,11 @@
 // Photos: y down, pixel centres at whole numbers (dlib's convention). Heads face +Z, +Y up.
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "facecast/anim/rig.hpp"
@@ -37,8 +39,11 @@ struct PhotoOptions {
   std::string template_path;     // --template default: a template folder or rig file ("" = none)
   int min_face = 80;             // a face box narrower than this (pixels) is "too small"
   int max_side = 640;            // photos are scaled down to this longest side for detection
+  double box_jitter = 0.04;      // landmarks averaged over face boxes moved by this fraction
   int iterations = 8;            // camera / coefficient alternations
-  double landmark_noise = 0.03;  // landmark noise, inter-ocular distances: the modes' prior weight
+  double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
+  double side_noise = 2.0;       // the side photo's landmark noise relative to the front's
+  double rbf_smoothing = 1.0;    // RBF regularisation: 0 moves the landmarks exactly
   double rbf_radius = 1.2;       // RBF support radius, in inter-ocular distances of the template
   int texture_size = 1024;       // texture height; the width is twice (face and back of head)
   double side_gamma = 1.0;       // blend exponent on the normal's components (1: the seed's)
@@ -60,8 +65,15 @@ struct PhotoTemplate {
   std::vector<int> rigid;  // per vertex: rigid group (0: follows the RBF; 1.. eyes, mouth)
   /// Where the detector puts each landmark relative to its vertex, in the template's frame (zero:
   /// the template's landmark vertices follow dlib's convention on such photos; see
-  /// measure_landmark_bias). Jaw-line points, matched to the silhouette, have none.
+  /// measure_landmark_bias). Jaw-line points use theirs only when mode_bias is measured; otherwise
+  /// they are matched to the fit's silhouette.
   std::array<Eigen::Vector3d, kLandmarkCount> bias = zero_landmark_vectors();
+  /// Per identity mode, the bias's change per unit of the mode (empty: the bias is the same for
+  /// every identity); see measure_detector_response.
+  std::vector<std::array<Eigen::Vector3d, kLandmarkCount>> mode_bias;
+  /// The same for side photos (the detector's convention differs on a turned face).
+  std::array<Eigen::Vector3d, kLandmarkCount> side_bias = zero_landmark_vectors();
+  std::vector<std::array<Eigen::Vector3d, kLandmarkCount>> side_mode_bias;
 };
 
 /// Reads a template: the ICT FaceKit folder (generic_neutral_mesh.obj, expressions,
@@ -127,13 +139,18 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
                                                                   const PhotoLandmarks* side,
                                                                   const PhotoOptions& options);
 
-/// The detector's convention on a kind of photo (renders, say): the template itself photographed
-/// that way and fitted without identity modes; per landmark the calibration's move, which
-/// PhotoTemplate::bias then adds to the landmark's vertex.
-std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
-                                                                  const PhotoLandmarks& front,
-                                                                  const PhotoLandmarks* side,
-                                                                  const PhotoOptions& options);
+/// Photographs a head (template topology) the way the photos are taken: front and side images.
+using PhotoShootFn =
+    std::function<std::pair<render::Image, render::Image>(const anim::Positions& positions)>;
+
+/// The detector's convention and how it changes with the identity, on a kind of photo: the bias
+/// (measure_landmark_bias on the template, front and side photo each alone) and, per identity mode,
+/// the bias's change per unit of the mode (the template moved by +-`amplitude` of the mode,
+/// photographed, measured; central difference). Stored in PhotoTemplate::bias, ::mode_bias and the
+/// side_* ones. The detector regresses towards its mean face, so it sees a fraction of a shape
+/// change; the fit then models what it sees.
+void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
+                               const PhotoOptions& options, double amplitude = 2.0);
 
 /// The skin texture (2 N x N, u in [0, 2] as the template's face and back-of-head UV tiles)
 /// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo.
