@@ -202,7 +202,7 @@ http::message_generator api(State& state, Request& req, const Target& t) {
   if (std::regex_match(path, m, kRigGlb)) {
     require_method(req, {http::verb::get, http::verb::head});
     const std::string id = m[1];
-    if (!state.existing_rig(id).builtin)
+    if (!state.existing_rig(id).builtin || !state.rigs.glb_path(id).empty())
       return send_path(state, req, state.rigs.glb_path(id), "model/gltf-binary", "no-cache");
     const auto bytes = state.rigs.builtin_glb();
     const std::string etag =
