@@ -195,6 +195,10 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     return json_response(state, req, http::status::ok,
                          {{"rigs", rigs}, {"default", state.options.default_rig}});
   }
+  if (path == "/api/landmarks") {
+    require_method(req, {http::verb::post});
+    return post_landmarks(state, req);
+  }
   if (path == "/api/render") {
     require_method(req, {http::verb::post});
     return post_render(state, req);
