@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 
+#include "facecast/anim/avatar.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
@@ -20,26 +21,11 @@ namespace {
 // head and neck, mouth socket, eye sockets, gums and tongue, teeth, eyeballs, lashes) is kept.
 constexpr int kDropFirst = 24591, kDropEnd = 25351;
 
-// ARKit's 52 blendshape names (tongueOut: the FaceKit has none).
-constexpr std::array<const char*, 52> kArkit = {
-    "eyeBlinkLeft",      "eyeLookDownLeft",    "eyeLookInLeft",
-    "eyeLookOutLeft",    "eyeLookUpLeft",      "eyeSquintLeft",
-    "eyeWideLeft",       "eyeBlinkRight",      "eyeLookDownRight",
-    "eyeLookInRight",    "eyeLookOutRight",    "eyeLookUpRight",
-    "eyeSquintRight",    "eyeWideRight",       "jawForward",
-    "jawLeft",           "jawRight",           "jawOpen",
-    "mouthClose",        "mouthFunnel",        "mouthPucker",
-    "mouthLeft",         "mouthRight",         "mouthSmileLeft",
-    "mouthSmileRight",   "mouthFrownLeft",     "mouthFrownRight",
-    "mouthDimpleLeft",   "mouthDimpleRight",   "mouthStretchLeft",
-    "mouthStretchRight", "mouthRollLower",     "mouthRollUpper",
-    "mouthShrugLower",   "mouthShrugUpper",    "mouthPressLeft",
-    "mouthPressRight",   "mouthLowerDownLeft", "mouthLowerDownRight",
-    "mouthUpperUpLeft",  "mouthUpperUpRight",  "browDownLeft",
-    "browDownRight",     "browInnerUp",        "browOuterUpLeft",
-    "browOuterUpRight",  "cheekPuff",          "cheekSquintLeft",
-    "cheekSquintRight",  "noseSneerLeft",      "noseSneerRight",
-    "tongueOut"};
+// ARKit's 52 names are the built-in avatar's shapes (tongueOut: the FaceKit has none).
+bool is_arkit(const std::string& name) {
+  const auto& arkit = anim::avatar_shape_names();
+  return std::find(arkit.begin(), arkit.end(), name) != arkit.end();
+}
 
 // The 15 Oculus visemes in their usual order.
 constexpr std::array<const char*, 15> kOculus = {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS",
@@ -122,9 +108,7 @@ std::string arkit_name(const std::string& ict) {
   std::string name = ict;
   if (ict.ends_with("_L")) name = ict.substr(0, ict.size() - 2) + "Left";
   if (ict.ends_with("_R")) name = ict.substr(0, ict.size() - 2) + "Right";
-  const bool known = std::find_if(kArkit.begin(), kArkit.end(),
-                                  [&](const char* a) { return name == a; }) != kArkit.end();
-  return known ? name : ict;
+  return is_arkit(name) ? name : ict;
 }
 
 // Shapes in ARKit's order, then the FaceKit's extras, then the visemes: sum_s w_s * delta_s over
@@ -136,9 +120,7 @@ std::vector<anim::Blendshape> arkit_shapes(const anim::Rig& rig) {
   for (const auto& s : rig.shapes) {
     const std::string name = arkit_name(s.name);
     dense[name] = s.dense(nv);
-    if (std::find_if(kArkit.begin(), kArkit.end(), [&](const char* a) { return name == a; }) ==
-        kArkit.end())
-      extras.push_back(name);
+    if (!is_arkit(name)) extras.push_back(name);
   }
   for (const char* both : {"browInnerUp", "cheekPuff"}) {
     const std::string b = both;
@@ -146,7 +128,7 @@ std::vector<anim::Blendshape> arkit_shapes(const anim::Rig& rig) {
       dense[b] = dense[b + "_L"] + dense[b + "_R"];
   }
   std::vector<anim::Blendshape> out;
-  for (const char* a : kArkit)
+  for (const auto& a : anim::avatar_shape_names())
     if (dense.contains(a)) out.push_back(anim::Blendshape::from_dense(a, dense[a]));
   for (const auto& e : extras) out.push_back(anim::Blendshape::from_dense(e, dense[e]));
   const auto path = config_path("anim/visemes_arkit.json");

@@ -6,7 +6,7 @@
 
 import { existsSync } from 'node:fs';
 import { join } from 'node:path';
-import { run, sourceDir, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, drawnShare, SKIP } from './lib.mjs';
+import { run, sourceDir, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, drawnShare, speaksOnMainPage, SKIP } from './lib.mjs';
 
 const data = process.env.FACECAST_SHARED_DATA || join(sourceDir, '..', 'shared', 'data');
 const head = join(data, 'mediapipe', 'canonical_face_model.obj');
@@ -19,7 +19,7 @@ await run('rig_landmarks', async () => {
   const server = await startServer();
   const browser = await launchBrowser();
   const page = await newPage(browser, { width: 1400, height: 900 });
-  await page.goto(`${server.url}/rig.html`);
+  await page.goto(`${server.url}/rig.html`, { timeout: 120000 });
   await waitFor(page, () => window.__rig?.templateReady, null, { timeout: 90000, what: 'the default template' });
   await page.selectOption('#template', 'ict-facekit');
   await waitFor(page, () => window.__rig.templateReady && window.__rig.vertexCounts().template > 20000, null, {
@@ -76,18 +76,5 @@ await run('rig_landmarks', async () => {
   check('no console errors on the rig builder', page.problems.length === 0, page.problems.slice(0, 5).join(' | '));
 
   // ---- It speaks on the main page.
-  const speakPage = await newPage(browser);
-  await speakPage.goto(`${server.url}/?rig=${encodeURIComponent(result.rig)}`);
-  await waitFor(speakPage, (id) => window.__facecast?.ready && window.__facecast.rig === id && window.__facecast.connection === 'open', result.rig, {
-    timeout: 90000,
-    what: 'the speak page with the new rig',
-  });
-  await speakPage.fill('#text', 'Hello there!');
-  await speakPage.click('#speak');
-  const peak = await speakPage
-    .waitForFunction(() => window.__facecast.mouth() > 0.1 && window.__facecast.mouth(), null, { timeout: 30000, polling: 40 })
-    .then((h) => h.jsonValue())
-    .catch(() => 0);
-  check('the built rig speaks', peak > 0.1, `mouth ${Number(peak).toFixed(3)}`);
-  await screenshot(speakPage, 'rig-landmarks-04-speaking');
+  await speaksOnMainPage(browser, server, result.rig, 'Hello there!', 'rig-landmarks-04-speaking');
 });
