@@ -214,21 +214,26 @@ TEST_CASE("a build into an avatar file writes the shapes into its face meshes an
 namespace {
 
 // The lid gap of the eye whose corners are landmarks `inner` and `outer` of `rig`'s 68, under
-// `shape` at full weight: skin vertices (the largest component) in a column through the eye's
-// centre (|x - cx| < 15 % of the eye's width, |y - cy| < 60 %, in front of the corners' depth
-// less 30 %) split by the neutral into above and below the centre; the gap is the lowest of
-// those above minus the highest of those below.
+// `delta` (a shape at full weight): the vertices of every mesh but the eyeballs ("Eye*" in the
+// default avatar's mesh layout, which `rig` shares; lids and lashes are parts of their own there)
+// in a column through the eye's centre (|x - cx| <
+// 15 % of the eye's width, |y - cy| < 60 %, in front of the corners' depth less 30 %), split by the
+// neutral into above and below the centre; the gap is the lowest of those above minus the highest
+// of those below.
 double lid_gap(const anim::Rig& rig, const std::array<int, 68>& lm, int inner, int outer,
                const anim::Positions& delta) {
   const Eigen::RowVector3f a = rig.positions.row(lm[static_cast<std::size_t>(inner)]);
   const Eigen::RowVector3f b = rig.positions.row(lm[static_cast<std::size_t>(outer)]);
   const Eigen::RowVector3f c = 0.5f * (a + b);
   const float w = (a - b).norm();
-  const anim::Components comp = anim::connected_components(rig.vertex_count(), rig.triangles);
+  const anim::Rig& layout = anim::default_avatar();
+  REQUIRE(layout.vertex_count() == rig.vertex_count());
+  REQUIRE(!layout.meshes.empty());
   float upper = 1e9f, lower = -1e9f;
   for (int v = 0; v < rig.vertex_count(); ++v) {
     const Eigen::RowVector3f p = rig.positions.row(v);
-    if (comp.label[static_cast<std::size_t>(v)] != comp.largest) continue;
+    if (layout.meshes[static_cast<std::size_t>(layout.mesh_of(v))].name.starts_with("Eye"))
+      continue;
     if (std::abs(p.x() - c.x()) > 0.15f * w || std::abs(p.y() - c.y()) > 0.6f * w ||
         p.z() < c.z() - 0.3f * w)
       continue;
