@@ -321,7 +321,8 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(left_closed > 0.15);
   CHECK(right_closed > 0.15);
   CHECK(left_other < 0.5 * left_closed);
-  // ... but do not close them yet (issue 17: the lid correspondence on another topology).
+  // ... and close them (measured: left 138 %, lids past each other as in the avatar's own 127 %;
+  // right 66 %: issue 17's lid gap on another topology, left to close).
   CHECK_NOFAIL(left_closed >= 0.8);
   CHECK_NOFAIL(right_closed >= 0.8);
 }
