@@ -6,6 +6,7 @@
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
 import { MorphBinding, isSoftwareRenderer, morphMeshes, targetNames } from './morphs.js';
@@ -16,6 +17,7 @@ export { isSoftwareRenderer, morphMeshes, targetNames };
 export async function loadGlb(source, headers = {}, onProgress = undefined) {
   const loader = new GLTFLoader();
   loader.register((parser) => new VRMLoaderPlugin(parser));
+  loader.setMeshoptDecoder(MeshoptDecoder);  // the shipped template is meshopt-compressed
   loader.setRequestHeader(headers);
   if (source instanceof ArrayBuffer) return loader.parseAsync(source, '');
   return loader.loadAsync(source, onProgress);

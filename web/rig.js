@@ -1,12 +1,14 @@
-// The rig builder: upload a neutral head, show it beside the template, pick marker pairs by clicking
+// The rig builder: upload a neutral head, show it beside the template, find its facial landmarks
+// on the server (the marker pairs; drag one to fix it), or pick marker pairs by clicking
 // corresponding points (nearest vertex of the picked triangle), choose options, POST /api/rigs,
 // follow the job, and preview the built rig with a slider per blendshape and its virtual edges.
 // The pieces live in rig/: page.js (state, views, window.__rig for the browser tests), obj.js,
-// mesh_view.js, server.js, meshes.js (template and upload), markers.js, build.js, result.js.
+// mesh_view.js, server.js, meshes.js (template and upload), landmarks.js, markers.js, build.js, result.js.
 
 import { keepTokenInLinks } from './protocol.js';
 import { build } from './rig/build.js';
-import { loadMarkers, pick, renderPairs, saveMarkers } from './rig/markers.js';
+import { findLandmarks } from './rig/landmarks.js';
+import { loadMarkers, moveMarker, pick, renderPairs, saveMarkers } from './rig/markers.js';
 import { loadTemplate, readFile } from './rig/meshes.js';
 import { $, state, views } from './rig/page.js';
 import { setShape, showEdges } from './rig/result.js';
@@ -15,6 +17,9 @@ import { checkServer, loadRigList } from './rig/server.js';
 function init() {
   views.template.onPick = (v) => pick('template', v);
   views.target.onPick = (v) => pick('target', v);
+  views.template.onDrag = (i, v) => moveMarker('template', i, v);
+  views.target.onDrag = (i, v) => moveMarker('target', i, v);
+  $('landmarks').addEventListener('click', findLandmarks);
   const drop = $('drop');
   const file = $('file');
   file.addEventListener('change', () => file.files[0] && readFile(file.files[0]));

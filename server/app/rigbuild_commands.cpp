@@ -17,6 +17,7 @@
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/picture.hpp"
 #include "facecast/rigbuild/quality.hpp"
+#include "facecast/rigbuild/template.hpp"
 #include "progress.hpp"
 
 namespace facecast::cli {
@@ -121,9 +122,10 @@ std::filesystem::path read_build_files(BuildArgs& a, const anim::Rig& tmpl,
 }
 
 void run_build(BuildArgs& a) {
-  if (a.tmpl.empty() == (a.tmpl_neutral.empty() || a.tmpl_shapes.empty())) {
+  if (!a.tmpl.empty() && !(a.tmpl_neutral.empty() && a.tmpl_shapes.empty()))
     throw Error("give --template rig.glb, or --template-neutral N.obj with --template-shapes DIR");
-  }
+  if (a.tmpl_neutral.empty() != a.tmpl_shapes.empty())
+    throw Error("--template-neutral and --template-shapes go together");
   auto& opt = a.opt;
   opt.solver =
       a.solver == "eigen" ? rigbuild::SolverKind::kEigenLDLT : rigbuild::SolverKind::kCholmod;
@@ -132,9 +134,11 @@ void run_build(BuildArgs& a) {
   opt.contacts.enabled = a.contacts == "on";
 
   std::cerr << "reading template and target...\n";
-  const anim::Rig tmpl = a.tmpl.empty()
+  // Neither given: the shipped ICT FaceKit template (rigbuild/template.hpp).
+  const anim::Rig tmpl = !a.tmpl.empty() ? anim::load_rig(a.tmpl)
+                         : !a.tmpl_neutral.empty()
                              ? anim::read_obj_shapes(a.tmpl_neutral, a.tmpl_shapes, {"identity*"})
-                             : anim::load_rig(a.tmpl);
+                             : rigbuild::load_shipped_template();
   const rigbuild::BuildTarget user = rigbuild::BuildTarget::read(a.target);
   const anim::Rig& target = user.neutral();
   const std::filesystem::path cache = read_build_files(a, tmpl, target);
@@ -258,7 +262,10 @@ void add_rig_build_commands(CLI::App& rig) {
   auto a = std::make_shared<BuildArgs>();
   auto* b = rig.add_subcommand(
       "build", "Generate a user's blendshapes from a template rig by deformation transfer");
-  b->add_option("--template", a->tmpl, "Template rig (GLB)")->check(CLI::ExistingFile);
+  b->add_option("--template", a->tmpl,
+                "Template rig (GLB; default: the shipped ICT FaceKit, configs/rigbuild/"
+                "ict_facekit.glb)")
+      ->check(CLI::ExistingFile);
   b->add_option("--template-neutral", a->tmpl_neutral, "Template neutral OBJ")
       ->check(CLI::ExistingFile);
   b->add_option("--template-shapes", a->tmpl_shapes, "Folder of template shape OBJs")
@@ -339,6 +346,22 @@ void add_rig_build_commands(CLI::App& rig) {
                  "Same-topology template: split intersecting pairs into in-template and new")
       ->check(CLI::ExistingFile);
   ck->callback([c] { run_check(*c); });
+
+  auto pack = std::make_shared<std::pair<std::string, std::string>>();
+  auto* pt = rig.add_subcommand(
+      "pack-template",
+      "Make the shipped template (configs/rigbuild/ict_facekit.glb) from the ICT FaceKit");
+  pt->add_option("--ict", pack->first, "The FaceKit's FaceXModel folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  pt->add_option("--out", pack->second, "Output GLB")->required();
+  pt->callback([pack] {
+    const anim::Rig ict = rigbuild::ict_template_rig(pack->first);
+    const std::string bytes = rigbuild::compact_glb_bytes(ict);
+    write_file_atomic(pack->second, bytes);
+    std::fprintf(stderr, "wrote %s: %d vertices, %zu shapes, %zu bytes\n", pack->second.c_str(),
+                 ict.vertex_count(), ict.shapes.size(), bytes.size());
+  });
 }
 
 }  // namespace facecast::cli

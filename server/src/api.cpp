@@ -3,9 +3,12 @@
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/render/image.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
+#include "facecast/rigbuild/picture.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 #include "video.hpp"
@@ -78,6 +81,82 @@ std::string base64_decode(std::string_view text, std::string_view field) {
   return out;
 }
 
+namespace {
+
+// The "mesh" field of a rig or landmarks request: an OBJ's text, or a base64 GLB/VRM, read as a
+// build target (an avatar is kept: the built shapes go into its own meshes).
+std::shared_ptr<rigbuild::BuildTarget> parse_mesh(const json* mesh) {
+  if (!mesh) throw Error("mesh: missing ({\"format\": \"obj\"|\"glb\", \"data\": ...})");
+  if (!mesh->is_object() || !mesh->contains("format") || !mesh->contains("data"))
+    throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
+  const std::string& format = str(mesh->at("format"), "mesh.format");
+  const std::string& data = str(mesh->at("data"), "mesh.data");
+  if (format != "obj" && format != "glb" && format != "vrm")
+    throw Error("mesh.format: '" + format + "' is not obj, glb or vrm");
+  auto user = std::make_shared<rigbuild::BuildTarget>(rigbuild::BuildTarget::parse(
+      format == "obj" ? data : base64_decode(data, "mesh.data"), format, "mesh"));
+  user->neutral().validate("mesh");
+  return user;
+}
+
+std::string base64_encode(std::string_view bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  const auto at = [&](std::size_t i) {
+    return i < bytes.size() ? static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i])) : 0u;
+  };
+  for (std::size_t i = 0; i < bytes.size(); i += 3) {
+    const std::uint32_t v = at(i) << 16 | at(i + 1) << 8 | at(i + 2);
+    out += kAlphabet[(v >> 18) & 63];
+    out += kAlphabet[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? kAlphabet[(v >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? kAlphabet[v & 63] : '=';
+  }
+  return out;
+}
+
+}  // namespace
+
+http::message_generator post_landmarks(State& state, const Request& req) {
+  const json body = parse_body(req);
+  if (!body.is_object()) throw Error("body: expected a JSON object");
+  std::string template_id = state.options.default_rig;
+  const json* mesh = nullptr;
+  for (const auto& [k, v] : body.items()) {
+    if (k == "template")
+      template_id = str(v, "template");
+    else if (k == "mesh")
+      mesh = &v;
+    else
+      throw Error("body: unknown field '" + k + "'");
+  }
+  std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh);
+  const auto tmpl = state.rigs.load(template_id);
+  const std::string job = state.jobs.submit("landmarks", [tmpl, user](JobContext& ctx) -> json {
+    ctx.progress("landmarks", 0.0);
+    const rigbuild::AutoMarkers found =
+        rigbuild::auto_markers(*tmpl->rig, user->neutral(), rigbuild::load_landmark_options());
+    json pairs = json::array(), vertices = json::array();
+    for (const auto& m : found.markers)
+      pairs.push_back(
+          {{"name", m.name}, {"template", m.template_vertex}, {"target", m.target_vertex}});
+    for (const int v : found.target.vertex) vertices.push_back(v < 0 ? json(nullptr) : json(v));
+    const std::string jpeg = render::encode_jpeg(rigbuild::landmark_picture(found.target), 85);
+    return {{"template", tmpl->id},
+            {"markers", {{"index_base", 0}, {"pairs", pairs}}},
+            {"target_vertices", vertices},
+            {"views_found", found.target.views_found},
+            {"dropped", found.target.dropped},
+            {"seconds", found.seconds},
+            {"picture", "data:image/jpeg;base64," + base64_encode(jpeg)}};
+  });
+  log::info("landmarks_upload", {{"job", job}, {"template", tmpl->id}});
+  return json_response(state, req, http::status::accepted,
+                       {{"job", job}, {"url", "/api/jobs/" + job}});
+}
+
 // POST /api/rigs with a GLB or VRM body: the user's avatar, stored as it is (?name= names it).
 http::message_generator import_rig(State& state, const Request& req, const Target& t) {
   std::string name = query_value(t.query, "name").value_or("Avatar");
@@ -133,18 +212,8 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
       throw Error("body: unknown field '" + k + "'");
     }
   }
-  if (!mesh) throw Error("mesh: missing ({\"format\": \"obj\"|\"glb\", \"data\": ...})");
-  if (!mesh->is_object() || !mesh->contains("format") || !mesh->contains("data"))
-    throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
-  const std::string& format = str(mesh->at("format"), "mesh.format");
-  const std::string& data = str(mesh->at("data"), "mesh.data");
-  if (format != "obj" && format != "glb" && format != "vrm")
-    throw Error("mesh.format: '" + format + "' is not obj, glb or vrm");
-  // An avatar (glb, vrm) is kept: the built shapes go into its own meshes.
-  auto user = std::make_shared<rigbuild::BuildTarget>(rigbuild::BuildTarget::parse(
-      format == "obj" ? data : base64_decode(data, "mesh.data"), format, "mesh"));
+  auto user = parse_mesh(mesh);
   anim::Rig& target = user->neutral();
-  target.validate("mesh");
   const auto tmpl = state.rigs.load(template_id);
 
   // Without markers, another topology is registered through landmarks found automatically on

@@ -12,6 +12,11 @@ namespace facecast::server {
 /// is.
 http::message_generator post_rig(State& state, const Request& req, const Target& t);
 http::message_generator post_render(State& state, const Request& req);
+/// POST /api/landmarks {"template": id, "mesh": {"format", "data"}}: a job that finds the facial
+/// landmarks on the mesh (rigbuild/landmarks.hpp); its result holds the marker pairs with the
+/// template ("markers", the --markers format), each landmark's target vertex ("target_vertices",
+/// null where dropped) and the views with the points found ("picture", a JPEG data URL).
+http::message_generator post_landmarks(State& state, const Request& req);
 
 /// Standard base64 (whitespace ignored, padding optional); throws Error naming `field`.
 std::string base64_decode(std::string_view text, std::string_view field);

@@ -10,6 +10,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "facecast/rigbuild/template.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -25,6 +26,18 @@ RigInfo builtin_info() {
   i.template_id = "";
   i.shapes = anim::avatar_shape_names();
   i.vertices = anim::default_avatar().vertex_count();
+  i.builtin = true;
+  return i;
+}
+
+// The shipped realistic template (rigbuild/template.hpp), read from its file when served.
+RigInfo shipped_info() {
+  const rigbuild::TemplateSummary summary = rigbuild::shipped_template_summary();
+  RigInfo i;
+  i.id = rigbuild::kShippedTemplateId;
+  i.name = "ICT FaceKit (realistic template)";
+  i.shapes = summary.shapes;
+  i.vertices = summary.vertices;
   i.builtin = true;
   return i;
 }
@@ -65,6 +78,11 @@ RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig)
     throw Error(rigs_dir_.string() + ": cannot create the data folder: " + ec.message(),
                 ErrorCode::kInternal);
   infos_[kBuiltin] = builtin_info();
+  try {
+    infos_[rigbuild::kShippedTemplateId] = shipped_info();
+  } catch (const std::exception& e) {  // an install without it still serves the default avatar
+    log::warn("shipped_template_missing", {{"error", e.what()}});
+  }
   const std::regex id_re("r([0-9]{1,9})");
   for (const auto& entry : fs::directory_iterator(rigs_dir_)) {
     const std::string name = entry.path().filename().string();
@@ -95,7 +113,9 @@ std::vector<RigInfo> RigRegistry::list() const {
   std::vector<RigInfo> out;
   out.push_back(infos_.at(kBuiltin));
   for (const auto& [id, info] : infos_)
-    if (id != kBuiltin) out.push_back(info);
+    if (id != kBuiltin && info.builtin) out.push_back(info);
+  for (const auto& [id, info] : infos_)
+    if (!info.builtin) out.push_back(info);
   return out;
 }
 
@@ -160,11 +180,12 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
 
 fs::path RigRegistry::glb_path(const std::string& id) const {
   if (id == kBuiltin) return {};
+  if (id == rigbuild::kShippedTemplateId) return rigbuild::shipped_template_path();
   return rigs_dir_ / id / "rig.glb";
 }
 
 fs::path RigRegistry::virtual_edges_path(const std::string& id) const {
-  if (id == kBuiltin) return {};
+  if (id == kBuiltin || id == rigbuild::kShippedTemplateId) return {};
   return rigs_dir_ / id / "virtual_edges.json";
 }
 

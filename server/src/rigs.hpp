@@ -1,8 +1,9 @@
 #pragma once
-// The rigs a server knows: the built-in default avatar (id "default") and the rigs built by jobs,
-// stored under <data>/rigs/<id>/ (rig.glb, meta.json, virtual_edges.json, report.json; the folder
-// is written under a temporary name and renamed, so a crash never leaves half a rig). Rigs are
-// listed from meta.json at start-up and loaded (GLB parsed, mapping chosen) on first use.
+// The rigs a server knows: the built-in default avatar (id "default"), the shipped ICT FaceKit
+// template (id "ict-facekit", rigbuild/template.hpp; served from its file) and the rigs built by
+// jobs, stored under <data>/rigs/<id>/ (rig.glb, meta.json, virtual_edges.json, report.json; the
+// folder is written under a temporary name and renamed, so a crash never leaves half a rig). Rigs
+// are listed from meta.json at start-up and loaded (GLB parsed, mapping chosen) on first use.
 // Renderers (GL contexts with the rig uploaded) are cached per rig and frame size.
 #include <filesystem>
 #include <functional>
@@ -52,7 +53,7 @@ class RigRegistry {
   /// Parses and prepares a rig once; throws Error(kNotFound) for an unknown id.
   std::shared_ptr<const LoadedRig> load(const std::string& id);
 
-  /// The stored GLB of a built rig (empty path for the built-in one).
+  /// The stored GLB of a built rig or the shipped template (empty path for the built-in avatar).
   std::filesystem::path glb_path(const std::string& id) const;
   std::filesystem::path virtual_edges_path(const std::string& id) const;
   /// GLB bytes of the built-in avatar, made on first call.

@@ -195,6 +195,10 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     return json_response(state, req, http::status::ok,
                          {{"rigs", rigs}, {"default", state.options.default_rig}});
   }
+  if (path == "/api/landmarks") {
+    require_method(req, {http::verb::post});
+    return post_landmarks(state, req);
+  }
   if (path == "/api/render") {
     require_method(req, {http::verb::post});
     return post_render(state, req);
@@ -206,7 +210,7 @@ http::message_generator api(State& state, Request& req, const Target& t) {
   if (std::regex_match(path, m, kRigGlb)) {
     require_method(req, {http::verb::get, http::verb::head});
     const std::string id = m[1];
-    if (!state.existing_rig(id).builtin)
+    if (!state.existing_rig(id).builtin || !state.rigs.glb_path(id).empty())
       return send_path(state, req, state.rigs.glb_path(id), "model/gltf-binary", "no-cache");
     const auto bytes = state.rigs.builtin_glb();
     const std::string etag =

@@ -11,6 +11,7 @@
 #include "facecast/render/image.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
+#include "facecast/rigbuild/template.hpp"
 #include "test_data.hpp"
 
 using namespace facecast;
@@ -239,4 +240,13 @@ TEST_CASE("the default avatar's stored landmarks are where the detector finds th
   for (int k = 0; k < kLandmarkCount; ++k)
     reference.row(k) = avatar.positions.row((*stored)[static_cast<std::size_t>(k)]).cast<double>();
   check_stored_bias(avatar, landmark_bias(avatar, reference, load_landmark_options()), reference);
+}
+
+TEST_CASE("the shipped template's stored landmark bias is the one computed",
+          "[rigbuild][landmarks][template]") {
+  const anim::Rig tmpl = load_shipped_template();
+  const auto ids = known_landmarks(tmpl);
+  REQUIRE(ids);  // stored in the file
+  const Points reference = landmark_points(tmpl, *ids);
+  check_stored_bias(tmpl, landmark_bias(tmpl, reference, load_landmark_options()), reference);
 }

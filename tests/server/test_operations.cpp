@@ -138,7 +138,7 @@ TEST_CASE("DELETE /api/rigs removes a stored rig, built-in and default rigs stay
   CHECK(del.status == 200);
   CHECK(del.json()["deleted"] == id);
   CHECK(status_of(s.port(), http::verb::get, "/api/rigs/" + id + ".glb") == 404);
-  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 1);
+  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 2);
   CHECK_FALSE(fs::exists(s.options().data / "rigs" / id));
   CHECK(status_of(s.port(), http::verb::delete_, "/api/rigs/" + id) == 404);
   const auto builtin = http_request(s.port(), http::verb::delete_, "/api/rigs/default");
@@ -153,7 +153,7 @@ TEST_CASE("DELETE /api/rigs removes a stored rig, built-in and default rigs stay
     CHECK((*gone.error)["code"] == "not_found");
   }
   s.restart();
-  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 1);
+  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 2);
   for (const auto& e : fs::directory_iterator(s.options().data / "rigs")) FAIL(e.path().string());
 }
 

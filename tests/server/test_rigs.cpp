@@ -99,13 +99,13 @@ TEST_CASE("rig upload builds a rig that downloads, streams and survives a restar
 
   const auto check_listed = [&] {
     const auto rigs = http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"];
-    REQUIRE(rigs.size() == 2);
-    CHECK(rigs[1]["id"] == id);
-    CHECK(rigs[1]["name"] == "Seven");
-    CHECK(rigs[1]["builtin"] == false);
-    CHECK(rigs[1]["template"] == "default");
-    CHECK(rigs[1]["vertices"] == variant.vertex_count());
-    CHECK(rigs[1]["shapes"].get<std::vector<std::string>>() ==
+    REQUIRE(rigs.size() == 3);  // the default avatar, the shipped template, this one
+    CHECK(rigs[2]["id"] == id);
+    CHECK(rigs[2]["name"] == "Seven");
+    CHECK(rigs[2]["builtin"] == false);
+    CHECK(rigs[2]["template"] == "default");
+    CHECK(rigs[2]["vertices"] == variant.vertex_count());
+    CHECK(rigs[2]["shapes"].get<std::vector<std::string>>() ==
           facecast::anim::avatar_shape_names());
     const auto glb = http_request(s.port(), http::verb::get, "/api/rigs/" + id + ".glb");
     REQUIRE(glb.status == 200);
@@ -126,7 +126,7 @@ TEST_CASE("rig upload builds a rig that downloads, streams and survives a restar
   // Stream with it.
   {
     WsClient c(s.port());
-    CHECK(c.read_json(10)["rigs"] == nlohmann::json({"default", id}));
+    CHECK(c.read_json(10)["rigs"] == nlohmann::json({"default", "ict-facekit", id}));
     c.send(nlohmann::json{{"type", "speak"},
                           {"id", "mine"},
                           {"rig", id},
@@ -339,5 +339,5 @@ TEST_CASE("an avatar GLB is imported as it is, served back unchanged and speaks 
                                 {{"Content-Type", "model/gltf-binary"}});
   CHECK(bad.status == 400);
   CHECK(bad.json()["error"]["message"].get<std::string>().find('\n') == std::string::npos);
-  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 2);
+  CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 3);
 }

@@ -291,3 +291,23 @@ export async function drawnShare(page, selector) {
     return n / (d.length / 4);
   }, selector);
 }
+
+/** Opens `/?rig=ID` in a new page, speaks `text` and checks that the mouth moves and the utterance ends without console errors. */
+export async function speaksOnMainPage(browser, server, rig, text, shot) {
+  const speakPage = await newPage(browser);
+  await speakPage.goto(`${server.url}/?rig=${encodeURIComponent(rig)}`);
+  await waitFor(speakPage, (id) => window.__facecast?.ready && window.__facecast.rig === id && window.__facecast.connection === 'open', rig, {
+    timeout: 90000,
+    what: 'the speak page with the new rig',
+  });
+  await speakPage.fill('#text', text);
+  await speakPage.click('#speak');
+  const peak = await speakPage
+    .waitForFunction(() => window.__facecast.mouth() > 0.1 && window.__facecast.mouth(), null, { timeout: 30000, polling: 40 })
+    .then((h) => h.jsonValue())
+    .catch(() => 0);
+  check('the built rig speaks on the main page', peak > 0.1, `mouth ${Number(peak).toFixed(3)}`);
+  await screenshot(speakPage, shot);
+  await waitFor(speakPage, () => ['done', 'cancelled', 'error'].includes(window.__facecast.lastUtterance?.state), null, { timeout: 30000, what: 'the end of the utterance' });
+  check('no console errors on the speak page', speakPage.problems.length === 0, speakPage.problems.slice(0, 5).join(' | '));
+}

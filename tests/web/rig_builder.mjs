@@ -8,7 +8,7 @@ import { execFileSync } from 'node:child_process';
 import { mkdtempSync, writeFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
-import { run, binary, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, drawnShare } from './lib.mjs';
+import { run, binary, startServer, launchBrowser, newPage, screenshot, check, must, waitFor, sleep, log, drawnShare, speaksOnMainPage } from './lib.mjs';
 
 await run('rig_builder', async () => {
   const work = mkdtempSync(join(tmpdir(), 'facecast-web-rig-'));
@@ -143,20 +143,5 @@ async function body(work) {
   check('no console errors on the rig builder', page.problems.length === 0, page.problems.slice(0, 5).join(' | '));
 
   // ---- The new rig speaks on the main page.
-  const speakPage = await newPage(browser);
-  await speakPage.goto(`${server.url}/?rig=${encodeURIComponent(result.rig)}`);
-  await waitFor(speakPage, (id) => window.__facecast?.ready && window.__facecast.rig === id && window.__facecast.connection === 'open', result.rig, {
-    timeout: 90000,
-    what: 'the speak page with the new rig',
-  });
-  await speakPage.fill('#text', '你好, hello!');
-  await speakPage.click('#speak');
-  const peak = await speakPage
-    .waitForFunction(() => window.__facecast.mouth() > 0.1 && window.__facecast.mouth(), null, { timeout: 30000, polling: 40 })
-    .then((h) => h.jsonValue())
-    .catch(() => 0);
-  check('the built rig speaks on the main page', peak > 0.1, `mouth ${Number(peak).toFixed(3)}`);
-  await screenshot(speakPage, 'rig-05-speaking');
-  await waitFor(speakPage, () => ['done', 'cancelled', 'error'].includes(window.__facecast.lastUtterance?.state), null, { timeout: 30000, what: 'the end of the utterance' });
-  check('no console errors on the speak page', speakPage.problems.length === 0, speakPage.problems.slice(0, 5).join(' | '));
+  await speaksOnMainPage(browser, server, result.rig, '你好, hello!', 'rig-05-speaking');
 }

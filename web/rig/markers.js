@@ -58,13 +58,20 @@ export function renderPairs() {
   updateBuild();
 }
 
+/** A marker of pair `i` dragged to `vertex` on one side. */
+export function moveMarker(side, i, vertex) {
+  if (!state.pairs[i]) return;
+  state.pairs[i][side] = vertex;
+  renderPairs();
+}
+
 export function redrawMarkers() {
   for (const side of ['template', 'target']) {
     const v = views[side];
     v.clearMarkers();
     if (!v.root) continue;
     state.pairs.forEach((p, i) => {
-      if (p[side] < v.vertexCount) v.addMarker(p[side], pairColor(i));
+      if (p[side] < v.vertexCount) v.addMarker(p[side], pairColor(i), { pair: i });
     });
     if (state.pending?.side === side) v.addMarker(state.pending.vertex, 0xffffff, { pending: true });
   }

@@ -1,13 +1,16 @@
 // A rig builder viewport (template, target or result): a Viewport sized by its box, click picking
-// of the nearest vertex of the picked triangle, marker spheres.
+// of the nearest vertex of the picked triangle, marker spheres that can be dragged over the mesh.
 
 import * as THREE from 'three';
 import { restBox } from '../avatar.js';
 import { Viewport } from '../viewport.js';
 
 export class MeshView extends Viewport {
-  /** `onPick(vertex, point)` is called for a click (not a drag) on the mesh. */
-  constructor(el, { onPick } = {}) {
+  /**
+   * `onPick(vertex, point)` is called for a click (not a drag) on the mesh; `onDrag(pair, vertex)`
+   * while a marker of a pair is dragged (the mesh's vertex nearest to the pointer).
+   */
+  constructor(el, { onPick, onDrag } = {}) {
     super(el.querySelector('canvas'), { sizeOf: el, fov: 25, near: 0.01 });
     this.el = el;
     this.pendingEl = el.querySelector('.pending');
@@ -17,9 +20,28 @@ export class MeshView extends Viewport {
     this.offsets = new Map(); // position attribute -> index offset of its first vertex
     this.radius = 1;
     this.onPick = onPick;
+    this.onDrag = onDrag;
+    this.dragging = null; // the pair whose marker follows the pointer
     const down = { x: 0, y: 0, t: 0 };
-    this.canvas.addEventListener('pointerdown', (e) => Object.assign(down, { x: e.clientX, y: e.clientY, t: performance.now() }));
+    this.canvas.addEventListener('pointerdown', (e) => {
+      Object.assign(down, { x: e.clientX, y: e.clientY, t: performance.now() });
+      const marker = this.onDrag && this.hitAt(e.clientX, e.clientY, this.markers)[0]?.object;
+      if (marker?.userData.pair === undefined) return;
+      this.dragging = marker.userData.pair;
+      this.controls.enabled = false;
+      this.canvas.setPointerCapture(e.pointerId);
+    });
+    this.canvas.addEventListener('pointermove', (e) => {
+      if (this.dragging === null) return;
+      const v = this.vertexAt(e.clientX, e.clientY);
+      if (v) this.onDrag(this.dragging, v.vertex);
+    });
     this.canvas.addEventListener('pointerup', (e) => {
+      if (this.dragging !== null) {
+        this.dragging = null;
+        this.controls.enabled = true;
+        return;
+      }
       const moved = Math.hypot(e.clientX - down.x, e.clientY - down.y);
       if (moved < 5 && performance.now() - down.t < 600 && this.onPick) this.pickAt(e.clientX, e.clientY);
     });
@@ -69,14 +91,34 @@ export class MeshView extends Viewport {
     return found.localToWorld(target);
   }
 
-  pickAt(clientX, clientY) {
-    if (!this.root) return;
+  /** The ray's hits on `object` (and its children) under a client position. */
+  hitAt(clientX, clientY, object) {
     const r = this.canvas.getBoundingClientRect();
     const ndc = new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
     const ray = new THREE.Raycaster();
     ray.setFromCamera(ndc, this.camera);
-    const hits = ray.intersectObject(this.root, true).filter((h) => h.face && h.object.isMesh);
-    if (!hits.length) return;
+    return ray.intersectObject(object, true).filter((h) => h.face && h.object.isMesh);
+  }
+
+  /** The client position of vertex i on the canvas (for the browser tests' drags). */
+  screenOf(i) {
+    const p = this.vertexPosition(i);
+    if (!p) return null;
+    p.project(this.camera);
+    const r = this.canvas.getBoundingClientRect();
+    return { x: r.left + ((p.x + 1) / 2) * r.width, y: r.top + ((1 - p.y) / 2) * r.height };
+  }
+
+  pickAt(clientX, clientY) {
+    const v = this.vertexAt(clientX, clientY);
+    if (v) this.onPick(v.vertex, v.point);
+  }
+
+  /** The vertex nearest to where the ray under a client position meets the mesh, or null. */
+  vertexAt(clientX, clientY) {
+    if (!this.root) return null;
+    const hits = this.hitAt(clientX, clientY, this.root);
+    if (!hits.length) return null;
     const h = hits[0];
     const mesh = h.object;
     const off = this.offsets.get(mesh.geometry.attributes.position) || 0;
@@ -92,7 +134,7 @@ export class MeshView extends Viewport {
         best = v;
       }
     }
-    this.onPick(best + off, h.point);
+    return { vertex: best + off, point: h.point };
   }
 
   clearMarkers() {
@@ -104,7 +146,7 @@ export class MeshView extends Viewport {
     this.dirty = true;
   }
 
-  addMarker(vertex, color, { pending = false } = {}) {
+  addMarker(vertex, color, { pending = false, pair = undefined } = {}) {
     const p = this.vertexPosition(vertex);
     if (!p) return;
     const s = new THREE.Mesh(
@@ -112,6 +154,7 @@ export class MeshView extends Viewport {
       new THREE.MeshBasicMaterial({ color, depthTest: false, transparent: true, opacity: pending ? 0.7 : 1 }),
     );
     s.renderOrder = 10;
+    s.userData.pair = pair;
     s.position.copy(p);
     this.markers.add(s);
     this.dirty = true;

@@ -4,6 +4,7 @@
 import { loadGlb, targetNames, morphMeshes, colorizePlainMaterials } from '../avatar.js';
 import { authHeaders } from '../protocol.js';
 import { updateBuild } from './build.js';
+import { findLandmarks } from './landmarks.js';
 import { redrawMarkers } from './markers.js';
 import { countVertices, objToObject, parseObj } from './obj.js';
 import { $, error, sameTopology, state, views } from './page.js';
@@ -19,8 +20,10 @@ export async function loadTemplate(id) {
     const names = targetNames(gltf.scene);
     $('template-info').textContent = `${state.templateVertices.toLocaleString()} vertices · ${names.length} blendshapes`;
     window.__rig.templateReady = true;
+    state.pairs = []; // pairs name the template's vertices: found again for this one
     redrawMarkers();
     updateTopologyNote();
+    findLandmarks();
   } catch (e) {
     $('template-info').textContent = '';
     error(`Could not load the template '${id}': ${e.message || e}`, 'template');
@@ -42,16 +45,16 @@ export async function readFile(file) {
       const parsed = parseObj(text);
       object = objToObject(parsed);
       mesh = { format: 'obj', data: text };
-    } else if (name.endsWith('.glb')) {
+    } else if (name.endsWith('.glb') || name.endsWith('.vrm')) {
       const buf = await file.arrayBuffer();
       const gltf = await loadGlb(buf);
       object = gltf.scene;
       colorizePlainMaterials(object);
       // Show the neutral: no morphs on the target.
       for (const m of morphMeshes(object)) m.morphTargetInfluences.fill(0);
-      mesh = { format: 'glb', data: await toBase64(file) };
+      mesh = { format: name.endsWith('.vrm') ? 'vrm' : 'glb', data: await toBase64(file) };
     } else {
-      throw new Error('choose an .obj or .glb file');
+      throw new Error('choose an .obj, .glb or .vrm file');
     }
     views.target.setObject(object);
     const n = countVertices(object);
@@ -60,10 +63,12 @@ export async function readFile(file) {
     $('drop-text').textContent = file.name;
     if (!$('name').value) $('name').value = file.name.replace(/\.[^.]+$/, '');
     window.__rig.targetReady = true;
+    state.pairs = [];
     redrawMarkers();
     updateTopologyNote();
+    findLandmarks();
   } catch (e) {
-    $('drop-text').textContent = 'Drop an OBJ or GLB here, or click to choose one';
+    $('drop-text').textContent = 'Drop an OBJ, GLB or VRM here, or click to choose one';
     error(`Could not read ${file.name}: ${e.message || e}`, 'upload');
   }
   updateBuild();

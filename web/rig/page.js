@@ -47,6 +47,9 @@ window.__rig = {
     const v = state.result ? morphMeshes(state.result.root).map((m) => m.morphTargetInfluences[m.morphTargetDictionary[name]] ?? 0) : [];
     return v.length ? Math.max(...v) : null;
   },
+  landmarks: null, // {pairs, views} once the server found them (landmarks.js)
+  /** For tests: the client position of a vertex in a view. */
+  screenOf: (side, vertex) => views[side].screenOf(vertex),
   vertexCounts: () => ({ template: views.template.vertexCount || 0, target: views.target.vertexCount || 0 }),
 };
 

@@ -35,9 +35,10 @@ export async function showResult(result) {
     return;
   }
   try {
-    const ve = await fetchJson(`/api/rigs/${encodeURIComponent(id)}/virtual_edges.json`);
+    // A rig without virtual edges (none found, or off) stores none: nothing to fetch.
+    const ve = result.report?.virtual_edges?.count === 0 || result.report?.virtual_edges?.mode === 'off' ? { edges: [] } : await fetchJson(`/api/rigs/${encodeURIComponent(id)}/virtual_edges.json`);
     state.result.edges = ve?.edges || [];
-    $('ve-info').textContent = `${state.result.edges.length} edges`;
+    $('ve-info').textContent = state.result.edges.length ? `${state.result.edges.length} edges` : 'none for this rig';
     $('show-ve').disabled = !state.result.edges.length;
   } catch (e) {
     state.result.edges = [];

@@ -1,0 +1,55 @@
+#pragma once
+// The realistic template shipped with Facecast: the ICT FaceKit (MIT, USC Institute for Creative
+// Technologies; configs/rigbuild/ict_facekit.LICENSE) as a compact GLB,
+// configs/rigbuild/ict_facekit.glb (docs/algorithms.md#shipped-template). It holds the FaceKit's
+// neutral without its transparent eye layers (lacrimal fluid, eye blend, eye occlusion), its
+// expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum of the
+// FaceKit's halves, which are kept as browInnerUp_L ... with its other extras cheekRaiser_L/R and
+// PupilDilate_L/R), the 15 Oculus visemes (viseme_sil ... viseme_U) baked from
+// configs/anim/visemes_arkit.json, its 68 landmarks ("dlib_00".."dlib_67", mesh extras) and
+// materials for its skin, eyes, teeth, gums and lashes. Positions and morph deltas are 16-bit
+// (KHR_mesh_quantization, one scale for all: 21 um steps), every buffer view meshopt-compressed
+// (EXT_meshopt_compression). `facecast rig pack-template --ict DIR --out FILE` makes it from the
+// FaceKit's FaceXModel folder (../shared/data/ict-facekit.tar.xz).
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "facecast/anim/rig.hpp"
+
+namespace facecast::rigbuild {
+
+/// The server's rig id of the shipped template.
+inline constexpr const char* kShippedTemplateId = "ict-facekit";
+
+/// configs/rigbuild/ict_facekit.glb (found as every config file is: core/config.hpp).
+std::filesystem::path shipped_template_path();
+
+/// The shipped template as a rig (the file's vertex order; its landmarks and shapes). Throws
+/// facecast::Error naming the file when it is missing or unreadable.
+anim::Rig load_shipped_template();
+
+/// What a listing needs without decoding the file: its shape names and vertex count (read from
+/// the GLB's JSON chunk). Throws Error naming the file.
+struct TemplateSummary {
+  std::vector<std::string> shapes;
+  int vertices = 0;
+};
+TemplateSummary shipped_template_summary();
+
+/// The ICT FaceKit's FaceXModel folder (generic_neutral_mesh.obj, the expression OBJs,
+/// vertex_indices.json) as the shipped template's rig: parts, names, visemes, landmarks and
+/// materials as above. Throws Error naming the file that is missing or malformed.
+anim::Rig ict_template_rig(const std::filesystem::path& facexmodel_dir);
+
+/// The compact GLB of a rig (one mesh, one primitive per material): positions and morph deltas
+/// as normalized int16 with one node scale and translation (14 bits over the head's box), normals
+/// as normalized int8, UVs as floats rounded to 1/4096, uint16 or uint32 indices, dense morph
+/// targets (their zero rows cost almost nothing once compressed), every view meshopt-compressed;
+/// target names in mesh.extras.targetNames, landmarks in mesh.extras.facecast.landmarks. The
+/// quantization step is `quantization_step(rig)`.
+std::string compact_glb_bytes(const anim::Rig& rig);
+/// The largest error of a quantized coordinate: half the int16 step of the rig's box.
+double quantization_step(const anim::Rig& rig);
+
+}  // namespace facecast::rigbuild

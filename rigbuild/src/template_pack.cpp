@@ -1,0 +1,255 @@
+// The shipped template's compact GLB (template.hpp): KHR_mesh_quantization +
+// EXT_meshopt_compression written directly (glTF JSON and the GLB container), and the loaders of
+// the shipped file.
+#include <meshoptimizer.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "facecast/anim/rig_io.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rigbuild/template.hpp"
+
+namespace facecast::rigbuild {
+namespace {
+
+using nlohmann::json;
+
+constexpr int kShort = 5122, kByte = 5120, kUShort = 5123, kUInt = 5125, kFloat = 5126;
+constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+constexpr float kUvSteps = 4096.0f;  // texture coordinates are rounded to 1/kUvSteps
+
+void pad4(std::string& s) {
+  while (s.size() % 4) s.push_back('\0');
+}
+
+// Views written compressed into `bin` (the GLB chunk) and declared over a fallback buffer that
+// the decoder fills (buffer 1, no data).
+struct Packer {
+  std::string bin;
+  std::size_t fallback = 0;
+  json views = json::array(), accessors = json::array();
+
+  int view(const void* data, std::size_t count, std::size_t stride, bool triangles, int target) {
+    std::vector<unsigned char> out;
+    std::size_t size = 0;
+    if (triangles) {
+      out.resize(meshopt_encodeIndexBufferBound(count, count));
+      size = meshopt_encodeIndexBuffer(out.data(), out.size(),
+                                       static_cast<const unsigned int*>(data), count);
+    } else {
+      out.resize(meshopt_encodeVertexBufferBound(count, stride));
+      size = meshopt_encodeVertexBuffer(out.data(), out.size(), data, count, stride);
+    }
+    if (size == 0) throw Error("template GLB: meshopt could not encode a buffer view");
+    pad4(bin);
+    const std::size_t at = bin.size();
+    bin.append(reinterpret_cast<const char*>(out.data()), size);
+    const std::size_t stored = stride * count;  // indices: 2 or 4 bytes each
+    json ext = {{"buffer", 0},        {"byteOffset", at},
+                {"byteLength", size}, {"byteStride", stride},
+                {"count", count},     {"mode", triangles ? "TRIANGLES" : "ATTRIBUTES"}};
+    json v = {{"buffer", 1},
+              {"byteOffset", fallback},
+              {"byteLength", stored},
+              {"target", target},
+              {"extensions", {{"EXT_meshopt_compression", ext}}}};
+    if (!triangles) v["byteStride"] = stride;
+    fallback += (stored + 3) / 4 * 4;
+    views.push_back(v);
+    return static_cast<int>(views.size()) - 1;
+  }
+
+  int accessor(int view, int component, bool normalized, std::size_t count, const char* type,
+               json min = nullptr, json max = nullptr) {
+    json a = {{"bufferView", view}, {"componentType", component}, {"count", count}, {"type", type}};
+    if (normalized) a["normalized"] = true;
+    if (!min.is_null()) a["min"] = std::move(min), a["max"] = std::move(max);
+    accessors.push_back(a);
+    return static_cast<int>(accessors.size()) - 1;
+  }
+
+  // #rows by 3 values quantized to normalized int16 (value / scale), stride 8, with min/max (the
+  // stored integers, as glTF asks of normalized accessors).
+  int vec3_short(const Eigen::Matrix<double, Eigen::Dynamic, 3>& v, double scale) {
+    std::vector<std::int16_t> q(static_cast<std::size_t>(v.rows()) * 4, 0);
+    Eigen::Vector3i lo = Eigen::Vector3i::Constant(32767), hi = Eigen::Vector3i::Constant(-32767);
+    for (Eigen::Index r = 0; r < v.rows(); ++r)
+      for (int c = 0; c < 3; ++c) {
+        const auto s = static_cast<std::int16_t>(std::lround(v(r, c) / scale * 32767.0));
+        q[static_cast<std::size_t>(r) * 4 + static_cast<std::size_t>(c)] = s;
+        lo[c] = std::min<int>(lo[c], s);
+        hi[c] = std::max<int>(hi[c], s);
+      }
+    if (v.rows() == 0) lo.setZero(), hi.setZero();
+    const int vw = view(q.data(), static_cast<std::size_t>(v.rows()), 8, false, kArrayBuffer);
+    return accessor(vw, kShort, true, static_cast<std::size_t>(v.rows()), "VEC3",
+                    {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]});
+  }
+};
+
+json material_json(const anim::Material& m) {
+  json j = {
+      {"name", m.name},
+      {"pbrMetallicRoughness",
+       {{"baseColorFactor", {m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3]}},
+        {"metallicFactor", m.metallic},
+        {"roughnessFactor", m.roughness}}}};
+  if (m.double_sided) j["doubleSided"] = true;
+  if (m.base_color[3] < 1.0f) j["alphaMode"] = "BLEND";
+  return j;
+}
+
+// The GLB container: header, JSON chunk (space-padded), BIN chunk (zero-padded).
+std::string glb_container(const json& doc, std::string bin) {
+  std::string text = doc.dump();
+  while (text.size() % 4) text.push_back(' ');
+  pad4(bin);
+  const auto u32 = [](std::string& s, std::uint32_t v) {
+    char b[4];
+    std::memcpy(b, &v, 4);
+    s.append(b, 4);
+  };
+  std::string out;
+  u32(out, 0x46546C67u);  // "glTF"
+  u32(out, 2);
+  u32(out, static_cast<std::uint32_t>(12 + 8 + text.size() + 8 + bin.size()));
+  u32(out, static_cast<std::uint32_t>(text.size()));
+  u32(out, 0x4E4F534Au);  // "JSON"
+  out += text;
+  u32(out, static_cast<std::uint32_t>(bin.size()));
+  u32(out, 0x004E4942u);  // "BIN"
+  out += bin;
+  return out;
+}
+
+}  // namespace
+
+double quantization_step(const anim::Rig& rig) {
+  const Eigen::RowVector3f lo = rig.positions.colwise().minCoeff();
+  const Eigen::RowVector3f hi = rig.positions.colwise().maxCoeff();
+  double range = 0.5 * static_cast<double>((hi - lo).maxCoeff());
+  for (const auto& s : rig.shapes)
+    if (s.deltas.size())
+      range = std::max(range, static_cast<double>(s.deltas.cwiseAbs().maxCoeff()));
+  // 14 bits over the box (gltfpack's default for positions; 21 um on the FaceKit's 34 cm): the
+  // int16's two top bits stay unused, which makes the byte deltas meshopt codes smaller.
+  return 0.5 * range / 8191.0;
+}
+
+std::string compact_glb_bytes(const anim::Rig& rig) {
+  rig.validate("template");
+  const int nv = rig.vertex_count();
+  const Eigen::RowVector3d lo = rig.positions.colwise().minCoeff().cast<double>();
+  const Eigen::RowVector3d hi = rig.positions.colwise().maxCoeff().cast<double>();
+  const Eigen::RowVector3d centre = 0.5 * (lo + hi);
+  const double scale = 2.0 * 32767.0 * quantization_step(rig);
+  Packer p;
+  json attributes;
+  const Eigen::Matrix<double, Eigen::Dynamic, 3> centred =
+      rig.positions.cast<double>().rowwise() - centre;
+  attributes["POSITION"] = p.vec3_short(centred, scale);
+  std::vector<std::int8_t> normals(static_cast<std::size_t>(nv) * 4, 0);
+  for (int v = 0; v < nv; ++v)
+    for (int c = 0; c < 3; ++c)
+      normals[static_cast<std::size_t>(v) * 4 + static_cast<std::size_t>(c)] =
+          static_cast<std::int8_t>(std::lround(rig.normals(v, c) * 127.0f));
+  attributes["NORMAL"] =
+      p.accessor(p.view(normals.data(), static_cast<std::size_t>(nv), 4, false, kArrayBuffer),
+                 kByte, true, static_cast<std::size_t>(nv), "VEC3");
+  if (rig.uvs.rows() == nv) {
+    // As the rig holds them (the tree's GLB writer and reader do not flip v either), rounded to
+    // 1/4096 so the floats' low mantissa bytes are zero and compress to nothing.
+    const anim::UVs uv = (rig.uvs.array() * kUvSteps).round() / kUvSteps;
+    attributes["TEXCOORD_0"] =
+        p.accessor(p.view(uv.data(), static_cast<std::size_t>(nv), 8, false, kArrayBuffer), kFloat,
+                   false, static_cast<std::size_t>(nv), "VEC2");
+  }
+  json targets = json::array(), names = json::array(), weights = json::array();
+  for (const auto& s : rig.shapes) {
+    const anim::Positions d = s.dense(nv);
+    targets.push_back({{"POSITION", p.vec3_short(d.cast<double>(), scale)}});
+    names.push_back(s.name);
+    weights.push_back(0);
+  }
+  const bool short_indices = nv <= 65535;
+  json primitives = json::array();
+  for (std::size_t m = 0; m < rig.materials.size(); ++m) {
+    std::vector<unsigned int> idx;
+    for (int f = 0; f < rig.triangle_count(); ++f)
+      if (rig.triangle_material[static_cast<std::size_t>(f)] == static_cast<int>(m))
+        for (int k = 0; k < 3; ++k) idx.push_back(static_cast<unsigned int>(rig.triangles(f, k)));
+    if (idx.empty()) continue;
+    meshopt_optimizeVertexCache(idx.data(), idx.data(), idx.size(), static_cast<std::size_t>(nv));
+    const int view =
+        p.view(idx.data(), idx.size(), short_indices ? 2 : 4, true, kElementArrayBuffer);
+    primitives.push_back({{"attributes", attributes},
+                          {"indices", p.accessor(view, short_indices ? kUShort : kUInt, false,
+                                                 idx.size(), "SCALAR")},
+                          {"material", m},
+                          {"targets", targets}});
+  }
+  json landmarks = json::array();
+  for (const auto& l : rig.landmarks) landmarks.push_back({{"name", l.name}, {"vertex", l.vertex}});
+  json materials = json::array();
+  for (const auto& m : rig.materials) materials.push_back(material_json(m));
+  const std::vector<std::string> ext = {"KHR_mesh_quantization", "EXT_meshopt_compression"};
+  pad4(p.bin);
+  const json doc = {
+      {"asset", {{"version", "2.0"}, {"generator", "facecast rig pack-template"}}},
+      {"extensionsUsed", ext},
+      {"extensionsRequired", ext},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes",
+       {{{"name", "Head"},
+         {"mesh", 0},
+         {"translation", {centre[0], centre[1], centre[2]}},
+         {"scale", {scale, scale, scale}}}}},
+      {"meshes",
+       {{{"name", "Head"},
+         {"primitives", primitives},
+         {"weights", weights},
+         {"extras", {{"targetNames", names}, {"facecast", {{"landmarks", landmarks}}}}}}}},
+      {"materials", materials},
+      {"accessors", p.accessors},
+      {"bufferViews", p.views},
+      {"buffers",
+       {{{"byteLength", p.bin.size()}},
+        {{"byteLength", p.fallback},
+         {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}}}};
+  return glb_container(doc, std::move(p.bin));
+}
+
+std::filesystem::path shipped_template_path() {
+  return config_path("rigbuild/ict_facekit.glb");
+}
+
+anim::Rig load_shipped_template() {
+  return anim::read_glb(shipped_template_path());
+}
+
+TemplateSummary shipped_template_summary() {
+  const auto path = shipped_template_path();
+  const std::string bytes = read_file(path);
+  std::uint32_t length = 0;
+  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0)
+    throw Error(path.string() + ": not a GLB file");
+  std::memcpy(&length, bytes.data() + 12, 4);
+  if (length > bytes.size() - 20) throw Error(path.string() + ": JSON chunk runs past the end");
+  const json doc = json::parse(bytes.substr(20, length), nullptr, false);
+  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
+    throw Error(path.string() + ": JSON chunk has no meshes");
+  TemplateSummary s;
+  const json& mesh = doc["meshes"][0];
+  s.shapes = mesh.at("extras").at("targetNames").get<std::vector<std::string>>();
+  const int position = mesh.at("primitives")[0].at("attributes").at("POSITION").get<int>();
+  s.vertices = doc["accessors"].at(static_cast<std::size_t>(position)).at("count").get<int>();
+  return s;
+}
+
+}  // namespace facecast::rigbuild
