@@ -238,6 +238,10 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.http_timeout == d.http_timeout);
   CHECK(file.ws_handshake_timeout == d.ws_handshake_timeout);
   CHECK(file.ws_idle_timeout == d.ws_idle_timeout);
+  CHECK(file.shared_dir == d.shared_dir);
+  CHECK(file.redis.url == d.redis.url);
+  CHECK(file.redis.prefix == d.redis.prefix);
+  CHECK(file.redis.heartbeat == d.redis.heartbeat);
   CHECK(file.shutdown_timeout == d.shutdown_timeout);
   CHECK(file.allowed_origins == d.allowed_origins);
   CHECK(file.log_level == d.log_level);
