@@ -19,6 +19,7 @@
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/server/server.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
 
@@ -275,4 +276,22 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
   }
   CHECK(local_subscribers(a->port()) == 4);
   every_frame_everywhere(*producer, subs, "u2");
+}
+
+TEST_CASE("a server whose Redis does not answer stops with one line naming it", "[cluster]") {
+  const unsigned short port = free_port();  // nothing listens there
+  facecast::server::ServerOptions o;
+  o.port = 0;
+  o.data = facecast::test::scratch_dir() / "no-redis";
+  o.redis.url = "redis://127.0.0.1:" + std::to_string(port);
+  try {
+    facecast::server::Server s(o);
+    FAIL("the server started without its Redis");
+  } catch (const facecast::Error& e) {
+    const std::string what = e.what();
+    CHECK_THAT(what, Catch::Contains("redis 127.0.0.1:" + std::to_string(port)));
+    CHECK(what.find('\n') == std::string::npos);
+  }
+  o.redis.url = "redis://127.0.0.1:99999";
+  CHECK_THROWS_WITH(facecast::server::Server(o), Catch::Contains("redis.url: port 99999"));
 }
