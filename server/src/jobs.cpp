@@ -244,12 +244,16 @@ void Jobs::shutdown() {
   for (auto& t : threads) t.join();
 }
 
-void Jobs::worker() {
+void Jobs::block_sigpipe() {
   // Writing to a pipe whose reader died (ffmpeg) must give EPIPE, not kill the server.
   sigset_t pipe_signal;
   sigemptyset(&pipe_signal);
   sigaddset(&pipe_signal, SIGPIPE);
   pthread_sigmask(SIG_BLOCK, &pipe_signal, nullptr);
+}
+
+void Jobs::worker() {
+  block_sigpipe();
   for (;;) {
     std::shared_ptr<Job> job;
     {

@@ -98,6 +98,7 @@ class Jobs {
     std::chrono::steady_clock::time_point shared;  // with Redis: when progress was last stored
   };
   class Context;
+  static void block_sigpipe();  // the job threads (ffmpeg pipes: EPIPE, not a signal)
   void worker();
   void run(Job& job);
   // With Redis (defined in redis_jobs.cpp).

@@ -1,8 +1,5 @@
 #include "redis_jobs.hpp"
 
-#include <pthread.h>
-#include <signal.h>
-
 #include <chrono>
 #include <thread>
 
@@ -253,11 +250,7 @@ std::shared_ptr<Jobs::Job> Jobs::redis_take(RedisClient& client) {
 }
 
 void Jobs::redis_worker() {
-  // Writing to a pipe whose reader died (ffmpeg) must give EPIPE, not kill the server.
-  sigset_t pipe_signal;
-  sigemptyset(&pipe_signal);
-  sigaddset(&pipe_signal, SIGPIPE);
-  pthread_sigmask(SIG_BLOCK, &pipe_signal, nullptr);
+  block_sigpipe();
   RedisClient client(options_.redis->url());  // BLMOVE blocks its connection
   bool healthy = true;
   for (;;) {
