@@ -154,7 +154,11 @@ class Viewer : public std::enable_shared_from_this<Viewer> {
       if (type == "stream_start") start_ = now;  // lead: the server's default, 0.1 s
       if (type == "stream_end") {
         ++streams;
-        if (producer_) speak();
+        // The next utterance once the run started; idle-life streams (between utterances, and
+        // while the subscribers connect) are not the producer's.
+        if (producer_ && stop_at_ != Clock::time_point{} &&
+            msg.find(R"("id":"~idle")") == std::string_view::npos)
+          speak();
       }
       if (type == "error" && producer_ && error.empty()) error = std::string(msg);
       return;

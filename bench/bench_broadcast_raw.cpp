@@ -47,6 +47,8 @@ struct RawSubscribers::Conn {
   int head_len = 0, head_need = 2;
   std::uint64_t left = 0;  // payload bytes still to come
   bool in_payload = false, text = false;
+  bool control = false, fin = false;
+  int head_op = 0;  // a ping/pong/close frame; the last frame of a message
   char prefix[24];
   int prefix_len = 0;
   std::string text_bytes;  // a text message whole (rare: stream_start, stream_end, presence)
@@ -160,15 +162,24 @@ void RawSubscribers::reader(int epfd) {
             c.left = 0;
             for (int k = 2; k < c.head_need; ++k) c.left = c.left << 8 | c.head[k];
           }
-          c.text = (c.head[0] & 0x0F) == 1;
+          // Messages may come in several frames (opcode 0 continues the message): the message
+          // state is reset only by a first frame; control frames sit between and are skipped.
+          const int opcode = c.head[0] & 0x0F;
+          c.control = opcode >= 8;
+          c.head_op = opcode;
+          c.fin = (c.head[0] & 0x80) != 0;
+          if (opcode == 1 || opcode == 2) {
+            c.text = opcode == 1;
+            c.prefix_len = 0;
+            c.text_bytes.clear();
+          }
           c.in_payload = true;
-          c.prefix_len = 0;
-          c.text_bytes.clear();
           c.head_len = 0;
           c.head_need = 2;
         }
         const std::size_t take = std::min<std::uint64_t>(c.left, end - p);
-        if (c.text) {
+        if (c.control) {
+        } else if (c.text) {
           c.text_bytes.append(p, take);
         } else {
           const int keep = std::min<int>(static_cast<int>(take), 24 - c.prefix_len);
@@ -179,6 +190,12 @@ void RawSubscribers::reader(int epfd) {
         c.left -= take;
         if (c.left > 0) continue;
         c.in_payload = false;
+        // The server pings a quiet connection (ws_idle_timeout) and closes it without an answer.
+        if (c.control && (c.head_op == 9)) {
+          static const char pong[] = {'\x8A', '\x80', 0, 0, 0, 0};  // masked, empty
+          if (::write(c.fd, pong, sizeof pong) < 0) c.closed = true;
+        }
+        if (c.control || !c.fin) continue;
         const std::string_view m(c.prefix, c.prefix_len);
         if (c.text) {  // keys are sorted: "type" is near the end
           if (c.text_bytes.find(R"("type":"stream_start")") != std::string::npos) c.start = now;
