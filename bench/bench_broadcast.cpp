@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench_broadcast_raw.hpp"
 #include "facecast/server/protocol.hpp"
 
 namespace bench {
@@ -153,7 +154,11 @@ class Viewer : public std::enable_shared_from_this<Viewer> {
       if (type == "stream_start") start_ = now;  // lead: the server's default, 0.1 s
       if (type == "stream_end") {
         ++streams;
-        if (producer_) speak();
+        // The next utterance once the run started; idle-life streams (between utterances, and
+        // while the subscribers connect) are not the producer's.
+        if (producer_ && stop_at_ != Clock::time_point{} &&
+            msg.find(R"("id":"~idle")") == std::string_view::npos)
+          speak();
       }
       if (type == "error" && producer_ && error.empty()) error = std::string(msg);
       return;
@@ -192,34 +197,20 @@ double percentile(std::vector<float> v, double p) {
 
 void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
   net::io_context ioc;
-  std::vector<std::shared_ptr<Viewer>> viewers;
   auto producer = std::make_shared<Viewer>(ioc, a, port, true);
-  viewers.push_back(producer);
-  for (int i = 1; i < a.subscribers; ++i)
-    viewers.push_back(std::make_shared<Viewer>(ioc, a, port, false));
-  std::vector<std::thread> threads;
   auto work = net::make_work_guard(ioc);
-  for (int i = 0; i < std::max(1, a.client_threads); ++i) threads.emplace_back([&] { ioc.run(); });
-  // Connect over `ramp` seconds (a burst of 10,000 handshakes overflows the listen backlog).
+  std::thread producer_thread([&] { ioc.run(); });
+  net::post(ioc, [producer] { producer->start(); });
   const auto t_connect = Clock::now();
-  for (std::size_t i = 0; i < viewers.size(); ++i) {
-    net::post(ioc, [v = viewers[i]] { v->start(); });
-    if (i % 100 == 99)
-      std::this_thread::sleep_for(std::chrono::duration<double>(a.ramp * 100 / viewers.size()));
-  }
-  for (;;) {
-    std::size_t ready = 0, failed = 0;
-    for (const auto& v : viewers) {
-      ready += v->subscribed;
-      failed += v->failed;
-    }
-    if (ready + failed == viewers.size()) {
-      std::printf("\nbroadcast: %zu subscribed (%zu failed) in %.1f s, server RSS %.0f MB\n", ready,
-                  failed, secs(Clock::now() - t_connect), rss_mb(pid, "VmRSS:"));
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  }
+  // The other subscribers: raw sockets read by a few epoll threads (bench_broadcast_raw.hpp).
+  RawSubscribers subs(port, a.channel, a.subscribers - 1, a.ramp, std::max(1, a.client_threads),
+                      a.fps, 0.1);
+  while (!producer->subscribed && !producer->failed)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::printf("\nbroadcast: %d subscribed in %.1f s, server RSS %.0f MB\n", subs.connected() + 1,
+              secs(Clock::now() - t_connect), rss_mb(pid, "VmRSS:"));
+  subs.start();
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the subscribe answers
   const double cpu0 = cpu_s(pid);
   const auto t0 = Clock::now();
   producer->speak_now(
@@ -232,32 +223,31 @@ void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
   std::this_thread::sleep_for(std::chrono::seconds(1));  // the last frames
   const double wall = secs(Clock::now() - t0);
   const double cpu = cpu_s(pid) - cpu0;
+  RawSubscribers::Totals t = subs.stop();
   work.reset();
   ioc.stop();
-  for (auto& t : threads) t.join();
-  std::uint64_t frames = 0, on_time = 0, streams = 0, failed = 0;
-  std::vector<float> late;
-  for (const auto& v : viewers) {
-    frames += v->frames;
-    on_time += v->on_time;
-    streams += v->streams;
-    failed += v->failed;
-    late.insert(late.end(), v->lateness.begin(), v->lateness.end());
-  }
+  producer_thread.join();
+  t.frames += producer->frames;
+  t.on_time += producer->on_time;
+  t.streams += producer->streams;
+  t.lateness.insert(t.lateness.end(), producer->lateness.begin(), producer->lateness.end());
+  double load[3] = {0, 0, 0};
+  if (getloadavg(load, 3) < 0) load[0] = -1;
   std::printf(
       "  %d subscribers x %.0f s of %.0f fps weights + audio: %llu streams seen, %llu frames, "
-      "%llu subscribers failed%s%s\n",
-      a.subscribers, wall, a.fps, static_cast<unsigned long long>(streams),
-      static_cast<unsigned long long>(frames), static_cast<unsigned long long>(failed),
+      "%d connections closed%s%s\n",
+      a.subscribers, wall, a.fps, static_cast<unsigned long long>(t.streams),
+      static_cast<unsigned long long>(t.frames), t.closed,
       producer->error.empty() ? "" : "; producer: ", producer->error.c_str());
   std::printf("  frames within 50 ms of schedule: %.3f %%\n",
-              100.0 * on_time / std::max<std::uint64_t>(1, frames));
+              100.0 * t.on_time / std::max<std::uint64_t>(1, t.frames));
   std::printf("  lateness: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
-              1e3 * percentile(late, 50), 1e3 * percentile(late, 99), 1e3 * percentile(late, 99.9),
-              1e3 * percentile(late, 100));
-  std::printf("  server RSS peak %.0f MB (VmHWM %.0f MB), server CPU %.0f %% of one core\n", peak,
-              rss_mb(pid, "VmHWM:"), 100.0 * cpu / wall);
-  viewers.clear();
+              1e3 * percentile(t.lateness, 50), 1e3 * percentile(t.lateness, 99),
+              1e3 * percentile(t.lateness, 99.9), 1e3 * percentile(t.lateness, 100));
+  std::printf(
+      "  server RSS peak %.0f MB (VmHWM %.0f MB), server CPU %.0f %% of one core, load average "
+      "%.1f\n",
+      peak, rss_mb(pid, "VmHWM:"), 100.0 * cpu / wall, load[0]);
   std::fflush(stdout);
 }
 

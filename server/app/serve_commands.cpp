@@ -1,4 +1,5 @@
 // facecast serve [--config configs/server.json] [--host H] [--port P] [--data DIR] [--token T]
+//                [--redis URL]
 #include <cstdio>
 #include <cstdlib>
 
@@ -11,7 +12,7 @@ namespace facecast::cli {
 namespace {
 
 struct ServeArgs {
-  std::string config, host, data, token, web, log_level;
+  std::string config, host, data, token, web, log_level, redis;
   int port = -1;
 };
 
@@ -24,6 +25,7 @@ void run_serve(const ServeArgs& a) {
   if (!a.data.empty()) o.data = a.data;
   if (!a.web.empty()) o.web_root = std::filesystem::absolute(a.web);
   if (!a.log_level.empty()) o.log_level = a.log_level;
+  if (!a.redis.empty()) o.redis.url = a.redis;
   if (!a.token.empty()) {
     o.token = a.token;
   } else if (const char* env = std::getenv("FACECAST_TOKEN"); env && *env) {
@@ -56,6 +58,8 @@ void add_serve_commands(CLI::App& app) {
                   "Token required on /api and /ws (also $FACECAST_TOKEN); required off loopback");
   cmd->add_option("--web", a->web, "Folder of the web client (default: web/ of the project)")
       ->check(CLI::ExistingDirectory);
+  cmd->add_option("--redis", a->redis,
+                  "Redis for many instances: redis://[:password@]host[:port][/db] (config: redis.url)");
   cmd->add_option("--log-level", a->log_level, "debug, info, warn or error")
       ->check(CLI::IsMember({"debug", "info", "warn", "error"}));
   cmd->callback([a] { run_serve(*a); });

@@ -169,12 +169,9 @@ http::message_generator import_rig(State& state, const Request& req, const Targe
   return json_response(state, req, http::status::created, info->to_json());
 }
 
-http::message_generator post_rig(State& state, const Request& req, const Target& t) {
-  const std::string type(req[http::field::content_type]);
-  if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
-      type.starts_with("application/octet-stream"))
-    return import_rig(state, req, t);
-  const json body = parse_body(req);
+// A rig build from a POST /api/rigs JSON body: checked here (throws Error naming the field), run
+// by a job worker (with Redis, on any instance: the body is the job's payload).
+static Jobs::Work rig_work(State& state, const json& body) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string name = "Rig", template_id = state.options.default_rig;
   const json* mesh = nullptr;
@@ -224,35 +221,42 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
   else
     rigbuild::reorder_triangles_like(*tmpl->rig, target);
   const int vertices = target.vertex_count();
-  std::shared_ptr<const rigbuild::BuildTarget> shared_target = std::move(user);
-  const std::string job =
-      state.jobs.submit("rig", [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {
-        const auto t0 = std::chrono::steady_clock::now();
-        const auto r =
-            rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
-        const json report = rigbuild::build_report_json(r, opt);
-        ctx.progress("storing", 1.0);
-        const std::string id =
-            state.rigs.add(name, tmpl->id, r.rig, shared_target->glb_bytes(r.rig), report,
-                           opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
-                               ? r.virtual_edges
-                               : std::vector<rigbuild::VirtualEdge>{},
-                           r.ve_stats);
-        state.metrics.rig_build_seconds.observe(
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-        return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
-      });
-  log::info("rig_upload", {{"job", job},
-                           {"name", name},
+  log::info("rig_upload", {{"name", name},
                            {"template", tmpl->id},
                            {"vertices", vertices},
                            {"markers", markers != nullptr}});
+  std::shared_ptr<const rigbuild::BuildTarget> shared_target = std::move(user);
+  return [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r =
+        rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
+    const json report = rigbuild::build_report_json(r, opt);
+    ctx.progress("storing", 1.0);
+    const std::string id = state.rigs.add(
+        name, tmpl->id, r.rig, shared_target->glb_bytes(r.rig), report,
+        opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff ? r.virtual_edges
+                                                             : std::vector<rigbuild::VirtualEdge>{},
+        r.ve_stats);
+    state.metrics.rig_build_seconds.observe(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
+  };
+}
+
+http::message_generator post_rig(State& state, const Request& req, const Target& t) {
+  const std::string type(req[http::field::content_type]);
+  if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
+      type.starts_with("application/octet-stream"))
+    return import_rig(state, req, t);
+  const json body = parse_body(req);
+  const std::string job = state.jobs.submit("rig", rig_work(state, body), body);
+  log::info("rig_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
-http::message_generator post_render(State& state, const Request& req) {
-  const json body = parse_body(req);
+// A video render from a POST /api/render body (checked here, run by a job worker).
+static Jobs::Work render_work(State& state, const json& body) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   VideoRequest r;
   r.rig = state.options.default_rig;
@@ -297,14 +301,24 @@ http::message_generator post_render(State& state, const Request& req) {
   if (!have_text) throw Error("text: missing");
   if (!state.rigs.find(r.rig))
     throw Error("rig '" + r.rig + "' does not exist", ErrorCode::kNotFound);
-  const std::string job = state.jobs.submit(
-      "render", [&state, r](JobContext& ctx) { return render_video(state, r, ctx); });
-  log::info("render_request", {{"job", job},
-                               {"rig", r.rig},
+  log::info("render_request", {{"rig", r.rig},
                                {"fps", r.fps},
                                {"size", std::to_string(r.width) + "x" + std::to_string(r.height)}});
+  return [&state, r](JobContext& ctx) { return render_video(state, r, ctx); };
+}
+
+http::message_generator post_render(State& state, const Request& req) {
+  const json body = parse_body(req);
+  const std::string job = state.jobs.submit("render", render_work(state, body), body);
+  log::info("render_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});
+}
+
+Jobs::Work job_work(State& state, const std::string& kind, const json& payload) {
+  if (kind == "rig") return rig_work(state, payload);
+  if (kind == "render") return render_work(state, payload);
+  throw Error("job kind '" + kind + "' is not rig or render");
 }
 
 }  // namespace facecast::server

@@ -18,6 +18,10 @@ http::message_generator post_render(State& state, const Request& req);
 /// null where dropped) and the views with the points found ("picture", a JPEG data URL).
 http::message_generator post_landmarks(State& state, const Request& req);
 
+/// The work of a queued job from its payload (the POST body); throws Error like the POST does.
+/// With Redis, the instance that takes the job makes it here.
+Jobs::Work job_work(State& state, const std::string& kind, const nlohmann::json& payload);
+
 /// Standard base64 (whitespace ignored, padding optional); throws Error naming `field`.
 std::string base64_decode(std::string_view text, std::string_view field);
 

@@ -3,6 +3,7 @@
 #include <future>
 
 #include "log.hpp"
+#include "redis_bus.hpp"
 #include "routes.hpp"
 #include "speech.hpp"
 
@@ -33,10 +34,13 @@ void Channel::subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who) 
       self->count_.store(static_cast<long>(self->members_.size()));
       self->presence_changed();
     }
-    m->deliver(OutMessage::control(subscribed_message(
-        self->name_, static_cast<long>(self->members_.size()), self->on_air_id_)));
+    m->deliver(OutMessage::control(
+        subscribed_message(self->name_, self->total_subscribers(), self->on_air_id_)));
     // A late joiner starts at the current frame: the stream_start, then what comes next.
-    if (self->on_air_) m->deliver(*self->on_air_);
+    if (self->on_air_)
+      m->deliver(*self->on_air_);
+    else if (self->remote_on_air_)
+      m->deliver(*self->remote_on_air_);
     self->maybe_idle();
   });
 }
@@ -109,6 +113,8 @@ std::uint32_t Channel::send(OutMessage message) {
     on_air_ = message;
     on_air_id_ = nlohmann::json::parse(*message.data).value("id", "");
   }
+  // Idle life stays on each instance; utterances reach the other instances' subscribers too.
+  if (state_->redis && on_air_id_ != kIdleId) state_->redis->publish(name_, message);
   if (message.boundary == Boundary::kEnd) {
     on_air_.reset();
     on_air_id_.reset();
@@ -130,6 +136,35 @@ void Channel::send_error(const std::optional<std::string>& id, const Problem& pr
   if (const auto p = producer_.lock()) p->deliver(message);
 }
 
+void Channel::remote(OutMessage message) {
+  net::post(strand_, [self = shared_from_this(), message = std::move(message)] {
+    if (self->closed_) return;
+    self->remote_last_ = std::chrono::steady_clock::now();
+    if (message.boundary == Boundary::kStart) {
+      self->remote_on_air_ = message;
+      // This instance's idle life gives way to the other instance's utterance.
+      if (self->on_air_id_ == kIdleId)
+        self->queue_->cancel(CancelRequest{std::string(kIdleId), {}});
+    } else if (message.boundary == Boundary::kEnd) {
+      self->remote_on_air_.reset();
+      net::post(self->strand_, [self] { self->maybe_idle(); });
+    }
+    self->broadcast(message);
+  });
+}
+
+void Channel::set_remote_subscribers(long n) {
+  net::post(strand_, [self = shared_from_this(), n] {
+    // A producing instance that died mid-stream sends no stream_end: forget its stream after 3 s.
+    if (self->remote_on_air_ &&
+        std::chrono::steady_clock::now() - self->remote_last_ > std::chrono::seconds(3)) {
+      self->remote_on_air_.reset();
+      self->maybe_idle();
+    }
+    if (self->remote_count_.exchange(n) != n) self->presence_changed();
+  });
+}
+
 // One shared buffer for everyone: delivering copies the OutMessage (a shared_ptr), never the
 // bytes. Members that are gone are skipped; they unsubscribe when they close.
 void Channel::broadcast(const OutMessage& message) {
@@ -146,7 +181,7 @@ void Channel::presence_changed() {
   presence_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
     self->presence_armed_ = false;
     if (ec || self->closed_) return;
-    const long n = static_cast<long>(self->members_.size());
+    const long n = self->total_subscribers();
     if (n == self->presence_sent_) return;
     self->presence_sent_ = n;
     self->broadcast(OutMessage::control(presence_message(self->name_, n)));
@@ -158,7 +193,7 @@ void Channel::presence_changed() {
 void Channel::maybe_idle() {
   const double seconds = state_->options.channel_idle;
   if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy() ||
-      state_->stopping)
+      remote_on_air_ || state_->stopping)
     return;
   idle_preparing_ = true;
   SpeakRequest r;
@@ -276,7 +311,9 @@ http::message_generator channel_api(State& state, const Request& req, const Targ
   if (req.method() != http::verb::get && req.method() != http::verb::head)
     throw RequestError(Code::kMethod, "/api/channels/{c} takes GET");
   return json_response(state, req, http::status::ok,
-                       {{"channel", channel->name()}, {"subscribers", channel->subscribers()}});
+                       {{"channel", channel->name()},
+                        {"subscribers", channel->total_subscribers()},
+                        {"local_subscribers", channel->subscribers()}});
 }
 
 }  // namespace facecast::server

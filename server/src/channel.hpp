@@ -8,6 +8,7 @@
 // Threads: members_, on_air_ and the SpeakQueue live on the channel's strand; every public call
 // posts there. A subscriber receives through deliver(), which posts to the subscriber's strand.
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -37,8 +38,16 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
 
   const std::string& name() const noexcept { return name_; }
   bool producer_token_ok(std::string_view token) const noexcept;
-  /// Subscribers now (any thread; for /metrics and the API).
+  /// Subscribers on this instance now (any thread; for /metrics and the API).
   long subscribers() const noexcept { return count_.load(); }
+  /// Subscribers on every instance (with Redis: this one's plus the others' last heartbeat).
+  long total_subscribers() const noexcept { return count_.load() + remote_count_.load(); }
+
+  // Many instances (redis_bus.hpp); thread-safe, each runs on the channel's strand.
+  /// A message another instance's producer sent: fanned out to this instance's subscribers.
+  void remote(OutMessage message);
+  /// The other instances' subscribers (summed from their heartbeats).
+  void set_remote_subscribers(long n);
 
   // Thread-safe; each runs on the channel's strand.
   void subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who);
@@ -71,9 +80,11 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   std::unordered_map<std::uint64_t, std::size_t> index_;  // member id -> position in members_
   std::optional<OutMessage> on_air_;                      // stream_start of what plays
   std::optional<std::string> on_air_id_;                  // its utterance id
-  std::weak_ptr<ChannelMember> producer_;                 // the last WebSocket producer
+  std::optional<OutMessage> remote_on_air_;  // stream_start of what another instance plays
+  std::chrono::steady_clock::time_point remote_last_;  // its last message
+  std::weak_ptr<ChannelMember> producer_;              // the last WebSocket producer
   std::uint64_t producer_id_ = 0;
-  std::atomic<long> count_{0};
+  std::atomic<long> count_{0}, remote_count_{0};
   long presence_sent_ = 0;
   net::steady_timer presence_timer_;
   bool presence_armed_ = false, closed_ = false;

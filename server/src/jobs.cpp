@@ -7,6 +7,8 @@
 #include "facecast/core/error.hpp"
 #include "facecast/server/protocol.hpp"
 #include "log.hpp"
+#include "redis_bus.hpp"
+#include "redis_jobs.hpp"
 
 namespace facecast::server {
 namespace {
@@ -27,22 +29,30 @@ void remove_files(const JobRecord& r) {
 
 }  // namespace
 
-struct Jobs::Job {
-  JobRecord record;
-  Work work;
-  bool deleted = false;  // DELETE while running: cancelled, nothing kept
-};
-
 class Jobs::Context final : public JobContext {
  public:
   Context(Jobs& jobs, Job& job) : jobs_(jobs), job_(job) {}
   void progress(std::string_view stage, double fraction) override {
-    std::lock_guard lock(jobs_.mutex_);
-    if (jobs_.stopping_)
-      throw Error("cancelled: the server is shutting down", ErrorCode::kInternal);
-    if (job_.deleted) throw Error("cancelled: the job was deleted", ErrorCode::kInternal);
-    job_.record.stage = std::string(stage);
-    job_.record.progress = std::clamp(fraction, 0.0, 1.0);
+    std::optional<JobRecord> share;
+    {
+      std::lock_guard lock(jobs_.mutex_);
+      if (jobs_.stopping_)
+        throw Error("cancelled: the server is shutting down", ErrorCode::kInternal);
+      if (job_.deleted) throw Error("cancelled: the job was deleted", ErrorCode::kInternal);
+      job_.record.stage = std::string(stage);
+      job_.record.progress = std::clamp(fraction, 0.0, 1.0);
+      // With Redis, every instance reads the record there: store progress twice a second.
+      const auto now = std::chrono::steady_clock::now();
+      if (jobs_.redis_ && now - job_.shared > std::chrono::milliseconds(500)) {
+        job_.shared = now;
+        share = job_.record;
+      }
+    }
+    if (share && !jobs_.redis_->update(*share)) {
+      std::lock_guard lock(jobs_.mutex_);
+      job_.deleted = true;
+      throw Error("cancelled: the job was deleted", ErrorCode::kInternal);
+    }
   }
   void add_file(const std::string& name, const std::filesystem::path& path) override {
     std::lock_guard lock(jobs_.mutex_);
@@ -59,6 +69,11 @@ Jobs::Jobs(Metrics& metrics, JobsOptions options)
     : metrics_(metrics),
       options_(std::move(options)),
       budget_(static_cast<unsigned>(std::max(1, options_.threads))) {
+  if (options_.redis) {
+    redis_ = std::make_unique<RedisJobQueue>(options_.redis->url(), options_.redis->key(""),
+                                             options_.redis->instance());
+    return;  // the threads start with start(), once jobs can be made from their payloads
+  }
   if (!options_.store.empty()) {
     store_ = std::make_unique<JobStore>(options_.store);
     next_id_ = store_->max_number() + 1;
@@ -82,15 +97,21 @@ Jobs::~Jobs() {
 }
 
 void Jobs::save(const JobRecord& record) const {
-  if (!store_) return;
+  if (!store_ && !redis_) return;
   try {
-    store_->put(record);
+    if (redis_ && record.ended())
+      redis_->finish(record);
+    else if (redis_)
+      redis_->update(record);
+    else
+      store_->put(record);
   } catch (const std::exception& e) {
     log::error("job_store_failed", {{"job", record.id}, {"error", e.what()}});
   }
 }
 
-std::string Jobs::submit(const std::string& kind, Work work) {
+std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::json& payload) {
+  if (redis_) return redis_submit(kind, payload);
   if (store_) expire();
   std::lock_guard lock(mutex_);
   if (stopping_) throw RequestError(Code::kUnavailable, "the server is shutting down");
@@ -117,6 +138,7 @@ std::string Jobs::submit(const std::string& kind, Work work) {
 }
 
 std::optional<JobRecord> Jobs::record(const std::string& id) const {
+  if (redis_) return redis_->get(id);  // throws Error naming Redis when it is unreachable
   {
     std::lock_guard lock(mutex_);
     const auto it = jobs_.find(id);
@@ -167,7 +189,11 @@ bool Jobs::remove(const std::string& id) {
       jobs_.erase(it);
     }
   }
-  if (store_) {
+  if (redis_) {
+    const auto r = redis_->remove(id);
+    if (r && r->ended()) ended = r;
+    found = found || r;
+  } else if (store_) {
     if (!ended && !found) ended = store_->get(id);
     found = store_->remove(id) || found;
   }
@@ -177,10 +203,11 @@ bool Jobs::remove(const std::string& id) {
 }
 
 void Jobs::expire() {
-  if (!store_ || options_.retention <= 0) return;
+  if ((!store_ && !redis_) || options_.retention <= 0) return;
   std::vector<JobRecord> old;
   try {
-    old = store_->take_ended_before(unix_now() - options_.retention);
+    const double before = unix_now() - options_.retention;
+    old = redis_ ? redis_->take_ended_before(before) : store_->take_ended_before(before);
   } catch (const std::exception& e) {
     log::error("job_store_failed", {{"error", e.what()}});
     return;
@@ -217,12 +244,16 @@ void Jobs::shutdown() {
   for (auto& t : threads) t.join();
 }
 
-void Jobs::worker() {
+void Jobs::block_sigpipe() {
   // Writing to a pipe whose reader died (ffmpeg) must give EPIPE, not kill the server.
   sigset_t pipe_signal;
   sigemptyset(&pipe_signal);
   sigaddset(&pipe_signal, SIGPIPE);
   pthread_sigmask(SIG_BLOCK, &pipe_signal, nullptr);
+}
+
+void Jobs::worker() {
+  block_sigpipe();
   for (;;) {
     std::shared_ptr<Job> job;
     {
@@ -253,6 +284,7 @@ void Jobs::run(Job& job) {
   } catch (...) {
     error = describe(std::current_exception());
   }
+  if (error && redis_ && requeue_stopped(job)) return;
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   bool deleted;
   {
@@ -286,6 +318,7 @@ void Jobs::run(Job& job) {
   if (deleted) {
     remove_files(job.record);
     if (store_) store_->remove(id);  // the row it had while running
+    if (redis_) redis_->forget(id);
     log::info("job_cancelled", {{"job", id}, {"reason", "deleted"}});
   } else if (error) {
     log::warn("job_failed", {{"job", id},

@@ -5,6 +5,7 @@
 // marks the ones it interrupted as failed; ended jobs and their files (videos) are removed after
 // the retention time. Shutdown cancels: the next progress report of a running job throws, queued
 // jobs fail at once. The rig builds of all jobs share a ThreadBudget of `threads` threads.
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <filesystem>
@@ -23,6 +24,7 @@
 #include "facecast/rigbuild/threads.hpp"
 #include "job_store.hpp"
 #include "metrics.hpp"
+#include "redis_client.hpp"
 
 namespace facecast::server {
 
@@ -41,11 +43,17 @@ class JobContext {
   ~JobContext() = default;
 };
 
+class RedisBus;
+class RedisJobQueue;
+
 struct JobsOptions {
   int threads = 1;                   // job_workers
   int max_jobs = 8;                  // queued + running
   std::filesystem::path store;       // SQLite file; empty: records only in memory
   double retention = 7 * 24 * 3600;  // seconds an ended job and its files are kept (0: forever)
+  // With Redis (many instances): the queue and the records live there (redis_jobs.hpp), `store`
+  // is not used, and the threads start with start().
+  RedisBus* redis = nullptr;
 };
 
 class Jobs {
@@ -53,14 +61,24 @@ class Jobs {
   /// Work returns the job's "result" JSON, or throws (the job fails with the error's message).
   using Work = std::function<nlohmann::json(JobContext&)>;
 
-  /// Opens the store (throws Error naming it when it cannot) and starts the threads.
+  /// Rebuilds a job's work from what submit() was given as `payload` (with Redis, on whichever
+  /// instance takes the job); throws Error when the payload is not valid.
+  using Factory = std::function<Work(const std::string& kind, const nlohmann::json& payload)>;
+
+  /// Opens the store (throws Error naming it when it cannot) and starts the threads (with Redis:
+  /// start() does).
   Jobs(Metrics& metrics, JobsOptions options);
   ~Jobs();
   Jobs(const Jobs&) = delete;
   Jobs& operator=(const Jobs&) = delete;
 
   /// Queues a job ("j1", "j2", ...); throws RequestError(kLimit, 429) when max_jobs are pending.
-  std::string submit(const std::string& kind, Work work);
+  /// With Redis the job is queued as `payload` (the factory makes its work where it runs).
+  std::string submit(const std::string& kind, Work work, const nlohmann::json& payload = {});
+  /// With Redis: starts the threads, which take jobs from the shared queue.
+  void start(Factory factory);
+  /// With Redis: moves a dead instance's in-flight jobs back to the queue.
+  void requeue_instance(const std::string& instance);
   /// The GET /api/jobs/{id} body, or nullopt.
   std::optional<nlohmann::json> get(const std::string& id) const;
   std::optional<std::filesystem::path> file(const std::string& id, const std::string& name) const;
@@ -73,16 +91,29 @@ class Jobs {
   void shutdown();
 
  private:
-  struct Job;
+  struct Job {
+    JobRecord record;
+    Work work;
+    bool deleted = false;                          // DELETE while running: cancelled, nothing kept
+    std::chrono::steady_clock::time_point shared;  // with Redis: when progress was last stored
+  };
   class Context;
+  static void block_sigpipe();  // the job threads (ffmpeg pipes: EPIPE, not a signal)
   void worker();
   void run(Job& job);
+  // With Redis (defined in redis_jobs.cpp).
+  void redis_worker();
+  std::shared_ptr<Job> redis_take(RedisClient& client);
+  std::string redis_submit(const std::string& kind, const nlohmann::json& payload);
+  bool requeue_stopped(Job& job);
   void save(const JobRecord& record) const;  // to the store, if any; logs a failure
   std::optional<JobRecord> record(const std::string& id) const;
 
   Metrics& metrics_;
   JobsOptions options_;
   std::unique_ptr<JobStore> store_;
+  std::unique_ptr<RedisJobQueue> redis_;
+  Factory factory_;
   rigbuild::ThreadBudget budget_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;

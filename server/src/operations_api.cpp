@@ -14,6 +14,7 @@ bool RigRegistry::remove(const std::string& id) {
   const fs::path gone = rigs_dir_ / (id + ".tmp.deleted");
   {
     std::lock_guard lock(mutex_);
+    sync(id);
     const auto it = infos_.find(id);
     if (it == infos_.end()) return false;
     if (it->second.builtin)

@@ -80,6 +80,11 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
     ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
   }
+  c.read("shared_dir", o.shared_dir);
+  if (c.has("redis")) {
+    ConfigReader& r = c.section("redis");
+    r.read("url", o.redis.url).read("prefix", o.redis.prefix).read("heartbeat", o.redis.heartbeat);
+  }
   c.reject_unknown();
   validate(o);
   return o;
@@ -130,6 +135,10 @@ void validate(const ServerOptions& o) {
   need(!o.default_rig.empty(), "default_rig: empty");
   need(o.presence_interval > 0, "presence_interval: must be positive");
   need(o.channel_idle >= 0 && o.channel_idle <= 3600, "channel_idle: must be in 0..3600 seconds");
+  need(o.redis.url.empty() || o.redis.url.starts_with("redis://"),
+       "redis.url: '" + o.redis.url + "' is not a redis:// address");
+  need(o.redis.heartbeat >= 0.05 && o.redis.heartbeat <= 60,
+       "redis.heartbeat: must be in 0.05..60 seconds");
   for (const auto& ch : o.channels) {
     check_channel_name(nlohmann::json(ch.name), "channels: name");
     need(ch.producer_token.size() >= 8,

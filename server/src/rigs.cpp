@@ -1,6 +1,7 @@
 #include "rigs.hpp"
 
 #include <chrono>
+#include <random>
 #include <regex>
 
 #include "facecast/anim/avatar.hpp"
@@ -57,6 +58,24 @@ RigInfo info_from_meta(const nlohmann::json& j) {
 
 }  // namespace
 
+std::string random_hex(int bytes) {
+  static std::mutex mutex;
+  static std::mt19937_64 rng{[] {
+    std::random_device rd;
+    std::seed_seq seq{rd(), rd(), rd(), rd(), rd(), rd()};
+    return std::mt19937_64(seq);
+  }()};
+  std::lock_guard lock(mutex);
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (int i = 0; i < bytes; ++i) {
+    const auto b = static_cast<unsigned>(rng() & 0xFF);
+    out += hex[b >> 4];
+    out += hex[b & 15];
+  }
+  return out;
+}
+
 nlohmann::json RigInfo::to_json() const {
   nlohmann::json j = {{"id", id},           {"name", name},
                       {"shapes", shapes},   {"vertices", vertices},
@@ -83,33 +102,71 @@ RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig)
   } catch (const std::exception& e) {  // an install without it still serves the default avatar
     log::warn("shipped_template_missing", {{"error", e.what()}});
   }
-  const std::regex id_re("r([0-9]{1,9})");
   for (const auto& entry : fs::directory_iterator(rigs_dir_)) {
     const std::string name = entry.path().filename().string();
-    if (!entry.is_directory()) continue;
-    std::smatch m;
-    if (!std::regex_match(name, m, id_re)) {
-      if (name.find(".tmp") != std::string::npos) fs::remove_all(entry.path(), ec);  // a crash
-      continue;
-    }
-    try {
-      const RigInfo info = info_from_meta(load_json(entry.path() / "meta.json"));
-      if (info.id != name) throw Error("meta.json: id '" + info.id + "' differs from the folder");
-      if (!fs::exists(entry.path() / "rig.glb")) throw Error("rig.glb is missing");
-      infos_[info.id] = info;
-      next_id_ = std::max(next_id_, std::stoi(m[1]) + 1);
-    } catch (const std::exception& e) {
-      log::warn("rig_skipped", {{"dir", entry.path().string()}, {"error", e.what()}});
-    }
+    // A crash leftover (only at start: another instance may be writing one now).
+    if (entry.is_directory() && name.find(".tmp") != std::string::npos)
+      fs::remove_all(entry.path(), ec);
   }
+  sync_all();
   if (!infos_.contains(default_rig_))
     throw Error("default_rig: no rig '" + default_rig_ + "' in " + rigs_dir_.string(),
                 ErrorCode::kNotFound);
   log::info("rigs_listed", {{"dir", rigs_dir_.string()}, {"count", infos_.size()}});
 }
 
+namespace {
+
+bool is_rig_id(const std::string& name) {
+  static const std::regex id_re("r[0-9a-f]{1,32}");
+  return std::regex_match(name, id_re);
+}
+
+}  // namespace
+
+std::optional<RigInfo> RigRegistry::read_folder(const fs::path& dir) const {
+  try {
+    const RigInfo info = info_from_meta(load_json(dir / "meta.json"));
+    if (info.id != dir.filename().string())
+      throw Error("meta.json: id '" + info.id + "' differs from the folder");
+    if (!fs::exists(dir / "rig.glb")) throw Error("rig.glb is missing");
+    return info;
+  } catch (const std::exception& e) {
+    log::warn("rig_skipped", {{"dir", dir.string()}, {"error", e.what()}});
+    return std::nullopt;
+  }
+}
+
+void RigRegistry::sync(const std::string& id) const {
+  if (id == kBuiltin || !is_rig_id(id)) return;
+  const fs::path dir = rigs_dir_ / id;
+  std::error_code ec;
+  const bool there = fs::exists(dir / "meta.json", ec);
+  if (there && !infos_.contains(id)) {
+    if (auto info = read_folder(dir)) infos_[id] = std::move(*info);
+  } else if (!there && infos_.contains(id)) {
+    infos_.erase(id);  // removed by another instance
+  }
+}
+
+void RigRegistry::sync_all() const {
+  std::error_code ec;
+  std::vector<std::string> seen;
+  for (const auto& entry : fs::directory_iterator(rigs_dir_, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (!is_rig_id(name)) continue;
+    seen.push_back(name);
+    if (!infos_.contains(name)) sync(name);
+  }
+  if (ec) return;  // the folder cannot be read now: keep what is known
+  std::erase_if(infos_, [&](const auto& e) {
+    return !e.second.builtin && std::find(seen.begin(), seen.end(), e.first) == seen.end();
+  });
+}
+
 std::vector<RigInfo> RigRegistry::list() const {
   std::lock_guard lock(mutex_);
+  sync_all();
   std::vector<RigInfo> out;
   out.push_back(infos_.at(kBuiltin));
   for (const auto& [id, info] : infos_)
@@ -121,6 +178,7 @@ std::vector<RigInfo> RigRegistry::list() const {
 
 std::optional<RigInfo> RigRegistry::find(const std::string& id) const {
   std::lock_guard lock(mutex_);
+  sync(id);
   const auto it = infos_.find(id);
   if (it == infos_.end()) return std::nullopt;
   return it->second;
@@ -137,6 +195,7 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
   bool loader = false;
   {
     std::lock_guard lock(mutex_);
+    sync(id);
     if (!infos_.contains(id)) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
     const auto it = loaded_.find(id);
     if (it != loaded_.end()) {
@@ -216,8 +275,7 @@ std::shared_ptr<const std::string> RigRegistry::builtin_glb() {
 }
 
 std::string RigRegistry::new_id() {
-  std::lock_guard lock(mutex_);
-  return "r" + std::to_string(next_id_++);
+  return "r" + random_hex(8);
 }
 
 static double now_seconds() {

@@ -41,6 +41,11 @@ struct LoadedRig {
   anim::Mapping mapping;
 };
 
+/// A random lowercase hex string of `bytes` bytes: ids that cannot collide between processes.
+std::string random_hex(int bytes);
+
+/// Rigs live in one folder that several instances may share: ids are random ("r" and 16 hex
+/// digits), and a rig another instance stored or deleted is seen at the next lookup (no restart).
 class RigRegistry {
  public:
   /// Creates <data>/rigs if needed and lists the stored rigs; `default_rig` is what "" resolves to.
@@ -77,7 +82,7 @@ class RigRegistry {
   std::filesystem::path rigs_dir_;
   std::string default_rig_;
   mutable std::mutex mutex_;
-  std::map<std::string, RigInfo> infos_;
+  mutable std::map<std::string, RigInfo> infos_;
   std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;
   // Writes `files` (name -> bytes), what `more` writes into the folder it is given, and meta.json
   // into <rigs>/<id> (a folder renamed into place).
@@ -85,9 +90,13 @@ class RigRegistry {
              const nlohmann::json& meta,
              const std::function<void(const std::filesystem::path&)>& more = {});
   std::string new_id();
+  // Brings infos_ up to date with the folder of rig `id` (another instance may have stored or
+  // removed it); mutex_ held.
+  void sync(const std::string& id) const;
+  void sync_all() const;
+  std::optional<RigInfo> read_folder(const std::filesystem::path& dir) const;
   std::shared_future<std::shared_ptr<const std::string>> builtin_glb_;
   bool builtin_glb_started_ = false;
-  int next_id_ = 1;
 };
 
 /// Renderers per (rig, width, height), least recently used dropped beyond `capacity`.

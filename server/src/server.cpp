@@ -7,6 +7,7 @@
 #include <boost/asio/signal_set.hpp>
 #include <thread>
 
+#include "api.hpp"
 #include "beast.hpp"
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
@@ -35,6 +36,7 @@ struct Server::Impl {
   // The channels hold the State: drop them (no thread runs any more) so that it can go.
   ~Impl() {
     rtmp.clear();  // each stops (idempotent) and lets go of its channel
+    if (state && state->redis) state->redis->stop();
     if (state) state->channels.reset();
   }
 
@@ -74,6 +76,14 @@ Server::Impl::Impl(ServerOptions options)
   state = std::make_shared<State>(std::move(options));
   state->channels = std::make_shared<ChannelRegistry>(state, ioc);
   rtmp = start_rtmp_outputs(state);
+  if (state->redis) {
+    State* s = state.get();  // the bus and the jobs stop before the State goes
+    state->redis->start(state->channels,
+                        [s](const std::string& dead) { s->jobs.requeue_instance(dead); });
+    state->jobs.start([s](const std::string& kind, const nlohmann::json& payload) {
+      return job_work(*s, kind, payload);
+    });
+  }
   const auto& o = state->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
@@ -133,7 +143,8 @@ void Server::Impl::begin_shutdown() {
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
   jobs_stopper = std::thread([s = state, rtmp = rtmp] {
     for (const auto& r : rtmp) r->stop();
-    s->jobs.shutdown();
+    s->jobs.shutdown();  // with Redis: running jobs go back to the queue
+    if (s->redis) s->redis->stop();
   });
   shutdown_deadline = std::chrono::steady_clock::now() +
                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(

@@ -18,16 +18,18 @@ State::State(ServerOptions opts)
       web_root(project_path(options.web_root)),
       three_root(project_path(options.three_root)),
       three_vrm_root(project_path(options.three_vrm_root)),
-      rigs(options.data, options.default_rig),
+      rigs(options.shared_dir.empty() ? options.data : options.shared_dir, options.default_rig),
       viseme_options(viseme::load_options()),
       anim_options(anim::load_anim_options()),
       render_options(render::load_render_options()),
       video_options(render::load_video_options()),
       renderers(options.max_renderers, options.render_contexts, render_options),
       limits{options.max_text, options.max_fps, options.max_frame_side},
+      redis(options.redis.url.empty() ? nullptr : std::make_unique<RedisBus>(options)),
       workers(static_cast<std::size_t>(options.workers)),
-      jobs(metrics, JobsOptions{options.job_workers, options.max_jobs,
-                                options.data / "jobs.sqlite3", options.job_retention}) {}
+      jobs(metrics,
+           JobsOptions{options.job_workers, options.max_jobs, options.data / "jobs.sqlite3",
+                       options.job_retention, redis.get()}) {}
 
 RigInfo State::existing_rig(const std::string& id) const {
   const std::string rig = rigs.resolve(id);

@@ -19,6 +19,7 @@
 #include "facecast/viseme/options.hpp"
 #include "jobs.hpp"
 #include "metrics.hpp"
+#include "redis_bus.hpp"
 #include "rigs.hpp"
 
 namespace facecast::server {
@@ -54,6 +55,8 @@ struct State {
   std::atomic<std::uint32_t> next_stream{1};
   std::atomic<long> connections{0};
 
+  // Many instances: set when ServerOptions::redis.url is (redis_bus.hpp).
+  std::unique_ptr<RedisBus> redis;
   // Short work: speech analysis, rendering, request bodies. Declared after everything it uses.
   boost::asio::thread_pool workers;
   Jobs jobs;

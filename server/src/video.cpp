@@ -27,7 +27,9 @@ nlohmann::json render_video(State& state, const VideoRequest& r, JobContext& ctx
                   perf.duration(), state.options.max_render_seconds);
     throw Error(buf, ErrorCode::kLimit);
   }
-  const fs::path dir = state.options.data / "renders";
+  const fs::path dir =
+      (state.options.shared_dir.empty() ? state.options.data : state.options.shared_dir) /
+      "renders";
   fs::create_directories(dir);
   const fs::path out = dir / (ctx.id() + ".mp4");
 

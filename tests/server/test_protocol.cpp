@@ -238,6 +238,10 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.http_timeout == d.http_timeout);
   CHECK(file.ws_handshake_timeout == d.ws_handshake_timeout);
   CHECK(file.ws_idle_timeout == d.ws_idle_timeout);
+  CHECK(file.shared_dir == d.shared_dir);
+  CHECK(file.redis.url == d.redis.url);
+  CHECK(file.redis.prefix == d.redis.prefix);
+  CHECK(file.redis.heartbeat == d.redis.heartbeat);
   CHECK(file.shutdown_timeout == d.shutdown_timeout);
   CHECK(file.allowed_origins == d.allowed_origins);
   CHECK(file.log_level == d.log_level);
@@ -248,7 +252,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 47);  // 46 settings + "_doc"
+  CHECK(j.size() == 49);  // 48 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
@@ -273,6 +277,9 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
   CHECK_THAT(load_error(R"({"port": 70000})"), Catch::Contains("port"));
   CHECK_THAT(load_error(R"({"lead": -1})"), Catch::Contains("lead"));
   CHECK_THAT(load_error(R"({"log_level": "loud"})"), Catch::Contains("log_level"));
+  CHECK_THAT(load_error(R"({"redis": {"url": "http://x"}})"), Catch::Contains("redis.url"));
+  CHECK_THAT(load_error(R"({"redis": {"heartbeat": 0}})"), Catch::Contains("redis.heartbeat"));
+  CHECK_THAT(load_error(R"({"redis": {"hosts": 1}})"), Catch::Contains("hosts"));
   CHECK_THAT(load_error(R"({"host": "0.0.0.0"})"), Catch::Contains("set a token"));
   CHECK(load_error(R"({"host": "0.0.0.0", "token": "t0k3n"})").empty());
   CHECK(is_loopback_host("127.0.0.1"));

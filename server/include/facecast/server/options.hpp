@@ -92,6 +92,19 @@ struct ServerOptions {
   std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)
   double presence_interval = 1.0;    // seconds between two `presence` messages of a channel
   double channel_idle = 10;          // idle-life streams of this length between utterances (0: off)
+
+  // Many instances (docs/protocol.md, "Many instances"). Rigs and rendered videos go into
+  // `shared_dir` when set (a folder every instance mounts), else under `data`.
+  std::filesystem::path shared_dir;
+  // With a Redis url, channels reach subscribers on every instance (pub/sub), rig and render jobs
+  // go through a Redis queue any instance's workers take, and job records live in Redis. Without
+  // one (the default) the instance works alone.
+  struct Redis {
+    std::string url;                   // redis://[:password@]host[:port][/db]; empty: no Redis
+    std::string prefix = "facecast:";  // of every key and pub/sub channel
+    double heartbeat = 1.0;            // seconds between heartbeats; 3 missed: the instance is dead
+  };
+  Redis redis;
 };
 
 /// Reads a server config (JSON object, every key optional, unknown keys rejected) over the
