@@ -10,7 +10,7 @@ namespace {
 std::string num(double v) {
   if (std::isinf(v)) return v > 0 ? "+Inf" : "-Inf";
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
+  std::snprintf(buf, sizeof buf, "%.15g", v);  // exact for counters and Unix times in ms
   return buf;
 }
 

@@ -79,10 +79,6 @@ bool try_display(EGLDisplay d, const char* platform, Display& out) {
 }
 
 Display open_display() {
-  // llvmpipe's texture sampling: brilinear filtering (trilinear only near the mip transition)
-  // costs about 15 % less CPU per textured frame than full trilinear, with no visible difference
-  // at portrait framing. Read when the driver initializes; the user's own setting wins.
-  setenv("GALLIVM_PERF", "brilinear", /*overwrite=*/0);
   Display out;
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   const char* forced = std::getenv("FACECAST_EGL_PLATFORM");
