@@ -17,10 +17,6 @@
 #include "gpu_rig.hpp"
 #include "shaders.hpp"
 
-#ifndef GL_PACK_INVERT_MESA  // GL_MESA_pack_invert (glext.h, not glcorearb.h)
-#define GL_PACK_INVERT_MESA 0x8758
-#endif
-
 namespace facecast::render {
 namespace {
 
@@ -102,8 +98,9 @@ struct Slot {
   } programs[2];
   GLint background_scale_at = -1;
   int width = 0, height = 0, samples = 0;
-  bool pack_invert = false;           // GL_MESA_pack_invert: glReadPixels writes the rows top first
-  std::vector<std::uint8_t> flipped;  // the bottom-up readback without it
+  bool pack_invert = false;  // GL_MESA_pack_invert: glReadPixels writes the rows top first
+  std::vector<std::uint8_t>
+      flipped;  // glReadPixels' bottom-up rows (GL_MESA_pack_invert is slower)
   std::string renderer_name;
 
   Slot(const PackedRig& p, const RenderOptions& o, const Image* background) {
@@ -121,11 +118,6 @@ struct Slot {
   void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    GLint extensions = 0;
-    glGetIntegerv(GL_NUM_EXTENSIONS, &extensions);
-    for (GLint i = 0; i < extensions && !pack_invert; ++i)
-      pack_invert = std::strcmp(reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, i)),
-                                "GL_MESA_pack_invert") == 0;
     for (const bool mask : {false, true}) {
       Program& g = programs[mask];
       g.id = detail::link_program(mask);
@@ -374,13 +366,6 @@ struct Slot {
     out.channels = 3;
     out.pixels.resize(static_cast<std::size_t>(width) * height * 3);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    if (pack_invert) {
-      glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
-      glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, out.pixels.data());
-      glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
-      check_gl("glReadPixels");
-      return;
-    }
     flipped.resize(out.pixels.size());
     glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, flipped.data());
     check_gl("glReadPixels");
