@@ -98,9 +98,8 @@ struct Slot {
   } programs[2];
   GLint background_scale_at = -1;
   int width = 0, height = 0, samples = 0;
-  bool pack_invert = false;  // GL_MESA_pack_invert: glReadPixels writes the rows top first
-  std::vector<std::uint8_t>
-      flipped;  // glReadPixels' bottom-up rows (GL_MESA_pack_invert is slower)
+  // glReadPixels' rows come bottom-up; flipped per frame (GL_MESA_pack_invert is slower).
+  std::vector<std::uint8_t> flipped;
   std::string renderer_name;
 
   Slot(const PackedRig& p, const RenderOptions& o, const Image* background) {
