@@ -58,8 +58,9 @@ void add_serve_commands(CLI::App& app) {
                   "Token required on /api and /ws (also $FACECAST_TOKEN); required off loopback");
   cmd->add_option("--web", a->web, "Folder of the web client (default: web/ of the project)")
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--redis", a->redis,
-                  "Redis for many instances: redis://[:password@]host[:port][/db] (config: redis.url)");
+  cmd->add_option(
+      "--redis", a->redis,
+      "Redis for many instances: redis://[:password@]host[:port][/db] (config: redis.url)");
   cmd->add_option("--log-level", a->log_level, "debug, info, warn or error")
       ->check(CLI::IsMember({"debug", "info", "warn", "error"}));
   cmd->callback([a] { run_serve(*a); });
