@@ -57,6 +57,15 @@ int main() {
       for (std::size_t w = 0; w < u.words.size(); ++w)
         std::printf(" %4.0f", (u.words[w].start - c.onsets[w]) * 1000);
       std::printf("\n");
+      if (c.lang == "zh") {
+        std::printf("  true:");
+        for (const auto& p : c.phones)
+          std::printf(" %s%s", p.phone.c_str(), p.end > p.start ? "" : "*");
+        std::printf("\n  mine:");
+        for (const auto& p : u.phones)
+          std::printf(" %s%s", p.phone.c_str(), p.end > p.start ? "" : "*");
+        std::printf("\n");
+      }
     }
   }
   std::printf("word-onset error, ms         words   mean    p95    max\n");

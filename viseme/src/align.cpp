@@ -159,15 +159,21 @@ std::vector<detail::Span> pauses(const Speech& a, double min) {
 }
 
 // Clears a pause of a unit's phones: a phone reaching into it keeps the side where more of it
-// lies, and as a word or syllable never spans a pause, the phones on the shorter side of it move
-// across (packed at the pause's edge).
+// lies, a phone wholly inside it (a quiet fricative the silence test took for pause) moves after
+// it, and as a word or syllable never spans a pause, the phones on the shorter side of it move
+// across (packed at the pause's edge, each keeping up to kPacked of its length).
+constexpr double kPacked = 0.03;  // seconds per moved phone at most
+
 void clear_pause(detail::UnitTime& tu, const detail::Span& gap) {
+  const auto packed = [](const detail::Span& p) { return std::min(kPacked, p.end - p.start); };
   for (auto& p : tu.phones) {
     if (p.start >= gap.end || p.end <= gap.start) continue;
-    if (gap.start - p.start < p.end - gap.end)
-      p.start = std::min(p.end, gap.end);
+    if (p.start >= gap.start && p.end <= gap.end)
+      p = {gap.end, gap.end + packed(p)};
+    else if (gap.start - p.start < p.end - gap.end)
+      p.start = gap.end;
     else
-      p.end = std::max(p.start, gap.start);
+      p.end = gap.start;
   }
   double before = 0, after = 0;
   std::size_t split = 0;  // phones [0, split) lie before the pause
@@ -179,21 +185,26 @@ void clear_pause(detail::UnitTime& tu, const detail::Span& gap) {
       after += p.end - p.start;
     }
   }
-  if (split == 0 || split == tu.phones.size()) return;
-  constexpr double kPacked = 0.03;  // seconds per moved phone at most
+  if (split == tu.phones.size()) return;
   if (before < after) {
     double t = gap.end;
     for (std::size_t k = 0; k < split; ++k) {
-      const double len = std::min(kPacked, tu.phones[k].end - tu.phones[k].start);
+      const double len = packed(tu.phones[k]);
       tu.phones[k] = {t, t + len};
       t += len;
     }
-    for (std::size_t k = split; k < tu.phones.size() && tu.phones[k].start < t; ++k)
-      tu.phones[k] = {t, std::max(t, tu.phones[k].end)}, t = tu.phones[k].end;
-  } else {
+    // The phones after the pause make room, in order.
+    for (std::size_t k = 0; k < tu.phones.size(); ++k) {
+      auto& p = tu.phones[k];
+      if (k > 0 && p.start < tu.phones[k - 1].end) {
+        const double from = tu.phones[k - 1].end;
+        p = {from, std::max(p.end, from + packed(p))};
+      }
+    }
+  } else if (split > 0) {
     double t = gap.start;
     for (std::size_t k = tu.phones.size(); k-- > split;) {
-      const double len = std::min(kPacked, tu.phones[k].end - tu.phones[k].start);
+      const double len = packed(tu.phones[k]);
       tu.phones[k] = {t - len, t};
       t -= len;
     }
@@ -225,7 +236,9 @@ detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map,
       const double refined =
           !ao.refine ? p.start
                      : refine(p.start, previous, std::max(hi, p.start), a, change, mean_change, ao);
-      if (k > 0 && std::abs(tu.phones[k - 1].end - p.start) < 1e-9) tu.phones[k - 1].end = refined;
+      // Phones that touch in the synthesized speech keep touching: the boundary moves for both.
+      if (k > 0 && std::abs(su.phones[k - 1].end - su.phones[k].start) < 1e-9)
+        tu.phones[k - 1].end = refined;
       p.start = refined;
       p.end = std::max(p.end, p.start);
       previous = p.start;
