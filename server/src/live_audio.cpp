@@ -77,6 +77,11 @@ int LiveLipsync::finish(std::vector<float>& values) {
   return emit(static_cast<double>(samples_) / input_rate(), values);
 }
 
+void LiveLipsync::add_expressions(std::string_view tags) {
+  for (auto& e : viseme::parse_expression_tags(tags, next_frame_ / fps_))
+    expressions_.push_back(std::move(e));
+}
+
 // Frames up to the analysed audio minus `delay` (or up to `until` at the end) from one
 // Performance over the recent events. The open last event is taken to go on for `delay` more,
 // so its key is not pulled towards rest before the audio says so.
@@ -91,6 +96,7 @@ int LiveLipsync::emit(double until, std::vector<float>& values) {
   viseme::Utterance u;
   u.set = set_;
   u.visemes = events_;
+  u.expressions = expressions_;
   if (until < 0 && !u.visemes.empty()) u.visemes.back().end += options_.delay;
   u.duration = std::max(analysed_, u.visemes.empty() ? 0.0 : u.visemes.back().end);
   const anim::Performance p(u, rig_->mapping, anim_);

@@ -41,6 +41,9 @@ class LiveLipsync {
   int push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values);
   /// The end of the audio: the remaining frames up to its end.
   int finish(std::vector<float>& values);
+  /// Expression tags over the audio ("(smile,40,0.5)", optionally "@time" in stream seconds); a tag
+  /// without a time starts at the next frame sent. Throws Error for a malformed tag.
+  void add_expressions(std::string_view tags);
 
   int input_rate() const { return resampler_.from_rate(); }
   std::uint64_t samples() const { return samples_; }  // received so far
@@ -62,6 +65,7 @@ class LiveLipsync {
   std::vector<float> resampled_;
   std::vector<viseme::LipsyncFrame> frames_;
   std::vector<viseme::VisemeEvent> events_;
+  std::vector<viseme::ExpressionEvent> expressions_;
   double analysed_ = 0;  // seconds of audio the analyser has decided
   std::uint64_t samples_ = 0;
   int next_frame_ = 0;

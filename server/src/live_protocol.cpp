@@ -62,8 +62,19 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const j
       have_text = true;
     } else if (key == "token") {
       token = string_field(v, "token");
+    } else if (key == "tags") {
+      text = string_field(v, "tags");
+      have_text = true;
     }
   };
+  if (type == "expression") {
+    read_fields(j, type, {"tags"}, read);
+    if (!have_text) throw Error("expression: tags: missing");
+    if (utf8_length(text) > limits.max_text)
+      throw RequestError(Code::kLimit,
+                         "tags: more than " + std::to_string(limits.max_text) + " characters");
+    return ExpressionRequest{std::move(text)};
+  }
   if (type == "subscribe" || type == "unsubscribe") {
     read_fields(j, type, {"channel"}, read);
     if (type == "subscribe") return SubscribeRequest{need_channel(channel, type)};

@@ -388,8 +388,9 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
     }
     return p;
   }
-  throw Error("type: unknown message type '" + type +
-              "' (speak, cancel, ping, append, end, subscribe, unsubscribe or produce)");
+  throw Error(
+      "type: unknown message type '" + type +
+      "' (speak, cancel, ping, append, end, subscribe, unsubscribe, produce or expression)");
 }
 
 // ---- server messages

@@ -1,6 +1,7 @@
 // The live-show messages of a WebSocket connection (docs/protocol.md, "Channels" and "Incremental
 // text"): subscribe / unsubscribe, produce (the channel's producer token), and speak / append /
 // end / cancel addressed to a channel (forwarded to its strand) or to this connection's queue.
+#include "live_audio.hpp"
 #include "log.hpp"
 #include "websocket_session.hpp"
 
@@ -62,6 +63,11 @@ bool WebSocketSession::route_live(ClientMessage& m) {
     }
     if (const auto* e = std::get_if<EndRequest>(&m)) {
       speaks_->end(*e);
+      return true;
+    }
+    if (const auto* x = std::get_if<ExpressionRequest>(&m)) {
+      if (!audio_) throw Error("expression: no live audio stream is open on this connection");
+      audio_->engine.add_expressions(x->tags);
       return true;
     }
     return false;  // this connection's own speak / cancel / ping

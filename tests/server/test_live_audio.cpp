@@ -101,3 +101,53 @@ TEST_CASE("live audio chunks stream weights back and end with stream_end", "[ws]
   c.send(nlohmann::json{{"type", "ping"}, {"t", 1}});
   CHECK(c.read_json(10)["type"] == "pong");
 }
+
+TEST_CASE("expression tags over live audio start at the next frame", "[ws][audio]") {
+  facecast::viseme::Options o;
+  o.timing = facecast::viseme::Timing::kTts;
+  const auto u = facecast::viseme::analyze("Open the big window, please", o);
+  const int rate = u.sample_rate;
+  TestServer s;
+  WsClient c(s.port());
+  REQUIRE(c.read_json(10)["type"] == "hello");
+  c.send(nlohmann::json{{"type", "expression"}, {"tags", "(surprise,63,0.1)"}});
+  auto e = c.read_json(10);
+  CHECK(e["message"].get<std::string>().find("no live audio stream") != std::string::npos);
+  const std::uint32_t n = 441, half = static_cast<std::uint32_t>(u.pcm.size() / 2);
+  std::uint32_t at = 0;
+  for (; at < half; at += n) c.send_binary(chunk(rate, at, u.pcm.data() + at, n, false));
+  c.send(nlohmann::json{{"type", "expression"}, {"tags", "(surprise,99,0.1)"}});  // out of range
+  c.send(nlohmann::json{{"type", "expression"}, {"tags", "(surprise,63,0.1)"}});
+  c.send_binary(
+      chunk(rate, at, u.pcm.data() + at, static_cast<std::uint32_t>(u.pcm.size() - at), true));
+  std::vector<float> brow;
+  std::vector<std::string> errors;
+  std::size_t names = 0, brow_index = 0;
+  for (bool ended = false; !ended;) {
+    const auto m = c.read(30);
+    REQUIRE(m);
+    if (m->text) {
+      const auto j = m->json();
+      if (j["type"] == "stream_start") {
+        names = j["names"].size() + j["extra"].size();
+        const auto& list = j["names"];
+        brow_index = static_cast<std::size_t>(std::find(list.begin(), list.end(), "browInnerUp") -
+                                              list.begin());
+        REQUIRE(brow_index < list.size());
+      }
+      if (j["type"] == "error") errors.push_back(j["message"]);
+      ended = j["type"] == "stream_end";
+      continue;
+    }
+    const auto h = facecast::server::read_header(m->data);
+    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
+    for (std::uint32_t k = 0; k < h.count; ++k) brow.push_back(values[k * names + brow_index]);
+  }
+  REQUIRE(errors.size() == 1);
+  CHECK(errors[0].find("intensity 0..63") != std::string::npos);
+  // The brows stay down until the tag arrived (about half the audio), then rise and hold.
+  REQUIRE(brow.size() > 60);
+  const std::size_t before = static_cast<std::size_t>(0.3 * static_cast<double>(brow.size()));
+  CHECK(*std::max_element(brow.begin(), brow.begin() + static_cast<long>(before)) < 0.02f);
+  CHECK(brow.back() > 0.5f);
+}

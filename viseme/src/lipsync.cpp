@@ -136,18 +136,17 @@ void append_lipsync_events(const std::vector<LipsyncFrame>& frames, VisemeSet se
   }
 }
 
-namespace {
-
-// "(name,intensity,seconds)@time ..." -> expression events.
-std::vector<ExpressionEvent> parse_tags(std::string_view tags) {
+std::vector<ExpressionEvent> parse_expression_tags(std::string_view tags, double now) {
   std::vector<ExpressionEvent> out;
   std::istringstream in{std::string(tags)};
   for (std::string tok; in >> tok;) {
-    const auto close = tok.find(")@");
+    const auto close = tok.find(')');
     const auto c1 = tok.find(','), c2 = tok.find(',', c1 == std::string::npos ? 0 : c1 + 1);
+    const bool timed = close != std::string::npos && tok.compare(close, 2, ")@") == 0;
     if (tok.front() != '(' || close == std::string::npos || c1 == std::string::npos ||
-        c2 == std::string::npos || c2 > close)
-      throw Error("expression tag '" + tok + "': expected (name,intensity,seconds)@time");
+        c2 == std::string::npos || c2 > close || (!timed && (now < 0 || close + 1 != tok.size())))
+      throw Error("expression tag '" + tok + "': expected (name,intensity,seconds)" +
+                  (now < 0 ? "@time" : "[@time]"));
     ExpressionEvent e;
     e.name = tok.substr(1, c1 - 1);
     const auto& known = detail::tables().expressions;
@@ -157,18 +156,16 @@ std::vector<ExpressionEvent> parse_tags(std::string_view tags) {
     try {
       e.intensity = std::stoi(tok.substr(c1 + 1, c2 - c1 - 1));
       e.ramp = std::stod(tok.substr(c2 + 1, close - c2 - 1));
-      e.start = std::stod(tok.substr(close + 2));
+      e.start = timed ? std::stod(tok.substr(close + 2)) : now;
     } catch (const std::exception&) {
       throw Error("expression tag '" + tok + "': intensity, seconds and time must be numbers");
     }
-    if (e.intensity < 0 || e.intensity > 63 || e.ramp < 0 || e.start < 0)
+    if (e.intensity < 0 || e.intensity > 63 || !(e.ramp >= 0) || !(e.start >= 0))
       throw Error("expression tag '" + tok + "': intensity 0..63, seconds and time >= 0");
     out.push_back(std::move(e));
   }
   return out;
 }
-
-}  // namespace
 
 Utterance lipsync(const Audio& audio, const Options& options, const LipsyncOptions& lo,
                   std::string_view tags) {
@@ -186,7 +183,7 @@ Utterance lipsync(const Audio& audio, const Options& options, const LipsyncOptio
   });
   if (!speech) throw Error("lip-sync: the audio holds no speech (all silent)");
   for (auto& e : u.visemes) e.end = std::min(e.end, u.duration);
-  u.expressions = parse_tags(tags);
+  u.expressions = parse_expression_tags(tags);
   u.pcm = to_pcm16(audio.samples);
   u.sample_rate = audio.sample_rate;
   return u;

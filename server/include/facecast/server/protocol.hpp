@@ -117,12 +117,19 @@ struct EndRequest {
   std::string id, channel;
 };
 
+/// Expression tags over this connection's open live audio stream (docs/protocol.md, "Live audio
+/// in").
+struct ExpressionRequest {
+  std::string tags;
+};
+
 struct PingRequest {
   nlohmann::json t;  // echoed (null when absent)
 };
 
-using ClientMessage = std::variant<SpeakRequest, CancelRequest, PingRequest, SubscribeRequest,
-                                   UnsubscribeRequest, ProduceRequest, AppendRequest, EndRequest>;
+using ClientMessage =
+    std::variant<SpeakRequest, CancelRequest, PingRequest, SubscribeRequest, UnsubscribeRequest,
+                 ProduceRequest, AppendRequest, EndRequest, ExpressionRequest>;
 
 struct ProtocolLimits {
   std::size_t max_text = 2000;  // characters (code points) of text

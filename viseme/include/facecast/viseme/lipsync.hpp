@@ -111,6 +111,11 @@ void append_lipsync_events(const std::vector<LipsyncFrame>& frames, VisemeSet se
                            const LipsyncOptions& options, double hop,
                            std::vector<VisemeEvent>& events);
 
+/// Expression tags "(name,intensity,seconds)@time ..." -> events (ramps as in the text path). A tag
+/// without "@time" starts at `now`; with `now` < 0 the time is required. Throws Error naming the
+/// tag (malformed, unknown expression, out of range).
+std::vector<ExpressionEvent> parse_expression_tags(std::string_view tags, double now = -1);
+
 /// Audio-only lip-sync of a whole signal (the analyser run over it): an Utterance with visemes in
 /// options.set (auto: oculus), no phones or words, the audio as pcm. `tags` (optional) holds
 /// expression tags with their times, "(smile,40,0.5)@1.2 (smile,0,0.3)@3": ramps as in the text
