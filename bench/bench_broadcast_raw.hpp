@@ -1,10 +1,11 @@
 #pragma once
 // The subscribers of bench_server's broadcast case, made cheap enough that 10,000 of them fit on
 // the same 2 cores as the server, so the figure measures the server, not the load generator:
-//  - a few reader threads, each with one epoll set, run from the first connection on: a
-//    subscriber's socket is read as soon as it exists, so no early subscriber's queue on the
-//    server fills while the others connect (the server's slow-client rule stays: a subscriber
-//    that really does not read is closed with 1008, and the bench counts it);
+//  - a few reader threads, each with one epoll set polled every 2 ms (not woken by each write),
+//    run from the first connection on: a subscriber's socket is read as soon as it exists, so no
+//    early subscriber's queue on the server fills while the others connect (the server's
+//    slow-client rule stays: a subscriber that really does not read is closed with 1008, and the
+//    bench counts it);
 //  - connections are opened non-blocking at the ramp's pace; their WebSocket handshakes and
 //    subscribes complete on the reader threads, in parallel;
 //  - reads of up to 64 KB at a time, WebSocket frames walked by their headers only (server frames
