@@ -257,10 +257,17 @@ void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
   double peak = 0;
   const auto sample_rss = [&] { peak = std::max(peak, rss_mb(pid, "VmRSS:")); };
   subs.connect(a.subscribers - 1, a.ramp);
-  // The last handshakes and subscribe answers (at most 30 s more).
-  for (int i = 0; i < 300 && subs.subscribed() + subs.failed() < a.subscribers - 1; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (i % 10 == 0) sample_rss();
+  // The last handshakes and subscribe answers: until all are in, or 10 s without progress (a
+  // starved server accepts slowly; a connection whose SYN was dropped retries after 1, 3, 7 s).
+  for (auto [done, since] = std::pair{-1, Clock::now()};
+       subs.subscribed() + subs.failed() < a.subscribers - 1 &&
+       Clock::now() - since < std::chrono::seconds(10);) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    sample_rss();
+    if (const int now = subs.subscribed() + subs.failed(); now != done) {
+      done = now;
+      since = Clock::now();
+    }
   }
   while (!producer->subscribed && !producer->failed)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
