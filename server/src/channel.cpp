@@ -28,9 +28,6 @@ void Channel::subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who) 
   net::post(strand_, [self = shared_from_this(), member, who = std::move(who)] {
     const auto m = who.lock();
     if (!m || self->closed_) return;
-    // What was broadcast before this subscriber joined goes to the others only (on_air_ already
-    // holds its stream_start).
-    self->flush();
     if (!self->index_.contains(member)) {
       self->index_[member] = self->members_.size();
       self->members_.emplace_back(member, who);
@@ -169,22 +166,10 @@ void Channel::set_remote_subscribers(long n) {
 }
 
 // One shared buffer for everyone: delivering copies the OutMessage (a shared_ptr), never the
-// bytes. The messages of one strand handler go out together, right after it (flush()).
+// bytes. Members that are gone are skipped; they unsubscribe when they close.
 void Channel::broadcast(const OutMessage& message) {
-  pending_.push_back(message);
-  if (flush_posted_) return;
-  flush_posted_ = true;
-  net::post(strand_, [self = shared_from_this()] { self->flush(); });
-}
-
-// Members that are gone are skipped; they unsubscribe when they close.
-void Channel::flush() {
-  flush_posted_ = false;  // a posted flush that finds nothing pending does nothing
-  if (pending_.empty()) return;
-  const auto batch = std::make_shared<const std::vector<OutMessage>>(std::move(pending_));
-  pending_.clear();
   for (const auto& [id, who] : members_) {
-    if (const auto m = who.lock()) m->deliver_batch(batch);
+    if (const auto m = who.lock()) m->deliver(message);
   }
 }
 

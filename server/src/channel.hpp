@@ -7,8 +7,6 @@
 //
 // Threads: members_, on_air_ and the SpeakQueue live on the channel's strand; every public call
 // posts there. A subscriber receives through deliver(), which posts to the subscriber's strand.
-// What one strand handler broadcasts (a pacer tick's audio chunk and weights message) reaches each
-// subscriber as one batch: one post per subscriber per tick, not per message.
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -31,12 +29,6 @@ class ChannelMember {
   virtual ~ChannelMember() = default;
   /// Thread-safe: queues `message` on the member's own strand.
   virtual void deliver(OutMessage message) = 0;
-  /// Messages in order, shared by every member of the channel (one handoff for all of them).
-  using Batch = std::shared_ptr<const std::vector<OutMessage>>;
-  /// Thread-safe: queues every message of `batch`, in order.
-  virtual void deliver_batch(const Batch& batch) {
-    for (const auto& m : *batch) deliver(m);
-  }
 };
 
 class Channel : public StreamSink, public std::enable_shared_from_this<Channel> {
@@ -77,7 +69,6 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
 
  private:
   void broadcast(const OutMessage& message);
-  void flush();
   void presence_changed();
   void maybe_idle();
 
@@ -87,10 +78,8 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   std::shared_ptr<SpeakQueue> queue_;
   std::vector<std::pair<std::uint64_t, std::weak_ptr<ChannelMember>>> members_;
   std::unordered_map<std::uint64_t, std::size_t> index_;  // member id -> position in members_
-  std::vector<OutMessage> pending_;  // broadcast during this strand handler, not yet delivered
-  bool flush_posted_ = false;
-  std::optional<OutMessage> on_air_;         // stream_start of what plays
-  std::optional<std::string> on_air_id_;     // its utterance id
+  std::optional<OutMessage> on_air_;                      // stream_start of what plays
+  std::optional<std::string> on_air_id_;                  // its utterance id
   std::optional<OutMessage> remote_on_air_;  // stream_start of what another instance plays
   std::chrono::steady_clock::time_point remote_last_;  // its last message
   std::weak_ptr<ChannelMember> producer_;              // the last WebSocket producer

@@ -103,10 +103,4 @@ void WebSocketSession::deliver(OutMessage message) {
             });
 }
 
-void WebSocketSession::deliver_batch(const Batch& batch) {
-  net::post(ws_.get_executor(), [self = shared_from_this(), batch] {
-    for (const auto& m : *batch) self->send(m);
-  });
-}
-
 }  // namespace facecast::server

@@ -44,7 +44,6 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void send_error(const std::optional<std::string>& id, const Problem& problem) override;
   // ChannelMember (thread-safe)
   void deliver(OutMessage message) override;
-  void deliver_batch(const Batch& batch) override;
 
  private:
   // Channels and incremental text (websocket_live.cpp): true when `m` was one of theirs.
