@@ -14,8 +14,10 @@
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -195,59 +197,132 @@ double percentile(std::vector<float> v, double p) {
 
 }  // namespace
 
+std::string http_get(unsigned short port, const std::string& target) {
+  net::io_context ioc;
+  beast::tcp_stream stream(ioc);
+  stream.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+  beast::http::request<beast::http::empty_body> req{beast::http::verb::get, target, 11};
+  req.set(beast::http::field::host, "127.0.0.1");
+  beast::http::write(stream, req);
+  beast::flat_buffer buf;
+  beast::http::response<beast::http::string_body> res;
+  beast::http::read(stream, buf, res);
+  return res.body();
+}
+
+namespace {
+
+// The value of Prometheus sample `name` (with its labels, if any), NaN when absent.
+double metric(const std::string& metrics, const std::string& name) {
+  const auto p = metrics.find("\n" + name + " ");
+  return p == std::string::npos ? NAN : std::stod(metrics.substr(p + name.size() + 2));
+}
+
+double self_cpu_s() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_utime.tv_sec + ru.ru_stime.tv_sec +
+         1e-6 * (ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
+double load1() {
+  double load[3] = {0, 0, 0};
+  return getloadavg(load, 3) < 0 ? -1 : load[0];
+}
+
+void print_counts(const char* what, const RawSubscribers::Counts& c) {
+  std::printf(
+      "  %s: %llu frames, %.3f %% within 50 ms of schedule, %llu streams seen, %llu "
+      "frames missing (dropped by the server)\n",
+      what, static_cast<unsigned long long>(c.frames),
+      100.0 * c.on_time / std::max<std::uint64_t>(1, c.frames),
+      static_cast<unsigned long long>(c.streams), static_cast<unsigned long long>(c.gaps));
+  std::printf("    lateness: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
+              1e3 * percentile(c.lateness, 50), 1e3 * percentile(c.lateness, 99),
+              1e3 * percentile(c.lateness, 99.9), 1e3 * percentile(c.lateness, 100));
+}
+
+}  // namespace
+
 void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
+  const double lead = 0.1;  // the server's default
+  // The subscribers' reader threads run from the first connection on (bench_broadcast_raw.hpp).
+  RawSubscribers subs(port, a.channel, std::max(1, a.client_threads), a.fps, lead);
   net::io_context ioc;
   auto producer = std::make_shared<Viewer>(ioc, a, port, true);
   auto work = net::make_work_guard(ioc);
   std::thread producer_thread([&] { ioc.run(); });
   net::post(ioc, [producer] { producer->start(); });
   const auto t_connect = Clock::now();
-  // The other subscribers: raw sockets read by a few epoll threads (bench_broadcast_raw.hpp).
-  RawSubscribers subs(port, a.channel, a.subscribers - 1, a.ramp, std::max(1, a.client_threads),
-                      a.fps, 0.1);
+  double peak = 0;
+  const auto sample_rss = [&] { peak = std::max(peak, rss_mb(pid, "VmRSS:")); };
+  subs.connect(a.subscribers - 1, a.ramp);
+  // The last handshakes and subscribe answers: until all are in, or 10 s without progress (a
+  // starved server accepts slowly; a connection whose SYN was dropped retries after 1, 3, 7 s).
+  for (auto [done, since] = std::pair{-1, Clock::now()};
+       subs.subscribed() + subs.failed() < a.subscribers - 1 &&
+       Clock::now() - since < std::chrono::seconds(10);) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    sample_rss();
+    if (const int now = subs.subscribed() + subs.failed(); now != done) {
+      done = now;
+      since = Clock::now();
+    }
+  }
   while (!producer->subscribed && !producer->failed)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  std::printf("\nbroadcast: %d subscribed in %.1f s, server RSS %.0f MB\n", subs.connected() + 1,
-              secs(Clock::now() - t_connect), rss_mb(pid, "VmRSS:"));
-  subs.start();
-  std::this_thread::sleep_for(std::chrono::seconds(1));  // the subscribe answers
-  const double cpu0 = cpu_s(pid);
+  sample_rss();
+  std::printf(
+      "\nbroadcast: %d of %d subscribed in %.1f s (%d failed to connect), server RSS "
+      "%.0f MB\n",
+      subs.subscribed() + (producer->subscribed ? 1 : 0), a.subscribers,
+      secs(Clock::now() - t_connect), subs.failed(), rss_mb(pid, "VmRSS:"));
+  std::fflush(stdout);
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const double load_before = load1();
+  const double cpu0 = cpu_s(pid), self0 = self_cpu_s();
   const auto t0 = Clock::now();
+  subs.begin_show();
   producer->speak_now(
       t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(a.seconds)));
-  double peak = 0;
   while (!producer->finished && !producer->failed) {
     std::this_thread::sleep_for(std::chrono::seconds(1));
-    peak = std::max(peak, rss_mb(pid, "VmRSS:"));
+    sample_rss();
   }
   std::this_thread::sleep_for(std::chrono::seconds(1));  // the last frames
+  subs.end_show();
   const double wall = secs(Clock::now() - t0);
-  const double cpu = cpu_s(pid) - cpu0;
+  const double cpu = cpu_s(pid) - cpu0, self = self_cpu_s() - self0;
+  const double load_after = load1();
   RawSubscribers::Totals t = subs.stop();
   work.reset();
   ioc.stop();
   producer_thread.join();
-  t.frames += producer->frames;
-  t.on_time += producer->on_time;
-  t.streams += producer->streams;
-  t.lateness.insert(t.lateness.end(), producer->lateness.begin(), producer->lateness.end());
-  double load[3] = {0, 0, 0};
-  if (getloadavg(load, 3) < 0) load[0] = -1;
+  t.show.frames += producer->frames;
+  t.show.on_time += producer->on_time;
+  t.show.streams += producer->streams;
+  t.show.lateness.insert(t.show.lateness.end(), producer->lateness.begin(),
+                         producer->lateness.end());
+  const std::string m = http_get(port, "/metrics");
+  std::printf("  %d subscribers x %.0f s of %.0f fps weights + audio (%d client threads)%s%s\n",
+              a.subscribers, wall, a.fps, std::max(1, a.client_threads),
+              producer->error.empty() ? "" : "; producer: ", producer->error.c_str());
+  print_counts("while connecting (idle life)", t.ramp);
+  print_counts("show", t.show);
   std::printf(
-      "  %d subscribers x %.0f s of %.0f fps weights + audio: %llu streams seen, %llu frames, "
-      "%d connections closed%s%s\n",
-      a.subscribers, wall, a.fps, static_cast<unsigned long long>(t.streams),
-      static_cast<unsigned long long>(t.frames), t.closed,
-      producer->error.empty() ? "" : "; producer: ", producer->error.c_str());
-  std::printf("  frames within 50 ms of schedule: %.3f %%\n",
-              100.0 * t.on_time / std::max<std::uint64_t>(1, t.frames));
-  std::printf("  lateness: p50 %.1f ms, p99 %.1f ms, p99.9 %.1f ms, max %.1f ms\n",
-              1e3 * percentile(t.lateness, 50), 1e3 * percentile(t.lateness, 99),
-              1e3 * percentile(t.lateness, 99.9), 1e3 * percentile(t.lateness, 100));
+      "  subscribers: %d connected, %d failed to connect, %d closed by the server (%d as "
+      "slow clients, 1008); server counters: %.0f slow clients closed, %.0f frames "
+      "dropped\n",
+      t.connected + 1, t.failed, t.closed, t.closed_slow,
+      metric(m, "facecast_slow_clients_closed_total"),
+      metric(m, "facecast_frames_dropped_total{output=\"weights\"}"));
   std::printf(
-      "  server RSS peak %.0f MB (VmHWM %.0f MB), server CPU %.0f %% of one core, load average "
-      "%.1f\n",
-      peak, rss_mb(pid, "VmHWM:"), 100.0 * cpu / wall, load[0]);
+      "  server: RSS peak %.0f MB (VmHWM %.0f MB), CPU %.1f s = %.0f %% of one core, "
+      "%.2f us per frame delivered\n",
+      peak, rss_mb(pid, "VmHWM:"), cpu, 100.0 * cpu / wall,
+      1e6 * cpu / std::max<std::uint64_t>(1, t.show.frames));
+  std::printf("  load generator CPU %.0f %% of one core; load average %.1f before, %.1f after\n",
+              100.0 * self / wall, load_before, load_after);
   std::fflush(stdout);
 }
 

@@ -287,19 +287,6 @@ class Client : public std::enable_shared_from_this<Client> {
   double fps_ = 60, lead_ = 0.1;
 };
 
-std::string http_get(unsigned short port, const std::string& target) {
-  net::io_context ioc;
-  beast::tcp_stream stream(ioc);
-  stream.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-  beast::http::request<beast::http::empty_body> req{beast::http::verb::get, target, 11};
-  req.set(beast::http::field::host, "127.0.0.1");
-  beast::http::write(stream, req);
-  beast::flat_buffer buf;
-  beast::http::response<beast::http::string_body> res;
-  beast::http::read(stream, buf, res);
-  return res.body();
-}
-
 // Mean of a Prometheus histogram (sum / count), and the smallest bucket bound holding `q` of it.
 std::pair<double, double> histogram(const std::string& metrics, const std::string& name, double q) {
   const auto value = [&](const std::string& key) {
@@ -466,7 +453,7 @@ void run_weights(const Args& a, const fctest::ServeProcess& server) {
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) == 3)
     std::printf("  machine load average (1 min) at the end: %.2f\n", load[0]);
-  const std::string m = http_get(server.port(), "/metrics");
+  const std::string m = bench::http_get(server.port(), "/metrics");
   const auto ttff = histogram(m, "facecast_time_to_first_frame_seconds", 0.99);
   const auto analysis = histogram(m, "facecast_analysis_duration_seconds", 0.99);
   std::printf(
@@ -494,8 +481,8 @@ void run_frames(const Args& a, const fctest::ServeProcess& server) {
         static_cast<unsigned long long>(c.stats.errors));
     for (const auto& m : c.stats.error_messages) std::printf("    error: %s\n", m.c_str());
   }
-  const auto render =
-      histogram(http_get(server.port(), "/metrics"), "facecast_render_duration_seconds", 0.5);
+  const auto render = histogram(bench::http_get(server.port(), "/metrics"),
+                                "facecast_render_duration_seconds", 0.5);
   std::printf("  render + JPEG per frame on the server: mean %.1f ms (median <= %.0f ms)\n",
               1e3 * render.first, 1e3 * render.second);
 }

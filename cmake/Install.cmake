@@ -6,7 +6,7 @@
 #   P/share/facecast/node_modules/three/   (build/ and examples/jsm/: the client's import map)
 #   P/share/facecast/node_modules/@pixiv/three-vrm/lib/
 #   P/share/facecast/zh_lexicon.txt        (the Chinese lexicon compiled at build time)
-#   P/share/facecast/deploy/               (systemd unit, nginx config)
+#   P/share/facecast/deploy/               (systemd unit, nginx configs)
 include(GNUInstallDirs)
 set(FACECAST_SHARE ${CMAKE_INSTALL_DATADIR}/facecast)
 set(FACECAST_NODE ${CMAKE_CURRENT_SOURCE_DIR}/node_modules)
@@ -23,7 +23,7 @@ install(DIRECTORY ${FACECAST_NODE}/@pixiv/three-vrm/lib
 install(FILES ${FACECAST_NODE}/@pixiv/three-vrm/LICENSE
         DESTINATION ${FACECAST_SHARE}/node_modules/@pixiv/three-vrm)
 install(FILES ${CMAKE_BINARY_DIR}/viseme/zh_lexicon.txt DESTINATION ${FACECAST_SHARE})
-install(FILES deploy/facecast.service deploy/nginx.conf deploy/server.json
+install(FILES deploy/facecast.service deploy/nginx.conf deploy/nginx-rtmp.conf deploy/server.json
         DESTINATION ${FACECAST_SHARE}/deploy)
 
 # The .deb: installs under /usr; the unit goes where systemd looks for packaged units.

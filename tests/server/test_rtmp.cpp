@@ -1,8 +1,9 @@
 // A channel published as RTMP (H.264 + AAC) to Debian's nginx with libnginx-mod-rtmp on loopback,
 // recorded to FLV and read back with ffprobe/ffmpeg: codecs, length, and the audio/video offset
 // measured by cross-correlating the recorded pictures' motion with the motion of the weights the
-// channel sent
-// and the recorded sound's envelope with the PCM it sent (docs/algorithms.md#rtmp-out).
+// channel sent and the recorded sound's envelope with the PCM it sent
+// (docs/algorithms.md#rtmp-out). The same nginx also cuts the stream into HLS (as
+// deploy/nginx-rtmp.conf does): the playlist and its H.264 + AAC segments appear.
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -27,11 +28,14 @@ namespace {
 const char* kToken = "producer-secret-1";
 constexpr double kFps = 25;
 
-// nginx with the RTMP module, recording every stream of application "live" into `dir`/rec.
+// nginx with the RTMP module, recording every stream of application "live" into `dir`/rec and
+// cutting it into HLS segments in `dir`/hls (kept after the stream ends: hls_cleanup off).
 class Nginx {
  public:
   Nginx(const fs::path& dir, unsigned short port) {
     fs::create_directories(dir / "rec");
+    fs::remove_all(dir / "hls");  // no playlist of an earlier run
+    fs::create_directories(dir / "hls");
     std::ofstream(dir / "nginx.conf")
         << "load_module /usr/lib/nginx/modules/ngx_rtmp_module.so;\n"
            "daemon off;\nmaster_process off;\nworker_processes 1;\n"
@@ -39,7 +43,8 @@ class Nginx {
         << " info;\nevents { worker_connections 64; }\n"
         << "rtmp { server { listen 127.0.0.1:" << port
         << "; application live { live on; record all; record_unique off; record_path "
-        << (dir / "rec").string() << "; } } }\n";
+        << (dir / "rec").string() << "; hls on; hls_fragment 2s; hls_cleanup off; hls_path "
+        << (dir / "hls").string() << "; } } }\n";
     std::vector<std::string> args = {"/usr/sbin/nginx",
                                      "-p",
                                      dir.string(),
@@ -244,6 +249,23 @@ TEST_CASE("a channel publishes RTMP (H.264 + AAC) with the mouth in sync with th
       run("ffprobe -v error -show_entries format=duration -of csv=p=0 '" + flv.string() + "'"));
   CHECK(duration > sent.duration + 1.5);
   CHECK(duration < published);
+
+  // HLS: a playlist naming MPEG-TS segments that hold H.264 and AAC.
+  std::ifstream playlist(dir / "hls" / "show.m3u8");
+  REQUIRE(playlist);
+  std::string line, first_segment;
+  int segments = 0;
+  while (std::getline(playlist, line)) {
+    if (line.ends_with(".ts")) {
+      if (first_segment.empty()) first_segment = line;
+      ++segments;
+    }
+  }
+  CHECK(segments >= 2);
+  REQUIRE_FALSE(first_segment.empty());
+  CHECK_THAT(run("ffprobe -v error -show_entries stream=codec_name -of csv=p=0 '" +
+                 (dir / "hls" / first_segment).string() + "'"),
+             Catch::Contains("h264") && Catch::Contains("aac"));
 
   // Video: where the recorded pictures match the weights the channel sent.
   const int w = 80, h = 60;
