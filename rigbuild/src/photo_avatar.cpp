@@ -120,6 +120,8 @@ PhotoOptions load_photo_options() {
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
       .read("side_noise", o.side_noise)
+      .read("side_turn", o.side_turn)
+      .read("side_calibration", o.side_calibration)
       .read("rbf_smoothing", o.rbf_smoothing)
       .read("rbf_radius", o.rbf_radius)
       .read("texture_size", o.texture_size)

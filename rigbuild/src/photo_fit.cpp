@@ -27,6 +27,10 @@ struct View {
   const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
   const std::vector<std::array<Eigen::Vector3d, kLandmarkCount>>* mode_bias = nullptr;
   double noise = 1;  // this photo's landmark noise relative to the front photo's
+  // A turned head: this photo's rotation is the front photo's times a turn about the head's
+  // vertical axis (R_front Ry(turn)) instead of a free rotation.
+  bool turned = false;
+  double turn = 0;
 
   // Where the detector puts landmark k on the head with coefficients c (positions p): its vertex
   // plus the detector's convention offset for that identity.
@@ -49,6 +53,16 @@ struct View {
     return d;
   }
 };
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& x) {
+  Eigen::Matrix3d m;
+  m << 0, -x.z(), x.y(), x.z(), 0, -x.x(), -x.y(), x.x(), 0;
+  return m;
+}
+
+Eigen::Matrix3d turn_matrix(double angle) {
+  return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
 
 Eigen::Vector3d row(const anim::Positions& p, int v) {
   return p.row(v).cast<double>().transpose();
@@ -153,9 +167,14 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, n);
       for (Eigen::Index m = 0; m < K; ++m)
         J.col(m) = cam.s * R12 * view.mode(static_cast<int>(m), k);
-      Eigen::Matrix3d cross;  // d(R exp([w]x) x)/dw at w = 0 is -R [x]x
-      cross << 0, -x.z(), x.y(), x.z(), 0, -x.x(), -x.y(), x.x(), 0;
-      J.block(0, o, 2, 3) = -cam.s * R12 * cross;
+      if (view.turned) {
+        // R = R_front exp([w]x) Ry(turn): the front photo's w, and the turn.
+        const Eigen::Vector3d y = Eigen::AngleAxisd(view.turn, Eigen::Vector3d::UnitY()) * x;
+        J.block(0, K, 2, 3) = -cam.s * views[0].camera.R.topRows<2>() * skew(y);
+        J.col(o) = cam.s * R12 * Eigen::Vector3d::UnitY().cross(x);
+      } else {
+        J.block(0, o, 2, 3) = -cam.s * R12 * skew(x);  // d(R exp([w]x) x)/dw at 0: -R [x]x
+      }
       J.col(o + 3) = R12 * x;
       J.block(0, o + 4, 2, 2) = Eigen::Matrix2d::Identity();
       J *= unit;
@@ -164,13 +183,22 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       g += J.transpose() * r;
     }
   }
+  for (std::size_t vi = 0; vi < views.size(); ++vi)
+    if (views[vi].turned) {  // its other two rotation parameters are not used
+      const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
+      H(o + 1, o + 1) += 1;
+      H(o + 2, o + 2) += 1;
+    }
   const Eigen::VectorXd dx = H.ldlt().solve(g);
   c += dx.head(K);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     OrthoCamera& cam = views[vi].camera;
     const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
     const Eigen::Vector3d w = dx.segment<3>(o);
-    if (w.norm() > 0)
+    if (views[vi].turned) {  // after the front photo's camera (vi = 0) moved
+      views[vi].turn += dx(o);
+      cam.R = views[0].camera.R * turn_matrix(views[vi].turn);
+    } else if (w.norm() > 0)
       cam.R = cam.R * Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
     cam.s += dx(o + 3);
     cam.t += Eigen::Vector2d(dx(o + 4), -dx(o + 5));
@@ -188,13 +216,17 @@ double rms_pixels(const anim::Positions& p, const Eigen::VectorXd& c, const View
 
 // The 3D move of each landmark vertex that puts it exactly on the photos' points: per vertex,
 // the least-squares move over the photos that use it (s R12 d = residual), with a small ridge so
-// that the depth a single photo does not see stays put.
+// that the depth a single photo does not see stays put. `side_moves` false: the front photo's
+// only (the side photo's depth then comes from the modes alone: its residuals are mostly the
+// detector's noise, which a depth move amplifies by 1 / sin(turn)).
 std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const Eigen::VectorXd& c,
-                                         const std::vector<View>& views, double* rms) {
+                                         const std::vector<View>& views, bool side_moves,
+                                         double* rms) {
   std::vector<int> order;
   std::vector<Eigen::Matrix3d> AtA;
   std::vector<Eigen::Vector3d> Atb;
   for (const auto& view : views) {
+    if (&view != &views.front() && !side_moves) continue;
     const Eigen::Matrix<double, 2, 3> A = view.camera.s / view.noise * view.camera.R.topRows<2>();
     for (int k : view.used) {
       const int v = view.vertex[static_cast<std::size_t>(k)];
@@ -253,6 +285,14 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   fit.coefficients = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tmpl.modes.size()));
   anim::Positions p = X0;
   for (auto& v : views) fit_camera(p, fit.coefficients, v);
+  if (side && options.side_turn) {
+    // The side photo's camera as the front's with the head turned: the turn is the yaw of the
+    // relative rotation.
+    const Eigen::Matrix3d rel = views[0].camera.R.transpose() * views[1].camera.R;
+    views[1].turned = true;
+    views[1].turn = std::atan2(rel(0, 2), rel(0, 0));
+    views[1].camera.R = views[0].camera.R * turn_matrix(views[1].turn);
+  }
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
     if (it > 0)
       for (auto& v : views) match_contour(tmpl, p, candidates, v);
@@ -264,7 +304,8 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   fit.front_rms = rms_pixels(p, fit.coefficients, views[0]);
   if (side) fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
 
-  const auto centres = calibration_moves(p, fit.coefficients, views, &fit.moved_rms);
+  const auto centres =
+      calibration_moves(p, fit.coefficients, views, options.side_calibration, &fit.moved_rms);
   for (int k = 0; k < kLandmarkCount; ++k)
     for (const auto& c : centres)
       if (c.vertex == views[0].vertex[static_cast<std::size_t>(k)])

@@ -36,19 +36,21 @@ inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
 /// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
-  std::string template_path;     // --template default: a template folder or rig file ("" = none)
-  int min_face = 80;             // a face box narrower than this (pixels) is "too small"
-  int max_side = 640;            // photos are scaled down to this longest side for detection
-  double box_jitter = 0.04;      // landmarks averaged over face boxes moved by this fraction
-  int iterations = 8;            // camera / coefficient alternations
-  double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
-  double side_noise = 2.0;       // the side photo's landmark noise relative to the front's
-  double rbf_smoothing = 1.0;    // RBF regularisation: 0 moves the landmarks exactly
-  double rbf_radius = 1.2;       // RBF support radius, in inter-ocular distances of the template
-  int texture_size = 1024;       // texture height; the width is twice (face and back of head)
-  double side_gamma = 1.0;       // blend exponent on the normal's components (1: the seed's)
-  bool shapes = true;            // transfer the template's expressions onto the fitted head
-  BuildOptions build;            // that transfer (configs/rigbuild/build.json)
+  std::string template_path;      // --template default: a template folder or rig file ("" = none)
+  int min_face = 80;              // a face box narrower than this (pixels) is "too small"
+  int max_side = 640;             // photos are scaled down to this longest side for detection
+  double box_jitter = 0.04;       // landmarks averaged over face boxes moved by this fraction
+  int iterations = 8;             // camera / coefficient alternations
+  double landmark_noise = 0.01;   // landmark noise, inter-ocular distances: the modes' prior weight
+  double side_noise = 1.0;        // the side photo's landmark noise relative to the front's
+  bool side_turn = true;          // the side camera = the front's with the head turned (a yaw)
+  bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
+  double rbf_smoothing = 1.0;     // RBF regularisation: 0 moves the landmarks exactly
+  double rbf_radius = 1.2;        // RBF support radius, in inter-ocular distances of the template
+  int texture_size = 1024;        // texture height; the width is twice (face and back of head)
+  double side_gamma = 1.0;        // blend exponent on the normal's components (1: the seed's)
+  bool shapes = true;             // transfer the template's expressions onto the fitted head
+  BuildOptions build;             // that transfer (configs/rigbuild/build.json)
 };
 
 /// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
