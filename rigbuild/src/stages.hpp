@@ -117,9 +117,11 @@ Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options);
 /// Per shape: the target neutral plus the template's displacement copied vertex by vertex (in the
-/// target's frame and units), the prescribed vertices at their places.
+/// target's frame and units), the prescribed vertices at their places; another topology's floating
+/// parts move as a whole (members left still follow their nearest moving member).
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
-                                const TemplateShapes& source, const Placement& placement);
+                                const TemplateShapes& source, const Placement& placement,
+                                const Moved& moved);
 /// Per shape (none without edges): each edge's vector x_a - x_b in `copied`, #E by 3.
 std::vector<Points> edge_vectors(const std::vector<Points>& copied,
                                  const std::vector<VirtualEdge>& edges);

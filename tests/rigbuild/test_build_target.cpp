@@ -321,8 +321,13 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(left_closed > 0.15);
   CHECK(right_closed > 0.15);
   CHECK(left_other < 0.5 * left_closed);
-  // ... and close them (measured: left 138 %, lids past each other as in the avatar's own 127 %;
-  // right 66 %: issue 17's lid gap on another topology, left to close).
-  CHECK_NOFAIL(left_closed >= 0.8);
-  CHECK_NOFAIL(right_closed >= 0.8);
+  // ... and close them: the gap closes by at least 80 % of the open gap, and the upper lid ends
+  // less than 60 % of that gap past the lower one. On this measure a closed lid reads over 100 %
+  // (the closing upper lid's front passes in front of the lower lid: the avatar's own blink reads
+  // 127 %); measured 148 % left, 131 % right. The two eyes alike within a quarter.
+  CHECK(left_closed >= 0.8);
+  CHECK(right_closed >= 0.8);
+  CHECK(left_closed <= 1.6);
+  CHECK(right_closed <= 1.6);
+  CHECK(std::min(left_closed, right_closed) >= 0.75 * std::max(left_closed, right_closed));
 }

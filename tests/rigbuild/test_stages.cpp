@@ -119,7 +119,7 @@ TEST_CASE("placement: still vertices stay, a part the template moves rigidly is 
   CHECK(p.components[1].placement == "rigid");
   // The copy puts the rigid part where its motion takes it and the skin's moved vertex where the
   // template's is.
-  const auto copied = copy_motion(rest, c, source, p);
+  const auto copied = copy_motion(rest, c, source, p, moved);
   CHECK((copied[0].row(7) - rest.row(7) - Eigen::RowVector3d(0, 0.3, 0)).norm() < 1e-6);
   CHECK((copied[0].row(2) - rest.row(2) - Eigen::RowVector3d(0, 0, 0.2)).norm() < 1e-6);
   CHECK(p.stays(moved[0], 0));
