@@ -20,6 +20,10 @@ BuildOptions load_build_options() {
   if (o.lambda < 0) c.fail("lambda", "must not be negative");
   c.read_choice("solver", o.solver,
                 {{"cholmod", SolverKind::kCholmod}, {"eigen", SolverKind::kEigenLDLT}});
+  c.section("eye_look")
+      .read("in_out", o.eye_look.in_out)
+      .read("up", o.eye_look.up)
+      .read("down", o.eye_look.down);
   c.section("contacts")
       .read("enabled", o.contacts.enabled)
       .read("margin", o.contacts.margin)

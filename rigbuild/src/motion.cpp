@@ -57,14 +57,55 @@ Eigen::RowVector3d placed_at(const Points& rest, const Correspondence& c,
          c.alignment.scale * pivot_shift * R.transpose();
 }
 
+// The members of each floating part (docs/algorithms.md#rigid-parts), anchors included.
+std::vector<std::vector<int>> floating_members(const Placement& placement) {
+  std::vector<std::vector<int>> out(placement.parts.size());
+  for (std::size_t v = 0; v < placement.part.size(); ++v) {
+    const int f = placement.part[v];
+    if (f >= 0 && placement.parts[static_cast<std::size_t>(f)].kind == PlacedPart::Kind::kFloating)
+      out[static_cast<std::size_t>(f)].push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+// A floating part of another topology moves as a whole: the members whose mapped points shape k
+// leaves still while it moves others take the copied displacement of their nearest moving member
+// (in the neutral). A lid modelled as a shell maps its front onto the template's lid and its back
+// onto still template points (the eyeball, or nothing like it); copied apart, the front layer
+// passes through the back, and the contacts then hold the lid open
+// (docs/algorithms.md#torn-layers). Where the motion fades out, the nearest moving member barely
+// moves, so still edges stay still.
+void follow_moving_members(const std::vector<int>& members, const std::vector<char>& moved,
+                           const Points& rest, Points& copied) {
+  std::vector<int> moving;
+  for (int v : members)
+    if (moved[static_cast<std::size_t>(v)]) moving.push_back(v);
+  if (moving.empty() || moving.size() == members.size()) return;
+  Points at(static_cast<Eigen::Index>(moving.size()), 3);
+  for (std::size_t i = 0; i < moving.size(); ++i)
+    at.row(static_cast<Eigen::Index>(i)) = rest.row(moving[i]);
+  const PointIndex index(std::move(at));
+  std::vector<std::uint32_t> idx;
+  std::vector<double> d2;
+  for (int v : members) {
+    if (moved[static_cast<std::size_t>(v)]) continue;
+    index.nearest(rest.row(v).data(), 1, idx, d2);
+    const int u = moving[idx[0]];
+    copied.row(v) = rest.row(v) + copied.row(u) - rest.row(u);
+  }
+}
+
 }  // namespace
 
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
-                                const TemplateShapes& source, const Placement& placement) {
+                                const TemplateShapes& source, const Placement& placement,
+                                const Moved& moved) {
   // Each virtual edge follows the copy: the target gap e changes as the template gap r does,
   // e' = e + (r' - r) = copy_a - copy_b (docs/algorithms.md#virtual-edges); the change is not
   // scaled by |e| / |r|, which breaks translations such as jawForward at thin mouth corners.
   const std::vector<int> prescribed = placement.prescribed();
+  const std::vector<std::vector<int>> floating =
+      placement.parts_move_whole ? floating_members(placement) : std::vector<std::vector<int>>{};
   std::vector<Points> copied(source.size(), rest);
   parallel_for(source.size(), [&](std::size_t k) {
     for (Eigen::Index v = 0; v < rest.rows(); ++v) {
@@ -72,6 +113,7 @@ std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
       copied[k].row(v) += c.alignment.scale * (sp.on(source.shapes[k]) - sp.on(source.rest)) *
                           c.alignment.R.transpose();
     }
+    for (const auto& members : floating) follow_moving_members(members, moved[k], rest, copied[k]);
     // Placed vertices have their places; the copy takes them too, so the edges and contacts at
     // them measure from where they are.
     for (const int v : prescribed) copied[k].row(v) = placed_at(rest, c, placement, v, k);

@@ -1,6 +1,11 @@
 // The template's parts and rigid parts. See docs/algorithms.md#rigid-parts.
+#include <Eigen/Geometry>
+#include <Eigen/QR>
 #include <algorithm>
+#include <cmath>
 #include <map>
+#include <optional>
+#include <string>
 
 #include "stages.hpp"
 
@@ -91,6 +96,88 @@ RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, doub
   }
   for (std::size_t p = 0; p < part_members.size(); ++p) out.motion[p] = fit(part_members[p]);
   return out;
+}
+
+Sphere fit_sphere(const Points& p) {
+  // |p|^2 = 2 c.p + (r^2 - |c|^2): linear in (c, r^2 - |c|^2).
+  const auto n = p.rows();
+  Eigen::MatrixXd a(n, 4);
+  a.leftCols(3) = 2 * p;
+  a.col(3).setOnes();
+  const Eigen::VectorXd b = p.rowwise().squaredNorm();
+  const Eigen::Vector4d x = a.colPivHouseholderQr().solve(b);
+  Sphere s;
+  s.centre = x.head<3>().transpose();
+  s.radius = std::sqrt(std::max(x(3) + s.centre.squaredNorm(), 0.0));
+  s.rms = std::sqrt(((p.rowwise() - s.centre).rowwise().norm().array() - s.radius).square().mean());
+  return s;
+}
+
+std::optional<Sphere> ball(const Points& p) {
+  if (p.rows() < 8) return std::nullopt;
+  const Sphere s = fit_sphere(p);
+  const Eigen::RowVector3d extent = p.colwise().maxCoeff() - p.colwise().minCoeff();
+  if (!(s.radius > 0) || s.rms > kSphereResidual * s.radius || extent.minCoeff() < s.radius)
+    return std::nullopt;
+  return s;
+}
+
+namespace {
+
+double angle(const Eigen::Matrix3d& r) {
+  return std::acos(std::clamp((r.trace() - 1) / 2, -1.0, 1.0));
+}
+
+// Per shape, the eyeball's turn about `centre` (template frame: +x the subject's left, +y up, +z
+// forward) that an eyeLook shape of its side asks for; identity for every other shape.
+std::vector<Similarity> gaze(const anim::Rig& tmpl, const Eigen::RowVector3d& centre, bool left,
+                             const EyeLookOptions& look) {
+  const double deg = std::acos(-1.0) / 180, side = left ? 1 : -1;
+  const std::string suffix = left ? "Left" : "Right";
+  const std::pair<const char*, Eigen::AngleAxisd> turns[] = {
+      {"eyeLookIn", Eigen::AngleAxisd(-side * look.in_out * deg, Eigen::Vector3d::UnitY())},
+      {"eyeLookOut", Eigen::AngleAxisd(side * look.in_out * deg, Eigen::Vector3d::UnitY())},
+      {"eyeLookUp", Eigen::AngleAxisd(-look.up * deg, Eigen::Vector3d::UnitX())},
+      {"eyeLookDown", Eigen::AngleAxisd(look.down * deg, Eigen::Vector3d::UnitX())}};
+  std::vector<Similarity> out(tmpl.shapes.size());
+  for (std::size_t k = 0; k < out.size(); ++k)
+    for (const auto& [name, turn] : turns)
+      if (tmpl.shapes[k].name == std::string(name) + suffix) {
+        out[k].R = turn.toRotationMatrix();
+        out[k].t = centre.transpose() - out[k].R * centre.transpose();
+      }
+  return out;
+}
+
+}  // namespace
+
+std::vector<TemplateEye> template_eyes(const anim::Rig& tmpl, const TemplateShapes& source,
+                                       const RigidParts& rigid, const EyeLookOptions& look) {
+  std::vector<TemplateEye> turned, still;
+  const double tiny = 1e-6 * diagonal(source.rest);
+  for (std::size_t part = 0; part < rigid.motion.size(); ++part) {
+    bool looks = false, moves = false;
+    for (std::size_t k = 0; k < source.size(); ++k) {
+      const Similarity& m = rigid.motion[part][k];
+      looks |= tmpl.shapes[k].name.starts_with("eyeLook") && angle(m.R) > kEyeTurn;
+      moves |= angle(m.R) > kEyeTurn || m.t.norm() > tiny;
+    }
+    std::vector<int> members;
+    for (std::size_t v = 0; v < rigid.of_vertex.size(); ++v)
+      if (rigid.of_vertex[v] == static_cast<int>(part)) members.push_back(static_cast<int>(v));
+    const Points at = rows(source.rest, members);
+    if (looks)
+      turned.push_back({static_cast<int>(part), fit_sphere(at), rigid.motion[part]});
+    else if (const auto s = ball(at); s && !moves)
+      still.push_back({static_cast<int>(part), *s, {}});
+  }
+  if (!turned.empty() || still.empty()) return turned;
+  // No shape turns the template's eyeballs: its still balls turn by the configured gaze.
+  double mid = 0;
+  for (const auto& e : still) mid += e.sphere.centre.x() / static_cast<double>(still.size());
+  if (still.size() == 1) mid = 0;
+  for (auto& e : still) e.motion = gaze(tmpl, e.sphere.centre, e.sphere.centre.x() > mid, look);
+  return still;
 }
 
 }  // namespace facecast::rigbuild

@@ -44,10 +44,42 @@ struct PartContext {
   const Correspondence& c;
   const TemplateShapes& source;
   double rigid_tolerance;
-  const RigidParts* rigid;   // another topology: the template's rigid parts
-  const SurfaceQuery* skin;  // another topology: the skin's surface
-  double median_edge = 0;    // another topology: of the target
+  const RigidParts* rigid;                         // another topology: the template's rigid parts
+  const SurfaceQuery* skin;                        // another topology: the skin's surface
+  double median_edge = 0;                          // another topology: of the target
+  const std::vector<TemplateEye>* eyes = nullptr;  // another topology: the template's eyeballs
 };
+
+// A separate eyeball mesh of another topology (docs/algorithms.md#eyes): a component that is a
+// ball where a template eyeball is (the aligned centres closer than the larger radius, the radii
+// within a factor 2) turns with that eyeball's motion about its own centre. nullopt: not an eye.
+std::optional<PlacedPart> place_eye(const PartContext& x, int component) {
+  const auto& mem = x.parts.members[static_cast<std::size_t>(component)];
+  Points at(static_cast<Eigen::Index>(mem.size()), 3);
+  for (std::size_t i = 0; i < mem.size(); ++i)
+    at.row(static_cast<Eigen::Index>(i)) = x.rest.row(mem[i]);
+  const std::optional<Sphere> found = ball(at);
+  if (!found) return std::nullopt;
+  const Sphere& s = *found;
+  const TemplateEye* best = nullptr;
+  double nearest = std::numeric_limits<double>::max();
+  for (const TemplateEye& eye : *x.eyes) {
+    const double r = x.c.alignment.scale * eye.sphere.radius;
+    const double d = (x.c.alignment.apply(eye.sphere.centre) - s.centre).norm();
+    if (d > std::max(r, s.radius) || s.radius > 2 * r || 2 * s.radius < r || d >= nearest) continue;
+    best = &eye;
+    nearest = d;
+  }
+  if (!best) return std::nullopt;
+  PlacedPart part;
+  part.kind = PlacedPart::Kind::kRigid;
+  part.component = component;
+  part.anchor = mem[0];
+  part.pivot = s.centre;
+  part.src_pivot = best->sphere.centre;
+  part.motion = best->motion;
+  return part;
+}
 
 // The template's rigid part that most of the members map onto, when at least a third of them
 // map onto one: another topology's teeth sit partly on the template's gums and lips, so the points
@@ -158,11 +190,13 @@ Placement place_components(const anim::Rig& tmpl, const Points& rest, const Face
 
   std::optional<RigidParts> rigid;
   std::optional<SurfaceQuery> skin;
+  std::optional<std::vector<TemplateEye>> eyes;
   PartContext x{rest, faces, parts, c, source, options.rigid_tolerance, nullptr, nullptr};
   if (!same_topology) {
     x.median_edge = MeshGraph(rest, faces).median_edge_length();
     x.rigid = &rigid.emplace(rigid_parts(tmpl, source, options.rigid_tolerance));
     x.skin = &skin.emplace(rest, faces, triangles_of(faces, parts, parts.skin));
+    x.eyes = &eyes.emplace(template_eyes(tmpl, source, *rigid, options.eye_look));
   }
   const auto fixed = [&](int v) { return p.role[static_cast<std::size_t>(v)] == Role::kFixed; };
   p.components.resize(parts.members.size());
@@ -173,14 +207,17 @@ Placement place_components(const anim::Rig& tmpl, const Points& rest, const Face
     // Same topology: a component with still vertices is held by them. Another topology maps the
     // small parts (teeth, eyes, lashes) less exactly, and a few still vertices would tear them:
     // only the skin is held that way; the others are placed unless all of them are still.
+    std::optional<PlacedPart> eye;
+    if (x.eyes && static_cast<int>(comp) != parts.skin) eye = place_eye(x, static_cast<int>(comp));
     const bool any_still = std::any_of(mem.begin(), mem.end(), fixed);
     const bool all_still = std::all_of(mem.begin(), mem.end(), fixed);
-    if (all_still || (any_still && (same_topology || static_cast<int>(comp) == parts.skin))) {
+    if (!eye &&
+        (all_still || (any_still && (same_topology || static_cast<int>(comp) == parts.skin)))) {
       info.placement = all_still ? "fixed" : "anchored";
       continue;
     }
-    PlacedPart part = place_part(x, static_cast<int>(comp));
-    info.placement = placement_name(part.kind);
+    PlacedPart part = eye ? std::move(*eye) : place_part(x, static_cast<int>(comp));
+    info.placement = eye ? "eye" : placement_name(part.kind);
     const bool whole = part.kind == PlacedPart::Kind::kRigid;
     for (int v : mem) {
       p.role[static_cast<std::size_t>(v)] = whole ? Role::kRigid : Role::kFloating;

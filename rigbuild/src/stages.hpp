@@ -94,6 +94,33 @@ struct RigidParts {
 };
 RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, double tolerance);
 
+/// A sphere fitted to the rows of `p` (algebraic least squares) and the RMS of |p - centre| -
+/// radius.
+struct Sphere {
+  Eigen::RowVector3d centre = Eigen::RowVector3d::Zero();
+  double radius = 0, rms = 0;
+};
+Sphere fit_sphere(const Points& p);
+
+/// A ball (an eyeball): the sphere fitted to `p` when its RMS residual is at most
+/// kSphereResidual of its radius and the points span at least the radius along every axis (not a
+/// curved strip such as a teeth row); nullopt otherwise.
+constexpr double kSphereResidual = 0.1;
+std::optional<Sphere> ball(const Points& p);
+
+/// The template's eyeballs (docs/algorithms.md#eyes): rigid parts that a shape named eyeLook*
+/// turns by more than kEyeTurn (radians), with their fitted spheres and rigid motions; when none
+/// does, its still rigid balls, each turned about its centre by `look` in its side's eyeLook
+/// shapes.
+constexpr double kEyeTurn = 0.0175;  // one degree
+struct TemplateEye {
+  int part = 0;  // into RigidParts
+  Sphere sphere;
+  std::vector<Similarity> motion;  // per shape, in template coordinates
+};
+std::vector<TemplateEye> template_eyes(const anim::Rig& tmpl, const TemplateShapes& source,
+                                       const RigidParts& rigid, const EyeLookOptions& look);
+
 /// Another topology without markers: `found` gets the automatic landmarks' markers
 /// (BuildOptions::auto_landmarks).
 Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
@@ -117,9 +144,11 @@ Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options);
 /// Per shape: the target neutral plus the template's displacement copied vertex by vertex (in the
-/// target's frame and units), the prescribed vertices at their places.
+/// target's frame and units), the prescribed vertices at their places; another topology's floating
+/// parts move as a whole (members left still follow their nearest moving member).
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
-                                const TemplateShapes& source, const Placement& placement);
+                                const TemplateShapes& source, const Placement& placement,
+                                const Moved& moved);
 /// Per shape (none without edges): each edge's vector x_a - x_b in `copied`, #E by 3.
 std::vector<Points> edge_vectors(const std::vector<Points>& copied,
                                  const std::vector<VirtualEdge>& edges);

@@ -2,16 +2,17 @@
 // EXT_meshopt_compression written directly (glTF JSON and the GLB container), and the loaders of
 // the shipped file.
 #include <meshoptimizer.h>
+#include <tiny_gltf.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "facecast/anim/avatar_document.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
-#include "facecast/core/files.hpp"
 #include "facecast/rigbuild/template.hpp"
 
 namespace facecast::rigbuild {
@@ -235,20 +236,22 @@ anim::Rig load_shipped_template() {
 
 TemplateSummary shipped_template_summary() {
   const auto path = shipped_template_path();
-  const std::string bytes = read_file(path);
-  std::uint32_t length = 0;
-  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0)
-    throw Error(path.string() + ": not a GLB file");
-  std::memcpy(&length, bytes.data() + 12, 4);
-  if (length > bytes.size() - 20) throw Error(path.string() + ": JSON chunk runs past the end");
-  const json doc = json::parse(bytes.substr(20, length), nullptr, false);
-  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
-    throw Error(path.string() + ": JSON chunk has no meshes");
+  const anim::AvatarDocument doc = anim::AvatarDocument::read(path);
+  const tinygltf::Model& m = doc.model();
+  if (m.meshes.empty() || m.meshes[0].primitives.empty())
+    throw Error(path.string() + ": meshes[0] has no primitives");
+  const tinygltf::Mesh& mesh = m.meshes[0];
+  const tinygltf::Value& names = mesh.extras.Get("targetNames");
+  if (!names.IsArray()) throw Error(path.string() + ": meshes[0].extras.targetNames is missing");
   TemplateSummary s;
-  const json& mesh = doc["meshes"][0];
-  s.shapes = mesh.at("extras").at("targetNames").get<std::vector<std::string>>();
-  const int position = mesh.at("primitives")[0].at("attributes").at("POSITION").get<int>();
-  s.vertices = doc["accessors"].at(static_cast<std::size_t>(position)).at("count").get<int>();
+  for (std::size_t i = 0; i < names.ArrayLen(); ++i)
+    s.shapes.push_back(names.Get(static_cast<int>(i)).Get<std::string>());
+  const auto& attributes = mesh.primitives[0].attributes;
+  const auto position = attributes.find("POSITION");
+  if (position == attributes.end() || position->second < 0 ||
+      static_cast<std::size_t>(position->second) >= m.accessors.size())
+    throw Error(path.string() + ": meshes[0].primitives[0] has no POSITION accessor");
+  s.vertices = static_cast<int>(m.accessors[static_cast<std::size_t>(position->second)].count);
   return s;
 }
 

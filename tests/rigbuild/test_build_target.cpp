@@ -17,6 +17,7 @@
 #include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/template.hpp"
+#include "stages.hpp"  // fit_sphere
 
 namespace fs = std::filesystem;
 using namespace facecast;
@@ -263,8 +264,7 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(validator_clean(out));
   check_kept(in, out);
   const auto after = anim::AvatarDocument::read(out);
-  // Every mesh in node order: the five face meshes (with targets or not: the eyeballs get none
-  // here), then the body's 8 vertices.
+  // Every mesh in node order: the five face meshes, then the body's 8 vertices.
   anim::Rig built = anim::make_view(after, {.all_meshes = true}).rig;
   REQUIRE(built.vertex_count() == head.vertex_count() + 8);
   built.positions.conservativeResize(head.vertex_count(), 3);
@@ -321,8 +321,72 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(left_closed > 0.15);
   CHECK(right_closed > 0.15);
   CHECK(left_other < 0.5 * left_closed);
-  // ... and close them (measured: left 138 %, lids past each other as in the avatar's own 127 %;
-  // right 66 %: issue 17's lid gap on another topology, left to close).
-  CHECK_NOFAIL(left_closed >= 0.8);
-  CHECK_NOFAIL(right_closed >= 0.8);
+  // The eyeballs (separate meshes) turn with the template's eyes about their own centres, each
+  // with its own eyeLook shapes; the lower teeth and the tongue follow the jaw.
+  const anim::Rig& layout = anim::default_avatar();
+  const auto members = [&](auto&& keep) {
+    std::vector<int> kept;
+    for (int v = 0; v < head.vertex_count(); ++v)
+      if (keep(layout.meshes[static_cast<std::size_t>(layout.mesh_of(v))].name, v))
+        kept.push_back(v);
+    return kept;
+  };
+  std::vector<int> eye_pos = members([](const std::string& m, int) { return m == "EyeLeft"; });
+  std::vector<int> eye_neg = members([](const std::string& m, int) { return m == "EyeRight"; });
+  REQUIRE(!eye_pos.empty());
+  REQUIRE(!eye_neg.empty());
+  if (head.positions(eye_pos[0], 0) < 0) std::swap(eye_pos, eye_neg);  // +x: the subject's left
+  const auto turn = [&](const std::vector<int>& eye, const anim::Positions& d) {
+    rigbuild::Points at(static_cast<Eigen::Index>(eye.size()), 3);
+    for (std::size_t i = 0; i < eye.size(); ++i)
+      at.row(static_cast<Eigen::Index>(i)) = head.positions.row(eye[i]).cast<double>();
+    const rigbuild::Sphere ball = rigbuild::fit_sphere(at);
+    int front = eye[0];  // the pupil: the vertex furthest forward
+    double radial = 0;   // the largest change of a vertex's distance from the centre
+    for (int v : eye) {
+      if (head.positions(v, 2) > head.positions(front, 2)) front = v;
+      const Eigen::RowVector3d p = head.positions.row(v).cast<double>();
+      radial = std::max(radial, std::abs((p + d.row(v).cast<double>() - ball.centre).norm() -
+                                         (p - ball.centre).norm()));
+    }
+    CHECK(radial < 1e-3 * ball.radius);  // a rotation about the centre
+    return Eigen::RowVector3d(d.row(front).cast<double>() / ball.radius);
+  };
+  const Eigen::RowVector3d in_left = turn(eye_pos, dense("eyeLookInLeft"));
+  const Eigen::RowVector3d out_left = turn(eye_pos, dense("eyeLookOutLeft"));
+  const Eigen::RowVector3d up_right = turn(eye_neg, dense("eyeLookUpRight"));
+  const Eigen::RowVector3d in_left_other = turn(eye_neg, dense("eyeLookInLeft"));
+  WARN("pupil moves / eyeball radius: eyeLookInLeft " << in_left << ", eyeLookOutLeft " << out_left
+                                                      << ", eyeLookUpRight " << up_right);
+  CHECK(in_left.x() < -0.1);  // towards the nose: the left eye's -x
+  CHECK(out_left.x() > 0.1);
+  CHECK(up_right.y() > 0.1);
+  CHECK(in_left_other.norm() < 1e-6);
+  // The teeth mesh's two rows: the lower (smaller y) opens with the jaw, the upper stays.
+  std::vector<int> teeth = members([](const std::string& m, int) { return m == "Teeth"; });
+  const anim::Components rows = anim::connected_components(head.vertex_count(), head.triangles);
+  double mean_y[2] = {0, 0}, moved_y[2] = {0, 0};
+  int count[2] = {0, 0}, first_row = rows.label[static_cast<std::size_t>(teeth[0])];
+  for (int v : teeth) {
+    const int row = rows.label[static_cast<std::size_t>(v)] == first_row ? 0 : 1;
+    mean_y[row] += head.positions(v, 1), moved_y[row] += jaw(v, 1), ++count[row];
+  }
+  REQUIRE(count[1] > 0);
+  const int lower = mean_y[0] / count[0] < mean_y[1] / count[1] ? 0 : 1;
+  CHECK(moved_y[lower] / count[lower] < -0.1 * iod);
+  CHECK(std::abs(moved_y[1 - lower] / count[1 - lower]) < 0.02 * iod);
+  double tongue_y = 0;
+  const std::vector<int> tongue = members([](const std::string& m, int) { return m == "Tongue"; });
+  for (int v : tongue) tongue_y += jaw(v, 1);
+  CHECK(tongue_y / static_cast<double>(tongue.size()) < -0.05 * iod);
+
+  // ... and close them: the gap closes by at least 80 % of the open gap, and the upper lid ends
+  // less than 60 % of that gap past the lower one. On this measure a closed lid reads over 100 %
+  // (the closing upper lid's front passes in front of the lower lid: the avatar's own blink reads
+  // 127 %); measured 148 % left, 131 % right. The two eyes alike within a quarter.
+  CHECK(left_closed >= 0.8);
+  CHECK(right_closed >= 0.8);
+  CHECK(left_closed <= 1.6);
+  CHECK(right_closed <= 1.6);
+  CHECK(std::min(left_closed, right_closed) >= 0.75 * std::max(left_closed, right_closed));
 }

@@ -52,6 +52,24 @@ TEST_CASE("procrustes finds the rigid motion and the similarity", "[rigbuild][ge
   CHECK(procrustes(from, truth.apply(from), false).rms > 0.1);
 }
 
+TEST_CASE("a sphere fit finds an eyeball's centre and radius", "[rigbuild][geometry]") {
+  // Points on part of a sphere (an eyeball's visible cap) and a few off it by 2 % of the radius.
+  const Eigen::RowVector3d centre(0.3, -1.2, 4.0);
+  const double radius = 1.7;
+  Points p(60, 3);
+  for (int i = 0; i < 60; ++i) {
+    const double a = 0.1 * i, b = 0.05 * (i % 13);
+    const double r = radius * (i % 7 == 0 ? 1.02 : 1.0);
+    p.row(i) = centre + r * Eigen::RowVector3d(std::cos(a) * std::sin(b + 0.3),
+                                               std::sin(a) * std::sin(b + 0.3), std::cos(b + 0.3));
+  }
+  const Sphere s = fit_sphere(p);
+  CHECK((s.centre - centre).norm() < 0.02 * radius);
+  CHECK(std::abs(s.radius - radius) < 0.02 * radius);
+  CHECK(s.rms < 0.01 * radius);
+  CHECK(s.rms > 0.0);
+}
+
 TEST_CASE("the triangle-order matcher pairs equal triangles once each", "[rigbuild][geometry]") {
   Faces a(3, 3), b(3, 3);
   a << 0, 1, 2, 0, 1, 2, 2, 3, 1;  // a triangle twice
@@ -119,7 +137,7 @@ TEST_CASE("placement: still vertices stay, a part the template moves rigidly is 
   CHECK(p.components[1].placement == "rigid");
   // The copy puts the rigid part where its motion takes it and the skin's moved vertex where the
   // template's is.
-  const auto copied = copy_motion(rest, c, source, p);
+  const auto copied = copy_motion(rest, c, source, p, moved);
   CHECK((copied[0].row(7) - rest.row(7) - Eigen::RowVector3d(0, 0.3, 0)).norm() < 1e-6);
   CHECK((copied[0].row(2) - rest.row(2) - Eigen::RowVector3d(0, 0, 0.2)).norm() < 1e-6);
   CHECK(p.stays(moved[0], 0));

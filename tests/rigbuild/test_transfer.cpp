@@ -209,6 +209,9 @@ TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
   CHECK(file.contacts.part_margin == code.contacts.part_margin);
   CHECK(file.contacts.weight == code.contacts.weight);
   CHECK(file.contacts.rounds == code.contacts.rounds);
+  CHECK(file.eye_look.in_out == code.eye_look.in_out);
+  CHECK(file.eye_look.up == code.eye_look.up);
+  CHECK(file.eye_look.down == code.eye_look.down);
 }
 
 TEST_CASE("contacts solved on a patch match a full solve with the same term, and stay local",

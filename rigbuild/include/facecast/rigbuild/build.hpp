@@ -52,6 +52,15 @@ struct ContactOptions {
   int rounds = 7;            // solve again at most this many times per shape
 };
 
+/// The gaze of separate eyeball meshes when the template's eyeLook* shapes do not turn its eyeballs
+/// (the ICT FaceKit's move the lids only): each eyeLook shape turns its side's eyeball by these
+/// angles (degrees; the built-in avatar's). See docs/algorithms.md#eyes.
+struct EyeLookOptions {
+  double in_out = 25.0;  // eyeLookIn / eyeLookOut, about the vertical axis
+  double up = 20.0;      // eyeLookUp, about the horizontal axis
+  double down = 22.0;    // eyeLookDown
+};
+
 /// Defaults mirrored in configs/rigbuild/build.json (load_build_options reads it; a test checks
 /// that the two agree). Data only: callers read files (markers, a saved correspondence, virtual
 /// edges) and put what they hold here.
@@ -61,6 +70,7 @@ struct BuildOptions {
   VirtualEdgeOptions ve;
   double lambda = 4.0;  // weight of the virtual-edge term
   ContactOptions contacts;
+  EyeLookOptions eye_look;
   std::vector<int> fixed;         // extra target vertices that never move
   double still_tolerance = 1e-4;  // "does not move": |template delta| < this * bbox diagonal
   double rigid_tolerance = 0.01;  // a component is rigid if its rigid-fit RMS residual is below

@@ -29,8 +29,8 @@ std::filesystem::path shipped_template_path();
 /// facecast::Error naming the file when it is missing or unreadable.
 anim::Rig load_shipped_template();
 
-/// What a listing needs without decoding the file: its shape names and vertex count (read from
-/// the GLB's JSON chunk). Throws Error naming the file.
+/// What a listing needs without building the rig: its shape names and vertex count (read from
+/// the file's glTF document, anim::AvatarDocument). Throws Error naming the file.
 struct TemplateSummary {
   std::vector<std::string> shapes;
   int vertices = 0;
