@@ -102,7 +102,8 @@ struct Slot {
   std::vector<std::uint8_t> flipped;
   std::string renderer_name;
 
-  Slot(const PackedRig& p, const RenderOptions& o, const Image* background) {
+  Slot(std::size_t index, const PackedRig& p, const RenderOptions& o, const Image* background)
+      : context(index) {
     context.make_current();
     try {
       init(p, o);
@@ -426,7 +427,7 @@ struct Renderer::Impl {
         lock.unlock();
         std::unique_ptr<Slot> made;
         try {
-          made = std::make_unique<Slot>(packed, options, background ? &*background : nullptr);
+          made = std::make_unique<Slot>(at, packed, options, background ? &*background : nullptr);
         } catch (...) {
           lock.lock();
           slots.erase(slots.begin() + static_cast<std::ptrdiff_t>(at));
@@ -504,7 +505,9 @@ std::string Renderer::backend() const {
   Slot* slot = impl_->acquire();
   const std::string name = slot->renderer_name;
   impl_->release(slot);
-  return "EGL " + detail::display().platform + " platform, " + name;
+  std::string platforms;
+  for (const auto& d : detail::displays()) platforms += (platforms.empty() ? "" : "+") + d.platform;
+  return "EGL " + platforms + " platform, " + name;
 }
 
 std::vector<std::pair<std::string, float>> parse_weight_list(std::string_view text) {
