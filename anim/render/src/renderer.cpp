@@ -501,6 +501,19 @@ Image Renderer::render(std::span<const float> weights, const anim::HeadPose& hea
   return image;
 }
 
+void Renderer::create_contexts() const {
+  // Taking every slot at once makes acquire() create the missing ones.
+  std::vector<Slot*> taken;
+  try {
+    while (static_cast<int>(taken.size()) < std::max(1, impl_->options.contexts))
+      taken.push_back(impl_->acquire());
+  } catch (...) {
+    for (Slot* s : taken) impl_->release(s);
+    throw;
+  }
+  for (Slot* s : taken) impl_->release(s);
+}
+
 std::string Renderer::backend() const {
   Slot* slot = impl_->acquire();
   const std::string name = slot->renderer_name;
