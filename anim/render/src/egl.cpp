@@ -103,12 +103,10 @@ std::vector<Display> open_displays() {
   }
   if ((force.empty() || force == "surfaceless") && get_platform_display &&
       has_extension(client, "EGL_MESA_platform_surfaceless") &&
-      try_display(
-          get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
-          "surfaceless", d))
+      try_display(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
+                  "surfaceless", d))
     out.push_back(d);
-  if (out.empty() && force.empty() &&
-      try_display(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", d))
+  if (out.empty() && force.empty() && try_display(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", d))
     out.push_back(d);
   if (out.empty())
     throw Error(egl_error("eglInitialize") + " (no usable EGL display: tried " +

@@ -173,8 +173,7 @@ struct Slot {
 
   static Program link_program(unsigned key) {
     Program g;
-    g.id = detail::link_program(key >> detail::kSlotCount,
-                                key & ((1u << detail::kSlotCount) - 1));
+    g.id = detail::link_program(key >> detail::kSlotCount, key & ((1u << detail::kSlotCount) - 1));
     const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
     g = {g.id,
          at("u_mvp"),
