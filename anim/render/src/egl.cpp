@@ -104,8 +104,18 @@ std::vector<Display> open_displays() {
   if ((force.empty() || force == "surfaceless") && get_platform_display &&
       has_extension(client, "EGL_MESA_platform_surfaceless") &&
       try_display(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
-                  "surfaceless", d))
-    out.push_back(d);
+                  "surfaceless", d)) {
+    // Only the same driver as the device's (a GPU's device display and Mesa's surfaceless
+    // llvmpipe would render different pictures in different streams).
+    const auto vendor = [](const Display& x) {
+      const char* v = eglQueryString(x.display, EGL_VENDOR);
+      return std::string(v ? v : "");
+    };
+    if (out.empty() || vendor(out.front()) == vendor(d))
+      out.push_back(d);
+    else
+      eglTerminate(d.display);
+  }
   if (out.empty() && force.empty() && try_display(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", d))
     out.push_back(d);
   if (out.empty())
