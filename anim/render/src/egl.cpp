@@ -78,8 +78,9 @@ bool try_display(EGLDisplay d, const char* platform, Display& out) {
   return true;
 }
 
-Display open_display() {
-  Display out;
+std::vector<Display> open_displays() {
+  std::vector<Display> out;
+  Display d;
   const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
   const char* forced = std::getenv("FACECAST_EGL_PLATFORM");
   const std::string force = forced ? forced : "";
@@ -94,21 +95,34 @@ Display open_display() {
     if (query_devices && query_devices(16, devices, &n)) {
       for (EGLint i = 0; i < n; ++i)
         if (try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr),
-                        "device", out))
-          return out;
+                        "device", d)) {
+          out.push_back(d);
+          break;
+        }
     }
   }
   if ((force.empty() || force == "surfaceless") && get_platform_display &&
-      has_extension(client, "EGL_MESA_platform_surfaceless")) {
-    if (try_display(
-            get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
-            "surfaceless", out))
-      return out;
+      has_extension(client, "EGL_MESA_platform_surfaceless") &&
+      try_display(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
+                  "surfaceless", d)) {
+    // Only the same driver as the device's (a GPU's device display and Mesa's surfaceless
+    // llvmpipe would render different pictures in different streams).
+    const auto vendor = [](const Display& x) {
+      const char* v = eglQueryString(x.display, EGL_VENDOR);
+      return std::string(v ? v : "");
+    };
+    if (out.empty() || vendor(out.front()) == vendor(d))
+      out.push_back(d);
+    else
+      eglTerminate(d.display);
   }
-  if (force.empty() && try_display(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", out)) return out;
-  throw Error(egl_error("eglInitialize") + " (no usable EGL display: tried " +
-                  (force.empty() ? std::string("device, surfaceless, default") : force) + ")",
-              ErrorCode::kInternal);
+  if (out.empty() && force.empty() && try_display(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default", d))
+    out.push_back(d);
+  if (out.empty())
+    throw Error(egl_error("eglInitialize") + " (no usable EGL display: tried " +
+                    (force.empty() ? std::string("device, surfaceless, default") : force) + ")",
+                ErrorCode::kInternal);
+  return out;
 }
 
 }  // namespace
@@ -117,16 +131,16 @@ std::string egl_error(const char* call) {
   return std::string(call) + " failed: " + egl_error_name(eglGetError());
 }
 
-const Display& display() {
+const std::vector<Display>& displays() {
   // Opened once and kept for the life of the process (terminating under live contexts is unsafe).
   static std::once_flag once;
-  static Display d;
-  std::call_once(once, [] { d = open_display(); });
-  return d;
+  static std::vector<Display> all;
+  std::call_once(once, [] { all = open_displays(); });
+  return all;
 }
 
-Context::Context() {
-  const Display& d = display();
+Context::Context(std::size_t index) : display_(&displays()[index % displays().size()]) {
+  const Display& d = *display_;
   if (!eglBindAPI(EGL_OPENGL_API)) throw Error(egl_error("eglBindAPI"), ErrorCode::kInternal);
   const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION,
                             3,
@@ -149,20 +163,20 @@ Context::Context() {
 }
 
 Context::~Context() {
-  const Display& d = display();
+  const Display& d = *display_;
   if (surface_ != EGL_NO_SURFACE) eglDestroySurface(d.display, surface_);
   if (context_ != EGL_NO_CONTEXT) eglDestroyContext(d.display, context_);
 }
 
 void Context::make_current() const {
   eglBindAPI(EGL_OPENGL_API);  // the bound API is per-thread state
-  if (!eglMakeCurrent(display().display, surface_, surface_, context_))
+  if (!eglMakeCurrent(display_->display, surface_, surface_, context_))
     throw Error(egl_error("eglMakeCurrent"), ErrorCode::kInternal);
 }
 
 void Context::release() const {
   eglBindAPI(EGL_OPENGL_API);
-  eglMakeCurrent(display().display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  eglMakeCurrent(display_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
 }
 
 }  // namespace facecast::render::detail

@@ -3,30 +3,38 @@
 #include <EGL/egl.h>
 
 #include <string>
+#include <vector>
 
 namespace facecast::render::detail {
 
-/// The EGL display, initialized once per process (device platform first, then Mesa surfaceless,
-/// then the default display). Throws facecast::Error naming the EGL call that failed.
+/// An initialized EGL display.
 struct Display {
   EGLDisplay display = EGL_NO_DISPLAY;
   EGLConfig config = nullptr;
   std::string platform;      // "device", "surfaceless" or "default"
   bool surfaceless = false;  // EGL_KHR_surfaceless_context
 };
-const Display& display();
+/// Every usable EGL display, opened once per process: the device platform's first usable device,
+/// then Mesa's surfaceless platform, else the default display. Each is its own Mesa screen, and an
+/// llvmpipe screen owns one rasterizer whose threads work through the scenes of all its contexts
+/// one at a time: contexts on different displays rasterize at the same time. Throws
+/// facecast::Error naming the EGL call that failed when there is none.
+const std::vector<Display>& displays();
 
-/// An OpenGL 3.3 core context (with a 16x16 pbuffer when surfaceless contexts are unsupported).
+/// An OpenGL 3.3 core context (with a 16x16 pbuffer when surfaceless contexts are unsupported) on
+/// displays()[index % displays().size()], so that consecutive indices use different displays.
 class Context {
  public:
-  Context();
+  explicit Context(std::size_t index);
   ~Context();
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
   void make_current() const;  // on the calling thread
   void release() const;       // no context current on the calling thread
+  const Display& display() const { return *display_; }
 
  private:
+  const Display* display_;
   EGLContext context_ = EGL_NO_CONTEXT;
   EGLSurface surface_ = EGL_NO_SURFACE;
 };

@@ -88,21 +88,25 @@ struct Slot {
   std::vector<GLuint> textures;  // PackedRig::textures
   GLuint white_tex = 0;          // bound to the slots a material leaves empty
   GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
-  // The avatar's program twice: without `discard` (opaque and blended materials: llvmpipe then
-  // tests depth before shading) and with it (alpha MASK).
+  // The avatar's program in one variant per kind of material: with `discard` or without (opaque
+  // and blended materials: llvmpipe then tests depth before shading), and with the texture slots
+  // the material fills.
   struct Program {
     GLuint id = 0;
     GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
           metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, blend = -1,
-          alpha_cutoff = -1, has_texture = -1, uv = -1;
-  } programs[2];
+          alpha_cutoff = -1, uv = -1;
+  };
+  std::vector<Program> programs;
+  std::vector<std::size_t> program_of;  // per material, into `programs`
   GLint background_scale_at = -1;
   int width = 0, height = 0, samples = 0;
   // glReadPixels' rows come bottom-up; flipped per frame (GL_MESA_pack_invert is slower).
   std::vector<std::uint8_t> flipped;
   std::string renderer_name;
 
-  Slot(const PackedRig& p, const RenderOptions& o, const Image* background) {
+  Slot(std::size_t index, const PackedRig& p, const RenderOptions& o, const Image* background)
+      : context(index) {
     context.make_current();
     try {
       init(p, o);
@@ -117,29 +121,17 @@ struct Slot {
   void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    for (const bool mask : {false, true}) {
-      Program& g = programs[mask];
-      g.id = detail::link_program(mask);
-      const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
-      g = {g.id,
-           at("u_mvp"),
-           at("u_neck"),
-           at("u_head"),
-           at("u_eye"),
-           at("u_base_color"),
-           at("u_emissive"),
-           at("u_metallic_roughness"),
-           at("u_normal_scale"),
-           at("u_occlusion_strength"),
-           at("u_blend"),
-           at("u_alpha_cutoff"),
-           at("u_has_texture"),
-           at("u_uv")};
-      glUseProgram(g.id);
-      GLint units[detail::kSlotCount];
-      for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
-      glUniform1iv(at("u_textures"), detail::kSlotCount, units);
-      check_gl("glLinkProgram");
+    std::vector<unsigned> keys;  // per program: alpha MASK in bit kSlotCount, the slots below
+    for (const auto& m : p.materials) {
+      unsigned key = m.alpha_mode == anim::AlphaMode::kMask ? 1u << detail::kSlotCount : 0u;
+      for (int slot = 0; slot < detail::kSlotCount; ++slot)
+        if (m.texture[slot] >= 0) key |= 1u << slot;
+      const auto found = std::find(keys.begin(), keys.end(), key);
+      program_of.push_back(static_cast<std::size_t>(found - keys.begin()));
+      if (found == keys.end()) {
+        keys.push_back(key);
+        programs.push_back(link_program(key));
+      }
     }
 
     glGenVertexArrays(1, &vao);
@@ -177,6 +169,31 @@ struct Slot {
 
     upload_textures(p);
     init_framebuffers(o);
+  }
+
+  static Program link_program(unsigned key) {
+    Program g;
+    g.id = detail::link_program(key >> detail::kSlotCount, key & ((1u << detail::kSlotCount) - 1));
+    const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
+    g = {g.id,
+         at("u_mvp"),
+         at("u_neck"),
+         at("u_head"),
+         at("u_eye"),
+         at("u_base_color"),
+         at("u_emissive"),
+         at("u_metallic_roughness"),
+         at("u_normal_scale"),
+         at("u_occlusion_strength"),
+         at("u_blend"),
+         at("u_alpha_cutoff"),
+         at("u_uv")};
+    glUseProgram(g.id);
+    GLint units[detail::kSlotCount];
+    for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
+    glUniform1iv(at("u_textures"), detail::kSlotCount, units);
+    check_gl("glLinkProgram");
+    return g;
   }
 
   static GLuint upload_texture(int w, int h, const std::uint8_t* rgba, bool srgb, bool repeat_s,
@@ -264,7 +281,7 @@ struct Slot {
 
   void draw_range(const PackedRig& p, const PackedRig::Range& r) {
     const detail::PackedMaterial& m = p.materials[static_cast<std::size_t>(r.material)];
-    const Program& u = programs[m.alpha_mode == anim::AlphaMode::kMask];
+    const Program& u = programs[program_of[static_cast<std::size_t>(r.material)]];
     glUseProgram(u.id);
     if (m.double_sided)
       glDisable(GL_CULL_FACE);
@@ -277,14 +294,12 @@ struct Slot {
     glUniform1f(u.occlusion_strength, m.occlusion_strength);
     glUniform1i(u.blend, m.alpha_mode == anim::AlphaMode::kBlend);
     glUniform1f(u.alpha_cutoff, m.alpha_cutoff);
-    GLint has[detail::kSlotCount];
     for (int slot = 0; slot < detail::kSlotCount; ++slot) {
-      has[slot] = m.texture[slot] >= 0;
       glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(detail::kFirstMaterialUnit + slot));
-      glBindTexture(GL_TEXTURE_2D,
-                    has[slot] ? textures[static_cast<std::size_t>(m.texture[slot])] : white_tex);
+      glBindTexture(GL_TEXTURE_2D, m.texture[slot] >= 0
+                                       ? textures[static_cast<std::size_t>(m.texture[slot])]
+                                       : white_tex);
     }
-    glUniform1iv(u.has_texture, detail::kSlotCount, has);
     glUniformMatrix3fv(u.uv, detail::kSlotCount, GL_FALSE, m.uv_transform[0].data());
     glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(r.count), GL_UNSIGNED_INT,
                    reinterpret_cast<const void*>(r.first * sizeof(GLuint)));
@@ -426,7 +441,7 @@ struct Renderer::Impl {
         lock.unlock();
         std::unique_ptr<Slot> made;
         try {
-          made = std::make_unique<Slot>(packed, options, background ? &*background : nullptr);
+          made = std::make_unique<Slot>(at, packed, options, background ? &*background : nullptr);
         } catch (...) {
           lock.lock();
           slots.erase(slots.begin() + static_cast<std::ptrdiff_t>(at));
@@ -500,11 +515,26 @@ Image Renderer::render(std::span<const float> weights, const anim::HeadPose& hea
   return image;
 }
 
+void Renderer::create_contexts() const {
+  // Taking every slot at once makes acquire() create the missing ones.
+  std::vector<Slot*> taken;
+  try {
+    while (static_cast<int>(taken.size()) < std::max(1, impl_->options.contexts))
+      taken.push_back(impl_->acquire());
+  } catch (...) {
+    for (Slot* s : taken) impl_->release(s);
+    throw;
+  }
+  for (Slot* s : taken) impl_->release(s);
+}
+
 std::string Renderer::backend() const {
   Slot* slot = impl_->acquire();
   const std::string name = slot->renderer_name;
   impl_->release(slot);
-  return "EGL " + detail::display().platform + " platform, " + name;
+  std::string platforms;
+  for (const auto& d : detail::displays()) platforms += (platforms.empty() ? "" : "+") + d.platform;
+  return "EGL " + platforms + " platform, " + name;
 }
 
 std::vector<std::pair<std::string, float>> parse_weight_list(std::string_view text) {

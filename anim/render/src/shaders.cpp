@@ -53,7 +53,6 @@ uniform float u_normal_scale;
 uniform float u_occlusion_strength;
 uniform bool u_blend;  // alpha BLEND: keep the alpha; otherwise opaque
 uniform float u_alpha_cutoff;
-uniform int u_has_texture[SLOT_COUNT];
 uniform mat3 u_uv[SLOT_COUNT];
 uniform sampler2D u_textures[SLOT_COUNT];
 uniform vec3 u_eye;
@@ -63,12 +62,13 @@ vec3 to_srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
 }
+// Whether the material fills texture `slot` (TEXTURES is a constant of this program variant).
+#define HAS_TEXTURE(slot) (((TEXTURES >> slot) & 1) != 0)
 // `var` = the slot's texel, or `fallback` without a texture. A macro, not a function: sampler
-// arrays take constant indices only. An `if` on the uniform, not `?:`, so that llvmpipe skips the
-// fetch (a select evaluates both sides).
+// arrays take constant indices only. The constant condition leaves only one side in the program.
 #define SAMPLE(var, slot, fallback) \
   vec4 var = fallback;              \
-  if (u_has_texture[slot] != 0) var = texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy)
+  if (HAS_TEXTURE(slot)) var = texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy)
 vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float rough) {
   float nl = max(dot(n, l), 0.0);
   if (nl <= 0.0) return vec3(0.0);
@@ -97,7 +97,7 @@ void main() {
   vec3 n = normalize(v_nrm);
   float side = dot(n, v) < 0.0 ? -1.0 : 1.0;  // two-sided: open sheets and inner surfaces
   n *= side;
-  if (u_has_texture[NORMAL_SLOT] != 0) {
+  if (HAS_TEXTURE(NORMAL_SLOT)) {
     vec3 t = normalize(v_tan.xyz - n * dot(n, v_tan.xyz));
     vec3 b = cross(n, t) * v_tan.w * side;
     SAMPLE(normal_texel, NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0));
@@ -202,9 +202,10 @@ GLuint link(const char* vertex, const char* fragment, const char* what) {
 
 }  // namespace
 
-GLuint link_program(bool alpha_mask) {
-  const std::string fragment =
-      std::string("#define ALPHA_MASK ") + (alpha_mask ? "1" : "0") + "\n" + kFragmentShader;
+GLuint link_program(bool alpha_mask, unsigned textures) {
+  const std::string fragment = std::string("#define ALPHA_MASK ") + (alpha_mask ? "1" : "0") +
+                               "\n#define TEXTURES " + std::to_string(textures) + "\n" +
+                               kFragmentShader;
   return link(kVertexShader, fragment.c_str(), "avatar");
 }
 

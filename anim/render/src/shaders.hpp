@@ -11,9 +11,11 @@ void check_gl(const char* call);
 /// Compiles and links the program on the current context: the head pose on the blended mesh in
 /// the vertex shader, metallic-roughness shading of the material's textures and sRGB output in
 /// the fragment shader, which discards below the alpha cutoff when `alpha_mask` (only then: a
-/// shader that may discard cannot test depth before shading). The GPU layout constants of
-/// gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with the log.
-GLuint link_program(bool alpha_mask);
+/// shader that may discard cannot test depth before shading). `textures` has bit `slot` set for
+/// each texture slot the material fills: the others cost nothing (llvmpipe runs the program per
+/// material variant; a branch on a uniform still costs its masked code). The GPU layout constants
+/// of gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with the log.
+GLuint link_program(bool alpha_mask, unsigned textures);
 /// The background image's program: a screen-covering triangle (drawn with no vertex buffer).
 GLuint link_background_program();
 

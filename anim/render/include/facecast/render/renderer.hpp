@@ -86,6 +86,11 @@ class Renderer {
   /// its bounds.
   Image render(std::span<const float> weights, const anim::HeadPose& head) const;
 
+  /// Creates every context of the pool now (each uploads the rig: about a second for a rig with
+  /// a dozen 1024x1024 textures on llvmpipe), so that the first frames of concurrent streams do
+  /// not wait for it. Throws like render().
+  void create_contexts() const;
+
   /// Which EGL platform and GL renderer are in use (creates the first context if needed).
   std::string backend() const;
 
