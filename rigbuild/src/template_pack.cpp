@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <string_view>
+#include <utility>
 
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
@@ -127,6 +130,46 @@ std::string glb_container(const json& doc, std::string bin) {
   return out;
 }
 
+// The identity modes as int16 accessors that no primitive uses (template.hpp says why), each
+// [{name, accessor}] of mesh.extras.facecast.identity.
+json identity_accessors(Packer& p, const std::vector<anim::Positions>& identity, int nv,
+                        double scale) {
+  json out = json::array();
+  for (std::size_t k = 0; k < identity.size(); ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "identity%03zu", k);
+    const anim::Positions& d = identity[k];
+    if (d.rows() != nv || d.cols() != 3)
+      throw Error(std::string("template GLB: ") + name + " has " + std::to_string(d.rows()) +
+                  " rows, the rig " + std::to_string(nv) + " vertices");
+    if (d.size() && d.cwiseAbs().maxCoeff() > scale)
+      throw Error(std::string("template GLB: ") + name + " moves a vertex by " +
+                  std::to_string(d.cwiseAbs().maxCoeff()) + ", outside the quantization's range " +
+                  std::to_string(scale));
+    out.push_back({{"name", name}, {"accessor", p.vec3_short(d.cast<double>(), scale)}});
+  }
+  return out;
+}
+
+// The GLB's JSON and BIN chunks.
+std::pair<json, std::string_view> glb_chunks(const std::string& bytes, const std::string& file) {
+  std::uint32_t length = 0, bin_length = 0;
+  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0) throw Error(file + ": not a GLB file");
+  std::memcpy(&length, bytes.data() + 12, 4);
+  if (length > bytes.size() - 20) throw Error(file + ": JSON chunk runs past the end");
+  json doc = json::parse(bytes.substr(20, length), nullptr, false);
+  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
+    throw Error(file + ": JSON chunk has no meshes");
+  const std::size_t at = 20 + length;
+  std::string_view bin;
+  if (bytes.size() >= at + 8) {
+    std::memcpy(&bin_length, bytes.data() + at, 4);
+    if (bin_length > bytes.size() - at - 8) throw Error(file + ": BIN chunk runs past the end");
+    bin = std::string_view(bytes).substr(at + 8, bin_length);
+  }
+  return {std::move(doc), bin};
+}
+
 }  // namespace
 
 double quantization_step(const anim::Rig& rig) {
@@ -141,7 +184,7 @@ double quantization_step(const anim::Rig& rig) {
   return 0.5 * range / 8191.0;
 }
 
-std::string compact_glb_bytes(const anim::Rig& rig) {
+std::string compact_glb_bytes(const anim::Rig& rig, const std::vector<anim::Positions>& identity) {
   rig.validate("template");
   const int nv = rig.vertex_count();
   const Eigen::RowVector3d lo = rig.positions.colwise().minCoeff().cast<double>();
@@ -195,33 +238,34 @@ std::string compact_glb_bytes(const anim::Rig& rig) {
   }
   json landmarks = json::array();
   for (const auto& l : rig.landmarks) landmarks.push_back({{"name", l.name}, {"vertex", l.vertex}});
+  json facecast_extras = {{"landmarks", landmarks}};
+  if (!identity.empty()) facecast_extras["identity"] = identity_accessors(p, identity, nv, scale);
   json materials = json::array();
   for (const auto& m : rig.materials) materials.push_back(material_json(m));
   const std::vector<std::string> ext = {"KHR_mesh_quantization", "EXT_meshopt_compression"};
   pad4(p.bin);
-  const json doc = {
-      {"asset", {{"version", "2.0"}, {"generator", "facecast rig pack-template"}}},
-      {"extensionsUsed", ext},
-      {"extensionsRequired", ext},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes",
-       {{{"name", "Head"},
-         {"mesh", 0},
-         {"translation", {centre[0], centre[1], centre[2]}},
-         {"scale", {scale, scale, scale}}}}},
-      {"meshes",
-       {{{"name", "Head"},
-         {"primitives", primitives},
-         {"weights", weights},
-         {"extras", {{"targetNames", names}, {"facecast", {{"landmarks", landmarks}}}}}}}},
-      {"materials", materials},
-      {"accessors", p.accessors},
-      {"bufferViews", p.views},
-      {"buffers",
-       {{{"byteLength", p.bin.size()}},
-        {{"byteLength", p.fallback},
-         {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}}}};
+  const json doc = {{"asset", {{"version", "2.0"}, {"generator", "facecast rig pack-template"}}},
+                    {"extensionsUsed", ext},
+                    {"extensionsRequired", ext},
+                    {"scene", 0},
+                    {"scenes", {{{"nodes", {0}}}}},
+                    {"nodes",
+                     {{{"name", "Head"},
+                       {"mesh", 0},
+                       {"translation", {centre[0], centre[1], centre[2]}},
+                       {"scale", {scale, scale, scale}}}}},
+                    {"meshes",
+                     {{{"name", "Head"},
+                       {"primitives", primitives},
+                       {"weights", weights},
+                       {"extras", {{"targetNames", names}, {"facecast", facecast_extras}}}}}},
+                    {"materials", materials},
+                    {"accessors", p.accessors},
+                    {"bufferViews", p.views},
+                    {"buffers",
+                     {{{"byteLength", p.bin.size()}},
+                      {{"byteLength", p.fallback},
+                       {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}}}};
   return glb_container(doc, std::move(p.bin));
 }
 
@@ -236,20 +280,52 @@ anim::Rig load_shipped_template() {
 TemplateSummary shipped_template_summary() {
   const auto path = shipped_template_path();
   const std::string bytes = read_file(path);
-  std::uint32_t length = 0;
-  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0)
-    throw Error(path.string() + ": not a GLB file");
-  std::memcpy(&length, bytes.data() + 12, 4);
-  if (length > bytes.size() - 20) throw Error(path.string() + ": JSON chunk runs past the end");
-  const json doc = json::parse(bytes.substr(20, length), nullptr, false);
-  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
-    throw Error(path.string() + ": JSON chunk has no meshes");
+  const json doc = glb_chunks(bytes, path.string()).first;
   TemplateSummary s;
   const json& mesh = doc["meshes"][0];
   s.shapes = mesh.at("extras").at("targetNames").get<std::vector<std::string>>();
   const int position = mesh.at("primitives")[0].at("attributes").at("POSITION").get<int>();
   s.vertices = doc["accessors"].at(static_cast<std::size_t>(position)).at("count").get<int>();
   return s;
+}
+
+std::vector<anim::Positions> read_template_identity(const std::filesystem::path& path) {
+  const std::string bytes = read_file(path);
+  const auto [doc, bin] = glb_chunks(bytes, path.string());
+  std::vector<anim::Positions> modes;
+  const json& mesh = doc["meshes"].at(0);
+  if (!mesh.contains("extras") || !mesh["extras"].contains("facecast") ||
+      !mesh["extras"]["facecast"].contains("identity"))
+    return modes;
+  try {
+    const double scale = doc.at("nodes").at(0).at("scale").at(0).get<double>();
+    for (const json& entry : mesh["extras"]["facecast"]["identity"]) {
+      const json& a = doc["accessors"].at(entry.at("accessor").get<std::size_t>());
+      const json& view = doc.at("bufferViews").at(a.at("bufferView").get<std::size_t>());
+      const json& e = view.at("extensions").at("EXT_meshopt_compression");
+      const auto count = a.at("count").get<std::size_t>();
+      const auto offset = e.at("byteOffset").get<std::size_t>();
+      const auto length = e.at("byteLength").get<std::size_t>();
+      if (a.at("componentType").get<int>() != kShort || e.at("byteStride").get<int>() != 8 ||
+          e.at("count").get<std::size_t>() != count || offset > bin.size() ||
+          length > bin.size() - offset)
+        throw Error(path.string() + ": identity mode " + entry.dump() + ": not an int16 view");
+      std::vector<std::int16_t> q(count * 4);
+      if (meshopt_decodeVertexBuffer(q.data(), count, 8,
+                                     reinterpret_cast<const unsigned char*>(bin.data() + offset),
+                                     length) != 0)
+        throw Error(path.string() + ": identity mode " + entry.dump() + ": meshopt cannot decode");
+      anim::Positions d(static_cast<Eigen::Index>(count), 3);
+      for (std::size_t v = 0; v < count; ++v)
+        for (int c = 0; c < 3; ++c)
+          d(static_cast<Eigen::Index>(v), c) =
+              static_cast<float>(q[v * 4 + static_cast<std::size_t>(c)] / 32767.0 * scale);
+      modes.push_back(std::move(d));
+    }
+  } catch (const json::exception& e) {
+    throw Error(path.string() + ": mesh.extras.facecast.identity: " + e.what());
+  }
+  return modes;
 }
 
 }  // namespace facecast::rigbuild
