@@ -25,6 +25,7 @@ window.__photo = {
   get result() {
     return state.result ? { rig: state.result.rig, url: state.result.url, shapes: state.result.names } : null;
   },
+  previews: 0, // landmark answers (found or refused) so far
   resultReady: false,
   errors: [],
   /** Whether the result's skin has a texture (baked from the photo). */
@@ -115,6 +116,7 @@ async function setFront(photo) {
     const res = await fetchJson('/api/photo/landmarks', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ photo: photo.url }) });
     if (state.front !== photo) return; // another photo was chosen meanwhile
     state.landmarks = res;
+    window.__photo.previews += 1;
     drawPhoto();
     $('landmarks-status').textContent = `${res.points.length} landmarks found (face ${Math.round(res.box)} px wide)${res.note ? ` — ${res.note}` : ''}.`;
     $('build').disabled = false;
@@ -122,6 +124,7 @@ async function setFront(photo) {
   } catch (e) {
     if (state.front !== photo) return;
     state.landmarks = { error: e.message };
+    window.__photo.previews += 1;
     $('landmarks-status').textContent = `${e.message}. Try another photo.`;
     error(e.message, e.code);
   }

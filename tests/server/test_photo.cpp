@@ -90,7 +90,8 @@ TEST_CASE("photo requests with bad input are refused at once", "[photo]") {
              Catch::Contains("front"));
   CHECK_THAT(error("/api/photo", {{"front", gradient_png(64, 64)}, {"colour", "red"}}),
              Catch::Contains("unknown field 'colour'"));
-  CHECK_THAT(error("/api/photo/landmarks", {}), Catch::Contains("photo: missing"));
+  CHECK_THAT(error("/api/photo/landmarks", nlohmann::json::object()),
+             Catch::Contains("photo: missing"));
   // No face: the preview says so at once.
   CHECK_THAT(error("/api/photo/landmarks", {{"photo", gradient_png(400, 300)}}),
              Catch::Contains("photo: no face found"));
@@ -110,8 +111,9 @@ TEST_CASE("a photo job without a face fails with one line and stores nothing", "
     return n;
   };
   const std::size_t files_before = entries();
-  for (const auto& [photo, expect] : {std::pair{gradient_png(400, 300), "front: no face found"},
-                                      std::pair{gradient_png(40, 30), "front: photo too small"}}) {
+  for (const auto& [photo, expect] :
+       {std::pair{gradient_png(400, 300), "front photo: no face found"},
+        std::pair{gradient_png(40, 30), "front photo: photo too small"}}) {
     const auto r = http_request(s.port(), http::verb::post, "/api/photo",
                                 nlohmann::json{{"front", photo}}.dump());
     INFO(r.body);
