@@ -7,6 +7,7 @@
 import { loadGlb, morphMeshes, targetNames } from './avatar.js';
 import { showAlert } from './alerts.js';
 import { authHeaders, fetchJson, keepTokenInLinks } from './protocol.js';
+import { fetchJob, postJson, resetSliders, shapeSliders, wireDropZone } from './rig/controls.js';
 import { MeshView } from './rig/mesh_view.js';
 
 const MAX_SIDE = 1280; // the server detects on at most 640 px; more only sharpens the texture
@@ -113,7 +114,7 @@ async function setFront(photo) {
   $('build').disabled = true;
   $('landmarks-status').textContent = 'Finding the landmarks…';
   try {
-    const res = await fetchJson('/api/photo/landmarks', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ photo: photo.url }) });
+    const res = await postJson('/api/photo/landmarks', { photo: photo.url });
     if (state.front !== photo) return; // another photo was chosen meanwhile
     state.landmarks = res;
     window.__photo.previews += 1;
@@ -171,7 +172,7 @@ async function build() {
   $('build').disabled = true;
   setProgress(0, 'Uploading…');
   try {
-    const res = await fetchJson('/api/photo', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+    const res = await postJson('/api/photo', body);
     state.job = { id: res.job, state: 'queued', progress: 0 };
     $('job-id').textContent = `job ${res.job}`;
     poll();
@@ -183,11 +184,8 @@ async function build() {
 }
 
 async function poll() {
-  let j;
-  try {
-    j = await fetchJson(`/api/jobs/${encodeURIComponent(state.job.id)}`);
-  } catch (e) {
-    $('job-status').textContent = `Lost track of the job (${e.message}); retrying…`;
+  const j = await fetchJob(state.job.id, (e) => ($('job-status').textContent = `Lost track of the job (${e.message}); retrying…`));
+  if (!j) {
     state.polling = setTimeout(poll, 1500);
     return;
   }
@@ -223,7 +221,7 @@ async function showResult(result) {
     error(`Could not load the avatar: ${e.message || e}`, 'result');
     return;
   }
-  buildSliders(state.result.names);
+  shapeSliders($('shapes'), state.result.names, setShape);
   $('open-speak').href = `/?rig=${encodeURIComponent(result.rig)}`;
   keepTokenInLinks($('result-panel'));
   const r = result.report || {};
@@ -243,49 +241,13 @@ function setShape(name, value) {
   resultView.dirty = true;
 }
 
-function buildSliders(names) {
-  const box = $('shapes');
-  box.replaceChildren();
-  for (const name of names) {
-    const label = document.createElement('label');
-    const span = document.createElement('span');
-    span.textContent = name;
-    span.title = name;
-    const input = document.createElement('input');
-    Object.assign(input, { type: 'range', min: '0', max: '1', step: '0.01', value: '0' });
-    input.dataset.shape = name;
-    const out = document.createElement('output');
-    out.textContent = '0';
-    input.addEventListener('input', () => {
-      out.textContent = Number(input.value).toFixed(2);
-      setShape(name, Number(input.value));
-    });
-    label.append(span, input, out);
-    box.appendChild(label);
-  }
-}
-
 function init() {
-  const file = $('file');
-  const drop = $('drop');
-  const choose = async (f) => {
+  wireDropZone($('drop'), $('file'), async (f) => {
     try {
       await setFront(await readImage(f));
     } catch (e) {
       error(`${f.name}: not an image this browser can read (${e.message})`, 'photo');
     }
-  };
-  file.addEventListener('change', () => file.files[0] && choose(file.files[0]));
-  drop.addEventListener('keydown', (e) => (e.key === 'Enter' || e.key === ' ') && file.click());
-  drop.addEventListener('dragover', (e) => {
-    e.preventDefault();
-    drop.classList.add('over');
-  });
-  drop.addEventListener('dragleave', () => drop.classList.remove('over'));
-  drop.addEventListener('drop', (e) => {
-    e.preventDefault();
-    drop.classList.remove('over');
-    if (e.dataTransfer.files[0]) choose(e.dataTransfer.files[0]);
   });
   $('side-file').addEventListener('change', async () => {
     const f = $('side-file').files[0];
@@ -294,13 +256,7 @@ function init() {
   $('camera').addEventListener('click', startCamera);
   $('snap').addEventListener('click', snap);
   $('build').addEventListener('click', build);
-  $('shapes-reset').addEventListener('click', () => {
-    for (const input of $('shapes').querySelectorAll('input')) {
-      input.value = '0';
-      input.nextElementSibling.textContent = '0';
-      setShape(input.dataset.shape, 0);
-    }
-  });
+  $('shapes-reset').addEventListener('click', () => resetSliders($('shapes'), setShape));
   keepTokenInLinks();
   const loop = () => {
     requestAnimationFrame(loop);
