@@ -2,15 +2,15 @@
 // EXT_meshopt_compression written directly (glTF JSON and the GLB container), and the loaders of
 // the shipped file.
 #include <meshoptimizer.h>
+#include <tiny_gltf.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
-#include <string_view>
-#include <utility>
 
+#include "facecast/anim/avatar_document.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
@@ -151,25 +151,6 @@ json identity_accessors(Packer& p, const std::vector<anim::Positions>& identity,
   return out;
 }
 
-// The GLB's JSON and BIN chunks.
-std::pair<json, std::string_view> glb_chunks(const std::string& bytes, const std::string& file) {
-  std::uint32_t length = 0, bin_length = 0;
-  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0) throw Error(file + ": not a GLB file");
-  std::memcpy(&length, bytes.data() + 12, 4);
-  if (length > bytes.size() - 20) throw Error(file + ": JSON chunk runs past the end");
-  json doc = json::parse(bytes.substr(20, length), nullptr, false);
-  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
-    throw Error(file + ": JSON chunk has no meshes");
-  const std::size_t at = 20 + length;
-  std::string_view bin;
-  if (bytes.size() >= at + 8) {
-    std::memcpy(&bin_length, bytes.data() + at, 4);
-    if (bin_length > bytes.size() - at - 8) throw Error(file + ": BIN chunk runs past the end");
-    bin = std::string_view(bytes).substr(at + 8, bin_length);
-  }
-  return {std::move(doc), bin};
-}
-
 }  // namespace
 
 double quantization_step(const anim::Rig& rig) {
@@ -280,7 +261,14 @@ anim::Rig load_shipped_template() {
 TemplateSummary shipped_template_summary() {
   const auto path = shipped_template_path();
   const std::string bytes = read_file(path);
-  const json doc = glb_chunks(bytes, path.string()).first;
+  std::uint32_t length = 0;
+  if (bytes.size() < 20 || bytes.compare(0, 4, "glTF") != 0)
+    throw Error(path.string() + ": not a GLB file");
+  std::memcpy(&length, bytes.data() + 12, 4);
+  if (length > bytes.size() - 20) throw Error(path.string() + ": JSON chunk runs past the end");
+  const json doc = json::parse(bytes.substr(20, length), nullptr, false);
+  if (doc.is_discarded() || !doc.contains("meshes") || !doc.contains("accessors"))
+    throw Error(path.string() + ": JSON chunk has no meshes");
   TemplateSummary s;
   const json& mesh = doc["meshes"][0];
   s.shapes = mesh.at("extras").at("targetNames").get<std::vector<std::string>>();
@@ -290,40 +278,43 @@ TemplateSummary shipped_template_summary() {
 }
 
 std::vector<anim::Positions> read_template_identity(const std::filesystem::path& path) {
-  const std::string bytes = read_file(path);
-  const auto [doc, bin] = glb_chunks(bytes, path.string());
+  // The document decodes the meshopt views on load; the modes' accessors are read from them.
+  const anim::AvatarDocument doc = anim::AvatarDocument::read(path);
+  const tinygltf::Model& m = doc.model();
   std::vector<anim::Positions> modes;
-  const json& mesh = doc["meshes"].at(0);
-  if (!mesh.contains("extras") || !mesh["extras"].contains("facecast") ||
-      !mesh["extras"]["facecast"].contains("identity"))
-    return modes;
-  try {
-    const double scale = doc.at("nodes").at(0).at("scale").at(0).get<double>();
-    for (const json& entry : mesh["extras"]["facecast"]["identity"]) {
-      const json& a = doc["accessors"].at(entry.at("accessor").get<std::size_t>());
-      const json& view = doc.at("bufferViews").at(a.at("bufferView").get<std::size_t>());
-      const json& e = view.at("extensions").at("EXT_meshopt_compression");
-      const auto count = a.at("count").get<std::size_t>();
-      const auto offset = e.at("byteOffset").get<std::size_t>();
-      const auto length = e.at("byteLength").get<std::size_t>();
-      if (a.at("componentType").get<int>() != kShort || e.at("byteStride").get<int>() != 8 ||
-          e.at("count").get<std::size_t>() != count || offset > bin.size() ||
-          length > bin.size() - offset)
-        throw Error(path.string() + ": identity mode " + entry.dump() + ": not an int16 view");
-      std::vector<std::int16_t> q(count * 4);
-      if (meshopt_decodeVertexBuffer(q.data(), count, 8,
-                                     reinterpret_cast<const unsigned char*>(bin.data() + offset),
-                                     length) != 0)
-        throw Error(path.string() + ": identity mode " + entry.dump() + ": meshopt cannot decode");
-      anim::Positions d(static_cast<Eigen::Index>(count), 3);
-      for (std::size_t v = 0; v < count; ++v)
-        for (int c = 0; c < 3; ++c)
-          d(static_cast<Eigen::Index>(v), c) =
-              static_cast<float>(q[v * 4 + static_cast<std::size_t>(c)] / 32767.0 * scale);
-      modes.push_back(std::move(d));
+  if (m.meshes.empty()) return modes;
+  const tinygltf::Value& list = m.meshes[0].extras.Get("facecast").Get("identity");
+  if (!list.IsArray()) return modes;
+  const std::string at = path.string() + ": meshes[0].extras.facecast.identity";
+  if (m.nodes.empty() || m.nodes[0].scale.size() != 3) throw Error(at + ": node 0 has no scale");
+  const double scale = m.nodes[0].scale[0];
+  for (std::size_t k = 0; k < list.ArrayLen(); ++k) {
+    const std::string where = at + "[" + std::to_string(k) + "]";
+    const tinygltf::Value& index = list.Get(static_cast<int>(k)).Get("accessor");
+    if (!index.IsInt() || index.Get<int>() < 0 ||
+        static_cast<std::size_t>(index.Get<int>()) >= m.accessors.size())
+      throw Error(where + ": no such accessor");
+    const tinygltf::Accessor& a = m.accessors[static_cast<std::size_t>(index.Get<int>())];
+    if (a.componentType != kShort || a.type != TINYGLTF_TYPE_VEC3 || a.bufferView < 0 ||
+        static_cast<std::size_t>(a.bufferView) >= m.bufferViews.size())
+      throw Error(where + ": not an int16 VEC3 accessor");
+    const tinygltf::BufferView& v = m.bufferViews[static_cast<std::size_t>(a.bufferView)];
+    const std::size_t stride = v.byteStride ? v.byteStride : 6;
+    if (v.buffer < 0 || static_cast<std::size_t>(v.buffer) >= m.buffers.size() || stride < 6 ||
+        a.count == 0 ||
+        v.byteOffset + a.byteOffset + (a.count - 1) * stride + 6 >
+            m.buffers[static_cast<std::size_t>(v.buffer)].data.size())
+      throw Error(where + ": its data runs past its buffer");
+    const unsigned char* data =
+        m.buffers[static_cast<std::size_t>(v.buffer)].data.data() + v.byteOffset + a.byteOffset;
+    anim::Positions d(static_cast<Eigen::Index>(a.count), 3);
+    for (std::size_t i = 0; i < a.count; ++i) {
+      std::int16_t q[3];
+      std::memcpy(q, data + i * stride, sizeof q);
+      for (int c = 0; c < 3; ++c)
+        d(static_cast<Eigen::Index>(i), c) = static_cast<float>(q[c] / 32767.0 * scale);
     }
-  } catch (const json::exception& e) {
-    throw Error(path.string() + ": mesh.extras.facecast.identity: " + e.what());
+    modes.push_back(std::move(d));
   }
   return modes;
 }
