@@ -58,6 +58,7 @@ await run('photo', async () => {
   const [x, y] = found.points[30];
   const px = await page.evaluate(([a, b]) => window.__photo.photoPixel(a, b), [x, y]);
   check('the landmarks are drawn on the photo', px[1] > 180 && px[0] < 120 && px[2] < 170, `nose tip pixel ${px}`);
+  if (found.faces > 1) check('several faces: the page says the largest is used', (await page.textContent('#landmarks-status')).includes('the largest used'), found.note);
   await screenshot(page, 'photo-01-landmarks');
 
   // ---- Build: the job's progress, then the avatar.
