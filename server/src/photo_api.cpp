@@ -6,12 +6,12 @@
 #include <map>
 #include <mutex>
 
+#include "api.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
 #include "facecast/rigbuild/template.hpp"
-#include "api.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 
