@@ -7,6 +7,7 @@
 
 import { keepTokenInLinks } from './protocol.js';
 import { build } from './rig/build.js';
+import { resetSliders, wireDropZone } from './rig/controls.js';
 import { findLandmarks } from './rig/landmarks.js';
 import { loadMarkers, moveMarker, pick, renderPairs, saveMarkers } from './rig/markers.js';
 import { loadTemplate, readFile } from './rig/meshes.js';
@@ -20,20 +21,7 @@ function init() {
   views.template.onDrag = (i, v) => moveMarker('template', i, v);
   views.target.onDrag = (i, v) => moveMarker('target', i, v);
   $('landmarks').addEventListener('click', findLandmarks);
-  const drop = $('drop');
-  const file = $('file');
-  file.addEventListener('change', () => file.files[0] && readFile(file.files[0]));
-  drop.addEventListener('keydown', (e) => (e.key === 'Enter' || e.key === ' ') && file.click());
-  drop.addEventListener('dragover', (e) => {
-    e.preventDefault();
-    drop.classList.add('over');
-  });
-  drop.addEventListener('dragleave', () => drop.classList.remove('over'));
-  drop.addEventListener('drop', (e) => {
-    e.preventDefault();
-    drop.classList.remove('over');
-    if (e.dataTransfer.files[0]) readFile(e.dataTransfer.files[0]);
-  });
+  wireDropZone($('drop'), $('file'), readFile);
   const mf = $('marker-file');
   mf.addEventListener('change', () => mf.files[0] && loadMarkers(mf.files[0]));
   $('marker-save').addEventListener('click', saveMarkers);
@@ -45,13 +33,7 @@ function init() {
   $('template').addEventListener('change', () => loadTemplate($('template').value));
   $('build').addEventListener('click', build);
   $('show-ve').addEventListener('change', () => showEdges($('show-ve').checked));
-  $('shapes-reset').addEventListener('click', () => {
-    for (const input of $('shapes').querySelectorAll('input')) {
-      input.value = '0';
-      input.nextElementSibling.textContent = '0';
-      setShape(input.dataset.shape, 0);
-    }
-  });
+  $('shapes-reset').addEventListener('click', () => resetSliders($('shapes'), setShape));
   keepTokenInLinks();
   const loop = () => {
     requestAnimationFrame(loop);

@@ -10,6 +10,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rigbuild/template.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -142,6 +143,12 @@ PhotoOptions load_photo_options() {
   return o;
 }
 
+std::filesystem::path photo_template_path(const PhotoOptions& options, const std::string& given) {
+  if (!given.empty()) return given;
+  if (!options.template_path.empty()) return options.template_path;
+  return shipped_template_path();
+}
+
 PhotoTemplate load_photo_template(const std::filesystem::path& path) {
   PhotoTemplate t;
   if (std::filesystem::is_directory(path)) {
@@ -167,9 +174,12 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
         keep.push_back(std::move(s));
     }
     t.rig.shapes = std::move(keep);
+    if (t.modes.empty() && path.extension() == ".glb") t.modes = read_template_identity(path);
   }
   if (t.modes.empty())
-    throw Error(path.string() + ": the template has no identity modes (identity* shapes)");
+    throw Error(path.string() +
+                ": the template has no identity modes (identity* shapes or mesh.extras.facecast."
+                "identity)");
   const auto marks = known_landmarks(t.rig);
   if (!marks) throw Error(path.string() + ": the template's 68 landmark vertices are unknown");
   t.landmarks = *marks;

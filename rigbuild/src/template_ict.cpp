@@ -188,4 +188,27 @@ anim::Rig ict_template_rig(const std::filesystem::path& dir) {
   return rig;
 }
 
+std::vector<anim::Positions> ict_identity_modes(const std::filesystem::path& dir) {
+  const anim::Positions neutral = anim::read_obj_positions(dir / "generic_neutral_mesh.obj");
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.path().stem().string().starts_with("identity") && e.path().extension() == ".obj")
+      files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::vector<anim::Positions> modes;
+  const Eigen::Index kept = neutral.rows() - (kDropEnd - kDropFirst);
+  for (const auto& f : files) {
+    const anim::Positions p = anim::read_obj_positions(f);
+    if (p.rows() != neutral.rows())
+      throw Error(f.string() + ": " + std::to_string(p.rows()) + " vertices, the neutral has " +
+                  std::to_string(neutral.rows()));
+    anim::Positions d(kept, 3);
+    d.topRows(kDropFirst) = p.topRows(kDropFirst) - neutral.topRows(kDropFirst);
+    d.bottomRows(kept - kDropFirst) =
+        p.bottomRows(kept - kDropFirst) - neutral.bottomRows(kept - kDropFirst);
+    modes.push_back(std::move(d));
+  }
+  return modes;
+}
+
 }  // namespace facecast::rigbuild

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -128,6 +129,27 @@ std::string glb_container(const json& doc, std::string bin) {
   return out;
 }
 
+// The identity modes as int16 accessors that no primitive uses (template.hpp says why), each
+// [{name, accessor}] of mesh.extras.facecast.identity.
+json identity_accessors(Packer& p, const std::vector<anim::Positions>& identity, int nv,
+                        double scale) {
+  json out = json::array();
+  for (std::size_t k = 0; k < identity.size(); ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "identity%03zu", k);
+    const anim::Positions& d = identity[k];
+    if (d.rows() != nv || d.cols() != 3)
+      throw Error(std::string("template GLB: ") + name + " has " + std::to_string(d.rows()) +
+                  " rows, the rig " + std::to_string(nv) + " vertices");
+    if (d.size() && d.cwiseAbs().maxCoeff() > scale)
+      throw Error(std::string("template GLB: ") + name + " moves a vertex by " +
+                  std::to_string(d.cwiseAbs().maxCoeff()) + ", outside the quantization's range " +
+                  std::to_string(scale));
+    out.push_back({{"name", name}, {"accessor", p.vec3_short(d.cast<double>(), scale)}});
+  }
+  return out;
+}
+
 }  // namespace
 
 double quantization_step(const anim::Rig& rig) {
@@ -142,7 +164,7 @@ double quantization_step(const anim::Rig& rig) {
   return 0.5 * range / 8191.0;
 }
 
-std::string compact_glb_bytes(const anim::Rig& rig) {
+std::string compact_glb_bytes(const anim::Rig& rig, const std::vector<anim::Positions>& identity) {
   rig.validate("template");
   const int nv = rig.vertex_count();
   const Eigen::RowVector3d lo = rig.positions.colwise().minCoeff().cast<double>();
@@ -196,33 +218,34 @@ std::string compact_glb_bytes(const anim::Rig& rig) {
   }
   json landmarks = json::array();
   for (const auto& l : rig.landmarks) landmarks.push_back({{"name", l.name}, {"vertex", l.vertex}});
+  json facecast_extras = {{"landmarks", landmarks}};
+  if (!identity.empty()) facecast_extras["identity"] = identity_accessors(p, identity, nv, scale);
   json materials = json::array();
   for (const auto& m : rig.materials) materials.push_back(material_json(m));
   const std::vector<std::string> ext = {"KHR_mesh_quantization", "EXT_meshopt_compression"};
   pad4(p.bin);
-  const json doc = {
-      {"asset", {{"version", "2.0"}, {"generator", "facecast rig pack-template"}}},
-      {"extensionsUsed", ext},
-      {"extensionsRequired", ext},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes",
-       {{{"name", "Head"},
-         {"mesh", 0},
-         {"translation", {centre[0], centre[1], centre[2]}},
-         {"scale", {scale, scale, scale}}}}},
-      {"meshes",
-       {{{"name", "Head"},
-         {"primitives", primitives},
-         {"weights", weights},
-         {"extras", {{"targetNames", names}, {"facecast", {{"landmarks", landmarks}}}}}}}},
-      {"materials", materials},
-      {"accessors", p.accessors},
-      {"bufferViews", p.views},
-      {"buffers",
-       {{{"byteLength", p.bin.size()}},
-        {{"byteLength", p.fallback},
-         {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}}}};
+  const json doc = {{"asset", {{"version", "2.0"}, {"generator", "facecast rig pack-template"}}},
+                    {"extensionsUsed", ext},
+                    {"extensionsRequired", ext},
+                    {"scene", 0},
+                    {"scenes", {{{"nodes", {0}}}}},
+                    {"nodes",
+                     {{{"name", "Head"},
+                       {"mesh", 0},
+                       {"translation", {centre[0], centre[1], centre[2]}},
+                       {"scale", {scale, scale, scale}}}}},
+                    {"meshes",
+                     {{{"name", "Head"},
+                       {"primitives", primitives},
+                       {"weights", weights},
+                       {"extras", {{"targetNames", names}, {"facecast", facecast_extras}}}}}},
+                    {"materials", materials},
+                    {"accessors", p.accessors},
+                    {"bufferViews", p.views},
+                    {"buffers",
+                     {{{"byteLength", p.bin.size()}},
+                      {{"byteLength", p.fallback},
+                       {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}}}}};
   return glb_container(doc, std::move(p.bin));
 }
 
@@ -253,6 +276,48 @@ TemplateSummary shipped_template_summary() {
     throw Error(path.string() + ": meshes[0].primitives[0] has no POSITION accessor");
   s.vertices = static_cast<int>(m.accessors[static_cast<std::size_t>(position->second)].count);
   return s;
+}
+
+std::vector<anim::Positions> read_template_identity(const std::filesystem::path& path) {
+  // The document decodes the meshopt views on load; the modes' accessors are read from them.
+  const anim::AvatarDocument doc = anim::AvatarDocument::read(path);
+  const tinygltf::Model& m = doc.model();
+  std::vector<anim::Positions> modes;
+  if (m.meshes.empty()) return modes;
+  const tinygltf::Value& list = m.meshes[0].extras.Get("facecast").Get("identity");
+  if (!list.IsArray()) return modes;
+  const std::string at = path.string() + ": meshes[0].extras.facecast.identity";
+  if (m.nodes.empty() || m.nodes[0].scale.size() != 3) throw Error(at + ": node 0 has no scale");
+  const double scale = m.nodes[0].scale[0];
+  for (std::size_t k = 0; k < list.ArrayLen(); ++k) {
+    const std::string where = at + "[" + std::to_string(k) + "]";
+    const tinygltf::Value& index = list.Get(static_cast<int>(k)).Get("accessor");
+    if (!index.IsInt() || index.Get<int>() < 0 ||
+        static_cast<std::size_t>(index.Get<int>()) >= m.accessors.size())
+      throw Error(where + ": no such accessor");
+    const tinygltf::Accessor& a = m.accessors[static_cast<std::size_t>(index.Get<int>())];
+    if (a.componentType != kShort || a.type != TINYGLTF_TYPE_VEC3 || a.bufferView < 0 ||
+        static_cast<std::size_t>(a.bufferView) >= m.bufferViews.size())
+      throw Error(where + ": not an int16 VEC3 accessor");
+    const tinygltf::BufferView& v = m.bufferViews[static_cast<std::size_t>(a.bufferView)];
+    const std::size_t stride = v.byteStride ? v.byteStride : 6;
+    if (v.buffer < 0 || static_cast<std::size_t>(v.buffer) >= m.buffers.size() || stride < 6 ||
+        a.count == 0 ||
+        v.byteOffset + a.byteOffset + (a.count - 1) * stride + 6 >
+            m.buffers[static_cast<std::size_t>(v.buffer)].data.size())
+      throw Error(where + ": its data runs past its buffer");
+    const unsigned char* data =
+        m.buffers[static_cast<std::size_t>(v.buffer)].data.data() + v.byteOffset + a.byteOffset;
+    anim::Positions d(static_cast<Eigen::Index>(a.count), 3);
+    for (std::size_t i = 0; i < a.count; ++i) {
+      std::int16_t q[3];
+      std::memcpy(q, data + i * stride, sizeof q);
+      for (int c = 0; c < 3; ++c)
+        d(static_cast<Eigen::Index>(i), c) = static_cast<float>(q[c] / 32767.0 * scale);
+    }
+    modes.push_back(std::move(d));
+  }
+  return modes;
 }
 
 }  // namespace facecast::rigbuild

@@ -20,11 +20,7 @@ struct PhotoArgs {
 // Everything is computed before anything is written; each file is written atomically.
 void from_photo(const PhotoArgs& a) {
   rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
-  const std::string tmpl_path = a.tmpl.empty() ? opt.template_path : a.tmpl;
-  if (tmpl_path.empty())
-    throw Error(
-        "avatar from-photo: no template: pass --template (an ICT FaceKit folder or a rig with "
-        "identity* shapes) or set \"template\" in configs/rigbuild/photo.json");
+  const std::filesystem::path tmpl_path = rigbuild::photo_template_path(opt, a.tmpl);
   const render::Image front = render::read_image(a.front);
   std::optional<render::Image> side;
   if (!a.side.empty()) side = render::read_image(a.side);
@@ -68,9 +64,10 @@ void add_avatar_photo_command(CLI::App& avatar) {
       "(docs/algorithms.md#photo-avatar)");
   c->add_option("--front", args->front, "Front photo (JPEG, PNG, ...)")->required();
   c->add_option("--side", args->side, "Side photo, the head turned 30-45 degrees");
-  c->add_option("--template", args->tmpl,
-                "Template: ICT FaceKit folder or rig file with identity* shapes (default: "
-                "configs/rigbuild/photo.json)");
+  c->add_option(
+      "--template", args->tmpl,
+      "Template: ICT FaceKit folder or rig file with identity* shapes (default: "
+      "configs/rigbuild/photo.json's template, else the shipped configs/rigbuild/ict_facekit.glb)");
   c->add_option("--out", args->out, "Output GLB")->required();
   c->add_option("--report", args->report, "JSON report: landmarks, cameras, fit, timings");
   c->add_option("--landmarks-png", args->landmarks_png, "The photos with their landmarks");

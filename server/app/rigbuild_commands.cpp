@@ -357,10 +357,12 @@ void add_rig_build_commands(CLI::App& rig) {
   pt->add_option("--out", pack->second, "Output GLB")->required();
   pt->callback([pack] {
     const anim::Rig ict = rigbuild::ict_template_rig(pack->first);
-    const std::string bytes = rigbuild::compact_glb_bytes(ict);
+    const auto identity = rigbuild::ict_identity_modes(pack->first);
+    const std::string bytes = rigbuild::compact_glb_bytes(ict, identity);
     write_file_atomic(pack->second, bytes);
-    std::fprintf(stderr, "wrote %s: %d vertices, %zu shapes, %zu bytes\n", pack->second.c_str(),
-                 ict.vertex_count(), ict.shapes.size(), bytes.size());
+    std::fprintf(stderr, "wrote %s: %d vertices, %zu shapes, %zu identity modes, %zu bytes\n",
+                 pack->second.c_str(), ict.vertex_count(), ict.shapes.size(), identity.size(),
+                 bytes.size());
   });
 }
 

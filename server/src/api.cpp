@@ -10,6 +10,7 @@
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/picture.hpp"
 #include "log.hpp"
+#include "photo_api.hpp"
 #include "routes.hpp"
 #include "video.hpp"
 
@@ -318,7 +319,8 @@ http::message_generator post_render(State& state, const Request& req) {
 Jobs::Work job_work(State& state, const std::string& kind, const json& payload) {
   if (kind == "rig") return rig_work(state, payload);
   if (kind == "render") return render_work(state, payload);
-  throw Error("job kind '" + kind + "' is not rig or render");
+  if (kind == "photo") return photo_work(state, payload);
+  throw Error("job kind '" + kind + "' is not rig, render or photo");
 }
 
 }  // namespace facecast::server

@@ -8,6 +8,7 @@
 #include "facecast/core/error.hpp"
 #include "log.hpp"
 #include "operations_api.hpp"
+#include "photo_api.hpp"
 
 namespace facecast::server {
 namespace {
@@ -195,6 +196,14 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     return json_response(state, req, http::status::ok,
                          {{"rigs", rigs}, {"default", state.options.default_rig}});
   }
+  if (path == "/api/photo") {
+    require_method(req, {http::verb::post});
+    return post_photo(state, req);
+  }
+  if (path == "/api/photo/landmarks") {
+    require_method(req, {http::verb::post});
+    return post_photo_landmarks(state, req);
+  }
   if (path == "/api/landmarks") {
     require_method(req, {http::verb::post});
     return post_landmarks(state, req);
@@ -326,7 +335,8 @@ bool origin_ok(const State& state, const Request& req) {
 std::size_t body_limit(const State& state, const Request& req) {
   if (req.method() == http::verb::post) {
     const auto t = parse_target(req.target());
-    if (t.path == "/api/rigs" || t.path == "/api/render" || t.path == "/api/audio")
+    if (t.path == "/api/rigs" || t.path == "/api/render" || t.path == "/api/audio" ||
+        t.path == "/api/photo" || t.path == "/api/photo/landmarks")
       return state.options.max_upload;
   }
   return state.options.max_body;

@@ -9,6 +9,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
+#include "facecast/rigbuild/photo_avatar.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "test_data.hpp"
 
@@ -110,6 +111,26 @@ TEST_CASE("the shipped template: ARKit names, visemes, landmarks, the FaceKit's 
     CHECK(s.max_displacement() > (s.name == "viseme_sil" ? -1.0f : 0.05f));
   }
 
+  // The identity modes: outside the shapes (no channel offers them), each within the quantization
+  // of the FaceKit's identityNNN.obj - neutral; the photo avatar reads them from the file.
+  for (const auto& name : shipped.shape_names()) CHECK_FALSE(name.starts_with("identity"));
+  const std::vector<anim::Positions> modes = read_template_identity(shipped_template_path());
+  const std::vector<anim::Positions> truth = ict_identity_modes(dir);
+  REQUIRE(modes.size() == 10);
+  REQUIRE(truth.size() == 10);
+  for (std::size_t k = 0; k < modes.size(); ++k) {
+    INFO("identity mode " << k);
+    REQUIRE(modes[k].rows() == nv);
+    const anim::Positions mode =
+        on_shipped(anim::read_obj_positions(dir / ("identity00" + std::to_string(k) + ".obj")) -
+                       anim::read_obj_positions(dir / "generic_neutral_mesh.obj"),
+                   nv);
+    CHECK((truth[k] - mode).cwiseAbs().maxCoeff() == 0.0f);
+    CHECK((modes[k] - mode).rowwise().norm().maxCoeff() <= 1.8 * step);
+    CHECK(mode.rowwise().norm().maxCoeff() > 0.1f);
+  }
+  CHECK(load_photo_template(shipped_template_path()).modes.size() == 10);
+
   // Reproducible: made again from the FaceKit, the same bytes.
-  CHECK(compact_glb_bytes(ict_template_rig(dir)) == read_file(shipped_template_path()));
+  CHECK(compact_glb_bytes(ict_template_rig(dir), truth) == read_file(shipped_template_path()));
 }

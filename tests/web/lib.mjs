@@ -162,7 +162,8 @@ export function parsePort(text) {
 // ---------------------------------------------------------------------------------------------------
 // The browser.
 
-export async function launchBrowser() {
+/** `args`: extra Chromium switches (e.g. a fake webcam). */
+export async function launchBrowser({ args = [] } = {}) {
   const browser = await chromium.launch({
     executablePath: CHROMIUM,
     headless: true,
@@ -173,6 +174,7 @@ export async function launchBrowser() {
       '--autoplay-policy=no-user-gesture-required',
       '--disable-gpu-sandbox',
       '--mute-audio', // play (the audio clock runs) but make no sound
+      ...args,
     ],
   });
   cleanups.push(() => browser.close().catch(() => {}));

@@ -1,6 +1,6 @@
 // Building: the Build button's readiness, POST /api/rigs, and following the job to its result.
 
-import { fetchJson } from '../protocol.js';
+import { fetchJob, postJson } from './controls.js';
 import { $, error, sameTopology, state } from './page.js';
 import { showResult } from './result.js';
 
@@ -26,7 +26,7 @@ export async function build() {
   setProgress(0, 'Uploading…');
   $('build').disabled = true;
   try {
-    const res = await fetchJson('/api/rigs', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+    const res = await postJson('/api/rigs', body);
     state.job = { id: res.job, state: 'queued', progress: 0 };
     $('job-id').textContent = `job ${res.job}`;
     poll();
@@ -46,11 +46,8 @@ function setProgress(p, text) {
 async function poll() {
   clearTimeout(state.polling);
   if (!state.job) return;
-  let j;
-  try {
-    j = await fetchJson(`/api/jobs/${encodeURIComponent(state.job.id)}`);
-  } catch (e) {
-    $('job-status').textContent = `Lost track of the job (${e.message}); retrying…`;
+  const j = await fetchJob(state.job.id, (e) => ($('job-status').textContent = `Lost track of the job (${e.message}); retrying…`));
+  if (!j) {
     state.polling = setTimeout(poll, 1500);
     return;
   }

@@ -4,6 +4,7 @@
 import * as THREE from 'three';
 import { loadGlb, targetNames, morphMeshes, colorizePlainMaterials } from '../avatar.js';
 import { fetchJson, authHeaders, keepTokenInLinks } from '../protocol.js';
+import { shapeSliders } from './controls.js';
 import { $, error, state, views } from './page.js';
 import { loadRigList } from './server.js';
 
@@ -63,29 +64,7 @@ function summarize(report) {
 }
 
 function buildSliders(names) {
-  const box = $('shapes');
-  box.replaceChildren();
-  for (const name of names) {
-    const label = document.createElement('label');
-    const span = document.createElement('span');
-    span.textContent = name;
-    span.title = name;
-    const input = document.createElement('input');
-    input.type = 'range';
-    input.min = '0';
-    input.max = '1';
-    input.step = '0.01';
-    input.value = '0';
-    input.dataset.shape = name;
-    const out = document.createElement('output');
-    out.textContent = '0';
-    input.addEventListener('input', () => {
-      out.textContent = Number(input.value).toFixed(2);
-      setShape(name, Number(input.value));
-    });
-    label.append(span, input, out);
-    box.appendChild(label);
-  }
+  shapeSliders($('shapes'), names, setShape);
 }
 
 export function setShape(name, value) {

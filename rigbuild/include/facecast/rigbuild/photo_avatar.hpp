@@ -36,7 +36,8 @@ inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
 /// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
-  std::string template_path;      // --template default: a template folder or rig file ("" = none)
+  std::string template_path;      // --template default: a template folder or rig file ("" = the
+                                  // shipped template, configs/rigbuild/ict_facekit.glb)
   int min_face = 80;              // a face box narrower than this (pixels) is "too small"
   int max_side = 640;             // photos are scaled down to this longest side for detection
   double box_jitter = 0.04;       // landmarks averaged over face boxes moved by this fraction
@@ -78,8 +79,13 @@ struct PhotoTemplate {
   std::vector<std::array<Eigen::Vector3d, kLandmarkCount>> side_mode_bias;
 };
 
+/// The template to build from: `given` (a --template argument) if not empty, else
+/// options.template_path if not empty, else the shipped template (template.hpp).
+std::filesystem::path photo_template_path(const PhotoOptions& options, const std::string& given);
+
 /// Reads a template: the ICT FaceKit folder (generic_neutral_mesh.obj, expressions,
-/// identity000.obj..), or a rig file (.glb/.obj) whose shapes named identity* are the modes.
+/// identity000.obj..), a rig file (.glb/.obj) whose shapes named identity* are the modes, or a
+/// compact GLB with its modes in mesh.extras.facecast.identity (the shipped template).
 /// Throws Error naming the path when it has no modes or unknown landmarks.
 PhotoTemplate load_photo_template(const std::filesystem::path& path);
 

@@ -9,8 +9,11 @@
 // configs/anim/visemes_arkit.json, its 68 landmarks ("dlib_00".."dlib_67", mesh extras) and
 // materials for its skin, eyes, teeth, gums and lashes. Positions and morph deltas are 16-bit
 // (KHR_mesh_quantization, one scale for all: 21 um steps), every buffer view meshopt-compressed
-// (EXT_meshopt_compression). `facecast rig pack-template --ict DIR --out FILE` makes it from the
-// FaceKit's FaceXModel folder (../shared/data/ict-facekit.tar.xz).
+// (EXT_meshopt_compression). It also holds the FaceKit's 10 identity modes for the photo avatar
+// (photo_avatar.hpp): not as morph targets, since they are no expressions, but as int16 accessors
+// that no primitive uses, listed in mesh.extras.facecast.identity; so renderers, rig readers,
+// listings and mappings never see them as channels. `facecast rig pack-template --ict DIR --out
+// FILE` makes it from the FaceKit's FaceXModel folder (../shared/data/ict-facekit.tar.xz).
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -42,14 +45,26 @@ TemplateSummary shipped_template_summary();
 /// materials as above. Throws Error naming the file that is missing or malformed.
 anim::Rig ict_template_rig(const std::filesystem::path& facexmodel_dir);
 
+/// The FaceKit's identity modes (identity000.obj .. in name order) as deltas from its neutral on
+/// the template's vertices (ict_template_rig's order). Throws Error naming a malformed file.
+std::vector<anim::Positions> ict_identity_modes(const std::filesystem::path& facexmodel_dir);
+
 /// The compact GLB of a rig (one mesh, one primitive per material): positions and morph deltas
 /// as normalized int16 with one node scale and translation (14 bits over the head's box), normals
 /// as normalized int8, UVs as floats rounded to 1/4096, uint16 or uint32 indices, dense morph
 /// targets (their zero rows cost almost nothing once compressed), every view meshopt-compressed;
 /// target names in mesh.extras.targetNames, landmarks in mesh.extras.facecast.landmarks. The
-/// quantization step is `quantization_step(rig)`.
-std::string compact_glb_bytes(const anim::Rig& rig);
+/// quantization step is `quantization_step(rig)`. `identity`: the identity modes (#V by 3 deltas,
+/// quantized like the morph deltas), stored as accessors outside the primitives and listed in
+/// mesh.extras.facecast.identity ({name: "identity000", accessor}). Throws Error when a mode is
+/// outside the quantization's range or has the wrong size.
+std::string compact_glb_bytes(const anim::Rig& rig,
+                              const std::vector<anim::Positions>& identity = {});
 /// The largest error of a quantized coordinate: half the int16 step of the rig's box.
 double quantization_step(const anim::Rig& rig);
+
+/// The identity modes a compact GLB holds (compact_glb_bytes), in order; empty when it has none.
+/// Throws Error naming the file when they are malformed.
+std::vector<anim::Positions> read_template_identity(const std::filesystem::path& glb);
 
 }  // namespace facecast::rigbuild
