@@ -1,10 +1,10 @@
 # Extracts ../shared/data/ict-facekit.tar.xz into DST (once). Run by the extract_shared_data test.
+# A missing tarball does not fail this fixture: the unit tests that need no real data still run, and
+# each test that needs the data fails on its own when CI=true (test::require_data), else warns.
 set(tarball ${SRC}/ict-facekit.tar.xz)
 if(NOT EXISTS ${tarball})
-  if("$ENV{CI}" STREQUAL "true")
-    message(FATAL_ERROR "shared data missing: ${tarball} (CI=true requires ../shared/data)")
-  endif()
-  message(WARNING "shared data missing: ${tarball}; tests that need it will warn and pass")
+  message(WARNING "shared data missing: ${tarball}; the tests that need it fail with CI=true, "
+                  "else warn and pass")
   return()
 endif()
 if(EXISTS ${DST}/ict-facekit/FaceXModel/generic_neutral_mesh.obj)

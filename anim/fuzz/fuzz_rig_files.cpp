@@ -16,7 +16,7 @@
 
 namespace {
 
-void fuzz_gltf(std::string_view bytes, const char* name) {
+[[maybe_unused]] void fuzz_gltf(std::string_view bytes, const char* name) {
   using namespace facecast::anim;
   AvatarDocument doc = AvatarDocument::parse(bytes, name);
   const AvatarView all = make_view(doc, {.all_meshes = true});

@@ -118,6 +118,7 @@ PhotoOptions load_photo_options() {
       .read("min_face", o.min_face)
       .read("max_side", o.max_side)
       .read("box_jitter", o.box_jitter)
+      .read("box_steps", o.box_steps)
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
       .read("side_noise", o.side_noise)
@@ -131,6 +132,7 @@ PhotoOptions load_photo_options() {
   if (o.min_face < 16) c.fail("min_face", "must be at least 16");
   if (o.max_side < 128) c.fail("max_side", "must be at least 128");
   if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
+  if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");

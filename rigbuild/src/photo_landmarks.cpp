@@ -70,14 +70,15 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
                             std::lround(best.right() / scale), std::lround(best.bottom() / scale));
   const dlib::array2d<dlib::rgb_pixel> full = to_dlib(photo, 1.0);
   // The predictor's cascade starts from the box: its answer varies with the box by a pixel or
-  // two. Averaging it over boxes shifted and scaled by a few percent halves that noise.
+  // two. Averaging it over a grid of boxes, shifted in x and y and scaled by up to box_jitter of
+  // their size in box_steps steps each way ((2 n + 1)^3 boxes), removes most of that noise.
   const double w = static_cast<double>(box.width()), h = static_cast<double>(box.height());
-  const double j = options.box_jitter;
-  const std::vector<std::array<double, 3>> moves =
-      j > 0 ? std::vector<std::array<double, 3>>{{0, 0, 1},     {j, 0, 1},  {-j, 0, 1},
-                                                 {0, j, 1},     {0, -j, 1}, {0, 0, 1 + j},
-                                                 {0, 0, 1 - j}, {j, j, 1},  {-j, -j, 1}}
-            : std::vector<std::array<double, 3>>{{0, 0, 1}};
+  const int n = options.box_jitter > 0 ? options.box_steps : 0;
+  const double step = n > 0 ? options.box_jitter / n : 0.0;
+  std::vector<std::array<double, 3>> moves;
+  for (int x = -n; x <= n; ++x)
+    for (int y = -n; y <= n; ++y)
+      for (int s = -n; s <= n; ++s) moves.push_back({x * step, y * step, 1 + s * step});
   out.points.fill(Eigen::Vector2d::Zero());
   for (const auto& m : moves) {
     const dlib::drectangle c =

@@ -121,8 +121,8 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   std::cout << "mean ratio front " << sum_front / n << ", front+side " << sum_side / n
             << ", reprojection " << 100 * sum_reproj / n << " %\n";
   CHECK(sum_front / n <= 0.5);
-  // Lower with the side photo on 11 of 16 tuning identities (0.52 against 0.58 on average) but
-  // not on these 4: reported, not failed (docs/algorithms.md#photo-avatar, "Accuracy").
+  // Lower with the side photo on 11 of 16 tuning identities (0.35 against 0.42 on average); on
+  // these 4 a tie (0.286 both): reported, not failed (docs/algorithms.md#photo-avatar, "Accuracy").
   CHECK_NOFAIL(sum_side < sum_front);
   CHECK(sum_reproj / n <= 0.02);
 }
@@ -182,6 +182,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.min_face == d.min_face);
   CHECK(c.max_side == d.max_side);
   CHECK(c.box_jitter == d.box_jitter);
+  CHECK(c.box_steps == d.box_steps);
   CHECK(c.iterations == d.iterations);
   CHECK(c.landmark_noise == d.landmark_noise);
   CHECK(c.side_noise == d.side_noise);

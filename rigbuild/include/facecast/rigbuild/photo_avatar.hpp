@@ -40,7 +40,8 @@ struct PhotoOptions {
                                   // shipped template, configs/rigbuild/ict_facekit.glb)
   int min_face = 80;              // a face box narrower than this (pixels) is "too small"
   int max_side = 640;             // photos are scaled down to this longest side for detection
-  double box_jitter = 0.04;       // landmarks averaged over face boxes moved by this fraction
+  double box_jitter = 0.06;       // landmarks averaged over face boxes moved by up to this
+  int box_steps = 2;              // fraction of their size, in this many steps each way
   int iterations = 8;             // camera / coefficient alternations
   double landmark_noise = 0.01;   // landmark noise, inter-ocular distances: the modes' prior weight
   double side_noise = 1.0;        // the side photo's landmark noise relative to the front's
