@@ -9,9 +9,9 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
-import { MorphBinding, isSoftwareRenderer, morphMeshes, targetNames } from './morphs.js';
+import { MorphBinding, morphMeshes, targetNames } from './morphs.js';
 
-export { isSoftwareRenderer, morphMeshes, targetNames };
+export { morphMeshes, targetNames };
 
 /** Loads a GLB or VRM (URL or ArrayBuffer) with GLTFLoader; a VRM's model is gltf.userData.vrm. */
 export async function loadGlb(source, headers = {}, onProgress = undefined) {
@@ -130,7 +130,8 @@ export class AvatarView extends Viewport {
   constructor(canvas, { background = 0x272a33 } = {}) {
     super(canvas, { fov: 22, near: 0.1, background });
     this.fullPR = this.renderer.getPixelRatio();
-    this.motionPR = this.fullPR; // lowered by adapt() when frames come too slowly
+    // Lowered by adapt() when frames come too slowly; software WebGL starts at half resolution.
+    this.motionPR = this.software ? Math.min(this.fullPR, 0.5) : this.fullPR;
     this.controls.dampingFactor = 0.12;
     this.controls.addEventListener('start', () => (this.userMoved = true));
     this.pivot = new THREE.Group(); // the neck of an avatar without head bones
@@ -193,7 +194,7 @@ export class AvatarView extends Viewport {
     }
     this.model = model;
     const force = new URLSearchParams(window.location.search).get('morph');
-    const cpu = force === 'cpu' || (force !== 'gpu' && isSoftwareRenderer(this.renderer));
+    const cpu = force === 'cpu' || (force !== 'gpu' && this.software);
     this.morphs = new MorphBinding(model, vrm, { cpu });
     this.headPose = { yaw: 0, pitch: 0, roll: 0 };
     this.box = box;

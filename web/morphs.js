@@ -9,9 +9,8 @@
 
 import * as THREE from 'three';
 
-/** True when WebGL runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
-export function isSoftwareRenderer(renderer) {
-  const gl = renderer.getContext();
+/** True when the WebGL context `gl` runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
+export function isSoftwareContext(gl) {
   const ext = gl.getExtension('WEBGL_debug_renderer_info');
   const name = String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
   return /swiftshader|llvmpipe|softpipe|software/i.test(name);
