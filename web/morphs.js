@@ -9,13 +9,6 @@
 
 import * as THREE from 'three';
 
-/** True when the WebGL context `gl` runs in software (no GPU): SwiftShader, llvmpipe, softpipe. */
-export function isSoftwareContext(gl) {
-  const ext = gl.getExtension('WEBGL_debug_renderer_info');
-  const name = String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
-  return /swiftshader|llvmpipe|softpipe|software/i.test(name);
-}
-
 /** Every mesh under root that has morph targets (one per glTF primitive). */
 export function morphMeshes(root) {
   const meshes = [];

@@ -5,14 +5,22 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
-import { isSoftwareContext } from './morphs.js';
 
-/** Whether this browser's WebGL runs in software, asked of a throwaway context. */
+let software = null;
+/**
+ * Whether this browser's WebGL runs in software (no GPU: SwiftShader, llvmpipe, softpipe), asked
+ * once per page of a throwaway context.
+ */
 function softwareWebGL() {
+  if (software !== null) return software;
   const gl = document.createElement('canvas').getContext('webgl2');
-  if (!gl) return false;
-  const software = isSoftwareContext(gl);
-  gl.getExtension('WEBGL_lose_context')?.loseContext();
+  software = false;
+  if (gl) {
+    const ext = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = String(gl.getParameter(ext ? ext.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+    software = /swiftshader|llvmpipe|softpipe|software/i.test(name);
+    gl.getExtension('WEBGL_lose_context')?.loseContext();
+  }
   return software;
 }
 
