@@ -28,19 +28,21 @@ void Channel::subscribe(std::uint64_t member, std::weak_ptr<ChannelMember> who) 
   net::post(strand_, [self = shared_from_this(), member, who = std::move(who)] {
     const auto m = who.lock();
     if (!m || self->closed_) return;
+    self->flush();  // what was sent before it joined is not its
     if (!self->index_.contains(member)) {
       self->index_[member] = self->members_.size();
       self->members_.emplace_back(member, who);
       self->count_.store(static_cast<long>(self->members_.size()));
       self->presence_changed();
     }
-    m->deliver(OutMessage::control(
-        subscribed_message(self->name_, self->total_subscribers(), self->on_air_id_)));
+    std::vector<OutMessage> hello{OutMessage::control(
+        subscribed_message(self->name_, self->total_subscribers(), self->on_air_id_))};
     // A late joiner starts at the current frame: the stream_start, then what comes next.
     if (self->on_air_)
-      m->deliver(*self->on_air_);
+      hello.push_back(*self->on_air_);
     else if (self->remote_on_air_)
-      m->deliver(*self->remote_on_air_);
+      hello.push_back(*self->remote_on_air_);
+    m->deliver(std::make_shared<const std::vector<OutMessage>>(std::move(hello)));
     self->maybe_idle();
   });
 }
@@ -121,7 +123,7 @@ std::uint32_t Channel::send(OutMessage message) {
     // After the queue moved on (it does so right after this call): idle life if nothing plays.
     net::post(strand_, [self = shared_from_this()] { self->maybe_idle(); });
   }
-  broadcast(message);
+  broadcast(std::move(message));
   return 0;  // drops happen per subscriber; stream_end counts what the channel sent
 }
 
@@ -133,7 +135,7 @@ void Channel::send_error(const std::optional<std::string>& id, const Problem& pr
                               {"message", problem.message}});
   const auto message = OutMessage::control(error_message(id, problem));
   broadcast(message);
-  if (const auto p = producer_.lock()) p->deliver(message);
+  if (const auto p = producer_.lock()) p->deliver_one(message);
 }
 
 void Channel::remote(OutMessage message) {
@@ -149,7 +151,7 @@ void Channel::remote(OutMessage message) {
       self->remote_on_air_.reset();
       net::post(self->strand_, [self] { self->maybe_idle(); });
     }
-    self->broadcast(message);
+    self->broadcast(std::move(message));
   });
 }
 
@@ -167,9 +169,20 @@ void Channel::set_remote_subscribers(long n) {
 
 // One shared buffer for everyone: delivering copies the OutMessage (a shared_ptr), never the
 // bytes. Members that are gone are skipped; they unsubscribe when they close.
-void Channel::broadcast(const OutMessage& message) {
+void Channel::broadcast(OutMessage message) {
+  pending_.push_back(std::move(message));
+  if (flush_posted_) return;
+  flush_posted_ = true;
+  net::post(strand_, [self = shared_from_this()] { self->flush(); });
+}
+
+void Channel::flush() {
+  flush_posted_ = false;
+  if (pending_.empty()) return;
+  const auto batch = std::make_shared<const std::vector<OutMessage>>(std::move(pending_));
+  pending_.clear();
   for (const auto& [id, who] : members_) {
-    if (const auto m = who.lock()) m->deliver(message);
+    if (const auto m = who.lock()) m->deliver(batch);
   }
 }
 

@@ -4,6 +4,8 @@
 // buffer that every subscriber's OutQueue references (no copy per subscriber); each subscriber's
 // queue applies its own drop policy, so a slow subscriber never slows the others. The channel is
 // the StreamSink of its own SpeakQueue (queue, rate limit, incremental text, cancel with a fade).
+// What is sent in one turn of the strand goes to each subscriber as one batch: one post, and one
+// gather write on the subscriber's socket.
 //
 // Threads: members_, on_air_ and the SpeakQueue live on the channel's strand; every public call
 // posts there. A subscriber receives through deliver(), which posts to the subscriber's strand.
@@ -23,12 +25,18 @@
 
 namespace facecast::server {
 
+/// Messages a channel hands to every member at once, in order (one shared list per fan-out).
+using OutBatch = std::shared_ptr<const std::vector<OutMessage>>;
+
 /// A subscriber (or producer) of a channel.
 class ChannelMember {
  public:
   virtual ~ChannelMember() = default;
-  /// Thread-safe: queues `message` on the member's own strand.
-  virtual void deliver(OutMessage message) = 0;
+  /// Thread-safe: queues `batch` on the member's own strand.
+  virtual void deliver(OutBatch batch) = 0;
+  void deliver_one(OutMessage message) {
+    deliver(std::make_shared<const std::vector<OutMessage>>(1, std::move(message)));
+  }
 };
 
 class Channel : public StreamSink, public std::enable_shared_from_this<Channel> {
@@ -65,10 +73,13 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   // StreamSink (on the strand)
   std::uint32_t send(OutMessage message) override;
   bool media_full() override { return false; }  // each subscriber drops for itself
+  double send_ahead() const override { return state_->options.channel_tick; }
   void send_error(const std::optional<std::string>& id, const Problem& problem) override;
 
  private:
-  void broadcast(const OutMessage& message);
+  // Messages sent in one turn of the strand (a pacer's wake-up) reach each member as one batch.
+  void broadcast(OutMessage message);
+  void flush();
   void presence_changed();
   void maybe_idle();
 
@@ -89,6 +100,8 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   net::steady_timer presence_timer_;
   bool presence_armed_ = false, closed_ = false;
   bool idle_preparing_ = false;
+  std::vector<OutMessage> pending_;  // broadcast, not yet handed to the members
+  bool flush_posted_ = false;
   std::uint32_t idle_count_ = 0;
 };
 

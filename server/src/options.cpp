@@ -54,6 +54,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("job_retention", o.job_retention);
   c.read("lead", o.lead);
   c.read("min_tick", o.min_tick);
+  c.read("channel_tick", o.channel_tick);
   c.read("audio_chunk", o.audio_chunk);
   c.read("cancel_fade", o.cancel_fade);
   c.read("write_queue", o.write_queue);
@@ -114,6 +115,7 @@ void validate(const ServerOptions& o) {
   need(o.job_retention >= 0, "job_retention: must not be negative (0 keeps jobs forever)");
   need(o.lead >= 0 && o.lead <= 10, "lead: must be in 0..10 seconds");
   need(o.min_tick >= 0 && o.min_tick <= 1, "min_tick: must be in 0..1 seconds");
+  need(o.channel_tick >= 0 && o.channel_tick <= 1, "channel_tick: must be in 0..1 seconds");
   need(o.audio_chunk >= 0.01 && o.audio_chunk <= 10, "audio_chunk: must be in 0.01..10 seconds");
   need(o.cancel_fade >= 0 && o.cancel_fade <= 5, "cancel_fade: must be in 0..5 seconds");
   need(o.write_queue >= 2, "write_queue: must be at least 2");

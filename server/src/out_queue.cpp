@@ -10,7 +10,7 @@ OutQueue::OutQueue(std::atomic<long>& depth_gauge, int media_limit)
 OutQueue::Pushed OutQueue::push(OutMessage message) {
   Pushed pushed;
   if (message.kind == OutKind::kWeights && media_full()) {
-    const auto from = queue_.begin() + (writing_ ? 1 : 0);
+    const auto from = queue_.begin() + static_cast<std::ptrdiff_t>(writing_);
     const auto victim = std::find_if(from, queue_.end(), [&](const OutMessage& m) {
       return m.kind == OutKind::kWeights && m.stream == message.stream;
     });
@@ -24,18 +24,20 @@ OutQueue::Pushed OutQueue::push(OutMessage message) {
   return pushed;
 }
 
-const OutMessage& OutQueue::start_write() {
-  writing_ = true;
-  return queue_.front();
+std::size_t OutQueue::start_write(std::size_t most) {
+  writing_ = std::min(most, queue_.size());
+  return writing_;
 }
 
 void OutQueue::finish_write() {
-  writing_ = false;
-  if (!queue_.empty()) remove(queue_.begin());
+  for (std::size_t i = 0; i < writing_; ++i) media_ -= queue_[i].media();
+  queue_.erase(queue_.begin(), queue_.begin() + static_cast<std::ptrdiff_t>(writing_));
+  writing_ = 0;
+  depth_.set(static_cast<long>(queue_.size()));
 }
 
 void OutQueue::drop_unsent() {
-  while (queue_.size() > (writing_ ? 1u : 0u)) remove(queue_.end() - 1);
+  while (queue_.size() > writing_) remove(queue_.end() - 1);
 }
 
 void OutQueue::remove(std::deque<OutMessage>::iterator it) {

@@ -5,7 +5,7 @@
 // docs/algorithms.md#stream-pacing):
 //
 //   when `media_limit` media messages are waiting, a new weights message replaces the oldest
-//   queued weights message of its stream (never the one being written), or is dropped itself
+//   queued weights message of its stream (never one being written), or is dropped itself
 //   when there is none. Control messages, audio and JPEG frames are never dropped here.
 #include <atomic>
 #include <cstdint>
@@ -53,19 +53,22 @@ class OutQueue {
   /// Appends `message`, applying the drop-oldest rule to weights.
   Pushed push(OutMessage message);
 
-  bool writing() const noexcept { return writing_; }
-  /// The next message to write; it stays at the front until finish_write().
-  const OutMessage& start_write();
-  /// Removes the message that was being written.
+  /// How many messages, from the front, are being written (0: none).
+  std::size_t writing() const noexcept { return writing_; }
+  /// Marks up to `most` queued messages as being written, returns how many; they stay at the
+  /// front until finish_write().
+  std::size_t start_write(std::size_t most);
+  const OutMessage& operator[](std::size_t i) const { return queue_[i]; }
+  /// Removes the messages that were being written.
   void finish_write();
-  /// Forgets every message but the one being written (the connection is closing).
+  /// Forgets every message but those being written (the connection is closing).
   void drop_unsent();
 
  private:
   void remove(std::deque<OutMessage>::iterator it);
 
   std::deque<OutMessage> queue_;
-  bool writing_ = false;
+  std::size_t writing_ = 0;
   int media_ = 0;
   int limit_;
   GaugeShare depth_;  // = queue_.size()

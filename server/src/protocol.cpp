@@ -541,4 +541,21 @@ std::vector<float> read_floats(std::string_view payload) {
   return out;
 }
 
+std::size_t frame_header(std::array<std::uint8_t, 10>& out, bool text, std::size_t size) noexcept {
+  out[0] = static_cast<std::uint8_t>(0x80 | (text ? 0x1 : 0x2));  // FIN, text or binary
+  if (size < 126) {
+    out[1] = static_cast<std::uint8_t>(size);
+    return 2;
+  }
+  if (size <= 0xFFFF) {
+    out[1] = 126;
+    out[2] = static_cast<std::uint8_t>(size >> 8);
+    out[3] = static_cast<std::uint8_t>(size);
+    return 4;
+  }
+  out[1] = 127;
+  for (int i = 0; i < 8; ++i) out[2 + i] = static_cast<std::uint8_t>(size >> (56 - 8 * i));
+  return 10;
+}
+
 }  // namespace facecast::server

@@ -63,12 +63,14 @@ void RtmpOutput::stop() {
 
 // ---- input: the channel's messages (on the channel's strand) -----------------------------------
 
-void RtmpOutput::deliver(OutMessage message) {
-  if (stopping_) return;
-  try {
-    take(message);
-  } catch (const std::exception& e) {  // a message this output cannot read: skip it
-    log::warn("rtmp_message_skipped", {{"channel", channel_->name()}, {"error", e.what()}});
+void RtmpOutput::deliver(OutBatch batch) {
+  for (const OutMessage& message : *batch) {
+    if (stopping_) return;
+    try {
+      take(message);
+    } catch (const std::exception& e) {  // a message this output cannot read: skip it
+      log::warn("rtmp_message_skipped", {{"channel", channel_->name()}, {"error", e.what()}});
+    }
   }
 }
 

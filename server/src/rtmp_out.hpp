@@ -35,7 +35,7 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
                                            const ServerOptions::Rtmp& settings);
   ~RtmpOutput() override;
 
-  void deliver(OutMessage message) override;
+  void deliver(OutBatch batch) override;
   /// Unsubscribes, lets ffmpeg finish the stream (FLV trailer) and joins; idempotent.
   void stop();
 

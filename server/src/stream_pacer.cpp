@@ -160,7 +160,12 @@ void StreamPacer::tick() {
   const double elapsed = seconds(Clock::now() - start_);
   // With min_tick > 0 a wake-up also sends what falls due before the next one (never late, at
   // most min_tick early), so a stream writes one message per min_tick instead of one per frame.
-  const double ahead = frames_mode_ ? 0.0 : o_.min_tick;
+  // A sink that fans out may ask for more (a channel: channel_tick): a wake-up per send_ahead,
+  // sending what falls due before the wake-up after next, so its thousands of subscribers are
+  // written to a few times a second and the last one still gets each frame before it is due (the
+  // fan-out has a whole tick). The messages still carry at most min_tick of frames.
+  const double spacing = frames_mode_ ? o_.min_tick : std::max(o_.min_tick, sink_->send_ahead());
+  const double ahead = frames_mode_ ? 0.0 : spacing + sink_->send_ahead();
   if (!cancelling_) send_audio(elapsed + ahead);
   if (frames_mode_) {
     launch_renders(elapsed);
@@ -179,7 +184,7 @@ void StreamPacer::tick() {
   if (!cancelling_ && (audio_next_ < p_->pcm.size() || open_))
     next = std::min(next, audio_due() - ahead);
   if (std::isinf(next)) return;  // waiting for renders; on_rendered ticks
-  arm_timer(std::max(next, elapsed + o_.min_tick));
+  arm_timer(std::max(next, elapsed + spacing));
 }
 
 void StreamPacer::arm_timer(double at) {
@@ -210,26 +215,31 @@ void StreamPacer::send_audio(double horizon) {
   }
 }
 
-// Sends every frame whose send time is at or before `horizon`, in one message.
+// Sends every frame whose send time is at or before `horizon`, in messages of at most min_tick
+// of frames (at least one).
 void StreamPacer::send_weights(double horizon) {
-  const int first = next_frame_;
+  const int most = std::max(1, static_cast<int>(std::floor(o_.min_tick * fps_ + 1e-6)));
   thread_local std::vector<float> values, frame;
-  values.clear();
   while (next_frame_ < end_frame_ && frame_due(next_frame_) <= horizon + kSlack) {
-    frame_values(next_frame_, frame);
-    values.insert(values.end(), frame.begin(), frame.end());
-    ++next_frame_;
+    const int first = next_frame_;
+    values.clear();
+    while (next_frame_ < end_frame_ && next_frame_ - first < most &&
+           frame_due(next_frame_) <= horizon + kSlack) {
+      frame_values(next_frame_, frame);
+      values.insert(values.end(), frame.begin(), frame.end());
+      ++next_frame_;
+    }
+    const auto count = static_cast<std::uint32_t>(next_frame_ - first);
+    auto msg = std::make_shared<const std::string>(weights_message(
+        stream_, static_cast<std::uint32_t>(first), fps_, count, values.data(), values.size()));
+    count_first_frame();
+    const std::uint32_t dropped =
+        sink_->send(OutMessage{std::move(msg), OutKind::kWeights, stream_, count});
+    sent_ += static_cast<int>(count - dropped);
+    dropped_ += static_cast<int>(dropped);
+    state_->metrics.frames_dropped.weights.fetch_add(dropped);
+    if (stopped_) return;
   }
-  const auto count = static_cast<std::uint32_t>(next_frame_ - first);
-  if (count == 0) return;
-  auto msg = std::make_shared<const std::string>(weights_message(
-      stream_, static_cast<std::uint32_t>(first), fps_, count, values.data(), values.size()));
-  count_first_frame();
-  const std::uint32_t dropped =
-      sink_->send(OutMessage{std::move(msg), OutKind::kWeights, stream_, count});
-  sent_ += static_cast<int>(count - dropped);
-  dropped_ += static_cast<int>(dropped);
-  state_->metrics.frames_dropped.weights.fetch_add(dropped);
 }
 
 void StreamPacer::count_first_frame() {

@@ -4,7 +4,8 @@
 // their presentation time, and `stream_end`.
 //
 // - weights: sampled on the strand (about a microsecond a frame); a wake-up also sends what falls
-//   due before the next one (`min_tick`), so a stream writes one message per min_tick, never late;
+//   due before the next one (`min_tick`, or the sink's send_ahead(): a channel's channel_tick), in
+//   messages of at most min_tick of frames, never late;
 // - frames: JPEG frames are rendered on the worker pool (up to frames_in_flight at once) and sent
 //   in frame order; a frame is skipped when the sink's queue is full or when the next frame's
 //   presentation time passed before it could be rendered;
@@ -41,6 +42,9 @@ class StreamSink {
   virtual bool media_full() = 0;
   /// Sends an `error` message about utterance `id`.
   virtual void send_error(const std::optional<std::string>& id, const Problem& problem) = 0;
+  /// A fanning-out sink's tick (seconds, 0: none): weights are sent once per tick (min_tick when
+  /// larger), each frame one to two ticks before it is due.
+  virtual double send_ahead() const { return 0; }
 };
 
 class StreamPacer : public std::enable_shared_from_this<StreamPacer> {

@@ -91,7 +91,7 @@ bool WebSocketSession::route_live(ClientMessage& m) {
              [self = weak_from_this(), id = std::move(id)](std::optional<Problem> problem) {
                if (!problem) return;
                if (const auto s = self.lock())
-                 s->deliver(OutMessage::control(error_message(id, *problem)));
+                 s->deliver_one(OutMessage::control(error_message(id, *problem)));
              });
   return true;
 }
@@ -102,11 +102,11 @@ void WebSocketSession::leave_channel() {
   subscribed_.reset();
 }
 
-void WebSocketSession::deliver(OutMessage message) {
-  net::post(ws_.get_executor(),
-            [self = shared_from_this(), message = std::move(message)]() mutable {
-              self->send(std::move(message));
-            });
+void WebSocketSession::deliver(OutBatch batch) {
+  net::post(ws_.get_executor(), [self = shared_from_this(), batch = std::move(batch)] {
+    for (const OutMessage& m : *batch) self->enqueue(m);
+    self->do_write();
+  });
 }
 
 }  // namespace facecast::server

@@ -39,6 +39,8 @@ void WebSocketSession::run(Request request, bool subprotocol) {
     if (subprotocol) res.set(http::field::sec_websocket_protocol, kSubprotocol);
   }));
   forwarded_for_ = request["X-Forwarded-For"];  // the client behind a proxy, for the logs
+  ws_.next_layer().set_owner(weak_from_this());
+  ws_.next_layer().on_idle([this] { do_write(); });
   ws_.read_message_max(o.max_message);
   ws_.auto_fragment(false);
   state_->add_session(id_, weak_from_this());
@@ -130,6 +132,12 @@ void WebSocketSession::handle_text(std::string_view text) {
 // ---- writing -----------------------------------------------------------------------------------
 
 std::uint32_t WebSocketSession::send(OutMessage message) {
+  const std::uint32_t dropped = enqueue(std::move(message));
+  do_write();
+  return dropped;
+}
+
+std::uint32_t WebSocketSession::enqueue(OutMessage message) {
   if (closing_ || closed_) return 0;
   const int limit = state_->options.write_queue;
   if (!message.media()) {
@@ -144,7 +152,6 @@ std::uint32_t WebSocketSession::send(OutMessage message) {
   const bool full = message.kind == OutKind::kWeights && queue_.media_full();
   const OutQueue::Pushed pushed = queue_.push(std::move(message));
   if (full) mark_stalled();
-  if (pushed.queued && !queue_.writing()) do_write();
   return pushed.dropped_frames;
 }
 
@@ -163,22 +170,44 @@ void WebSocketSession::send_error(const std::optional<std::string>& id, const Pr
   send(OutMessage::control(error_message(id, problem)));
 }
 
+// Writes what is queued (up to kMaxBatch messages) as WebSocket frames, in one gather write; again
+// while more is queued and the socket takes it at once.
 void WebSocketSession::do_write() {
-  const OutMessage& front = queue_.start_write();
-  ws_.text(!front.media());
-  ws_.async_write(net::buffer(*front.data),
-                  beast::bind_front_handler(&WebSocketSession::on_write, shared_from_this()));
+  constexpr std::size_t kMaxBatch = 32;  // 64 buffers: Asio's most for one sendmsg
+  auto& stream = ws_.next_layer();
+  while (!queue_.empty() && queue_.writing() == 0 && !stream.busy() && !closed_) {
+    const std::size_t n = queue_.start_write(kMaxBatch);
+    heads_.resize(n);
+    frames_.clear();
+    std::size_t bytes = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::string& data = *queue_[i].data;
+      frames_.push_back(
+          net::buffer(heads_[i].data(), frame_header(heads_[i], !queue_[i].media(), data.size())));
+      frames_.push_back(net::buffer(data));
+      bytes += frames_[2 * i].size() + data.size();
+    }
+    if (!stream.write_frames(
+            frames_, beast::bind_front_handler(&WebSocketSession::on_write, shared_from_this())))
+      return;
+    wrote(bytes);
+  }
 }
 
 void WebSocketSession::on_write(beast::error_code ec, std::size_t bytes) {
-  queue_.finish_write();
   if (ec) {
+    queue_.finish_write();
     log::debug("ws_write_failed", {{"conn", conn_}, {"error", ec.message()}});
     return;  // the read fails too and cleans up
   }
+  wrote(bytes);
+  do_write();
+}
+
+void WebSocketSession::wrote(std::size_t bytes) {
+  queue_.finish_write();
   state_->metrics.ws_bytes_sent_total.fetch_add(bytes);
   if (queue_.empty()) stalled_since_.reset();
-  if (!queue_.empty() && !closing_) do_write();
 }
 
 // ---- slow clients ------------------------------------------------------------------------------

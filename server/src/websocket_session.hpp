@@ -1,7 +1,8 @@
 #pragma once
 // One WebSocket connection, the transport (Beast chat-multi / advanced server shape): everything
-// runs on the connection's strand (the socket's executor); one async_read and at most one
-// async_write in flight; outgoing messages wait in an OutQueue. Text messages are parsed here and
+// runs on the connection's strand (the socket's executor); one async_read in flight; outgoing
+// messages wait in an OutQueue and go out as ready-made frames, all that is queued in one gather
+// write (frame_stream.hpp). Text messages are parsed here and
 // handed to the connection's SpeakQueue (speak, cancel) or answered (ping); the streams it plays
 // send through this session as their StreamSink.
 //
@@ -16,6 +17,7 @@
 #include "beast.hpp"
 #include "channel.hpp"
 #include "clock.hpp"
+#include "frame_stream.hpp"
 #include "out_queue.hpp"
 #include "speak_queue.hpp"
 #include "state.hpp"
@@ -43,7 +45,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   bool media_full() override;
   void send_error(const std::optional<std::string>& id, const Problem& problem) override;
   // ChannelMember (thread-safe)
-  void deliver(OutMessage message) override;
+  void deliver(OutBatch batch) override;
 
  private:
   // Channels and incremental text (websocket_live.cpp): true when `m` was one of theirs.
@@ -60,15 +62,18 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void send_audio_weights(int first, int count, const std::vector<float>& values);
   void end_audio();
 
+  // Queues `message` (drop and slow-client rules); do_write() sends what is queued.
+  std::uint32_t enqueue(OutMessage message);
   void do_write();
   void on_write(beast::error_code ec, std::size_t bytes);
+  void wrote(std::size_t bytes);
   void mark_stalled();
   void on_watchdog();
   void close_slow_client();
   void close_with(websocket::close_code code, const char* reason);
   void on_closed();
 
-  websocket::stream<beast::tcp_stream> ws_;
+  websocket::stream<FrameStream> ws_;
   std::shared_ptr<State> state_;
   std::unique_ptr<ConnectionSlot> slot_;
   GaugeShare open_;  // ws_connections: 1
@@ -78,6 +83,8 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::string forwarded_for_;  // X-Forwarded-For of the upgrade request ("" without a proxy)
   beast::flat_buffer buffer_;
   OutQueue queue_;
+  std::vector<std::array<std::uint8_t, 10>> heads_;  // frame headers of the messages being written
+  std::vector<net::const_buffer> frames_;            // their headers and payloads
   std::shared_ptr<SpeakQueue> speaks_;
   std::shared_ptr<Channel> subscribed_;  // the channel this connection watches
   std::vector<std::string> producing_;   // channels whose producer token it gave

@@ -2,6 +2,7 @@
 // same bytes to each, late joiners from the current frame, presence, HTTP and WebSocket producers,
 // cancel, a stalled subscriber that slows nobody), and incremental text (append / end) spoken
 // piece by piece without gaps, every word once.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cctype>
 #include <sstream>
@@ -123,6 +124,23 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
     for (const auto& a : r.audio) samples += a.samples;
     CHECK(samples == r.start["audio"]["samples"].get<std::size_t>());
   }
+  // Channel pacing (docs/algorithms.md#stream-pacing): messages of min_tick (two frames at
+  // 60 fps), sent one to two channel_ticks before they are due, in writes of several messages.
+  const auto& o = s.options();
+  std::vector<double> early;
+  std::size_t writes = 0;  // groups of messages arriving within 10 ms of each other
+  for (const auto& w : results[0].weights) {
+    CHECK(w.header.count <= 2);
+    const double due = w.header.pts - o.lead;  // after stream_start, the server's schedule
+    if (due > 2 * o.channel_tick)
+      early.push_back(due - std::chrono::duration<double>(w.at - results[0].start_at).count());
+    writes +=
+        &w == &results[0].weights.front() || w.at - (&w)[-1].at > std::chrono::milliseconds(10);
+  }
+  REQUIRE(early.size() > 20);
+  std::sort(early.begin(), early.end());
+  CHECK(early[early.size() / 2] > 0.5 * o.channel_tick);  // the median frame: well ahead
+  CHECK(writes < results[0].weights.size() / 2);          // several messages a write
   // Presence: every subscriber learns the count (4 with the stalled one) within presence_interval.
   bool presence = false;
   for (const auto& j : results[0].others)

@@ -196,6 +196,34 @@ TEST_CASE("binary header is 24 little-endian bytes", "[protocol]") {
   CHECK_THROWS_AS(read_header(bad), Error);
 }
 
+TEST_CASE("WebSocket frame headers of server messages follow RFC 6455", "[protocol]") {
+  // Decoded the way a client does (5.2): FIN, opcode, no mask, 7-bit / 16-bit / 64-bit length.
+  for (const bool text : {true, false}) {
+    for (const std::size_t size :
+         {std::size_t{0}, std::size_t{125}, std::size_t{126}, std::size_t{8830}, std::size_t{65535},
+          std::size_t{65536}, std::size_t{0x123456789A}}) {
+      std::array<std::uint8_t, 10> h{};
+      const std::size_t n = frame_header(h, text, size);
+      CAPTURE(text, size);
+      CHECK((h[0] & 0x80) != 0);  // final
+      CHECK((h[0] & 0x70) == 0);  // no extension bits
+      CHECK((h[0] & 0x0F) == (text ? 1 : 2));
+      CHECK((h[1] & 0x80) == 0);  // servers do not mask
+      std::uint64_t length = h[1] & 0x7F;
+      std::size_t expected = 2;
+      if (length == 126) expected = 4;
+      if (length == 127) expected = 10;
+      REQUIRE(n == expected);
+      if (n > 2) {
+        length = 0;
+        for (std::size_t i = 2; i < n; ++i) length = length << 8 | h[i];
+      }
+      CHECK(length == size);
+      CHECK(n == (size < 126 ? 2u : size <= 65535 ? 4u : 10u));  // the shortest form
+    }
+  }
+}
+
 TEST_CASE("server options defaults mirror configs/server.json", "[protocol][config]") {
   const ServerOptions file = load_server_options(config_path("server.json"));
   const ServerOptions d;
@@ -225,6 +253,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.job_retention == d.job_retention);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
+  CHECK(file.channel_tick == d.channel_tick);
   CHECK(file.audio_chunk == d.audio_chunk);
   CHECK(file.cancel_fade == d.cancel_fade);
   CHECK(file.write_queue == d.write_queue);
@@ -252,7 +281,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 49);  // 48 settings + "_doc"
+  CHECK(j.size() == 50);  // 49 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

@@ -46,11 +46,12 @@ struct ServerOptions {
   double job_retention = 604800;      // seconds ended jobs and their videos are kept (0: forever)
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
-  double lead = 0.1;         // frames are sent this many seconds before their presentation time
-  double min_tick = 0.034;   // at least this long between two sends of one stream (s)
-  double audio_chunk = 0.2;  // seconds of PCM per audio message
-  double cancel_fade = 0.2;  // seconds to fade to rest after cancel
-  int write_queue = 64;      // media messages queued per connection before dropping
+  double lead = 0.1;          // frames are sent this many seconds before their presentation time
+  double min_tick = 0.034;    // at least this long between two sends of one stream (s)
+  double channel_tick = 0.1;  // a channel's weights go out this often, up to this early (s)
+  double audio_chunk = 0.2;   // seconds of PCM per audio message
+  double cancel_fade = 0.2;   // seconds to fade to rest after cancel
+  int write_queue = 64;       // media messages queued per connection before dropping
   double slow_client_grace = 2.0;  // a queue not drained for this long closes the socket (1008)
   double close_timeout = 2.0;      // a close handshake that takes longer ends with a hard close
   int frames_in_flight = 2;        // frames mode: renders running per stream

@@ -254,4 +254,8 @@ std::string jpeg_message(std::uint32_t stream, std::uint32_t frame, double fps,
 /// float32 values of a weights message's payload (after the header).
 std::vector<float> read_floats(std::string_view payload);
 
+/// The WebSocket frame header (RFC 6455, 5.2) of a whole server message: final, unmasked, `text`
+/// or binary, `size` payload bytes. Returns its length (2, 4 or 10 bytes written to `out`).
+std::size_t frame_header(std::array<std::uint8_t, 10>& out, bool text, std::size_t size) noexcept;
+
 }  // namespace facecast::server
