@@ -22,7 +22,8 @@ RenderOptions small() {
   RenderOptions o;
   o.width = 256;
   o.height = 256;
-  o.msaa = 4;  // the golden images are multisampled
+  o.msaa = 4;  // the golden images are multisampled, with trilinear texture filtering
+  o.trilinear = true;
   return o;
 }
 

@@ -206,6 +206,7 @@ TEST_CASE("configs/anim/render.json mirrors RenderOptions and VideoOptions", "[r
   CHECK(file.width == code.width);
   CHECK(file.height == code.height);
   CHECK(file.msaa == code.msaa);
+  CHECK(file.trilinear == code.trilinear);
   CHECK(file.fov_y_deg == code.fov_y_deg);
   CHECK(file.margin == code.margin);
   CHECK(file.background == code.background);

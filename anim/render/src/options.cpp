@@ -23,6 +23,7 @@ Options load_options() {
   c.read("width", r.width)
       .read("height", r.height)
       .read("msaa", r.msaa)
+      .read("trilinear", r.trilinear)
       .read("fov_y_deg", r.fov_y_deg)
       .read("margin", r.margin)
       .read_choice("framing", r.framing,

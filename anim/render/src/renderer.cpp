@@ -167,7 +167,7 @@ struct Slot {
                  GL_STATIC_DRAW);
     check_gl("glBufferData (mesh)");
 
-    upload_textures(p);
+    upload_textures(p, o.trilinear);
     init_framebuffers(o);
   }
 
@@ -196,8 +196,11 @@ struct Slot {
     return g;
   }
 
+  // Mipmapped; `trilinear` blends the two nearest levels, otherwise the nearest level is filtered
+  // bilinearly (half the texel fetches: llvmpipe renders the textured avatar in about 20 % less
+  // CPU time).
   static GLuint upload_texture(int w, int h, const std::uint8_t* rgba, bool srgb, bool repeat_s,
-                               bool repeat_t, bool nearest) {
+                               bool repeat_t, bool nearest, bool trilinear = false) {
     GLuint t = 0;
     glGenTextures(1, &t);
     glBindTexture(GL_TEXTURE_2D, t);
@@ -206,7 +209,9 @@ struct Slot {
                  GL_UNSIGNED_BYTE, rgba);
     glGenerateMipmap(GL_TEXTURE_2D);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER,
-                    nearest ? GL_NEAREST_MIPMAP_NEAREST : GL_LINEAR_MIPMAP_LINEAR);
+                    nearest     ? GL_NEAREST_MIPMAP_NEAREST
+                    : trilinear ? GL_LINEAR_MIPMAP_LINEAR
+                                : GL_LINEAR_MIPMAP_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, nearest ? GL_NEAREST : GL_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, repeat_s ? GL_REPEAT : GL_CLAMP_TO_EDGE);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, repeat_t ? GL_REPEAT : GL_CLAMP_TO_EDGE);
@@ -214,13 +219,13 @@ struct Slot {
   }
 
   // glTF's UV origin is the image's top-left, which is where the rows start: no flip.
-  void upload_textures(const PackedRig& p) {
+  void upload_textures(const PackedRig& p, bool trilinear) {
     glActiveTexture(GL_TEXTURE0 + detail::kFirstMaterialUnit);
     const std::uint8_t white[4] = {255, 255, 255, 255};
     white_tex = upload_texture(1, 1, white, false, true, true, true);
     for (const auto& t : p.textures)
       textures.push_back(upload_texture(t.width, t.height, t.rgba.data(), t.srgb, t.repeat_s,
-                                        t.repeat_t, t.nearest));
+                                        t.repeat_t, t.nearest, trilinear));
     check_gl("glTexImage2D (material textures)");
   }
 
