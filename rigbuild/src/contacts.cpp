@@ -46,7 +46,7 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
                            const MeshParts& parts, const std::vector<char>& held, double margin,
-                           double part_margin, const std::vector<char>& floating)
+                           double part_margin)
     : rest_(target_rest), faces_(target_faces), parts_(parts), graph_(target_rest, target_faces) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
@@ -84,32 +84,6 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
            corner_distance(target_rest, target_faces, a, b) <= part_margin &&
            !cross(target_rest, target_faces, a, b);
   });
-  placed_ = std::move(placed);
-  // A floating part's triangles (a tongue): checked in each shape against every triangle near
-  // them there (floating_crossings), since the part moves apart from what lies around it; the
-  // pairs that cross in the neutral already are left out.
-  if (!floating.empty()) {
-    std::vector<char> afloat(static_cast<std::size_t>(target_faces.rows()), 0);
-    for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
-      if (floating[static_cast<std::size_t>(target_faces(t, 0))] &&
-          floating[static_cast<std::size_t>(target_faces(t, 1))] &&
-          floating[static_cast<std::size_t>(target_faces(t, 2))]) {
-        afloat[static_cast<std::size_t>(t)] = 1;
-        floating_.push_back(static_cast<int>(t));
-      }
-    afloat_ = afloat;
-    // Grouped by part: floating_start_[i] .. floating_start_[i + 1].
-    std::stable_sort(floating_.begin(), floating_.end(),
-                     [&](int a, int b) { return part_of(a) < part_of(b); });
-    for (std::size_t i = 0; i < floating_.size(); ++i)
-      if (i == 0 || part_of(floating_[i]) != part_of(floating_[i - 1]))
-        floating_start_.push_back(static_cast<int>(i));
-    floating_start_.push_back(static_cast<int>(floating_.size()));
-    if (!floating_.empty())
-      neutral_floating_ = keep(
-          anim::near_triangle_pairs(p, target_faces, 0.0, afloat),
-          [&](auto pair) { return cross(target_rest, target_faces, pair.first, pair.second); });
-  }
   // Which placed parts are round: the distances of their vertices from their centre vary by less
   // than 15 % of the mean (one standard deviation).
   round_.assign(parts.members.size(), 0);
@@ -143,21 +117,6 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
     pair_index_[static_cast<std::size_t>(fill[static_cast<std::size_t>(v)]++)] =
         static_cast<int>(i);
   });
-}
-
-bool ContactGuard::wrong_side(const Points& reference, const Contact& c) const {
-  // The vertex's side of the triangle's plane, in the neutral and in the reference.
-  const auto side = [&](const Points& p) {
-    const Eigen::RowVector3d a = p.row(c.b[0]), b = p.row(c.b[1]), d = p.row(c.b[2]);
-    Eigen::RowVector3d on = Eigen::RowVector3d::Zero();
-    for (std::size_t j = 0; j < 3; ++j) on += c.w[j] * p.row(c.b[j]);
-    return (p.row(c.a) - on).dot((b - a).cross(d - a));
-  };
-  return side(rest_) * side(reference) < 0;
-}
-
-int ContactGuard::part_of_vertex(int v) const {
-  return parts_.of(v);
 }
 
 int ContactGuard::part_of(int t) const {
@@ -195,62 +154,6 @@ std::vector<std::pair<int, int>> ContactGuard::new_crossings(
     if (moving_cross(shape, moved, a, b) && !cross(reference, faces_, a, b)) out.emplace_back(a, b);
   for (const auto& [a, b] : part_pairs_)
     if (moving_cross(shape, moved, a, b) && !template_crosses(a, b)) out.emplace_back(a, b);
-  for (const auto& [a, b] : floating_crossings(shape))
-    if (!template_crosses(a, b)) out.emplace_back(a, b);
-  return out;
-}
-
-std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& shape) const {
-  std::vector<std::pair<int, int>> out;
-  if (floating_.empty()) return out;
-  const auto box_of = [&](int t) {
-    Eigen::AlignedBox3d b(shape.row(faces_(t, 0)).transpose());
-    b.extend(shape.row(faces_(t, 1)).transpose());
-    return b.extend(shape.row(faces_(t, 2)).transpose());
-  };
-  // A pair that the shape leaves where it is in the neutral does not cross: a triangle counts
-  // when a corner moved (a still vertex is set exactly still).
-  std::vector<char> displaced(static_cast<std::size_t>(shape.rows()), 0);
-  for (Eigen::Index v = 0; v < shape.rows(); ++v)
-    displaced[static_cast<std::size_t>(v)] = shape.row(v) != rest_.row(v);
-  const auto moves = [&](int t) {
-    return displaced[static_cast<std::size_t>(faces_(t, 0))] ||
-           displaced[static_cast<std::size_t>(faces_(t, 1))] ||
-           displaced[static_cast<std::size_t>(faces_(t, 2))];
-  };
-  const anim::Positions p = shape.cast<float>();
-  // Per floating part, a prefilter: the other triangles whose boxes meet the part's box in this
-  // shape (only moving ones when the part itself stays), then the box pairs among those (a
-  // bounding-volume hierarchy over the part and what lies around it).
-  for (std::size_t i = 0; i + 1 < floating_start_.size(); ++i) {
-    const auto first = floating_.begin() + floating_start_[i],
-               last = floating_.begin() + floating_start_[i + 1];
-    const bool part_moves = std::any_of(first, last, moves);
-    Eigen::AlignedBox3d around;
-    for (auto t = first; t != last; ++t) around.extend(box_of(*t));
-    std::vector<int> local(first, last);  // local triangle -> mesh triangle; the part's first
-    const auto own = static_cast<std::size_t>(last - first);
-    const int part = part_of(*first);
-    for (int t = 0; t < static_cast<int>(faces_.rows()); ++t)
-      if (part_of(t) != part && (part_moves || moves(t)) &&
-          !(afloat_[static_cast<std::size_t>(t)] && part_of(t) < part) &&  // that pair was seen
-          box_of(t).intersects(around))
-        local.push_back(t);
-    if (local.size() == own && !part_moves) continue;
-    Faces sub(static_cast<Eigen::Index>(local.size()), 3);
-    for (std::size_t k = 0; k < local.size(); ++k)
-      sub.row(static_cast<Eigen::Index>(k)) = faces_.row(local[k]);
-    std::vector<char> from(local.size(), 0);
-    std::fill(from.begin(), from.begin() + static_cast<std::ptrdiff_t>(own), 1);
-    for (const auto& [x, y] : anim::near_triangle_pairs(p, sub, 0.0, from)) {
-      const int a = local[static_cast<std::size_t>(x)], b = local[static_cast<std::size_t>(y)];
-      if (!(moves(a) || moves(b)) || !cross(shape, faces_, a, b)) continue;
-      if (std::binary_search(neutral_floating_.begin(), neutral_floating_.end(),
-                             std::pair{std::min(a, b), std::max(a, b)}))
-        continue;
-      out.emplace_back(a, b);  // x < y: the part's triangle first
-    }
-  }
   return out;
 }
 
@@ -273,24 +176,17 @@ void ContactGuard::add_contacts(const std::vector<std::pair<int, int>>& crossing
                             rest_.row(c.b[1]).transpose(), rest_.row(c.b[2]).transpose());
     for (int i = 0; i < 3; ++i) c.w[static_cast<std::size_t>(i)] = w[i];
     out.contacts.push_back(c);
-    out.turns.push_back(turns ||
-                        (part_of_vertex(vertex) != part_of(triangle) && wrong_side(reference, c)));
+    out.turns.push_back(turns);
   };
   for (const auto& [a, b] : crossings) {
-    // Of two parts the reference may cross where the template does not (it was not cleared
-    // there): then the neutral's offset, turned with the triangle.
-    const bool turns = cross(reference, faces_, a, b);
-    const auto is_placed = [&](int t) {
-      return !placed_.empty() && placed_[static_cast<std::size_t>(t)];
-    };
-    if (is_placed(a) || is_placed(b)) {  // (placed, free): the free corners on the placed one
-      const int fixed = is_placed(a) ? a : b, free = is_placed(a) ? b : a;
-      for (int c = 0; c < 3; ++c) add(faces_(free, c), fixed, turns);
+    if (part_of(a) != part_of(b)) {  // (placed, free): the free corners on the placed triangle
+      const bool turns = cross(reference, faces_, a, b);
+      for (int c = 0; c < 3; ++c) add(faces_(b, c), a, turns);
       continue;
     }
     for (int c = 0; c < 3; ++c) {
-      add(faces_(a, c), b, turns);
-      add(faces_(b, c), a, turns);
+      add(faces_(a, c), b, false);
+      add(faces_(b, c), a, false);
     }
   }
 }
@@ -316,9 +212,6 @@ std::pair<int, int> ContactGuard::clear_parts(
     std::vector<std::pair<int, int>> out;
     for (const auto& [h, f] : part_pairs_)
       if (moving_cross(reference, moved, h, f) && !template_crosses(h, f)) out.emplace_back(h, f);
-    // A floating part (a tongue) comes off the part it runs into: its corners move.
-    for (const auto& [f, h] : floating_crossings(reference))
-      if (part_of(f) != part_of(h) && !template_crosses(f, h)) out.emplace_back(h, f);
     return out;
   };
   auto pairs = crossing();
