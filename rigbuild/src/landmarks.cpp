@@ -244,6 +244,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   ro.width = ro.height = options.image_size;
   ro.margin = options.frame_margin;
   ro.contexts = 1;
+  ro.trilinear = true;  // the detector's views: quality over speed (the stored biases are from it)
   ro.background = Eigen::Vector3f(0.05f, 0.05f, 0.05f);
   Lap lap;
   HeadLandmarks out;

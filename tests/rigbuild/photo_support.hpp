@@ -85,6 +85,7 @@ inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const anim::Posit
   ro.width = ro.height = size;
   ro.fov_y_deg = 3;  // a long lens: the fit's camera is scale-orthographic
   ro.contexts = 1;
+  ro.trilinear = true;  // photo-like (the figures were tuned on these renders)
   render::Renderer r(rig, ro);
   PhotoShoot out;
   const std::vector<float> w(rig.shapes.size(), 0.0f);
@@ -105,6 +106,7 @@ inline render::Image render_as_photo(const anim::Rig& rig, const rigbuild::Ortho
   ro.width = photo.width;
   ro.height = photo.height;
   ro.contexts = 1;
+  ro.trilinear = true;
   render::Renderer r(rig, ro);
   r.set_camera(rigbuild::render_camera(camera, rig.positions, photo.width, photo.height));
   return r.render(render::weights_for(rig, named));
