@@ -1,6 +1,6 @@
 #pragma once
-// The outgoing messages of one WebSocket connection, in order (Beast chat-multi's write queue): one
-// message at a time is written, the rest wait here. The queue owns its share of the
+// The outgoing messages of one WebSocket connection, in order: the first writing() of them are
+// being written (one gather write), the rest wait here. The queue owns its share of the
 // write_queue_depth gauge and applies the drop-oldest rule for weights (see
 // docs/algorithms.md#stream-pacing):
 //
