@@ -2,8 +2,7 @@
 
 namespace facecast::server {
 
-bool FrameStream::write_frames(const std::vector<net::const_buffer>& buffers,
-                               std::function<void(beast::error_code, std::size_t)> done) {
+bool FrameStream::write_frames(const std::vector<net::const_buffer>& buffers) {
   auto& socket = next_.socket();
   beast::error_code ec;
   if (!socket.non_blocking()) socket.non_blocking(true, ec);
@@ -20,11 +19,10 @@ bool FrameStream::write_frames(const std::vector<net::const_buffer>& buffers,
   beast::buffers_suffix<std::vector<net::const_buffer>> left(buffers);
   left.consume(sent);
   for (const auto b : left) rest_.push_back(b);
-  const auto finish = [this, sent, done = std::move(done), owner = owner_.lock()](
-                          beast::error_code e, std::size_t n) {
+  const auto finish = [this, sent, owner = owner_.lock()](beast::error_code e, std::size_t n) {
     writing_ = false;
     write_beast_bytes();  // what Beast queued meanwhile goes next
-    done(e, sent + n);
+    on_written_(e, sent + n);
     if (!writing_) idle();
   };
   if (ec) {

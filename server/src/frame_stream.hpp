@@ -36,10 +36,13 @@ class FrameStream {
 
   /// Frames of the session. Writes `buffers` (whole frames) if nothing else is being written:
   /// true when every byte went out at once (the common case: no allocation, no completion);
-  /// otherwise the rest goes out asynchronously and `done(ec, bytes)` runs when it has. `buffers`
-  /// and the memory they point to must stay valid until then. Not to be called while busy().
-  bool write_frames(const std::vector<net::const_buffer>& buffers,
-                    std::function<void(beast::error_code, std::size_t)> done);
+  /// otherwise the rest goes out asynchronously and on_written(ec, bytes) runs when it has.
+  /// `buffers` and the memory they point to must stay valid until then. Not to be called while
+  /// busy().
+  bool write_frames(const std::vector<net::const_buffer>& buffers);
+  void on_written(std::function<void(beast::error_code, std::size_t)> f) {
+    on_written_ = std::move(f);
+  }
   /// True while frames or Beast's bytes are being written; `on_idle` runs when that ends.
   bool busy() const noexcept { return writing_; }
   void on_idle(std::function<void()> f) { on_idle_ = std::move(f); }
@@ -76,6 +79,7 @@ class FrameStream {
   std::string beast_bytes_, beast_writing_;  // queued, and being written
   std::vector<net::const_buffer> rest_;      // frames not written at once
   std::function<void()> on_idle_, flushed_;
+  std::function<void(beast::error_code, std::size_t)> on_written_;
   std::weak_ptr<void> owner_;
 };
 

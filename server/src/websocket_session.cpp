@@ -41,6 +41,8 @@ void WebSocketSession::run(Request request, bool subprotocol) {
   forwarded_for_ = request["X-Forwarded-For"];  // the client behind a proxy, for the logs
   ws_.next_layer().set_owner(weak_from_this());
   ws_.next_layer().on_idle([this] { do_write(); });
+  ws_.next_layer().on_written(
+      [this](beast::error_code ec, std::size_t bytes) { on_write(ec, bytes); });
   ws_.read_message_max(o.max_message);
   ws_.auto_fragment(false);
   state_->add_session(id_, weak_from_this());
@@ -187,9 +189,7 @@ void WebSocketSession::do_write() {
       frames_.push_back(net::buffer(data));
       bytes += frames_[2 * i].size() + data.size();
     }
-    if (!stream.write_frames(
-            frames_, beast::bind_front_handler(&WebSocketSession::on_write, shared_from_this())))
-      return;
+    if (!stream.write_frames(frames_)) return;  // on_write follows
     wrote(bytes);
   }
 }
