@@ -12,8 +12,8 @@
 
 #include "facecast/anim/avatar_document.hpp"
 #include "facecast/anim/rig_io.hpp"
-#include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/install.hpp"
 #include "facecast/rigbuild/template.hpp"
 
 namespace facecast::rigbuild {
@@ -250,7 +250,16 @@ std::string compact_glb_bytes(const anim::Rig& rig, const std::vector<anim::Posi
 }
 
 std::filesystem::path shipped_template_path() {
-  return config_path("rigbuild/ict_facekit.glb");
+  const auto share = installed_share_dir();
+  const std::filesystem::path path =
+      share.empty() ? std::filesystem::path(FACECAST_SHIPPED_TEMPLATE) : share / "ict_facekit.glb";
+  if (!std::filesystem::exists(path))
+    throw Error(
+        path.string() +
+            ": the shipped template was not built (the build makes it from the ICT FaceKit, "
+            "../shared/data/ict-facekit.tar.xz, when it finds it); give --template",
+        ErrorCode::kNotFound);
+  return path;
 }
 
 anim::Rig load_shipped_template() {

@@ -263,8 +263,7 @@ void add_rig_build_commands(CLI::App& rig) {
   auto* b = rig.add_subcommand(
       "build", "Generate a user's blendshapes from a template rig by deformation transfer");
   b->add_option("--template", a->tmpl,
-                "Template rig (GLB; default: the shipped ICT FaceKit, configs/rigbuild/"
-                "ict_facekit.glb)")
+                "Template rig (GLB; default: the shipped ICT FaceKit, ict_facekit.glb)")
       ->check(CLI::ExistingFile);
   b->add_option("--template-neutral", a->tmpl_neutral, "Template neutral OBJ")
       ->check(CLI::ExistingFile);
@@ -350,7 +349,7 @@ void add_rig_build_commands(CLI::App& rig) {
   auto pack = std::make_shared<std::pair<std::string, std::string>>();
   auto* pt = rig.add_subcommand(
       "pack-template",
-      "Make the shipped template (configs/rigbuild/ict_facekit.glb) from the ICT FaceKit");
+      "Make the shipped template (ict_facekit.glb, the build runs it) from the ICT FaceKit");
   pt->add_option("--ict", pack->first, "The FaceKit's FaceXModel folder")
       ->required()
       ->check(CLI::ExistingDirectory);

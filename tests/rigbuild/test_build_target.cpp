@@ -18,6 +18,7 @@
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "stages.hpp"  // fit_sphere
+#include "test_data.hpp"
 
 namespace fs = std::filesystem;
 using namespace facecast;
@@ -251,6 +252,7 @@ double lid_gap(const anim::Rig& rig, const std::array<int, 68>& lm, int inner, i
 
 TEST_CASE("an avatar of another topology gets the shipped template's shapes with no markers",
           "[rigbuild][avatar][template][slow]") {
+  if (!test::require_data(test::ict_dir() / "generic_neutral_mesh.obj")) return;  // packed from it
   const fs::path in = out_dir() / "no-shapes-ict.glb", out = out_dir() / "rebuilt-ict.glb";
   write_file_atomic(in, avatar_without_shapes());
   const anim::Rig tmpl = load_shipped_template();

@@ -254,6 +254,7 @@ TEST_CASE("the default avatar's stored landmarks are where the detector finds th
 
 TEST_CASE("the shipped template's stored landmark bias is the one computed",
           "[rigbuild][landmarks][template]") {
+  if (!test::require_data(test::ict_dir() / "generic_neutral_mesh.obj")) return;  // packed from it
   const anim::Rig tmpl = load_shipped_template();
   const auto ids = known_landmarks(tmpl);
   REQUIRE(ids);  // stored in the file

@@ -1,4 +1,4 @@
-// The shipped template (rigbuild/template.hpp, configs/rigbuild/ict_facekit.glb) against the ICT
+// The shipped template (rigbuild/template.hpp, ict_facekit.glb packed by the build) against the ICT
 // FaceKit it is made from (../shared/data): ARKit names, visemes, landmarks, parts' materials, and
 // its neutral and shapes equal to the source's within the quantization; made again from the source,
 // it is the same file byte for byte (the conversion is reproducible).

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "facecast/rigbuild/template.hpp"
 #include "test_data.hpp"
 
 namespace fctest {
@@ -310,6 +311,17 @@ double metric_value(const std::string& metrics, const std::string& name_and_labe
     pos += key.size();
   }
   return -1;
+}
+
+nlohmann::json builtin_rig_ids() {
+  nlohmann::json ids = {"default"};
+  std::error_code ec;
+  try {
+    if (std::filesystem::exists(facecast::rigbuild::shipped_template_path(), ec))
+      ids.push_back(facecast::rigbuild::kShippedTemplateId);
+  } catch (const std::exception&) {  // not built: no shared data
+  }
+  return ids;
 }
 
 }  // namespace fctest

@@ -149,6 +149,10 @@ class TestServer {
   std::unique_ptr<facecast::server::Server> server_;
 };
 
+/// The rigs every server lists first: the default avatar, and the shipped template when the build
+/// packed it from ../shared/data (rigbuild/template.hpp).
+nlohmann::json builtin_rig_ids();
+
 /// The value of a metric line "name{labels} value" in /metrics text (or -1).
 double metric_value(const std::string& metrics, const std::string& name_and_labels);
 

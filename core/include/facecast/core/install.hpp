@@ -2,7 +2,7 @@
 // Where an installed Facecast keeps its data (cmake --install or the .deb):
 //   <prefix>/bin/facecast
 //   <prefix>/share/facecast/{configs, web, node_modules/three, node_modules/@pixiv/three-vrm,
-//                            zh_lexicon.txt, deploy}
+//                            zh_lexicon.txt, ict_facekit.glb, deploy}
 // found relative to the running executable, so that no source tree is needed.
 #include <filesystem>
 

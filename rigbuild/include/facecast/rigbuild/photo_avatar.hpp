@@ -37,7 +37,7 @@ inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
   std::string template_path;      // --template default: a template folder or rig file ("" = the
-                                  // shipped template, configs/rigbuild/ict_facekit.glb)
+                                  // shipped template, ict_facekit.glb)
   int min_face = 80;              // a face box narrower than this (pixels) is "too small"
   int max_side = 640;             // photos are scaled down to this longest side for detection
   double box_jitter = 0.06;       // landmarks averaged over face boxes moved by up to this

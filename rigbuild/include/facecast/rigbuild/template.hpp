@@ -1,7 +1,7 @@
 #pragma once
 // The realistic template shipped with Facecast: the ICT FaceKit (MIT, USC Institute for Creative
-// Technologies; configs/rigbuild/ict_facekit.LICENSE) as a compact GLB,
-// configs/rigbuild/ict_facekit.glb (docs/algorithms.md#shipped-template). It holds the FaceKit's
+// Technologies; configs/rigbuild/ict_facekit.LICENSE) as a compact GLB, ict_facekit.glb, packed by
+// the build from ../shared/data (docs/algorithms.md#shipped-template). It holds the FaceKit's
 // neutral without its transparent eye layers (lacrimal fluid, eye blend, eye occlusion), its
 // expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum of the
 // FaceKit's halves, which are kept as browInnerUp_L ... with its other extras cheekRaiser_L/R and
@@ -25,7 +25,9 @@ namespace facecast::rigbuild {
 /// The server's rig id of the shipped template.
 inline constexpr const char* kShippedTemplateId = "ict-facekit";
 
-/// configs/rigbuild/ict_facekit.glb (found as every config file is: core/config.hpp).
+/// ict_facekit.glb, made at build time from the ICT FaceKit in ../shared/data (`facecast rig
+/// pack-template`): <prefix>/share/facecast/ when installed, else this build's rigbuild/. Throws
+/// Error(kNotFound) saying how it is made when it is missing.
 std::filesystem::path shipped_template_path();
 
 /// The shipped template as a rig (the file's vertex order; its landmarks and shapes). Throws
