@@ -364,12 +364,13 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
 }
 
 void StreamPacer::finish() {
+  // Counted before the client can see the end (its next request may read the metrics).
+  state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
+  if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
   const StreamEnd end{request_.id, stream_, sent_, dropped_, cancelling_};
   auto end_message = OutMessage::control(stream_end_message(end));
   end_message.boundary = Boundary::kEnd;
   sink_->send(std::move(end_message));
-  state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
-  if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
   log::info("stream_end", {{"conn", conn_},
                            {"id", request_.id},
                            {"stream", stream_},
