@@ -118,11 +118,17 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
   const PointIndex tree(points);
   const anim::Components comps = anim::connected_components(n, faces);
 
-  // Per vertex: its `per_vertex` shortest qualifying partners.
-  std::vector<std::vector<Candidate>> best(static_cast<std::size_t>(n));
+  // Per vertex: its `per_vertex` shortest qualifying partners on its own surface, and as many in
+  // other parts. The two kinds of gap are kept apart through the density control too: a lid
+  // margin has the eyeball and the lashes nearer than the other lid, and with one quota and one
+  // density control for both the lids got no edge between them (the eyeball's edges took the
+  // quota, or blocked the margin as a source).
+  std::vector<std::vector<Candidate>> own(static_cast<std::size_t>(n)),
+      apart(static_cast<std::size_t>(n));
   const WorkerLease lease(static_cast<std::size_t>(n));
   const unsigned workers = lease.workers();
   std::vector<long> cand_count(workers, 0), qual_count(workers, 0);
+  const std::size_t k = static_cast<std::size_t>(options.per_vertex);
   parallel_workers(workers, [&](unsigned w) {
     LocalGeodesic geo(graph);
     std::vector<std::pair<std::uint32_t, double>> hits;
@@ -139,49 +145,41 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
         (comps.label[j] == comps.label[i] ? cands : other).push_back({j, std::sqrt(h.second)});
       }
       cand_count[w] += static_cast<long>(cands.size() + other.size());
-      // Only the `per_vertex` shortest qualifying pairs are kept, and every pair into another
-      // component qualifies: same-component candidates beyond the k-th of those need no search.
-      const std::size_t k = static_cast<std::size_t>(options.per_vertex);
-      if (other.size() >= k) {
-        const double limit = other[k - 1].dist;
-        while (!cands.empty() && cands.back().dist > limit) cands.pop_back();
-      }
       good.clear();
       if (!cands.empty()) geo.qualify(i, cands, options.f, good);
-      if (!other.empty()) {
-        good.insert(good.end(), other.begin(), other.end());
-        std::sort(good.begin(), good.end(),
-                  [](const Candidate& a, const Candidate& b) { return a.dist < b.dist; });
-      }
-      qual_count[w] += static_cast<long>(good.size());
-      if (static_cast<int>(good.size()) > options.per_vertex)
-        good.resize(static_cast<std::size_t>(options.per_vertex));
-      best[static_cast<std::size_t>(i)] = good;
+      qual_count[w] += static_cast<long>(good.size() + other.size());
+      if (good.size() > k) good.resize(k);
+      if (other.size() > k) other.resize(k);  // sorted by distance: the radius search sorts
+      own[static_cast<std::size_t>(i)] = good;
+      apart[static_cast<std::size_t>(i)] = other;
     }
   });
 
   // Density control: shortest sources first; a placed source blocks its surroundings and its
   // partners' surroundings as future sources.
-  std::vector<int> order;
-  for (int i = 0; i < n; ++i) {
-    if (!best[static_cast<std::size_t>(i)].empty()) order.push_back(i);
-  }
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return best[static_cast<std::size_t>(a)][0].dist < best[static_cast<std::size_t>(b)][0].dist;
-  });
-  std::vector<char> blocked(static_cast<std::size_t>(n), 0);
   std::vector<VirtualEdge> edges;
   std::vector<std::pair<std::uint32_t, double>> hits;
-  auto block_around = [&](int v) {
-    tree.within(points.row(v).data(), spacing, hits, false);
-    for (const auto& h : hits) blocked[h.first] = 1;
-  };
-  for (int i : order) {
-    if (blocked[static_cast<std::size_t>(i)]) continue;
-    for (const auto& c : best[static_cast<std::size_t>(i)])
-      edges.push_back({std::min(i, c.j), std::max(i, c.j)});
-    block_around(i);
-    for (const auto& c : best[static_cast<std::size_t>(i)]) block_around(c.j);
+  std::vector<char> blocked(static_cast<std::size_t>(n));
+  for (const auto* best : {&own, &apart}) {
+    const auto partners = [&](int i) -> const std::vector<Candidate>& {
+      return (*best)[static_cast<std::size_t>(i)];
+    };
+    std::vector<int> order;
+    for (int i = 0; i < n; ++i)
+      if (!partners(i).empty()) order.push_back(i);
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return partners(a)[0].dist < partners(b)[0].dist; });
+    std::fill(blocked.begin(), blocked.end(), 0);
+    auto block_around = [&](int v) {
+      tree.within(points.row(v).data(), spacing, hits, false);
+      for (const auto& h : hits) blocked[h.first] = 1;
+    };
+    for (int i : order) {
+      if (blocked[static_cast<std::size_t>(i)]) continue;
+      for (const auto& c : partners(i)) edges.push_back({std::min(i, c.j), std::max(i, c.j)});
+      block_around(i);
+      for (const auto& c : partners(i)) block_around(c.j);
+    }
   }
   std::sort(edges.begin(), edges.end(), [](const VirtualEdge& a, const VirtualEdge& b) {
     return a.a != b.a ? a.a < b.a : a.b < b.b;

@@ -8,8 +8,9 @@
 // passes f times the largest candidate distance, so it stays local); vertices in different
 // connected components are infinitely far apart along the surface. Candidates come from a k-d tree
 // radius search (nanoflann), so the cost is linear in the vertex count. Each vertex keeps its
-// `per_vertex` shortest pairs; density control then walks the sources shortest-first and, after
-// placing a source's edges, skips every vertex within `spacing` of the edges' ends. The default
+// `per_vertex` shortest pairs on its own surface and as many into other parts; density control,
+// once for each kind, then walks the sources shortest-first and, after placing a source's edges,
+// skips every vertex within `spacing` of the edges' ends. The default
 // spacing is half a median edge, so nearly every vertex at a gap keeps its edges: a spacing as
 // wide as d leaves an eye a few edges, all to its nearest part (the lashes), and none joining
 // the two lids.
@@ -22,7 +23,7 @@ namespace facecast::rigbuild {
 struct VirtualEdgeOptions {
   double d = 0.0;        // Euclidean threshold; <= 0: estimate_ve_distance()
   double f = 3.0;        // geodesic / Euclidean ratio threshold, >= 2
-  int per_vertex = 4;    // edges kept per source vertex (3 to 5 work)
+  int per_vertex = 4;    // edges kept per source vertex, own surface and other parts each (3 to 5)
   double spacing = 0.0;  // density-control radius; <= 0: half the median edge length
 };
 
