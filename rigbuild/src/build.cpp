@@ -118,7 +118,8 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   time.factor = transfer.factor_seconds();
   r.factor_nonzeros = transfer.factor_nonzeros();
   const std::vector<Points> copied = copy_motion(rest, r.correspondence, source, placement, moved);
-  const std::vector<Points> edge_targets = edge_vectors(copied, r.virtual_edges);
+  const std::vector<Points> edge_targets = edge_vectors(rest, r.correspondence, source, copied,
+                                                        r.virtual_edges, options.gap_scale_limit);
   r.quality.resize(source.size());
   std::optional<ContactStage> contacts;
   std::vector<Points> reference;

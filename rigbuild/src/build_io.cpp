@@ -15,6 +15,7 @@ BuildOptions load_build_options() {
   c.read_choice("virtual_edges", o.virtual_edges,
                 {{"auto", VirtualEdgeMode::kAuto}, {"off", VirtualEdgeMode::kOff}});
   c.read("lambda", o.lambda)
+      .read("gap_scale_limit", o.gap_scale_limit)
       .read("still_tolerance", o.still_tolerance)
       .read("rigid_tolerance", o.rigid_tolerance);
   if (o.lambda < 0) c.fail("lambda", "must not be negative");
@@ -74,7 +75,8 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                         {"spacing", r.ve_stats.spacing},
                         {"candidate_pairs", r.ve_stats.candidate_pairs},
                         {"qualifying_pairs", r.ve_stats.qualifying_pairs},
-                        {"lambda", options.lambda}};
+                        {"lambda", options.lambda},
+                        {"gap_scale_limit", options.gap_scale_limit}};
   nlohmann::json contacts = crossing_counts({});  // over every shape
   for (const auto& q : r.quality) {
     const nlohmann::json counts = crossing_counts(q);

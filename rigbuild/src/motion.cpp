@@ -1,5 +1,8 @@
 // The template's motion: its shapes and gradients, which target vertices they move, and the
 // motion copied onto the target vertex by vertex. See docs/algorithms.md#deformation-transfer.
+#include <Eigen/Geometry>
+#include <algorithm>
+
 #include "parallel.hpp"
 #include "stages.hpp"
 
@@ -100,9 +103,7 @@ void follow_moving_members(const std::vector<int>& members, const std::vector<ch
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
                                 const TemplateShapes& source, const Placement& placement,
                                 const Moved& moved) {
-  // Each virtual edge follows the copy: the target gap e changes as the template gap r does,
-  // e' = e + (r' - r) = copy_a - copy_b (docs/algorithms.md#virtual-edges); the change is not
-  // scaled by |e| / |r|, which breaks translations such as jawForward at thin mouth corners.
+  // Each virtual edge follows the copy's change of its gap (edge_vectors below).
   const std::vector<int> prescribed = placement.prescribed();
   const std::vector<std::vector<int>> floating =
       placement.parts_move_whole ? floating_members(placement) : std::vector<std::vector<int>>{};
@@ -121,14 +122,55 @@ std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
   return copied;
 }
 
-std::vector<Points> edge_vectors(const std::vector<Points>& copied,
-                                 const std::vector<VirtualEdge>& edges) {
+namespace {
+
+// The template's gap at a virtual edge (the vector between the points its ends map to) in the
+// target's frame and units, in the neutral (`at` = source.rest) or a shape.
+Eigen::RowVector3d template_gap(const Correspondence& c, const VirtualEdge& ve, const Points& at) {
+  return c.alignment.scale *
+         (c.vertex_map[static_cast<std::size_t>(ve.a)].on(at) -
+          c.vertex_map[static_cast<std::size_t>(ve.b)].on(at)) *
+         c.alignment.R.transpose();
+}
+
+}  // namespace
+
+std::vector<Points> edge_vectors(const Points& rest, const Correspondence& c,
+                                 const TemplateShapes& source, const std::vector<Points>& copied,
+                                 const std::vector<VirtualEdge>& edges, double gap_scale_limit) {
+  // docs/algorithms.md#gap-scaling. The copy changes the target gap e by the template's change
+  // d = r' - r (r: the template gap between the points the ends map to). A translation across a
+  // gap (jawForward at a thin mouth corner) keeps its size, but a closing gap (a blink) closes by
+  // the template's length: too far across a narrower eye, not far enough across a wider one. So
+  // as far as the template gap closes, the change is taken relative to the gap: turned from r's
+  // direction onto e's (q) and scaled by s = |e| / |r| (clamped to [1 / limit, limit]),
+  //   e' = e + (1 - closed) d + closed s q d,   closed = clamp(1 - |r'| / |r|, 0, 1),
+  // so a template gap that closes entirely gives e' = s q r'. A gap that opens or passes through
+  // itself (|r'| >= |r|), or whose direction differs from e's by more than 60 degrees, keeps d.
   std::vector<Points> out(edges.empty() ? 0 : copied.size());
+  const double tiny = 1e-9 * diagonal(rest);
+  std::vector<Eigen::RowVector3d> gap(edges.size());
+  for (std::size_t i = 0; i < edges.size(); ++i) gap[i] = template_gap(c, edges[i], source.rest);
   parallel_for(out.size(), [&](std::size_t k) {
     out[k].resize(static_cast<Eigen::Index>(edges.size()), 3);
-    for (std::size_t i = 0; i < edges.size(); ++i)
-      out[k].row(static_cast<Eigen::Index>(i)) =
-          copied[k].row(edges[i].a) - copied[k].row(edges[i].b);
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      const VirtualEdge& ve = edges[i];
+      const Eigen::RowVector3d e = rest.row(ve.a) - rest.row(ve.b);
+      const Eigen::RowVector3d change = copied[k].row(ve.a) - copied[k].row(ve.b) - e;
+      const Eigen::RowVector3d& r = gap[i];
+      Eigen::RowVector3d want = e + change;
+      // Gaps that do not correspond (more than 60 degrees apart, or a point) keep the copy.
+      if (gap_scale_limit > 1 && r.norm() > tiny && e.norm() > tiny &&
+          e.normalized().dot(r.normalized()) > 0.5) {
+        const double s = std::clamp(e.norm() / r.norm(), 1 / gap_scale_limit, gap_scale_limit);
+        const double closed =
+            std::clamp(1 - template_gap(c, ve, source.shapes[k]).norm() / r.norm(), 0.0, 1.0);
+        const Eigen::Quaterniond q =
+            Eigen::Quaterniond::FromTwoVectors(r.transpose(), e.transpose());
+        want = e + (1 - closed) * change + closed * s * (q * change.transpose()).transpose();
+      }
+      out[k].row(static_cast<Eigen::Index>(i)) = want;
+    }
   });
   return out;
 }

@@ -149,9 +149,12 @@ Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
 std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
                                 const TemplateShapes& source, const Placement& placement,
                                 const Moved& moved);
-/// Per shape (none without edges): each edge's vector x_a - x_b in `copied`, #E by 3.
-std::vector<Points> edge_vectors(const std::vector<Points>& copied,
-                                 const std::vector<VirtualEdge>& edges);
+/// Per shape (none without edges): each edge's wanted vector x_a - x_b, #E by 3: the change of
+/// the edge in `copied`, turned onto the edge and scaled towards |e| / |template gap| as far as
+/// the template gap closes (docs/algorithms.md#gap-scaling; `gap_scale_limit` <= 1: the copy).
+std::vector<Points> edge_vectors(const Points& rest, const Correspondence& c,
+                                 const TemplateShapes& source, const std::vector<Points>& copied,
+                                 const std::vector<VirtualEdge>& edges, double gap_scale_limit);
 /// Every shape solved (the prescribed vertices where `copied` has them); vertices a shape leaves
 /// still (Placement::stays) are set exactly still.
 std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,

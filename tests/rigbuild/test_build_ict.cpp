@@ -1,6 +1,7 @@
 // Rig building on the real ICT FaceKit (../shared/data): same topology against the identity ground
 // truth, and another topology (MakeHuman head) through its marker file.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <string>
@@ -124,7 +125,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // teeth and the eyes (the lips, the lids, the lips on the teeth, the lids on the eyes): the
   // transfer alone brings over a thousand -- fuller lips and lids than the template's, closed as
   // far as the template closes its own, and lips that lie on the teeth -- the contacts leave
-  // a handful (the lid margins in eyeBlink, beyond the watched margin).
+  // a handful (the lid margins in eyeBlink, beyond the watched margin, and a lid on an eye).
   IntersectionCheck check;
   const auto group_of = [&](int t) {
     return target
@@ -149,7 +150,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   const auto with = new_pairs(r), without = new_pairs(again);
   CHECK(sum(without, "") > 500);
   CHECK(sum(with, "") * 10 < sum(without, ""));
-  CHECK(sum(with, "") <= 15);
+  CHECK(sum(with, "") <= 8);
   CHECK(sum(without, "teeth") > 400);
   CHECK(sum(with, "teeth") * 10 < sum(without, "teeth"));
   int copy_found = 0, part_found = 0, found = 0, left = 0;
@@ -226,8 +227,13 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
     return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
   };
   CHECK(max_move("jawOpen") > 0.3f);  // decimetres: the chin drops
-  // The lids close over most of the eye opening (mid upper / mid lower lid markers; the ICT
-  // template itself closes 84% at this spot, this build about 74%).
+  // The lids close over most of the eye opening: the gap left between the mid upper and mid
+  // lower lid vertices as a fraction of the neutral gap. The ICT template itself leaves 0.164
+  // between the points these vertices map to; the MakeHuman eye opening is 0.8 of the aligned
+  // template's, so the copied blink presses the upper lid past the lower and the plain transfer
+  // left 0.27 (left) and 0.26 (right). With virtual edges joining the two lids (their own quota,
+  // apart from the eyeball's and the lashes') and the closing gap's change taken relative to the
+  // gap (docs/algorithms.md#gap-scaling) it leaves 0.22 on both sides.
   const auto gap = [&](const char* shape, int upper, int lower) {
     const anim::Positions p =
         r.rig.positions +
@@ -235,8 +241,12 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
     return (p.row(upper) - p.row(lower)).norm() /
            (r.rig.positions.row(upper) - r.rig.positions.row(lower)).norm();
   };
-  CHECK(gap("eyeBlink_L", 3190, 3203) < 0.3f);
-  CHECK(gap("eyeBlink_R", 1068, 1081) < 0.3f);
+  const float lid_l = gap("eyeBlink_L", 3190, 3203), lid_r = gap("eyeBlink_R", 1068, 1081);
+  WARN("eyeBlink closes the mid lid gap to " << lid_l << " (left) and " << lid_r
+                                             << " (right) of the neutral gap (template: 0.164)");
+  CHECK(lid_l < 0.235f);
+  CHECK(lid_r < 0.235f);
+  CHECK(std::abs(lid_l - lid_r) < 0.02f);  // the head is symmetric, so are its edges
 }
 
 TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker file",

@@ -69,6 +69,10 @@ struct BuildOptions {
   std::vector<VirtualEdge> given_edges;  // with kFile: the edges (read_virtual_edges_json)
   VirtualEdgeOptions ve;
   double lambda = 4.0;  // weight of the virtual-edge term
+  /// Virtual edges whose template gap closes take the template's change scaled by |target gap| /
+  /// |template gap|, clamped to [1 / this, this], as far as it closes (docs/algorithms.md
+  /// #gap-scaling); <= 1: the change as copied.
+  double gap_scale_limit = 2.0;
   ContactOptions contacts;
   EyeLookOptions eye_look;
   std::vector<int> fixed;         // extra target vertices that never move
