@@ -24,7 +24,8 @@ LandmarkOptions load_landmark_options() {
       .read("contour_yaw", o.contour_yaw)
       .read("search_pixels", o.search_pixels)
       .read("outlier", o.outlier)
-      .read("symmetry", o.symmetry);
+      .read("symmetry", o.symmetry)
+      .read("eye_bias_limit", o.eye_bias_limit);
   if (o.image_size < 64 || o.image_size > 4096) c.fail("image_size", "must be in 64..4096");
   if (o.frame_margin < 1.0f) c.fail("frame_margin", "must be at least 1");
   if (!(o.face_fill > 0.05 && o.face_fill <= 1)) c.fail("face_fill", "must be in (0.05, 1]");
@@ -33,6 +34,7 @@ LandmarkOptions load_landmark_options() {
     if (!(std::abs(y) < 80)) c.fail("yaws", "views must be turned less than 80 degrees");
   if (o.outlier <= 0) c.fail("outlier", "must be positive");
   if (o.symmetry <= 0) c.fail("symmetry", "must be positive");
+  if (o.eye_bias_limit <= 0) c.fail("eye_bias_limit", "must be positive");
   c.reject_unknown();
   return o;
 }

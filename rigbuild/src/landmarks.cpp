@@ -183,9 +183,28 @@ int drop_by_symmetry(double limit, const std::vector<double>& residual, Points& 
   return static_cast<int>(drop.size());
 }
 
+// The template's eye opening: the mean distance of its upper and lower lid points (37-41, 38-40,
+// 43-47, 44-46); 0 when it has none of them.
+double eye_opening(const Points& reference) {
+  double sum = 0;
+  int n = 0;
+  for (auto [upper, lower] : {std::pair{37, 41}, {38, 40}, {43, 47}, {44, 46}}) {
+    if (!valid(reference, upper) || !valid(reference, lower)) continue;
+    sum += (reference.row(upper) - reference.row(lower)).norm();
+    ++n;
+  }
+  return n ? sum / n : 0.0;
+}
+
 // Each point moved by the template's bias carried into the target's frame: the rotation and
-// scale of the similarity fitted from the reference onto the points.
-void apply_bias(const Points& reference, const Points& bias, Points& points) {
+// scale of the similarity fitted from the reference onto the points. An eye point whose bias is
+// more than `eye_limit` times the template's eye opening is left as found: no convention moves a
+// lid point by most of the opening; the detector failed on the template there (the raw ICT
+// FaceKit's eye-occlusion layers, opaque in these renders, cover its eyes), and carried over,
+// that bias lifted the MakeHuman head's lid points onto the upper lid (docs/algorithms.md
+// #landmarks, step 5).
+void apply_bias(const Points& reference, const Points& bias, double eye_limit, Points& points) {
+  const double opening = eye_opening(reference);
   std::vector<int> both;
   for (int k = 0; k < kLandmarkCount; ++k)
     if (valid(points, k) && valid(reference, k)) both.push_back(k);
@@ -197,7 +216,8 @@ void apply_bias(const Points& reference, const Points& bias, Points& points) {
   }
   const Similarity s = procrustes(from, to, true);
   for (int k = 0; k < kLandmarkCount; ++k)
-    if (valid(points, k) && valid(bias, k))
+    if (valid(points, k) && valid(bias, k) &&
+        !(k >= 36 && k <= 47 && opening > 0 && bias.row(k).norm() > eye_limit * opening))
       points.row(k) += (s.scale * s.R * bias.row(k).transpose()).transpose();
 }
 
@@ -336,7 +356,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
                          ? (out.points.row(36) - out.points.row(45)).norm()
                          : 0.25 * diagonal;
   std::vector<double> residual;
-  if (reference && bias) apply_bias(*reference, *bias, out.points);
+  if (reference && bias) apply_bias(*reference, *bias, options.eye_bias_limit, out.points);
   if (reference)
     out.dropped += drop_by_similarity(*reference, options.outlier * iod, out.points, residual);
   out.dropped += drop_by_symmetry(options.symmetry * iod, residual, out.points);

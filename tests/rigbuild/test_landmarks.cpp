@@ -116,6 +116,7 @@ TEST_CASE("configs/rigbuild/landmarks.json mirrors LandmarkOptions' defaults",
   CHECK(c.search_pixels == d.search_pixels);
   CHECK(c.outlier == d.outlier);
   CHECK(c.symmetry == d.symmetry);
+  CHECK(c.eye_bias_limit == d.eye_bias_limit);
 }
 
 TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbuild][landmarks]") {

@@ -34,11 +34,13 @@ struct LandmarkOptions {
   float frame_margin = 1.3f;  // the head's box scaled by this in the first, wide view
   double face_fill = 0.5;     // the views are zoomed until the landmarks span this much of them
   std::vector<double> yaws{0, -15, 15, -30, 30};  // view directions, degrees about +Y
-  double contour_yaw = 16;   // jaw-line points only from views turned at most this far
-  double search_pixels = 6;  // a landmark off the skin takes the nearest skin pixel this close
-  double outlier = 0.15;     // drop a point farther than this * the inter-ocular distance from
-                             // the template's, after the similarity fit
-  double symmetry = 0.15;    // ... or whose mirror image misses its partner by this much
+  double contour_yaw = 16;      // jaw-line points only from views turned at most this far
+  double search_pixels = 6;     // a landmark off the skin takes the nearest skin pixel this close
+  double outlier = 0.15;        // drop a point farther than this * the inter-ocular distance from
+                                // the template's, after the similarity fit
+  double symmetry = 0.15;       // ... or whose mirror image misses its partner by this much
+  double eye_bias_limit = 0.5;  // an eye point's template bias longer than this * the template's
+                                // eye opening is not applied (a failed detection, no convention)
 };
 
 /// LandmarkOptions from configs/rigbuild/landmarks.json; throws Error naming the field.
