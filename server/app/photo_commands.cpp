@@ -64,10 +64,9 @@ void add_avatar_photo_command(CLI::App& avatar) {
       "(docs/algorithms.md#photo-avatar)");
   c->add_option("--front", args->front, "Front photo (JPEG, PNG, ...)")->required();
   c->add_option("--side", args->side, "Side photo, the head turned 30-45 degrees");
-  c->add_option(
-      "--template", args->tmpl,
-      "Template: ICT FaceKit folder or rig file with identity* shapes (default: "
-      "configs/rigbuild/photo.json's template, else the shipped ict_facekit.glb)");
+  c->add_option("--template", args->tmpl,
+                "Template: ICT FaceKit folder or rig file with identity* shapes (default: "
+                "configs/rigbuild/photo.json's template, else the shipped ict_facekit.glb)");
   c->add_option("--out", args->out, "Output GLB")->required();
   c->add_option("--report", args->report, "JSON report: landmarks, cameras, fit, timings");
   c->add_option("--landmarks-png", args->landmarks_png, "The photos with their landmarks");
