@@ -15,13 +15,26 @@ std::vector<char> rigid_vertices(const Placement& placement) {
   return out;
 }
 
+// The members of floating parts (transferred as a whole: a tongue), not the attached ones that
+// ride on the skin after the contacts (lashes): the guard watches them against the other parts.
+std::vector<char> floating_vertices(const Placement& placement) {
+  std::vector<char> out(placement.role.size(), 0);
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    const int part = placement.part[v];
+    out[v] = part >= 0 &&
+             placement.parts[static_cast<std::size_t>(part)].kind == PlacedPart::Kind::kFloating;
+  }
+  return out;
+}
+
 }  // namespace
 
 ContactStage::ContactStage(const anim::Rig& tmpl, const TemplateShapes& source,
                            const TriangleMap& map, const Points& rest, const Faces& faces,
                            const MeshParts& parts, const Placement& placement,
                            const ContactOptions& options)
-    : guard_(rest, faces, parts, rigid_vertices(placement), options.margin, options.part_margin),
+    : guard_(rest, faces, parts, rigid_vertices(placement), options.margin, options.part_margin,
+             floating_vertices(placement)),
       template_(tmpl, map, source.shapes),
       placement_(placement),
       options_(options) {}

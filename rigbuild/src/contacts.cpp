@@ -46,7 +46,7 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
                            const MeshParts& parts, const std::vector<char>& held, double margin,
-                           double part_margin)
+                           double part_margin, const std::vector<char>& floating)
     : rest_(target_rest), faces_(target_faces), parts_(parts), graph_(target_rest, target_faces) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
@@ -84,23 +84,45 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
            corner_distance(target_rest, target_faces, a, b) <= part_margin &&
            !cross(target_rest, target_faces, a, b);
   });
-  // Which placed parts are round: the distances of their vertices from their centre vary by less
-  // than 15 % of the mean (one standard deviation).
+  placed_ = std::move(placed);
+  // A floating part's triangles (a tongue): checked in each shape against every triangle near
+  // them there (floating_crossings), since the part moves apart from what lies around it; the
+  // pairs that cross in the neutral already are left out. Not a round one (an eyeball, which
+  // turns in place a little in most shapes): the placed-part pairs hold the skin off it.
+  if (!floating.empty()) {
+    std::vector<signed char> round(parts.members.size(), -1);  // per part, once known
+    const auto round_at = [&](int t) {
+      auto& r = round[static_cast<std::size_t>(part_of(t))];
+      if (r < 0) r = on_sphere(part_of(t));
+      return r == 1;
+    };
+    std::vector<char> afloat(static_cast<std::size_t>(target_faces.rows()), 0);
+    for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
+      if (!round_at(static_cast<int>(t)) &&
+          floating[static_cast<std::size_t>(target_faces(t, 0))] &&
+          floating[static_cast<std::size_t>(target_faces(t, 1))] &&
+          floating[static_cast<std::size_t>(target_faces(t, 2))]) {
+        afloat[static_cast<std::size_t>(t)] = 1;
+        floating_.push_back(static_cast<int>(t));
+      }
+    afloat_ = afloat;
+    // Grouped by part: floating_start_[i] .. floating_start_[i + 1].
+    std::stable_sort(floating_.begin(), floating_.end(),
+                     [&](int a, int b) { return part_of(a) < part_of(b); });
+    for (std::size_t i = 0; i < floating_.size(); ++i)
+      if (i == 0 || part_of(floating_[i]) != part_of(floating_[i - 1]))
+        floating_start_.push_back(static_cast<int>(i));
+    floating_start_.push_back(static_cast<int>(floating_.size()));
+    if (!floating_.empty())
+      neutral_floating_ = keep(
+          anim::near_triangle_pairs(p, target_faces, 0.0, afloat),
+          [&](auto pair) { return cross(target_rest, target_faces, pair.first, pair.second); });
+  }
+  // Which placed parts are round (see is_round): the placed-part pairs move them radially.
   round_.assign(parts.members.size(), 0);
-  std::vector<char> seen(parts.members.size(), 0);
   for (const auto& pair : part_pairs_) {
     const auto c = static_cast<std::size_t>(part_of(pair.first));
-    if (seen[c]) continue;
-    seen[c] = 1;
-    const Eigen::RowVector3d centre = centre_of(target_rest, static_cast<int>(c));
-    double sum = 0, sum2 = 0;
-    for (int v : parts.members[c]) {
-      const double r = (target_rest.row(v) - centre).norm();
-      sum += r;
-      sum2 += r * r;
-    }
-    const double n = static_cast<double>(parts.members[c].size()), mean = sum / n;
-    round_[c] = sum2 / n - mean * mean < 0.15 * 0.15 * mean * mean;
+    round_[c] = is_round(static_cast<int>(c));
   }
   // Per vertex, the watched pairs with a triangle at it (compressed rows).
   pair_start_.assign(static_cast<std::size_t>(target_rest.rows()) + 1, 0);
@@ -117,6 +139,68 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
     pair_index_[static_cast<std::size_t>(fill[static_cast<std::size_t>(v)]++)] =
         static_cast<int>(i);
   });
+}
+
+bool ContactGuard::wrong_side(const Points& reference, const Contact& c) const {
+  // The vertex's side of the triangle's plane, in the neutral and in the reference.
+  const auto side = [&](const Points& p) {
+    const Eigen::RowVector3d a = p.row(c.b[0]), b = p.row(c.b[1]), d = p.row(c.b[2]);
+    Eigen::RowVector3d on = Eigen::RowVector3d::Zero();
+    for (std::size_t j = 0; j < 3; ++j) on += c.w[j] * p.row(c.b[j]);
+    return (p.row(c.a) - on).dot((b - a).cross(d - a));
+  };
+  if (side(rest_) * side(reference) >= 0) return false;
+  // ... and through the triangle itself: the vertex is within a triangle's size of it there (a
+  // floating part that moves far, a tongue out past the lips' plane, passed nothing).
+  const Eigen::Vector3d a = reference.row(c.b[0]).transpose(),
+                        b = reference.row(c.b[1]).transpose(),
+                        d = reference.row(c.b[2]).transpose(), x = reference.row(c.a).transpose();
+  const Eigen::Vector3d w = closest_on_triangle(x, a, b, d);
+  const double size = std::max({(b - a).norm(), (d - b).norm(), (a - d).norm()});
+  return (x - (w[0] * a + w[1] * b + w[2] * d)).norm() < size;
+}
+
+bool ContactGuard::is_round(int part) const {
+  const auto& members = parts_.members[static_cast<std::size_t>(part)];
+  const Eigen::RowVector3d centre = centre_of(rest_, part);
+  double sum = 0, sum2 = 0;
+  for (int v : members) {
+    const double r = (rest_.row(v) - centre).norm();
+    sum += r;
+    sum2 += r * r;
+  }
+  const double n = static_cast<double>(members.size()), mean = sum / n;
+  return sum2 / n - mean * mean < 0.15 * 0.15 * mean * mean;
+}
+
+bool ContactGuard::on_sphere(int part) const {
+  // |x|^2 = 2 c.x + k (k = r^2 - |c|^2), least squares over the part's vertices; then the RMS of
+  // |x - c| - r against r.
+  const auto& members = parts_.members[static_cast<std::size_t>(part)];
+  if (members.size() < 8) return false;
+  const Eigen::RowVector3d mean = centre_of(rest_, part);  // for conditioning
+  Eigen::MatrixXd A(static_cast<Eigen::Index>(members.size()), 4);
+  Eigen::VectorXd b(A.rows());
+  for (std::size_t i = 0; i < members.size(); ++i) {
+    const Eigen::RowVector3d x = rest_.row(members[i]) - mean;
+    A.row(static_cast<Eigen::Index>(i)) << 2 * x, 1;
+    b(static_cast<Eigen::Index>(i)) = x.squaredNorm();
+  }
+  const Eigen::Vector4d s = A.colPivHouseholderQr().solve(b);
+  const Eigen::RowVector3d c = s.head<3>().transpose();
+  const double r2 = s(3) + c.squaredNorm();
+  if (!(r2 > 0)) return false;
+  const double r = std::sqrt(r2);
+  double sum2 = 0;
+  for (int v : members) {
+    const double e = (rest_.row(v) - mean - c).norm() - r;
+    sum2 += e * e;
+  }
+  return std::sqrt(sum2 / static_cast<double>(members.size())) < 0.05 * r;
+}
+
+int ContactGuard::part_of_vertex(int v) const {
+  return parts_.of(v);
 }
 
 int ContactGuard::part_of(int t) const {
@@ -154,6 +238,62 @@ std::vector<std::pair<int, int>> ContactGuard::new_crossings(
     if (moving_cross(shape, moved, a, b) && !cross(reference, faces_, a, b)) out.emplace_back(a, b);
   for (const auto& [a, b] : part_pairs_)
     if (moving_cross(shape, moved, a, b) && !template_crosses(a, b)) out.emplace_back(a, b);
+  for (const auto& [a, b] : floating_crossings(shape))
+    if (!template_crosses(a, b)) out.emplace_back(a, b);
+  return out;
+}
+
+std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& shape) const {
+  std::vector<std::pair<int, int>> out;
+  if (floating_.empty()) return out;
+  const auto box_of = [&](int t) {
+    Eigen::AlignedBox3d b(shape.row(faces_(t, 0)).transpose());
+    b.extend(shape.row(faces_(t, 1)).transpose());
+    return b.extend(shape.row(faces_(t, 2)).transpose());
+  };
+  // A pair that the shape leaves where it is in the neutral does not cross: a triangle counts
+  // when a corner moved (a still vertex is set exactly still).
+  std::vector<char> displaced(static_cast<std::size_t>(shape.rows()), 0);
+  for (Eigen::Index v = 0; v < shape.rows(); ++v)
+    displaced[static_cast<std::size_t>(v)] = shape.row(v) != rest_.row(v);
+  const auto moves = [&](int t) {
+    return displaced[static_cast<std::size_t>(faces_(t, 0))] ||
+           displaced[static_cast<std::size_t>(faces_(t, 1))] ||
+           displaced[static_cast<std::size_t>(faces_(t, 2))];
+  };
+  const anim::Positions p = shape.cast<float>();
+  // Per floating part, a prefilter: the other triangles whose boxes meet the part's box in this
+  // shape (only moving ones when the part itself stays), then the box pairs among those (a
+  // bounding-volume hierarchy over the part and what lies around it).
+  for (std::size_t i = 0; i + 1 < floating_start_.size(); ++i) {
+    const auto first = floating_.begin() + floating_start_[i],
+               last = floating_.begin() + floating_start_[i + 1];
+    const bool part_moves = std::any_of(first, last, moves);
+    Eigen::AlignedBox3d around;
+    for (auto t = first; t != last; ++t) around.extend(box_of(*t));
+    std::vector<int> local(first, last);  // local triangle -> mesh triangle; the part's first
+    const auto own = static_cast<std::size_t>(last - first);
+    const int part = part_of(*first);
+    for (int t = 0; t < static_cast<int>(faces_.rows()); ++t)
+      if (part_of(t) != part && (part_moves || moves(t)) &&
+          !(afloat_[static_cast<std::size_t>(t)] && part_of(t) < part) &&  // that pair was seen
+          box_of(t).intersects(around))
+        local.push_back(t);
+    if (local.size() == own && !part_moves) continue;
+    Faces sub(static_cast<Eigen::Index>(local.size()), 3);
+    for (std::size_t k = 0; k < local.size(); ++k)
+      sub.row(static_cast<Eigen::Index>(k)) = faces_.row(local[k]);
+    std::vector<char> from(local.size(), 0);
+    std::fill(from.begin(), from.begin() + static_cast<std::ptrdiff_t>(own), 1);
+    for (const auto& [x, y] : anim::near_triangle_pairs(p, sub, 0.0, from)) {
+      const int a = local[static_cast<std::size_t>(x)], b = local[static_cast<std::size_t>(y)];
+      if (!(moves(a) || moves(b)) || !cross(shape, faces_, a, b)) continue;
+      if (std::binary_search(neutral_floating_.begin(), neutral_floating_.end(),
+                             std::pair{std::min(a, b), std::max(a, b)}))
+        continue;
+      out.emplace_back(a, b);  // x < y: the part's triangle first
+    }
+  }
   return out;
 }
 
@@ -176,17 +316,24 @@ void ContactGuard::add_contacts(const std::vector<std::pair<int, int>>& crossing
                             rest_.row(c.b[1]).transpose(), rest_.row(c.b[2]).transpose());
     for (int i = 0; i < 3; ++i) c.w[static_cast<std::size_t>(i)] = w[i];
     out.contacts.push_back(c);
-    out.turns.push_back(turns);
+    out.turns.push_back(turns ||
+                        (part_of_vertex(vertex) != part_of(triangle) && wrong_side(reference, c)));
   };
   for (const auto& [a, b] : crossings) {
-    if (part_of(a) != part_of(b)) {  // (placed, free): the free corners on the placed triangle
-      const bool turns = cross(reference, faces_, a, b);
-      for (int c = 0; c < 3; ++c) add(faces_(b, c), a, turns);
+    // Of two parts the reference may cross where the template does not (it was not cleared
+    // there): then the neutral's offset, turned with the triangle.
+    const bool turns = cross(reference, faces_, a, b);
+    const auto is_placed = [&](int t) {
+      return !placed_.empty() && placed_[static_cast<std::size_t>(t)];
+    };
+    if (is_placed(a) || is_placed(b)) {  // (placed, free): the free corners on the placed one
+      const int fixed = is_placed(a) ? a : b, free = is_placed(a) ? b : a;
+      for (int c = 0; c < 3; ++c) add(faces_(free, c), fixed, turns);
       continue;
     }
     for (int c = 0; c < 3; ++c) {
-      add(faces_(a, c), b, false);
-      add(faces_(b, c), a, false);
+      add(faces_(a, c), b, turns);
+      add(faces_(b, c), a, turns);
     }
   }
 }
@@ -212,6 +359,9 @@ std::pair<int, int> ContactGuard::clear_parts(
     std::vector<std::pair<int, int>> out;
     for (const auto& [h, f] : part_pairs_)
       if (moving_cross(reference, moved, h, f) && !template_crosses(h, f)) out.emplace_back(h, f);
+    // A floating part (a tongue) comes off the part it runs into: its corners move.
+    for (const auto& [f, h] : floating_crossings(reference))
+      if (part_of(f) != part_of(h) && !template_crosses(f, h)) out.emplace_back(h, f);
     return out;
   };
   auto pairs = crossing();

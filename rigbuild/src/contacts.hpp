@@ -57,21 +57,25 @@ class ContactGuard {
   /// Watches the pairs of triangles of one connected component that come within `margin` of each
   /// other in the neutral and do not cross there (margin <= 0: half the median edge length), and
   /// the pairs of a triangle with all corners in `held` and a triangle of the skin with none,
-  /// within `part_margin` (<= 0: two median edges). Keeps references to the positions, faces and
-  /// parts.
+  /// within `part_margin` (<= 0: two median edges); the triangles with all corners in `floating`
+  /// (a separate part the transfer moves: a tongue) are checked in each shape against all near
+  /// them there (the teeth, the inner lips and palate, the part itself). Keeps references to the
+  /// positions, faces and parts.
   ContactGuard(const Points& target_rest, const Faces& target_faces, const MeshParts& parts,
-               const std::vector<char>& held, double margin, double part_margin);
+               const std::vector<char>& held, double margin, double part_margin,
+               const std::vector<char>& floating = {});
 
   /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions): pairs
   /// of one part where `reference` does not cross, pairs of parts where the template does not
-  /// (`template_crosses(a, b)`).
+  /// (`template_crosses(a, b)`); and a floating part's pairs that cross in `shape`, not in the
+  /// neutral, and not in the template.
   std::vector<std::pair<int, int>> new_crossings(
       const Points& shape, const Points& reference, const std::vector<char>& moved,
       const std::function<bool(int, int)>& template_crosses) const;
 
   /// Contacts that hold crossing triangles apart: each corner of one triangle with its closest
-  /// point on the other in the neutral (of a pair of parts, the free triangle's corners on the
-  /// placed one). Appended unless already there.
+  /// point on the other in the neutral (of a placed and a free triangle, the free triangle's
+  /// corners on the placed one). Appended unless already there.
   void add_contacts(const std::vector<std::pair<int, int>>& crossings, const Points& reference,
                     GuardContacts& out) const;
 
@@ -88,19 +92,35 @@ class ContactGuard {
 
   /// Where `reference` crosses a placed part and the template does not (`template_crosses`),
   /// moves the free triangle's vertices out of the part (see above) and smooths two rings around
-  /// them, at most 5 times. Returns the number of such pairs before and after.
+  /// them, at most 5 times; so too a floating part's triangle where it crosses another part's
+  /// (its corners carried by that triangle). Returns the number of such pairs before and after.
   std::pair<int, int> clear_parts(Points& reference, const std::vector<char>& moved,
                                   const std::function<bool(int, int)>& template_crosses) const;
 
-  std::size_t watched() const { return watched_.size() + part_pairs_.size(); }
+  /// The watched pairs, and the triangles of floating parts (checked against all near them).
+  std::size_t watched() const { return watched_.size() + part_pairs_.size() + floating_.size(); }
 
  private:
   bool moves_at(const std::vector<char>& moved, int triangle) const;  // a corner in `moved`
   // Gauss-Seidel sweeps of the graph Laplacian of the displacement d over `region`: each vertex
   // takes its neighbours' mean, the rest of the mesh held.
   void smooth(Points& d, const std::vector<int>& region, int sweeps) const;
+  // Pairs (floating part's triangle, any other triangle sharing no corner) that cross in `shape`
+  // and not in the neutral. Whether the template shape moves their corners is not asked: another
+  // topology's floating part moves as a whole (Placement::parts_move_whole).
+  std::vector<std::pair<int, int>> floating_crossings(const Points& shape) const;
   bool moving_cross(const Points& shape, const std::vector<char>& moved, int a, int b) const;
   int part_of(int triangle) const;
+  int part_of_vertex(int v) const;
+  // The distances of the part's vertices from its centre vary by less than 15 % of their mean
+  // (one standard deviation): an eyeball.
+  bool is_round(int part) const;
+  // The part's vertices lie on a sphere (a ball or a cap of one: an eyeball, a cornea) within 5 %
+  // of its radius (RMS).
+  bool on_sphere(int part) const;
+  // Is the contact's vertex on the other side of its triangle's plane in `reference` than in the
+  // neutral (the reference pushed one part through the other: its offset is no target)?
+  bool wrong_side(const Points& reference, const Contact& c) const;
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
   const Points& rest_;
   const Faces& faces_;
@@ -108,7 +128,12 @@ class ContactGuard {
   MeshGraph graph_;
   std::vector<std::pair<int, int>> watched_;     // of one part
   std::vector<std::pair<int, int>> part_pairs_;  // (placed triangle, free triangle)
-  std::vector<char> round_;  // per component with placed triangles: within 15 % of one radius
+  std::vector<int> floating_;                    // the triangles of floating parts, grouped by part
+  std::vector<int> floating_start_;  // where each part's begin in floating_, and the end
+  std::vector<char> afloat_;         // per triangle: of a floating part
+  std::vector<std::pair<int, int>> neutral_floating_;  // theirs that cross in the neutral (a < b)
+  std::vector<char> placed_;                           // per triangle: all corners held
+  std::vector<char> round_;                   // per component with placed triangles: is_round
   std::vector<int> pair_start_, pair_index_;  // per vertex, the watched pairs touching it
 };
 
