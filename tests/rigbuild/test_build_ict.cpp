@@ -172,22 +172,25 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // The tongue is a separate part that the transfer moves (floating): the contacts watch it
   // against the teeth and the inner lips and palate. Tongue pairs (with the skin or the teeth)
   // that cross in a shape where the template does not, over all shapes, and the shapes with any.
-  IntersectionCheck mouth;
-  for (int t = 0; t < target.triangle_count(); ++t) {
-    const std::string& g = group_of(t);
-    mouth.region.push_back(g == "body" || g.ends_with("-teeth") || g == "helper-tongue");
-  }
-  const auto tongue_crossings = [&](const BuildResult& b) {
+  // New crossing pairs of the parts in `region` whose names contain `part`, over all shapes,
+  // and the shapes with any.
+  const auto crossings = [&](const BuildResult& b, auto&& region, const char* part) {
+    IntersectionCheck only;
+    for (int t = 0; t < target.triangle_count(); ++t) only.region.push_back(region(group_of(t)));
     std::size_t pairs = 0, shapes = 0;
-    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, mouth).shapes) {
+    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, only).shapes) {
       std::size_t n = 0;
       for (const auto& [parts, k] : x.fresh_by_parts)
-        if (parts.find("tongue") != std::string::npos) n += k;
+        if (parts.find(part) != std::string::npos) n += k;
       pairs += n;
       shapes += n > 0;
     }
     return std::pair{pairs, shapes};
   };
+  const auto mouth = [](const std::string& g) {
+    return g == "body" || g.ends_with("-teeth") || g == "helper-tongue";
+  };
+  const auto tongue_crossings = [&](const BuildResult& b) { return crossings(b, mouth, "tongue"); };
   const auto [tongue_with, tongue_shapes_with] = tongue_crossings(r);
   const auto [tongue_without, tongue_shapes_without] = tongue_crossings(again);
   WARN("MakeHuman tongue: " << tongue_with << " new crossing pairs with the teeth and the mouth "
@@ -200,6 +203,16 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   CHECK(tongue_with * 20 < tongue_without);
   CHECK(tongue_with <= 4);
   CHECK(tongue_shapes_with <= 2);
+  // The lashes ride on the lids (attached parts, carried after the contacts by the skin triangle
+  // nearest each vertex) and are not watched by the contacts yet: reported, not checked. Lash
+  // pairs with the skin or the other lashes crossing where the template does not, over all
+  // shapes (measured: 144 in 23 shapes; cheekRaiser, cheekSquint, eyeLookDown 11-16 each).
+  const auto lids = [](const std::string& g) {
+    return g == "body" || g.find("eyelashes") != std::string::npos;
+  };
+  const auto [lash_with, lash_shapes_with] = crossings(r, lids, "eyelashes");
+  WARN("MakeHuman lashes: " << lash_with << " new crossing pairs with the lids in "
+                            << lash_shapes_with << " shapes");
   // The teeth and eyes move rigidly with the template's teeth rows and eyeballs (the points they
   // map to lie partly on the template's gums and lips, which do not): the upper teeth stay, the
   // lower ones drop with the jaw; the eyes are rigid parts that turn about their own centres.
