@@ -141,6 +141,11 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
     time.contacts += std::chrono::duration<double>(Clock::now() - t0).count();
   }
   carry_attached(placement, parts, rest, solved);  // after the contacts have placed the skin
+  if (contacts) {
+    const auto t0 = Clock::now();
+    contacts->lift_attached(solved, r.quality);
+    time.contacts += std::chrono::duration<double>(Clock::now() - t0).count();
+  }
   r.rig = with_shapes(tmpl, target, rest, solved);
   measure_gaps(r.rig, rest, solved, r.virtual_edges, edge_targets, r.quality);
   time.total = std::chrono::duration<double>(Clock::now() - t_start).count();

@@ -56,6 +56,8 @@ nlohmann::json crossing_counts(const ShapeQuality& q) {
           {"copy_crossings_left", q.copy_crossings_left},
           {"part_crossings", q.part_crossings},
           {"part_crossings_left", q.part_crossings_left},
+          {"attached_crossings", q.attached_crossings},
+          {"attached_crossings_left", q.attached_crossings_left},
           {"crossings", q.crossings},
           {"crossings_left", q.crossings_left},
           {"contacts", q.contacts}};

@@ -15,14 +15,14 @@ std::vector<char> rigid_vertices(const Placement& placement) {
   return out;
 }
 
-// The members of floating parts (transferred as a whole: a tongue), not the attached ones that
-// ride on the skin after the contacts (lashes): the guard watches them against the other parts.
-std::vector<char> floating_vertices(const Placement& placement) {
+// The members of the placed parts of one kind: floating ones (transferred as a whole: a tongue),
+// which the guard watches against the other parts, or attached ones (lashes), which ride on the
+// skin after the contacts and are lifted off it.
+std::vector<char> vertices_of(const Placement& placement, PlacedPart::Kind kind) {
   std::vector<char> out(placement.role.size(), 0);
   for (std::size_t v = 0; v < out.size(); ++v) {
     const int part = placement.part[v];
-    out[v] = part >= 0 &&
-             placement.parts[static_cast<std::size_t>(part)].kind == PlacedPart::Kind::kFloating;
+    out[v] = part >= 0 && placement.parts[static_cast<std::size_t>(part)].kind == kind;
   }
   return out;
 }
@@ -34,7 +34,8 @@ ContactStage::ContactStage(const anim::Rig& tmpl, const TemplateShapes& source,
                            const MeshParts& parts, const Placement& placement,
                            const ContactOptions& options)
     : guard_(rest, faces, parts, rigid_vertices(placement), options.margin, options.part_margin,
-             floating_vertices(placement)),
+             vertices_of(placement, PlacedPart::Kind::kFloating),
+             vertices_of(placement, PlacedPart::Kind::kAttached)),
       template_(tmpl, map, source.shapes),
       placement_(placement),
       options_(options) {}
@@ -81,6 +82,14 @@ void ContactStage::hold(const Transfer& transfer, const std::vector<Points>& ref
     }
     q.crossings_left = static_cast<int>(crossing.size());
     q.contacts = static_cast<int>(contacts.contacts.size());
+  });
+}
+
+void ContactStage::lift_attached(std::vector<Points>& solved,
+                                 std::vector<ShapeQuality>& quality) const {
+  parallel_for(solved.size(), [&](std::size_t k) {
+    std::tie(quality[k].attached_crossings, quality[k].attached_crossings_left) =
+        guard_.lift_attached(solved[k]);
   });
 }
 

@@ -46,7 +46,8 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 
 ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
                            const MeshParts& parts, const std::vector<char>& held, double margin,
-                           double part_margin, const std::vector<char>& floating)
+                           double part_margin, const std::vector<char>& floating,
+                           const std::vector<char>& attached)
     : rest_(target_rest), faces_(target_faces), parts_(parts), graph_(target_rest, target_faces) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
@@ -86,38 +87,23 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   });
   placed_ = std::move(placed);
   // A floating part's triangles (a tongue): checked in each shape against every triangle near
-  // them there (floating_crossings), since the part moves apart from what lies around it; the
-  // pairs that cross in the neutral already are left out. Not a round one (an eyeball, which
-  // turns in place a little in most shapes): the placed-part pairs hold the skin off it.
-  if (!floating.empty()) {
-    std::vector<signed char> round(parts.members.size(), -1);  // per part, once known
-    const auto round_at = [&](int t) {
-      auto& r = round[static_cast<std::size_t>(part_of(t))];
-      if (r < 0) r = on_sphere(part_of(t));
-      return r == 1;
-    };
-    std::vector<char> afloat(static_cast<std::size_t>(target_faces.rows()), 0);
-    for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
-      if (!round_at(static_cast<int>(t)) &&
-          floating[static_cast<std::size_t>(target_faces(t, 0))] &&
-          floating[static_cast<std::size_t>(target_faces(t, 1))] &&
-          floating[static_cast<std::size_t>(target_faces(t, 2))]) {
-        afloat[static_cast<std::size_t>(t)] = 1;
-        floating_.push_back(static_cast<int>(t));
-      }
-    afloat_ = afloat;
-    // Grouped by part: floating_start_[i] .. floating_start_[i + 1].
-    std::stable_sort(floating_.begin(), floating_.end(),
-                     [&](int a, int b) { return part_of(a) < part_of(b); });
-    for (std::size_t i = 0; i < floating_.size(); ++i)
-      if (i == 0 || part_of(floating_[i]) != part_of(floating_[i - 1]))
-        floating_start_.push_back(static_cast<int>(i));
-    floating_start_.push_back(static_cast<int>(floating_.size()));
-    if (!floating_.empty())
-      neutral_floating_ = keep(
-          anim::near_triangle_pairs(p, target_faces, 0.0, afloat),
-          [&](auto pair) { return cross(target_rest, target_faces, pair.first, pair.second); });
-  }
+  // them there (crossings_of), since the part moves apart from what lies around it. Not a round
+  // one (an eyeball, which turns in place a little in most shapes): the placed-part pairs hold
+  // the skin off it. An attached part's (lashes): lifted off what it runs into after it is
+  // carried (lift_attached).
+  std::vector<signed char> round(parts.members.size(), -1);  // per part, once known
+  const auto round_at = [&](int t) {
+    auto& r = round[static_cast<std::size_t>(part_of(t))];
+    if (r < 0) r = on_sphere(part_of(t));
+    return r == 1;
+  };
+  const auto all_in = [&](const std::vector<char>& vertices, int t) {
+    return !vertices.empty() && vertices[static_cast<std::size_t>(target_faces(t, 0))] &&
+           vertices[static_cast<std::size_t>(target_faces(t, 1))] &&
+           vertices[static_cast<std::size_t>(target_faces(t, 2))];
+  };
+  floating_ = group([&](int t) { return all_in(floating, t) && !round_at(t); });
+  attached_ = group([&](int t) { return all_in(attached, t); });
   // Which placed parts are round (see is_round): the placed-part pairs move them radially.
   round_.assign(parts.members.size(), 0);
   for (const auto& pair : part_pairs_) {
@@ -238,14 +224,43 @@ std::vector<std::pair<int, int>> ContactGuard::new_crossings(
     if (moving_cross(shape, moved, a, b) && !cross(reference, faces_, a, b)) out.emplace_back(a, b);
   for (const auto& [a, b] : part_pairs_)
     if (moving_cross(shape, moved, a, b) && !template_crosses(a, b)) out.emplace_back(a, b);
-  for (const auto& [a, b] : floating_crossings(shape))
+  for (const auto& [a, b] : crossings_of(shape, floating_))
     if (!template_crosses(a, b)) out.emplace_back(a, b);
   return out;
 }
 
-std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& shape) const {
+ContactGuard::PartTriangles ContactGuard::group(const std::function<bool(int)>& in) const {
+  PartTriangles g;
+  g.member.assign(static_cast<std::size_t>(faces_.rows()), 0);
+  for (int t = 0; t < static_cast<int>(faces_.rows()); ++t)
+    if (in(t)) {
+      g.member[static_cast<std::size_t>(t)] = 1;
+      g.triangles.push_back(t);
+    }
+  if (g.triangles.empty()) return g;
+  std::stable_sort(g.triangles.begin(), g.triangles.end(),
+                   [&](int a, int b) { return part_of(a) < part_of(b); });
+  for (std::size_t i = 0; i < g.triangles.size(); ++i)
+    if (i == 0 || part_of(g.triangles[i]) != part_of(g.triangles[i - 1]))
+      g.start.push_back(static_cast<int>(i));
+  g.start.push_back(static_cast<int>(g.triangles.size()));
+  const auto near = anim::near_triangle_pairs(rest_.cast<float>(), faces_, 0.0, g.member);
+  std::vector<char> crossing(near.size());
+  parallel_for(near.size(), [&](std::size_t i) {
+    crossing[i] = cross(rest_, faces_, near[i].first, near[i].second);
+  });
+  for (std::size_t i = 0; i < near.size(); ++i)
+    if (crossing[i])
+      g.neutral.emplace_back(std::min(near[i].first, near[i].second),
+                             std::max(near[i].first, near[i].second));
+  std::sort(g.neutral.begin(), g.neutral.end());
+  return g;
+}
+
+std::vector<std::pair<int, int>> ContactGuard::crossings_of(const Points& shape,
+                                                            const PartTriangles& g) const {
   std::vector<std::pair<int, int>> out;
-  if (floating_.empty()) return out;
+  if (g.triangles.empty()) return out;
   const auto box_of = [&](int t) {
     Eigen::AlignedBox3d b(shape.row(faces_(t, 0)).transpose());
     b.extend(shape.row(faces_(t, 1)).transpose());
@@ -262,12 +277,12 @@ std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& 
            displaced[static_cast<std::size_t>(faces_(t, 2))];
   };
   const anim::Positions p = shape.cast<float>();
-  // Per floating part, a prefilter: the other triangles whose boxes meet the part's box in this
+  // Per part, a prefilter: the other triangles whose boxes meet the part's box in this
   // shape (only moving ones when the part itself stays), then the box pairs among those (a
   // bounding-volume hierarchy over the part and what lies around it).
-  for (std::size_t i = 0; i + 1 < floating_start_.size(); ++i) {
-    const auto first = floating_.begin() + floating_start_[i],
-               last = floating_.begin() + floating_start_[i + 1];
+  for (std::size_t i = 0; i + 1 < g.start.size(); ++i) {
+    const auto first = g.triangles.begin() + g.start[i],
+               last = g.triangles.begin() + g.start[i + 1];
     const bool part_moves = std::any_of(first, last, moves);
     Eigen::AlignedBox3d around;
     for (auto t = first; t != last; ++t) around.extend(box_of(*t));
@@ -276,7 +291,7 @@ std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& 
     const int part = part_of(*first);
     for (int t = 0; t < static_cast<int>(faces_.rows()); ++t)
       if (part_of(t) != part && (part_moves || moves(t)) &&
-          !(afloat_[static_cast<std::size_t>(t)] && part_of(t) < part) &&  // that pair was seen
+          !(g.member[static_cast<std::size_t>(t)] && part_of(t) < part) &&  // that pair was seen
           box_of(t).intersects(around))
         local.push_back(t);
     if (local.size() == own && !part_moves) continue;
@@ -288,7 +303,7 @@ std::vector<std::pair<int, int>> ContactGuard::floating_crossings(const Points& 
     for (const auto& [x, y] : anim::near_triangle_pairs(p, sub, 0.0, from)) {
       const int a = local[static_cast<std::size_t>(x)], b = local[static_cast<std::size_t>(y)];
       if (!(moves(a) || moves(b)) || !cross(shape, faces_, a, b)) continue;
-      if (std::binary_search(neutral_floating_.begin(), neutral_floating_.end(),
+      if (std::binary_search(g.neutral.begin(), g.neutral.end(),
                              std::pair{std::min(a, b), std::max(a, b)}))
         continue;
       out.emplace_back(a, b);  // x < y: the part's triangle first
@@ -360,7 +375,7 @@ std::pair<int, int> ContactGuard::clear_parts(
     for (const auto& [h, f] : part_pairs_)
       if (moving_cross(reference, moved, h, f) && !template_crosses(h, f)) out.emplace_back(h, f);
     // A floating part (a tongue) comes off the part it runs into: its corners move.
-    for (const auto& [f, h] : floating_crossings(reference))
+    for (const auto& [f, h] : crossings_of(reference, floating_))
       if (part_of(f) != part_of(h) && !template_crosses(f, h)) out.emplace_back(h, f);
     return out;
   };
@@ -511,6 +526,40 @@ bool TemplateCrossings::crosses(std::size_t k, int a, int b) {
   const auto [it, fresh] = answers_[k].try_emplace(key, false);
   if (fresh) it->second = sites_.crosses_at(shapes_[k], a, b);
   return it->second;
+}
+
+std::pair<int, int> ContactGuard::lift_attached(Points& shape) const {
+  const auto crossing = [&] {
+    std::vector<std::pair<int, int>> out;  // (attached triangle, the skin's)
+    for (const auto& [a, b] : crossings_of(shape, attached_))
+      if (part_of(b) == parts_.skin) out.emplace_back(a, b);
+    return out;
+  };
+  auto pairs = crossing();
+  const int found = static_cast<int>(pairs.size());
+  std::vector<Eigen::RowVector3d> sum(static_cast<std::size_t>(rest_.rows()));
+  std::vector<int> count(static_cast<std::size_t>(rest_.rows()), 0);
+  for (int step = 0; step < 3 && !pairs.empty(); ++step) {
+    // Each corner of the attached triangle where the crossed triangle carries it from the
+    // neutral (on its side there), averaged over its pairs.
+    std::vector<int> now;
+    for (const auto& [a, b] : pairs)
+      for (int c = 0; c < 3; ++c) {
+        const int v = faces_(a, c);
+        if (count[static_cast<std::size_t>(v)]++ == 0) {
+          now.push_back(v);
+          sum[static_cast<std::size_t>(v)].setZero();
+        }
+        sum[static_cast<std::size_t>(v)] +=
+            carried(rest_, shape, rest_.row(v), {faces_(b, 0), faces_(b, 1), faces_(b, 2)});
+      }
+    for (int v : now) {
+      shape.row(v) = sum[static_cast<std::size_t>(v)] / count[static_cast<std::size_t>(v)];
+      count[static_cast<std::size_t>(v)] = 0;
+    }
+    pairs = crossing();
+  }
+  return {found, static_cast<int>(pairs.size())};
 }
 
 }  // namespace facecast::rigbuild

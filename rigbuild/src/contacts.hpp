@@ -63,7 +63,7 @@ class ContactGuard {
   /// positions, faces and parts.
   ContactGuard(const Points& target_rest, const Faces& target_faces, const MeshParts& parts,
                const std::vector<char>& held, double margin, double part_margin,
-               const std::vector<char>& floating = {});
+               const std::vector<char>& floating = {}, const std::vector<char>& attached = {});
 
   /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions): pairs
   /// of one part where `reference` does not cross, pairs of parts where the template does not
@@ -97,18 +97,37 @@ class ContactGuard {
   std::pair<int, int> clear_parts(Points& reference, const std::vector<char>& moved,
                                   const std::function<bool(int, int)>& template_crosses) const;
 
-  /// The watched pairs, and the triangles of floating parts (checked against all near them).
-  std::size_t watched() const { return watched_.size() + part_pairs_.size() + floating_.size(); }
+  /// Where a triangle of an attached part (lashes, carried by the skin after the contacts)
+  /// crosses another part's in `shape` and not in the neutral, moves its corners where the other
+  /// triangle carries them from the neutral, at most 3 times. Returns the number of such pairs
+  /// before and after.
+  std::pair<int, int> lift_attached(Points& shape) const;
+
+  /// The watched pairs, and the triangles of floating and attached parts (checked against all
+  /// near them).
+  std::size_t watched() const {
+    return watched_.size() + part_pairs_.size() + floating_.triangles.size() +
+           attached_.triangles.size();
+  }
 
  private:
   bool moves_at(const std::vector<char>& moved, int triangle) const;  // a corner in `moved`
   // Gauss-Seidel sweeps of the graph Laplacian of the displacement d over `region`: each vertex
   // takes its neighbours' mean, the rest of the mesh held.
   void smooth(Points& d, const std::vector<int>& region, int sweeps) const;
-  // Pairs (floating part's triangle, any other triangle sharing no corner) that cross in `shape`
-  // and not in the neutral. Whether the template shape moves their corners is not asked: another
-  // topology's floating part moves as a whole (Placement::parts_move_whole).
-  std::vector<std::pair<int, int>> floating_crossings(const Points& shape) const;
+  // Triangles of some parts, grouped by part, each checked in a shape against every triangle
+  // near it there.
+  struct PartTriangles {
+    std::vector<int> triangles;                // grouped by part
+    std::vector<int> start;                    // where each part's begin, and the end
+    std::vector<char> member;                  // per triangle of the mesh
+    std::vector<std::pair<int, int>> neutral;  // theirs that cross in the neutral (a < b)
+  };
+  PartTriangles group(const std::function<bool(int)>& in) const;
+  // Pairs (the group's triangle, any other triangle sharing no corner) that cross in `shape` and
+  // not in the neutral. Whether the template shape moves their corners is not asked: another
+  // topology's parts move as a whole (Placement::parts_move_whole).
+  std::vector<std::pair<int, int>> crossings_of(const Points& shape, const PartTriangles& g) const;
   bool moving_cross(const Points& shape, const std::vector<char>& moved, int a, int b) const;
   int part_of(int triangle) const;
   int part_of_vertex(int v) const;
@@ -128,11 +147,8 @@ class ContactGuard {
   MeshGraph graph_;
   std::vector<std::pair<int, int>> watched_;     // of one part
   std::vector<std::pair<int, int>> part_pairs_;  // (placed triangle, free triangle)
-  std::vector<int> floating_;                    // the triangles of floating parts, grouped by part
-  std::vector<int> floating_start_;  // where each part's begin in floating_, and the end
-  std::vector<char> afloat_;         // per triangle: of a floating part
-  std::vector<std::pair<int, int>> neutral_floating_;  // theirs that cross in the neutral (a < b)
-  std::vector<char> placed_;                           // per triangle: all corners held
+  PartTriangles floating_, attached_;
+  std::vector<char> placed_;                  // per triangle: all corners held
   std::vector<char> round_;                   // per component with placed triangles: is_round
   std::vector<int> pair_start_, pair_index_;  // per vertex, the watched pairs touching it
 };

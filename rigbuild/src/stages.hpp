@@ -189,6 +189,9 @@ class ContactStage {
   /// quality's crossings and contacts.
   void hold(const Transfer& transfer, const std::vector<Points>& reference, const Moved& moved,
             std::vector<Points>& solved, std::vector<ShapeQuality>& quality);
+  /// After the attached parts are carried: lifts them off the parts they run into. Fills the
+  /// quality's attached crossings.
+  void lift_attached(std::vector<Points>& solved, std::vector<ShapeQuality>& quality) const;
   std::size_t watched() const { return guard_.watched(); }
 
  private:

@@ -118,10 +118,12 @@ struct ShapeQuality {
   int copy_crossings = 0;       // watched pairs where the copied motion crosses, not the template
   int copy_crossings_left = 0;  // ... and still crosses after smoothing it there
   int part_crossings = 0;  // pairs where the copy crosses a rigidly moved part, not the template
-  int part_crossings_left = 0;  // ... and still crosses after moving the copy out of it
-  int crossings = 0;            // watched triangle pairs that crossed after the transfer
-  int crossings_left = 0;       // ... and still cross after the contact rounds
-  int contacts = 0;             // vertex-to-triangle contacts added to hold them apart
+  int part_crossings_left = 0;      // ... and still crosses after moving the copy out of it
+  int crossings = 0;                // watched triangle pairs that crossed after the transfer
+  int crossings_left = 0;           // ... and still cross after the contact rounds
+  int contacts = 0;                 // vertex-to-triangle contacts added to hold them apart
+  int attached_crossings = 0;       // pairs where a carried attached part (lashes) crosses another
+  int attached_crossings_left = 0;  // ... and still crosses after lifting it off
 };
 
 struct BuildResult {
