@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 #include "facecast/anim/intersections.hpp"
 #include "geometry.hpp"
@@ -106,9 +107,10 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   attached_ = group([&](int t) { return all_in(attached, t); });
   // Which placed parts are round (see is_round): the placed-part pairs move them radially.
   round_.assign(parts.members.size(), 0);
+  std::vector<char> seen(parts.members.size(), 0);
   for (const auto& pair : part_pairs_) {
     const auto c = static_cast<std::size_t>(part_of(pair.first));
-    round_[c] = is_round(static_cast<int>(c));
+    if (!std::exchange(seen[c], 1)) round_[c] = is_round(static_cast<int>(c));
   }
   // Per vertex, the watched pairs with a triangle at it (compressed rows).
   pair_start_.assign(static_cast<std::size_t>(target_rest.rows()) + 1, 0);

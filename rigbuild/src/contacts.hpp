@@ -58,9 +58,10 @@ class ContactGuard {
   /// other in the neutral and do not cross there (margin <= 0: half the median edge length), and
   /// the pairs of a triangle with all corners in `held` and a triangle of the skin with none,
   /// within `part_margin` (<= 0: two median edges); the triangles with all corners in `floating`
-  /// (a separate part the transfer moves: a tongue) are checked in each shape against all near
-  /// them there (the teeth, the inner lips and palate, the part itself). Keeps references to the
-  /// positions, faces and parts.
+  /// (a separate part the transfer moves: a tongue; not one on a sphere, an eyeball) are checked
+  /// in each shape against all near them there (the teeth, the inner lips and palate, the part
+  /// itself), those with all corners in `attached` (lashes) by lift_attached. Keeps references to
+  /// the positions, faces and parts.
   ContactGuard(const Points& target_rest, const Faces& target_faces, const MeshParts& parts,
                const std::vector<char>& held, double margin, double part_margin,
                const std::vector<char>& floating = {}, const std::vector<char>& attached = {});
@@ -98,7 +99,7 @@ class ContactGuard {
                                   const std::function<bool(int, int)>& template_crosses) const;
 
   /// Where a triangle of an attached part (lashes, carried by the skin after the contacts)
-  /// crosses another part's in `shape` and not in the neutral, moves its corners where the other
+  /// crosses a skin triangle in `shape` and not in the neutral, moves its corners where the skin
   /// triangle carries them from the neutral, at most 3 times. Returns the number of such pairs
   /// before and after.
   std::pair<int, int> lift_attached(Points& shape) const;
@@ -138,7 +139,8 @@ class ContactGuard {
   // of its radius (RMS).
   bool on_sphere(int part) const;
   // Is the contact's vertex on the other side of its triangle's plane in `reference` than in the
-  // neutral (the reference pushed one part through the other: its offset is no target)?
+  // neutral, and within the triangle's size of it (the reference pushed one part through the
+  // other: its offset is no target)?
   bool wrong_side(const Points& reference, const Contact& c) const;
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
   const Points& rest_;
