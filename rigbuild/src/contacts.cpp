@@ -446,6 +446,40 @@ std::pair<int, int> ContactGuard::clear_parts(
   return {found, static_cast<int>(pairs.size())};
 }
 
+std::pair<int, int> ContactGuard::lift_attached(Points& shape) const {
+  const auto crossing = [&] {
+    std::vector<std::pair<int, int>> out;  // (attached triangle, the skin's)
+    for (const auto& [a, b] : crossings_of(shape, attached_))
+      if (part_of(b) == parts_.skin) out.emplace_back(a, b);
+    return out;
+  };
+  auto pairs = crossing();
+  const int found = static_cast<int>(pairs.size());
+  std::vector<Eigen::RowVector3d> sum(static_cast<std::size_t>(rest_.rows()));
+  std::vector<int> count(static_cast<std::size_t>(rest_.rows()), 0);
+  for (int step = 0; step < 3 && !pairs.empty(); ++step) {
+    // Each corner of the attached triangle where the crossed triangle carries it from the
+    // neutral (on its side there), averaged over its pairs.
+    std::vector<int> now;
+    for (const auto& [a, b] : pairs)
+      for (int c = 0; c < 3; ++c) {
+        const int v = faces_(a, c);
+        if (count[static_cast<std::size_t>(v)]++ == 0) {
+          now.push_back(v);
+          sum[static_cast<std::size_t>(v)].setZero();
+        }
+        sum[static_cast<std::size_t>(v)] +=
+            carried(rest_, shape, rest_.row(v), {faces_(b, 0), faces_(b, 1), faces_(b, 2)});
+      }
+    for (int v : now) {
+      shape.row(v) = sum[static_cast<std::size_t>(v)] / count[static_cast<std::size_t>(v)];
+      count[static_cast<std::size_t>(v)] = 0;
+    }
+    pairs = crossing();
+  }
+  return {found, static_cast<int>(pairs.size())};
+}
+
 std::pair<int, int> ContactGuard::untangle(
     Points& reference, const std::vector<char>& moved,
     const std::function<bool(int, int)>& template_crosses) const {
@@ -528,40 +562,6 @@ bool TemplateCrossings::crosses(std::size_t k, int a, int b) {
   const auto [it, fresh] = answers_[k].try_emplace(key, false);
   if (fresh) it->second = sites_.crosses_at(shapes_[k], a, b);
   return it->second;
-}
-
-std::pair<int, int> ContactGuard::lift_attached(Points& shape) const {
-  const auto crossing = [&] {
-    std::vector<std::pair<int, int>> out;  // (attached triangle, the skin's)
-    for (const auto& [a, b] : crossings_of(shape, attached_))
-      if (part_of(b) == parts_.skin) out.emplace_back(a, b);
-    return out;
-  };
-  auto pairs = crossing();
-  const int found = static_cast<int>(pairs.size());
-  std::vector<Eigen::RowVector3d> sum(static_cast<std::size_t>(rest_.rows()));
-  std::vector<int> count(static_cast<std::size_t>(rest_.rows()), 0);
-  for (int step = 0; step < 3 && !pairs.empty(); ++step) {
-    // Each corner of the attached triangle where the crossed triangle carries it from the
-    // neutral (on its side there), averaged over its pairs.
-    std::vector<int> now;
-    for (const auto& [a, b] : pairs)
-      for (int c = 0; c < 3; ++c) {
-        const int v = faces_(a, c);
-        if (count[static_cast<std::size_t>(v)]++ == 0) {
-          now.push_back(v);
-          sum[static_cast<std::size_t>(v)].setZero();
-        }
-        sum[static_cast<std::size_t>(v)] +=
-            carried(rest_, shape, rest_.row(v), {faces_(b, 0), faces_(b, 1), faces_(b, 2)});
-      }
-    for (int v : now) {
-      shape.row(v) = sum[static_cast<std::size_t>(v)] / count[static_cast<std::size_t>(v)];
-      count[static_cast<std::size_t>(v)] = 0;
-    }
-    pairs = crossing();
-  }
-  return {found, static_cast<int>(pairs.size())};
 }
 
 }  // namespace facecast::rigbuild
