@@ -3,7 +3,7 @@
 // streams at once on two threads (what two viewers of frames mode cost); also a heavier textured
 // avatar (every material with its own 1024x1024 base-colour texture, the skin with a normal and an
 // occlusion map: 12 textures); and times the triangle self-intersection check.
-// Usage: bench_render [frames] [msaa] [avatar|textured|ict]
+// Usage: bench_render [frames] [msaa] [avatar|textured|ict] [lod_pixels]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -60,18 +60,21 @@ Figures stream(const render::Renderer& r, std::size_t shapes, int frames, unsign
   return f;
 }
 
-void bench(const char* label, const anim::Rig& rig, int frames, int msaa) {
+void bench(const char* label, const anim::Rig& rig, int frames, int msaa, float lod_pixels) {
   render::RenderOptions o;
   o.msaa = msaa;
+  o.lod_pixels = lod_pixels;
   o.contexts = 2;
   auto t0 = Clock::now();
   const render::Renderer r(rig, o);
   r.create_contexts();  // both contexts and their uploads, outside the timed streams
   const double setup = ms_since(t0);
   const Figures one = stream(r, rig.shapes.size(), frames, 1);
-  std::printf("%s: %d vertices, %d triangles, %zu shapes, %zu textures; setup %.0f ms (%s)\n",
-              label, rig.vertex_count(), rig.triangle_count(), rig.shapes.size(),
-              rig.textures.size(), setup, r.backend().c_str());
+  std::printf(
+      "%s: %d vertices, %d triangles (%zu drawn: lod_pixels %.2f), %zu shapes, %zu textures; "
+      "setup %.0f ms (%s)\n",
+      label, rig.vertex_count(), rig.triangle_count(), r.triangle_counts().second, o.lod_pixels,
+      rig.shapes.size(), rig.textures.size(), setup, r.backend().c_str());
   std::printf("  640x480 msaa %d: render %.2f ms + JPEG %.2f ms = %.1f fps (%zu KB/frame)\n", msaa,
               one.render_ms / frames, one.jpeg_ms / frames,
               1000.0 * frames / (one.render_ms + one.jpeg_ms), one.bytes / frames / 1024);
@@ -131,6 +134,7 @@ int main(int argc, char** argv) try {
   const int msaa = argc > 2 ? std::atoi(argv[2]) : 0;
   // Optional third argument: run only one case (avatar, textured or ict).
   const std::string only = argc > 3 ? argv[3] : "";
+  const float lod = argc > 4 ? std::strtof(argv[4], nullptr) : render::RenderOptions{}.lod_pixels;
   const auto wanted = [&](const char* name) { return only.empty() || only == name; };
   auto t0 = Clock::now();
   const anim::Rig avatar = anim::make_avatar();
@@ -139,9 +143,9 @@ int main(int argc, char** argv) try {
   const std::size_t glb = anim::glb_bytes(avatar).size();
   std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation,
               ms_since(t0), glb / 1024);
-  if (wanted("avatar")) bench("avatar", avatar, frames, msaa);
+  if (wanted("avatar")) bench("avatar", avatar, frames, msaa, lod);
   if (wanted("textured"))
-    bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa);
+    bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa, lod);
   if (!wanted("ict")) return 0;
   const std::filesystem::path ict =
       std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
@@ -150,8 +154,8 @@ int main(int argc, char** argv) try {
     return 0;
   }
   const anim::Rig rig = anim::read_obj_shapes(ict / "generic_neutral_mesh.obj", ict, {"identity*"});
-  bench("ICT FaceKit", rig, frames, msaa);
-  bench("ICT FaceKit", rig, frames / 2, 4);
+  bench("ICT FaceKit", rig, frames, msaa, lod);
+  bench("ICT FaceKit", rig, frames / 2, 4, lod);
   t0 = Clock::now();
   const auto rep = anim::find_intersections(rig.positions, rig.triangles);
   std::printf("intersection check, ICT neutral: %.1f ms (%zu pairs)\n", ms_since(t0), rep.count);

@@ -1,7 +1,8 @@
 #pragma once
-// The rig builder's geometric toolbox, private to rigbuild: closest points on a triangle and on a
-// mesh, a point carried by a triangle, k-d trees over points, a mesh's parts. The least-squares fit
-// of point sets (procrustes) is public: facecast/rigbuild/geometry.hpp.
+// The rig builder's geometric toolbox, private to rigbuild: closest points on a mesh (on a
+// triangle: anim::closest_on_triangle), a point carried by a triangle, k-d trees over points, a
+// mesh's parts. The least-squares fit of point sets (procrustes) is public:
+// facecast/rigbuild/geometry.hpp.
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
@@ -15,10 +16,7 @@
 
 namespace facecast::rigbuild {
 
-/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5);
-/// returns barycentric weights of a, b, c.
-Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+using anim::closest_on_triangle;
 
 /// Where `point` goes when it moves with the triangle with corners t from `rest` to `now` as it
 /// sat on it at rest: its closest point on the triangle follows the triangle, its offset from

@@ -265,6 +265,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   ro.margin = options.frame_margin;
   ro.contexts = 1;
   ro.trilinear = true;  // the detector's views: quality over speed (the stored biases are from it)
+  ro.lod_pixels = 0;    // the mesh itself
   ro.background = Eigen::Vector3f(0.05f, 0.05f, 0.05f);
   Lap lap;
   HeadLandmarks out;

@@ -1,8 +1,10 @@
 // Headless rendering on Mesa: golden images (with a tolerance) of the default avatar and the ICT
 // FaceKit, GPU blending against CPU blending, threads, image files.
 // FACECAST_UPDATE_GOLDEN=1 rewrites the golden PNGs in tests/anim/golden/.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cstdlib>
+#include <iostream>
 #include <thread>
 
 #include "facecast/anim/avatar.hpp"
@@ -24,6 +26,7 @@ RenderOptions small() {
   o.height = 256;
   o.msaa = 4;  // the golden images are multisampled, with trilinear texture filtering
   o.trilinear = true;
+  o.lod_pixels = 0;  // the golden images are of the full mesh (the level of detail: its own test)
   return o;
 }
 
@@ -101,6 +104,64 @@ TEST_CASE("blending on the GPU matches blending on the CPU", "[render]") {
   INFO("mean " << d.mean_abs << " over " << d.fraction_over);
   CHECK(d.mean_abs < 1.0);
   CHECK(d.fraction_over < 0.005);
+}
+
+namespace {
+
+// The level of detail against the full mesh at the default size, in poses that move the lips, lids
+// and jaw away from the neutral it was simplified on. Writes full | simplified | difference x4.
+void check_lod(const anim::Rig& rig, const std::string& name,
+               const std::vector<std::vector<std::pair<std::string, float>>>& poses) {
+  RenderOptions o;
+  const Renderer lod(rig, o);
+  o.lod_pixels = 0;
+  const Renderer full(rig, o);
+  const auto [triangles, drawn] = lod.triangle_counts();
+  INFO(name << ": " << drawn << " of " << triangles << " triangles drawn");
+  CHECK(drawn * 2 < triangles);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const std::vector<float> w = weights_for(rig, poses[i]);
+    const Image a = full.render(w), b = lod.render(w);
+    const ImageDifference d = compare_images(a, b);
+    Image diff = a, strip{a.width * 3, a.height, 3, {}};
+    for (std::size_t k = 0; k < diff.pixels.size(); ++k)
+      diff.pixels[k] = static_cast<std::uint8_t>(
+          std::min(255, 4 * std::abs(int{a.pixels[k]} - int{b.pixels[k]})));
+    strip.pixels.resize(static_cast<std::size_t>(strip.width) * strip.height * 3);
+    for (int y = 0; y < a.height; ++y)
+      for (int part = 0; part < 3; ++part) {
+        const Image& from = part == 0 ? a : part == 1 ? b : diff;
+        std::copy_n(
+            &from.pixels[static_cast<std::size_t>(y) * a.width * 3], a.width * 3,
+            &strip.pixels[(static_cast<std::size_t>(y) * strip.width + part * a.width) * 3]);
+      }
+    write_image(test::artifacts_dir("render") / (name + "_lod_" + std::to_string(i) + ".png"),
+                strip);
+    INFO("pose " << i << ": mean " << d.mean_abs << ", over 32: " << d.fraction_over << ", max "
+                 << d.max_abs);
+    std::cout << name << " pose " << i << ": " << drawn << "/" << triangles << " triangles, mean "
+              << d.mean_abs << ", over 32: " << d.fraction_over << ", max " << d.max_abs << "\n";
+    CHECK(d.max_abs > 0);  // the simplified mesh is what was drawn
+    CHECK(d.mean_abs < 0.6);
+    CHECK(d.fraction_over < 0.002);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("the level of detail renders like the full mesh", "[render]") {
+  check_lod(anim::default_avatar(), "avatar",
+            {{},
+             {{"jawOpen", 1.0f}, {"mouthSmileLeft", 1.0f}, {"mouthSmileRight", 1.0f}},
+             {{"eyeBlinkLeft", 1.0f}, {"eyeBlinkRight", 1.0f}, {"browInnerUp", 1.0f}},
+             {{"mouthFunnel", 1.0f}, {"mouthPucker", 0.6f}, {"jawOpen", 0.3f}}});
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  check_lod(anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"}), "ict",
+            {{},
+             {{"jawOpen", 1.0f}, {"mouthSmile_L", 1.0f}, {"mouthSmile_R", 1.0f}},
+             {{"eyeBlink_L", 1.0f}, {"eyeBlink_R", 1.0f}, {"browInnerUp_L", 1.0f}},
+             {{"mouthFunnel", 1.0f}, {"mouthPucker", 0.6f}, {"jawOpen", 0.3f}}});
 }
 
 TEST_CASE("a renderer is shared by threads", "[render]") {

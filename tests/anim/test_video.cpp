@@ -213,6 +213,7 @@ TEST_CASE("configs/anim/render.json mirrors RenderOptions and VideoOptions", "[r
   CHECK(file.framing == code.framing);
   CHECK(file.background_image == code.background_image);
   CHECK(file.contexts == code.contexts);
+  CHECK(file.lod_pixels == code.lod_pixels);
   const render::VideoOptions vfile = render::load_video_options(), vcode;
   CHECK(vfile.fps == vcode.fps);
   CHECK(vfile.crf == vcode.crf);

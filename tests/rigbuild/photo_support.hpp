@@ -86,6 +86,7 @@ inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const anim::Posit
   ro.fov_y_deg = 3;  // a long lens: the fit's camera is scale-orthographic
   ro.contexts = 1;
   ro.trilinear = true;  // photo-like (the figures were tuned on these renders)
+  ro.lod_pixels = 0;    // the truth's own mesh
   render::Renderer r(rig, ro);
   PhotoShoot out;
   const std::vector<float> w(rig.shapes.size(), 0.0f);
@@ -107,6 +108,7 @@ inline render::Image render_as_photo(const anim::Rig& rig, const rigbuild::Ortho
   ro.height = photo.height;
   ro.contexts = 1;
   ro.trilinear = true;
+  ro.lod_pixels = 0;  // measured: the mesh itself
   render::Renderer r(rig, ro);
   r.set_camera(rigbuild::render_camera(camera, rig.positions, photo.width, photo.height));
   return r.render(render::weights_for(rig, named));

@@ -77,6 +77,10 @@ struct PackedRig {
     Eigen::Vector3f centroid{0, 0, 0};  // of its vertices, to sort blended ranges by depth
   };
   std::vector<Range> ranges;
+  // The same ranges simplified (add_lod): drawn while a pixel at the camera's target is at least
+  // lod_error / lod_pixels wide; empty without a level of detail.
+  std::vector<Range> lod_ranges;
+  float lod_error = 0;  // the simplification's error in the neutral, rig units
   std::vector<PackedMaterial> materials;
   std::vector<PackedTexture> textures;
   HeadJoints head;
@@ -87,6 +91,12 @@ struct PackedRig {
 /// triangles grouped by material; textures decoded (an image used both as colour and as data is
 /// decoded once, uploaded twice). Throws Error for an invalid rig or an undecodable texture.
 PackedRig pack_rig(const anim::Rig& rig);
+
+/// The level of detail (lod.cpp): appends to `p.indices` each range simplified within `max_error`
+/// (rig units) of the neutral, with what the shapes fold or move off the simplified surface kept,
+/// as `p.lod_ranges`; `p.lod_error` = max_error. The simplified triangles use the same vertices,
+/// so the blend is unchanged.
+void add_lod(PackedRig& p, float max_error);
 
 /// The blended mesh for `weights` into `out` (#V * kBlendedStride): the neutral plus w_s times
 /// the deltas of every shape with w_s != 0. Costs the non-zero shapes' entries, not the mesh.

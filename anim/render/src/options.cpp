@@ -30,7 +30,8 @@ Options load_options() {
                    {{"face", Framing::kFace}, {"bust", Framing::kBust}, {"full", Framing::kFull}})
       .read("background_srgb", background)
       .read("background_image", r.background_image)
-      .read("contexts", r.contexts);
+      .read("contexts", r.contexts)
+      .read("lod_pixels", r.lod_pixels);
   r.background = {background[0], background[1], background[2]};
   VideoOptions& v = o.video;
   c.section("video")

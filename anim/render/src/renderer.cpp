@@ -49,6 +49,12 @@ Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& targe
   return m;
 }
 
+// The width of a pixel at the camera's target, in rig units.
+float pixel_size(const Camera& cam, int height) {
+  return 2.0f * (cam.eye - cam.target).norm() *
+         std::tan(0.5f * cam.fov_y_deg * 3.14159265f / 180.0f) / static_cast<float>(height);
+}
+
 // The head pose as the vertex shader takes it (see detail::HeadJoints).
 struct HeadMatrices {
   Eigen::Matrix4f neck = Eigen::Matrix4f::Identity(), head = Eigen::Matrix4f::Identity();
@@ -350,10 +356,12 @@ struct Slot {
     const auto mode = [&](const PackedRig::Range& r) {
       return p.materials[static_cast<std::size_t>(r.material)].alpha_mode;
     };
-    for (const auto& r : p.ranges)
+    const bool lod = !p.lod_ranges.empty() && p.lod_error <= o.lod_pixels * pixel_size(cam, height);
+    const auto& ranges = lod ? p.lod_ranges : p.ranges;
+    for (const auto& r : ranges)
       if (mode(r) == anim::AlphaMode::kOpaque) draw_range(p, r);
     std::vector<const PackedRig::Range*> blended;
-    for (const auto& r : p.ranges) {
+    for (const auto& r : ranges) {
       if (mode(r) == anim::AlphaMode::kBlend)
         blended.push_back(&r);
       else if (mode(r) == anim::AlphaMode::kMask)
@@ -476,6 +484,8 @@ Renderer::Renderer(const anim::Rig& rig, RenderOptions options) : impl_(std::mak
   if (!options.background_image.empty()) impl_->background = read_image(options.background_image);
   impl_->camera = frame_avatar(
       rig, static_cast<float>(options.width) / static_cast<float>(options.height), options);
+  if (options.lod_pixels > 0)
+    detail::add_lod(impl_->packed, options.lod_pixels * pixel_size(impl_->camera, options.height));
 }
 
 Renderer::~Renderer() = default;
@@ -531,6 +541,16 @@ void Renderer::create_contexts() const {
     throw;
   }
   for (Slot* s : taken) impl_->release(s);
+}
+
+std::pair<std::size_t, std::size_t> Renderer::triangle_counts() const {
+  const auto count = [](const std::vector<PackedRig::Range>& ranges) {
+    std::size_t n = 0;
+    for (const auto& r : ranges) n += r.count / 3;
+    return n;
+  };
+  const PackedRig& p = impl_->packed;
+  return {count(p.ranges), count(p.lod_ranges.empty() ? p.ranges : p.lod_ranges)};
 }
 
 std::string Renderer::backend() const {

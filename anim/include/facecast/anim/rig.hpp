@@ -153,4 +153,9 @@ void vertex_normals(const Positions& positions, const Triangles& triangles, Posi
 using PositionsD = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles);
 
+/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5);
+/// returns barycentric weights of a, b, c.
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+
 }  // namespace facecast::anim

@@ -45,6 +45,10 @@ struct RenderOptions {
   Eigen::Vector3f background{0.16f, 0.17f, 0.20f};  // sRGB 0..1
   std::string background_image;                     // an image file covering the frame, or ""
   int contexts = 2;                                 // size of the context pool
+  // Level of detail: the mesh is also drawn simplified, at most this many pixels away from the
+  // neutral at the framed distance (0: always the full mesh). Tiny triangles cost llvmpipe whole
+  // 4x4 blocks of fragment shading each.
+  float lod_pixels = 0.5f;
 };
 
 /// RenderOptions from configs/anim/render.json; throws Error naming the field when invalid.
@@ -91,6 +95,10 @@ class Renderer {
   /// a dozen 1024x1024 textures on llvmpipe), so that the first frames of concurrent streams do
   /// not wait for it. Throws like render().
   void create_contexts() const;
+
+  /// Triangles of the full mesh and of its level of detail (RenderOptions::lod_pixels; the same
+  /// count without one).
+  std::pair<std::size_t, std::size_t> triangle_counts() const;
 
   /// Which EGL platform and GL renderer are in use (creates the first context if needed).
   std::string backend() const;
