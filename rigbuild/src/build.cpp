@@ -133,7 +133,7 @@ BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const Buil
   }
   std::vector<Points> solved = timed(progress, "solve", time.solve, [&] {
     return solve_shapes(transfer, rest, source.gradients, copied, edge_targets, placement, moved,
-                        progress);
+                        options.closing_rounds, progress);
   });
   if (contacts) {
     const auto t0 = Clock::now();

@@ -16,9 +16,11 @@ BuildOptions load_build_options() {
                 {{"auto", VirtualEdgeMode::kAuto}, {"off", VirtualEdgeMode::kOff}});
   c.read("lambda", o.lambda)
       .read("gap_scale_limit", o.gap_scale_limit)
+      .read("closing_rounds", o.closing_rounds)
       .read("still_tolerance", o.still_tolerance)
       .read("rigid_tolerance", o.rigid_tolerance);
   if (o.lambda < 0) c.fail("lambda", "must not be negative");
+  if (o.closing_rounds < 0) c.fail("closing_rounds", "must not be negative");
   c.read_choice("solver", o.solver,
                 {{"cholmod", SolverKind::kCholmod}, {"eigen", SolverKind::kEigenLDLT}});
   c.section("eye_look")
@@ -78,7 +80,8 @@ nlohmann::json build_report_json(const BuildResult& r, const BuildOptions& optio
                         {"candidate_pairs", r.ve_stats.candidate_pairs},
                         {"qualifying_pairs", r.ve_stats.qualifying_pairs},
                         {"lambda", options.lambda},
-                        {"gap_scale_limit", options.gap_scale_limit}};
+                        {"gap_scale_limit", options.gap_scale_limit},
+                        {"closing_rounds", options.closing_rounds}};
   nlohmann::json contacts = crossing_counts({});  // over every shape
   for (const auto& q : r.quality) {
     const nlohmann::json counts = crossing_counts(q);

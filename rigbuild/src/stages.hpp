@@ -155,13 +155,14 @@ std::vector<Points> copy_motion(const Points& rest, const Correspondence& c,
 std::vector<Points> edge_vectors(const Points& rest, const Correspondence& c,
                                  const TemplateShapes& source, const std::vector<Points>& copied,
                                  const std::vector<VirtualEdge>& edges, double gap_scale_limit);
-/// Every shape solved (the prescribed vertices where `copied` has them); vertices a shape leaves
-/// still (Placement::stays) are set exactly still.
+/// Every shape solved (the prescribed vertices where `copied` has them), the gaps it closes
+/// enforced in up to `closing_rounds` more solves (docs/algorithms.md#closing-gaps); vertices a
+/// shape leaves still (Placement::stays) are set exactly still.
 std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,
                                  const std::vector<Gradients>& gradients,
                                  const std::vector<Points>& copied,
                                  const std::vector<Points>& edge_targets,
-                                 const Placement& placement, const Moved& moved,
+                                 const Placement& placement, const Moved& moved, int closing_rounds,
                                  const ProgressFn& progress);
 /// Attached parts ride on the skin triangles under them.
 void carry_attached(const Placement& placement, const MeshParts& parts, const Points& rest,

@@ -199,6 +199,10 @@ int Transfer::free_count() const {
   return impl_->free_n;
 }
 
+const std::vector<VirtualEdge>& Transfer::virtual_edges() const {
+  return impl_->setup.virtual_edges;
+}
+
 long Transfer::factor_nonzeros() const {
   if (impl_->setup.solver == SolverKind::kCholmod) {
     return impl_->cholmod.factor_nonzeros();

@@ -192,6 +192,7 @@ TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
   CHECK(file.virtual_edges == code.virtual_edges);
   CHECK(file.lambda == code.lambda);
   CHECK(file.gap_scale_limit == code.gap_scale_limit);
+  CHECK(file.closing_rounds == code.closing_rounds);
   CHECK(file.still_tolerance == code.still_tolerance);
   CHECK(file.rigid_tolerance == code.rigid_tolerance);
   CHECK(file.solver == code.solver);

@@ -73,6 +73,9 @@ struct BuildOptions {
   /// |template gap|, clamped to [1 / this, this], as far as it closes (docs/algorithms.md
   /// #gap-scaling); <= 1: the change as copied.
   double gap_scale_limit = 2.0;
+  /// Gaps a shape closes (virtual edges wanted under half their length) are enforced in up to
+  /// this many more solves (docs/algorithms.md#closing-gaps); 0: a soft term like the others.
+  int closing_rounds = 3;
   ContactOptions contacts;
   EyeLookOptions eye_look;
   std::vector<int> fixed;         // extra target vertices that never move

@@ -95,6 +95,7 @@ class Transfer {
                              double weight, int rings = 8) const;
 
   int free_count() const;
+  const std::vector<VirtualEdge>& virtual_edges() const;
   long factor_nonzeros() const;
   double factor_seconds() const { return factor_seconds_; }
 
