@@ -124,6 +124,10 @@ PhotoOptions load_photo_options() {
       .read("side_noise", o.side_noise)
       .read("side_turn", o.side_turn)
       .read("side_calibration", o.side_calibration)
+      .read("front_outline", o.front_outline)
+      .read("side_outline", o.side_outline)
+      .read("outline_noise", o.outline_noise)
+      .read("outline_window", o.outline_window)
       .read("rbf_smoothing", o.rbf_smoothing)
       .read("rbf_radius", o.rbf_radius)
       .read("texture_size", o.texture_size)
@@ -136,6 +140,9 @@ PhotoOptions load_photo_options() {
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
+  if (!(o.outline_noise > 0)) c.fail("outline_noise", "must be positive");
+  if (!(o.outline_window > 0 && o.outline_window < 0.5))
+    c.fail("outline_window", "must be in (0, 0.5)");
   if (!(o.rbf_smoothing >= 0)) c.fail("rbf_smoothing", "must be at least 0");
   if (!(o.rbf_radius > 0)) c.fail("rbf_radius", "must be positive");
   if (o.texture_size < 64 || o.texture_size > 4096) c.fail("texture_size", "must be in 64..4096");
@@ -206,7 +213,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   timing["landmarks"] = seconds_since(t0);
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
-  out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options);
+  out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
   timing["fit"] = seconds_since(t);
   report(progress, "texture", 0.25);
   t = std::chrono::steady_clock::now();

@@ -1,7 +1,8 @@
 #pragma once
-// Private pieces of the photo avatar (docs/algorithms.md#photo-avatar): the camera fit and the
-// RBF calibration, shared by photo_fit.cpp and the tests of rigbuild's stages.
+// Private pieces of the photo avatar (docs/algorithms.md#photo-avatar): the camera fit, the RBF
+// calibration and the depth buffer, shared by photo_*.cpp and the tests of rigbuild's stages.
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "facecast/rigbuild/photo_avatar.hpp"
@@ -27,6 +28,23 @@ struct RbfCentre {
 /// by 1 / (1 + lambda) of its move) instead of interpolating them exactly (lambda = 0).
 void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
                 const std::vector<int>& rigid, double radius, double merge, double smoothing = 0);
+
+/// A mesh's depth seen through a photo's camera, per photo pixel (larger = nearer): the texture's
+/// visibility test and the fit's outer outline.
+struct DepthBuffer {
+  static constexpr float kEmpty = -std::numeric_limits<float>::max();  // no triangle there
+  int w = 0, h = 0;
+  std::vector<float> depth;  // w * h, rows from the top
+  DepthBuffer(const anim::Positions& positions, const anim::Triangles& triangles,
+              const OrthoCamera& camera, int width, int height);
+  /// Depth z at the pixel nearest `at` is not behind the mesh by more than `tolerance`.
+  bool visible(const Eigen::Vector2d& at, double z, double tolerance) const;
+  /// A triangle covers the pixel nearest `at`.
+  bool covered(const Eigen::Vector2d& at) const;
+
+ private:
+  std::ptrdiff_t pixel(const Eigen::Vector2d& at) const;  // index of the nearest pixel, -1: outside
+};
 
 /// Calls f(texel index, surface point, unit normal) for every texel of a w x h texture (u scaled
 /// by 1 / `tiles`) that a skin triangle of `positions` covers.

@@ -1,11 +1,14 @@
-// The photo avatar's shape: scale-orthographic cameras and identity-mode coefficients fitted in
-// turn to the photos' landmarks (jaw-line points matched to the fit's silhouette), then the
-// residuals moved exactly by an RBF deformation. See docs/algorithms.md#photo-avatar.
+// The photo avatar's shape: scale-orthographic cameras and identity-mode coefficients fitted
+// together to the photos' landmarks (jaw-line points matched to the fit's silhouette) and to the
+// edges along the face's outline, then the residuals moved by an RBF deformation. See
+// docs/algorithms.md#photo-avatar.
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <set>
 
 #include "facecast/core/error.hpp"
 #include "photo_detail.hpp"
@@ -14,6 +17,81 @@ namespace facecast::rigbuild {
 namespace {
 
 constexpr int kJawEnd = 16;  // landmarks 0..16: the jaw line, silhouette points
+
+// A photo's brightness gradient, where the outline search looks for edges: grey (the channels'
+// mean) blurred by a Gaussian (so that the texture's and the sensor's noise make no edges),
+// central differences; grey levels per pixel.
+class EdgeImage {
+ public:
+  EdgeImage(const render::Image& photo, double sigma)
+      : w_(photo.width), h_(photo.height), gx_(size(), 0.0f), gy_(size(), 0.0f) {
+    std::vector<float> grey(size()), tmp(size());
+    const int channels = std::min(3, photo.channels);
+    for (std::size_t i = 0; i < grey.size(); ++i) {
+      float sum = 0;
+      for (int k = 0; k < channels; ++k)
+        sum +=
+            photo
+                .pixels[i * static_cast<std::size_t>(photo.channels) + static_cast<std::size_t>(k)];
+      grey[i] = sum / static_cast<float>(channels);
+    }
+    const int r = static_cast<int>(std::ceil(3 * sigma));
+    std::vector<float> kernel(static_cast<std::size_t>(2 * r + 1));
+    float total = 0;
+    for (int i = -r; i <= r; ++i)
+      total += kernel[static_cast<std::size_t>(i + r)] =
+          static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
+    for (auto& k : kernel) k /= total;
+    const auto blur = [&](const std::vector<float>& in, std::vector<float>& out, int dx, int dy) {
+      for (int y = 0; y < h_; ++y)
+        for (int x = 0; x < w_; ++x) {
+          float sum = 0;
+          for (int i = -r; i <= r; ++i)
+            sum += kernel[static_cast<std::size_t>(i + r)] *
+                   in[index(std::clamp(x + i * dx, 0, w_ - 1), std::clamp(y + i * dy, 0, h_ - 1))];
+          out[index(x, y)] = sum;
+        }
+    };
+    blur(grey, tmp, 1, 0);
+    blur(tmp, grey, 0, 1);
+    for (int y = 1; y + 1 < h_; ++y)
+      for (int x = 1; x + 1 < w_; ++x) {
+        gx_[index(x, y)] = 0.5f * (grey[index(x + 1, y)] - grey[index(x - 1, y)]);
+        gy_[index(x, y)] = 0.5f * (grey[index(x, y + 1)] - grey[index(x, y - 1)]);
+      }
+  }
+  int width() const { return w_; }
+  int height() const { return h_; }
+  // The gradient at `at` (bilinear; zero outside the photo).
+  Eigen::Vector2d gradient(const Eigen::Vector2d& at) const {
+    if (!(at.x() >= 0 && at.y() >= 0 && at.x() <= w_ - 1 && at.y() <= h_ - 1))
+      return Eigen::Vector2d::Zero();
+    const int x0 = std::min(static_cast<int>(at.x()), w_ - 2),
+              y0 = std::min(static_cast<int>(at.y()), h_ - 2);
+    const double fx = at.x() - x0, fy = at.y() - y0;
+    const auto lerp = [&](const std::vector<float>& g) {
+      return (1 - fy) * ((1 - fx) * g[index(x0, y0)] + fx * g[index(x0 + 1, y0)]) +
+             fy * ((1 - fx) * g[index(x0, y0 + 1)] + fx * g[index(x0 + 1, y0 + 1)]);
+    };
+    return {lerp(gx_), lerp(gy_)};
+  }
+
+ private:
+  std::size_t size() const { return static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_); }
+  std::size_t index(int x, int y) const {
+    return static_cast<std::size_t>(y) * static_cast<std::size_t>(w_) + static_cast<std::size_t>(x);
+  }
+  int w_, h_;
+  std::vector<float> gx_, gy_;
+};
+
+// A vertex on the fit's outline paired with the photo's edge: its projection should move along
+// `normal` (the outline's, outwards, photo pixels) onto the line through `target`.
+struct OutlinePoint {
+  int vertex = 0;
+  Eigen::Vector2d normal = Eigen::Vector2d::Zero(), target = Eigen::Vector2d::Zero();
+  double weight = 1;
+};
 
 // One photo in the fit: its landmarks, which of them it uses, its camera and the vertex each
 // used landmark is paired with.
@@ -31,6 +109,8 @@ struct View {
   // vertical axis (R_front Ry(turn)) instead of a free rotation.
   bool turned = false;
   double turn = 0;
+  std::optional<EdgeImage> edges;     // the photo's, when its outline is matched
+  std::vector<OutlinePoint> outline;  // the outline's matches (match_outline)
 
   // Where the detector puts landmark k on the head with coefficients c (positions p): its vertex
   // plus the detector's convention offset for that identity.
@@ -130,6 +210,83 @@ void match_contour(const PhotoTemplate& tmpl, const anim::Positions& positions,
   }
 }
 
+// Per vertex: may be an outline point, a skin vertex of the face in front of the ears, from the
+// chin's underside to the forehead (the neck, the back of the head and the scalp are often
+// clothes, shadow or hair in a photo, not skin against the background).
+std::vector<char> outline_region(const PhotoTemplate& tmpl, double iod) {
+  const auto& p = tmpl.rig.positions;
+  const auto at = [&](int k) { return row(p, tmpl.landmarks[static_cast<std::size_t>(k)]); };
+  double brow = -std::numeric_limits<double>::max();
+  for (int k = 17; k <= 26; ++k) brow = std::max(brow, at(k).y());
+  const double bottom = at(8).y() - 0.05 * iod, top = brow + 0.5 * iod;
+  const double back = std::min(at(0).z(), at(kJawEnd).z());
+  std::vector<char> out(static_cast<std::size_t>(p.rows()), 0);
+  for (int v = 0; v < p.rows(); ++v) {
+    const Eigen::Vector3d x = row(p, v);
+    out[static_cast<std::size_t>(v)] =
+        tmpl.skin[static_cast<std::size_t>(v)] && x.y() > bottom && x.y() < top && x.z() > back;
+  }
+  return out;
+}
+
+// Pairs the fit's outer outline seen by the view's camera with the photo's edges: the region's
+// silhouette vertices with no mesh just outside them (else an inner fold: the nose's side, the
+// jaw over the neck), at most one per `spacing` pixels, each with the strongest edge along its
+// normal within `window` pixels (|gradient . normal|, sub-pixel by a parabola). An edge's weight
+// falls to zero at the window's end (Tukey's biweight), and edges weaker than a quarter of the
+// median are dropped: another feature than the outline was found, or none.
+void match_outline(const PhotoTemplate& tmpl, const anim::Positions& p,
+                   const std::vector<char>& region, double window, double spacing, View& view) {
+  const OrthoCamera& cam = view.camera;
+  const EdgeImage& edges = *view.edges;
+  const std::vector<char> outline = silhouette(p, tmpl.rig.triangles, cam.towards());
+  const anim::Positions normals = anim::vertex_normals(p, tmpl.rig.triangles);
+  const DepthBuffer cover(p, tmpl.rig.triangles, cam, edges.width(), edges.height());
+  std::set<std::pair<long, long>> cells;
+  std::vector<std::pair<OutlinePoint, double>> found;  // with the edge's strength
+  const double step = window / 16;
+  for (int v = 0; v < p.rows(); ++v) {
+    if (!region[static_cast<std::size_t>(v)] || !outline[static_cast<std::size_t>(v)]) continue;
+    const Eigen::Vector3d n3 = cam.R * row(normals, v);
+    Eigen::Vector2d n(n3.x(), -n3.y());
+    if (n.norm() < 0.5) continue;  // facing the camera: not on the outline
+    n.normalize();
+    const Eigen::Vector2d x = cam.project(row(p, v));
+    if (cover.covered(x + 0.25 * spacing * n)) continue;
+    if (!cells
+             .insert({std::lround(std::floor(x.x() / spacing)),
+                      std::lround(std::floor(x.y() / spacing))})
+             .second)
+      continue;
+    const auto strength = [&](double t) { return std::abs(edges.gradient(x + t * n).dot(n)); };
+    double best = 0, t = 0;
+    for (int i = -16; i <= 16; ++i)
+      if (const double g = strength(i * step); g > best) {
+        best = g;
+        t = i * step;
+      }
+    if (best <= 0) continue;
+    if (std::abs(t) < window) {
+      const double a = strength(t - step), b = strength(t + step);
+      const double curve = a - 2 * best + b;
+      if (curve < 0) t += std::clamp(0.5 * (a - b) / curve, -0.5, 0.5) * step;
+    }
+    const double u = t / window;
+    if (std::abs(u) >= 1) continue;
+    found.push_back({{v, n, x + t * n, (1 - u * u) * (1 - u * u)}, best});
+  }
+  view.outline.clear();
+  if (found.empty()) return;
+  std::vector<double> strengths;
+  for (const auto& f : found) strengths.push_back(f.second);
+  std::nth_element(strengths.begin(),
+                   strengths.begin() + static_cast<std::ptrdiff_t>(strengths.size() / 2),
+                   strengths.end());
+  const double median = strengths[strengths.size() / 2];
+  for (const auto& f : found)
+    if (f.second >= 0.25 * median) view.outline.push_back(f.first);
+}
+
 void fit_camera(const anim::Positions& positions, const Eigen::VectorXd& c, View& view) {
   std::vector<Eigen::Vector3d> pts;
   std::vector<Eigen::Vector2d> px;
@@ -142,10 +299,13 @@ void fit_camera(const anim::Positions& positions, const Eigen::VectorXd& c, View
 
 // One Gauss-Newton step on the cameras and the identity-mode coefficients together (the camera's
 // scale and rotation trade off against the modes, so alternating between them stalls):
-//   min sum_photos sum_landmarks |pi_v(x0_k + D_k c + b_k) - q_k|^2 / (s_v IOD)^2 + sigma^2 |c|^2,
-// pi_v = scale-orthographic camera (rotation R exp([w]x), scale s, translation t).
+//   min sum_photos sum_landmarks |pi_v(x0_k + D_k c + b_k) - q_k|^2 / (s_v IOD)^2
+//     + sum_photos sum_outline w_j (n_j . (q_j - pi_v(x0_j + D_j c)))^2 / (s_v IOD n_o)^2
+//     + sigma^2 |c|^2,
+// pi_v = scale-orthographic camera (rotation R exp([w]x), scale s, translation t); an outline
+// point only moves along its normal n_j (it slides along the outline), n_o = `outline_noise`.
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
-                       double iod, double noise) {
+                       double iod, double noise, double outline_noise) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
   const Eigen::Index n = K + 6 * static_cast<Eigen::Index>(views.size());
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
@@ -156,17 +316,13 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     const View& view = views[vi];
     const OrthoCamera& cam = view.camera;
-    const double unit = 1.0 / (cam.s * iod * view.noise);
+    const double unit = 1.0 / (cam.s * iod);
     const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
     const Eigen::Matrix<double, 2, 3> R12 = cam.R.topRows<2>();
-    for (int k : view.used) {
-      const auto i = static_cast<std::size_t>(k);
-      const Eigen::Vector3d x = view.point(p, c, k);
-      Eigen::Vector2d r = view.marks->points[i] - cam.project(x);
-      r.y() = -r.y();  // y up
+    // d pi_v(x) / d(c, cameras), y up; D: d x / d c.
+    const auto jacobian = [&](const Eigen::Vector3d& x, const Eigen::Matrix3Xd& D) {
       Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, n);
-      for (Eigen::Index m = 0; m < K; ++m)
-        J.col(m) = cam.s * R12 * view.mode(static_cast<int>(m), k);
+      J.leftCols(K) = cam.s * R12 * D;
       if (view.turned) {
         // R = R_front exp([w]x) Ry(turn): the front photo's w, and the turn.
         const Eigen::Vector3d y = Eigen::AngleAxisd(view.turn, Eigen::Vector3d::UnitY()) * x;
@@ -177,8 +333,28 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       }
       J.col(o + 3) = R12 * x;
       J.block(0, o + 4, 2, 2) = Eigen::Matrix2d::Identity();
-      J *= unit;
-      r *= unit;
+      return J;
+    };
+    Eigen::Matrix3Xd D(3, K);
+    for (int k : view.used) {
+      const auto i = static_cast<std::size_t>(k);
+      const Eigen::Vector3d x = view.point(p, c, k);
+      Eigen::Vector2d r = view.marks->points[i] - cam.project(x);
+      r.y() = -r.y();  // y up
+      for (Eigen::Index m = 0; m < K; ++m) D.col(m) = view.mode(static_cast<int>(m), k);
+      const Eigen::MatrixXd J = jacobian(x, D) * (unit / view.noise);
+      r *= unit / view.noise;
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    for (const OutlinePoint& q : view.outline) {
+      const Eigen::Vector3d x = row(p, q.vertex);
+      for (Eigen::Index m = 0; m < K; ++m)
+        D.col(m) = row(tmpl.modes[static_cast<std::size_t>(m)], q.vertex);
+      const Eigen::Vector2d up(q.normal.x(), -q.normal.y());
+      const double w = std::sqrt(q.weight) * unit / outline_noise;
+      const Eigen::RowVectorXd J = w * up.transpose() * jacobian(x, D);
+      const double r = w * q.normal.dot(q.target - cam.project(x));
       H += J.transpose() * J;
       g += J.transpose() * r;
     }
@@ -258,7 +434,8 @@ std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const Eigen::
 // The fit; `contour`: jaw-line points matched to the silhouette (else fixed vertices whose
 // detector offsets were measured).
 PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
-                   const PhotoLandmarks* side, const PhotoOptions& options, bool contour) {
+                   const PhotoLandmarks* side, const PhotoOptions& options, bool contour,
+                   const render::Image* front_photo, const render::Image* side_photo) {
   const auto& X0 = tmpl.rig.positions;
   const double iod = (row(X0, tmpl.landmarks[36]) - row(X0, tmpl.landmarks[45])).norm();
   std::vector<View> views(side ? 2 : 1);
@@ -293,11 +470,23 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     views[1].turn = std::atan2(rel(0, 2), rel(0, 0));
     views[1].camera.R = views[0].camera.R * turn_matrix(views[1].turn);
   }
+  // The outlines' edges, blurred and searched in proportion to the face's size in each photo.
+  const render::Image* photos[2] = {options.front_outline ? front_photo : nullptr,
+                                    options.side_outline ? side_photo : nullptr};
+  for (std::size_t i = 0; i < views.size(); ++i)
+    if (photos[i]) views[i].edges.emplace(*photos[i], 0.01 * views[i].camera.s * iod);
+  const auto region = outline_region(tmpl, iod);
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
     if (it > 0)
-      for (auto& v : views) match_contour(tmpl, p, candidates, v);
+      for (auto& v : views) {
+        match_contour(tmpl, p, candidates, v);
+        if (v.edges)
+          match_outline(tmpl, p, region, options.outline_window * v.camera.s * iod,
+                        0.05 * v.camera.s * iod, v);
+      }
     for (int step = 0; step < 3; ++step)
-      gauss_newton_step(tmpl, views, fit.coefficients, iod, options.landmark_noise);
+      gauss_newton_step(tmpl, views, fit.coefficients, iod, options.landmark_noise,
+                        options.outline_noise);
     p = apply_modes(tmpl, fit.coefficients);
   }
   fit.model_positions = p;
@@ -325,8 +514,9 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
 }  // namespace
 
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
-                         const PhotoLandmarks* side, const PhotoOptions& options) {
-  return fit_shape(tmpl, front, side, options, tmpl.mode_bias.empty());
+                         const PhotoLandmarks* side, const PhotoOptions& options,
+                         const render::Image* front_photo, const render::Image* side_photo) {
+  return fit_shape(tmpl, front, side, options, tmpl.mode_bias.empty(), front_photo, side_photo);
 }
 
 std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
@@ -340,7 +530,7 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
   plain.side_mode_bias.clear();
   PhotoOptions o = options;
   o.landmark_noise = 1e6;  // the template's own shape: no identity modes
-  const PhotoFit fit = fit_shape(plain, front, side, o, false);
+  const PhotoFit fit = fit_shape(plain, front, side, o, false, nullptr, nullptr);
   std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
   for (int k = 0; k < kLandmarkCount; ++k)
     out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];

@@ -36,36 +36,6 @@ void rasterize(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::
     }
 }
 
-// The fitted mesh's depth seen through a photo's camera, per photo pixel (larger = nearer).
-struct DepthBuffer {
-  int w = 0, h = 0;
-  std::vector<float> depth;
-  DepthBuffer(const anim::Positions& p, const anim::Triangles& tri, const OrthoCamera& cam, int w_,
-              int h_)
-      : w(w_), h(h_), depth(static_cast<std::size_t>(w_) * h_, -std::numeric_limits<float>::max()) {
-    std::vector<Eigen::Vector2d> px(static_cast<std::size_t>(p.rows()));
-    std::vector<double> z(px.size());
-    for (Eigen::Index v = 0; v < p.rows(); ++v) {
-      const Eigen::Vector3d q = p.row(v).cast<double>().transpose();
-      px[static_cast<std::size_t>(v)] = cam.project(q);
-      z[static_cast<std::size_t>(v)] = cam.depth(q);
-    }
-    for (Eigen::Index t = 0; t < tri.rows(); ++t) {
-      const auto i = static_cast<std::size_t>(tri(t, 0)), j = static_cast<std::size_t>(tri(t, 1)),
-                 k = static_cast<std::size_t>(tri(t, 2));
-      rasterize(px[i], px[j], px[k], w, h, [&](int x, int y, const Eigen::Vector3d& b) {
-        float& d = depth[static_cast<std::size_t>(y) * w + x];
-        d = std::max(d, static_cast<float>(b(0) * z[i] + b(1) * z[j] + b(2) * z[k]));
-      });
-    }
-  }
-  bool visible(const Eigen::Vector2d& at, double z, double tolerance) const {
-    const int x = static_cast<int>(std::lround(at.x())), y = static_cast<int>(std::lround(at.y()));
-    if (x < 0 || y < 0 || x >= w || y >= h) return false;
-    return z >= depth[static_cast<std::size_t>(y) * w + x] - tolerance;
-  }
-};
-
 Eigen::Vector3f sample(const render::Image& img, const Eigen::Vector2d& at) {
   const double x = std::clamp(at.x(), 0.0, img.width - 1.0),
                y = std::clamp(at.y(), 0.0, img.height - 1.0);
@@ -133,6 +103,42 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
 }
 
 }  // namespace
+
+DepthBuffer::DepthBuffer(const anim::Positions& p, const anim::Triangles& tri,
+                         const OrthoCamera& cam, int w_, int h_)
+    : w(w_), h(h_), depth(static_cast<std::size_t>(w_) * h_, kEmpty) {
+  std::vector<Eigen::Vector2d> px(static_cast<std::size_t>(p.rows()));
+  std::vector<double> z(px.size());
+  for (Eigen::Index v = 0; v < p.rows(); ++v) {
+    const Eigen::Vector3d q = p.row(v).cast<double>().transpose();
+    px[static_cast<std::size_t>(v)] = cam.project(q);
+    z[static_cast<std::size_t>(v)] = cam.depth(q);
+  }
+  for (Eigen::Index t = 0; t < tri.rows(); ++t) {
+    const auto i = static_cast<std::size_t>(tri(t, 0)), j = static_cast<std::size_t>(tri(t, 1)),
+               k = static_cast<std::size_t>(tri(t, 2));
+    rasterize(px[i], px[j], px[k], w, h, [&](int x, int y, const Eigen::Vector3d& b) {
+      float& d = depth[static_cast<std::size_t>(y) * w + x];
+      d = std::max(d, static_cast<float>(b(0) * z[i] + b(1) * z[j] + b(2) * z[k]));
+    });
+  }
+}
+
+std::ptrdiff_t DepthBuffer::pixel(const Eigen::Vector2d& at) const {
+  const int x = static_cast<int>(std::lround(at.x())), y = static_cast<int>(std::lround(at.y()));
+  if (x < 0 || y < 0 || x >= w || y >= h) return -1;
+  return static_cast<std::ptrdiff_t>(y) * w + x;
+}
+
+bool DepthBuffer::visible(const Eigen::Vector2d& at, double z, double tolerance) const {
+  const std::ptrdiff_t i = pixel(at);
+  return i >= 0 && z >= depth[static_cast<std::size_t>(i)] - tolerance;
+}
+
+bool DepthBuffer::covered(const Eigen::Vector2d& at) const {
+  const std::ptrdiff_t i = pixel(at);
+  return i >= 0 && depth[static_cast<std::size_t>(i)] > kEmpty;
+}
 
 void for_each_skin_texel(
     const PhotoTemplate& tmpl, const anim::Positions& positions, int w, int h, int tiles,

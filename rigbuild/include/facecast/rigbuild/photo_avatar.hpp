@@ -2,10 +2,11 @@
 // An avatar from photos (docs/algorithms.md#photo-avatar): dlib's 68 landmarks in a front photo
 // (and optionally a side photo, turned up to about 45 degrees), a scale-orthographic camera per
 // photo estimated jointly with the shape (similarity + the template's identity modes by
-// regularised linear least squares, jaw-line points matched to the fit's silhouette), the
-// landmark residuals then moved exactly by an RBF deformation of the whole head (eyes and mouth
-// interior carried rigidly), a UV texture baked from the photos blended by the normal (seed 003,
-// section 5), and the template's expressions transferred onto the fitted head (build.hpp).
+// regularised least squares, jaw-line points matched to the fit's silhouette, the face's outline
+// to the photos' edges), the landmark residuals then moved by an RBF deformation of the whole
+// head (eyes and mouth interior carried rigidly), a UV texture baked from the photos blended by the
+// normal (seed 003, section 5), and the template's expressions transferred onto the fitted head
+// (build.hpp).
 //
 // Photos: y down, pixel centres at whole numbers (dlib's convention). Heads face +Z, +Y up.
 #include <array>
@@ -47,6 +48,10 @@ struct PhotoOptions {
   double side_noise = 1.0;        // the side photo's landmark noise relative to the front's
   bool side_turn = true;          // the side camera = the front's with the head turned (a yaw)
   bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
+  bool front_outline = false;     // the fit matches the face's outline to the front photo's edges
+  bool side_outline = true;       // ... and to the side photo's
+  double outline_noise = 2.0;     // an outline point's noise relative to a front landmark's
+  double outline_window = 0.06;   // edges searched this far from the outline, inter-ocular dist.
   double rbf_smoothing = 1.0;     // RBF regularisation: 0 moves the landmarks exactly
   double rbf_radius = 1.2;        // RBF support radius, in inter-ocular distances of the template
   int texture_size = 1024;        // texture height; the width is twice (face and back of head)
@@ -137,8 +142,12 @@ struct PhotoFit {
 /// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
 std::vector<int> side_points(const PhotoLandmarks& side);
 
+/// `front_photo`, `side_photo` (optional): the photos the landmarks came from, whose outlines the
+/// fit then matches too.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
-                         const PhotoLandmarks* side, const PhotoOptions& options);
+                         const PhotoLandmarks* side, const PhotoOptions& options,
+                         const render::Image* front_photo = nullptr,
+                         const render::Image* side_photo = nullptr);
 
 /// The detector's convention on a kind of photo (renders, say): the template itself photographed
 /// that way and fitted without identity modes; per landmark the calibration's move, which
