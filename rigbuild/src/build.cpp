@@ -4,6 +4,7 @@
 #include <chrono>
 #include <future>
 #include <optional>
+#include <vector>
 
 #include "facecast/core/error.hpp"
 #include "stages.hpp"
@@ -73,9 +74,20 @@ Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
     markers = &found->markers;
   }
   if (options.correspondence) return *options.correspondence;
-  return compute_correspondence(tmpl.positions.cast<double>(), tmpl.triangles, template_parts(tmpl),
-                                target.positions.cast<double>(), target.triangles, *markers,
-                                options.registration, progress);
+  // The middles of the lids, where the landmarks leave the registration free
+  // (docs/algorithms.md#landmarks, step 7).
+  std::vector<MarkerPair> refined;
+  MarkerRefinement lid_middles;
+  if (options.landmarks.lid_margins)
+    lid_middles = [&](const Points& registered) {
+      return refined = with_lid_middles(tmpl, target, registered, *markers);
+    };
+  Correspondence c =
+      compute_correspondence(tmpl.positions.cast<double>(), tmpl.triangles, template_parts(tmpl),
+                             target.positions.cast<double>(), target.triangles, *markers,
+                             options.registration, progress, lid_middles);
+  if (found && !refined.empty()) found->markers = std::move(refined);
+  return c;
 }
 
 BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options,

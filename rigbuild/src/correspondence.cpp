@@ -122,22 +122,28 @@ RegistrationSystem registration_system(const Points& x0, const MeshGraph& graph,
 
 // Steps of the registration, raising w_C: each vertex is pulled to its closest valid target point
 // (normals within 90 degrees, not on the target's boundary, within max_distance of the target's
-// diagonal).
+// diagonal). From `start` (when given): one step at the last w_C (the markers added there are few,
+// and near where the registration already put them).
 Points register_template(const Points& x0, const Faces& faces, const MeshGraph& graph,
                          const std::vector<MarkerPair>& markers, const Points& marker_targets,
                          const SurfaceQuery& target, double max_dist,
-                         const RegistrationOptions& options, const ProgressFn& progress) {
+                         const RegistrationOptions& options, const ProgressFn& progress,
+                         const Points* start) {
   const int ns = static_cast<int>(x0.rows());
   const RegistrationSystem sys = registration_system(x0, graph, markers, marker_targets, options);
-  Points y = x0;
+  Points y = start ? *start : x0;
   for (std::size_t i = 0; i < markers.size(); ++i)
     y.row(markers[i].template_vertex) = marker_targets.row(static_cast<Eigen::Index>(i));
   Eigen::CholmodSupernodalLLT<SpMat> solver;
   bool analyzed = false;
-  const int steps = static_cast<int>(options.closest_weights.size()) * options.iterations_per_step;
+  const std::vector<double> weights = start && !options.closest_weights.empty()
+                                          ? std::vector<double>{options.closest_weights.back()}
+                                          : options.closest_weights;
+  const int iterations = start ? 1 : options.iterations_per_step;
+  const int steps = static_cast<int>(weights.size()) * iterations;
   int step = 0;
-  for (double wc : options.closest_weights) {
-    for (int it = 0; it < options.iterations_per_step; ++it, ++step) {
+  for (double wc : weights) {
+    for (int it = 0; it < iterations; ++it, ++step) {
       report(progress, "registration", static_cast<double>(step) / steps);
       const Points yn = anim::vertex_normals(y, faces);
       std::vector<double> weight(static_cast<std::size_t>(ns), 0.0);
@@ -325,7 +331,7 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
                                       const Points& target_rest, const Faces& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
-                                      const ProgressFn& progress) {
+                                      const ProgressFn& progress, const MarkerRefinement& refine) {
   const auto t_start = std::chrono::steady_clock::now();
   Correspondence c;
   c.template_vertices = static_cast<int>(template_rest.rows());
@@ -335,20 +341,27 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
 
   c.alignment = align(template_rest, target_rest, markers);
   const Points x0 = c.alignment.apply(template_rest);
-  const Points marker_targets = marker_rows(target_rest, markers, false);
   const SurfaceQuery target_surface(target_rest, target_faces);
   const double diag = diagonal(target_rest);
-  c.registered =
-      register_template(x0, template_faces, MeshGraph(x0, template_faces), markers, marker_targets,
-                        target_surface, options.max_distance * diag, options, progress);
+  const MeshGraph graph(x0, template_faces);
+  const auto registered = [&](const std::vector<MarkerPair>& pairs, const Points* start) {
+    return register_template(x0, template_faces, graph, pairs,
+                             marker_rows(target_rest, pairs, false), target_surface,
+                             options.max_distance * diag, options, progress, start);
+  };
+  c.registered = registered(markers, nullptr);
+  const std::vector<MarkerPair> refined = refine ? refine(c.registered) : std::vector<MarkerPair>{};
+  if (!refined.empty()) c.registered = registered(refined, &c.registered);
+  const auto& used = refined.empty() ? markers : refined;
   c.registration_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const Points marker_targets = marker_rows(target_rest, used, false);
   double merr = 0;
-  for (std::size_t i = 0; i < markers.size(); ++i)
-    merr += (c.registered.row(markers[i].template_vertex) -
+  for (std::size_t i = 0; i < used.size(); ++i)
+    merr += (c.registered.row(used[i].template_vertex) -
              marker_targets.row(static_cast<Eigen::Index>(i)))
                 .norm();
-  c.mean_marker_error = merr / static_cast<double>(markers.size());
+  c.mean_marker_error = merr / static_cast<double>(used.size());
 
   report(progress, "triangle correspondence", 0.0);
   const SurfaceQuery reg_surface(c.registered, template_faces);

@@ -25,7 +25,8 @@ LandmarkOptions load_landmark_options() {
       .read("search_pixels", o.search_pixels)
       .read("outlier", o.outlier)
       .read("symmetry", o.symmetry)
-      .read("eye_bias_limit", o.eye_bias_limit);
+      .read("eye_bias_limit", o.eye_bias_limit)
+      .read("lid_margins", o.lid_margins);
   if (o.image_size < 64 || o.image_size > 4096) c.fail("image_size", "must be in 64..4096");
   if (o.frame_margin < 1.0f) c.fail("frame_margin", "must be at least 1");
   if (!(o.face_fill > 0.05 && o.face_fill <= 1)) c.fail("face_fill", "must be in (0.05, 1]");
@@ -80,6 +81,26 @@ std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& 
       throw Error(path.string() + ": templates." + t->value("name", std::string("?")) +
                   ".landmarks[" + std::to_string(k) + "]: vertex out of range");
     out[static_cast<std::size_t>(k)] = v;
+  }
+  return out;
+}
+
+std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig) {
+  const auto path = config_path("rigbuild/template_landmarks.json");
+  const nlohmann::json j = load_json(path);
+  const nlohmann::json* t = template_entry(j, rig);
+  if (!t || !t->contains("lid_middles")) return std::nullopt;
+  const auto& list = t->at("lid_middles");
+  std::array<int, 4> out{};
+  if (!list.is_array() || list.size() != out.size())
+    throw Error(path.string() + ": templates." + t->value("name", std::string("?")) +
+                ".lid_middles: expected 4 vertex numbers");
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (!list[i].is_number_integer() || list[i].get<int>() < 0 ||
+        list[i].get<int>() >= rig.vertex_count())
+      throw Error(path.string() + ": templates." + t->value("name", std::string("?")) +
+                  ".lid_middles[" + std::to_string(i) + "]: not a vertex of the template");
+    out[i] = list[i].get<int>();
   }
   return out;
 }

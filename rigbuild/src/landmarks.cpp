@@ -5,9 +5,12 @@
 #include <dlib/image_processing.h>
 #include <dlib/image_processing/frontal_face_detector.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <future>
 #include <limits>
@@ -240,6 +243,131 @@ Points fuse(const std::vector<LandmarkView>& views,
   return out;
 }
 
+// The lid margins (docs/algorithms.md#landmarks, step 7). On a grey render of a head whose
+// eye sockets are empty, dlib sees a narrower eye than the lids make and puts the lid points
+// inside the opening, a lower lid's sometimes on the upper lid (MakeHuman's head: up to 0.1 of
+// the eye's width off, more than the opening). The margin seen from the front is where the skin
+// turns away from the camera into the socket, or ends at a hole: its contour (`margin` below).
+class LidMargins {
+ public:
+  struct Eye {
+    int inner, outer;                 // corner landmarks
+    std::array<int, 2> upper, lower;  // lid landmarks
+  };
+  static constexpr std::array<Eye, 2> kEyes{Eye{39, 36, {37, 38}, {41, 40}},
+                                            Eye{42, 45, {43, 44}, {47, 46}}};
+
+  // `head` seen from `camera`; its skin is its largest connected component.
+  LidMargins(const anim::Rig& head, const render::Camera& camera)
+      : rest_(head.positions.cast<double>()),
+        forward_((camera.target - camera.eye).cast<double>().normalized()),
+        up_(camera.up.cast<double>()) {
+    const Eigen::Vector3d eye = camera.eye.cast<double>();
+    const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
+    // Per skin vertex: 1 touches a triangle facing the camera, 2 one facing away, 4 a border.
+    std::vector<unsigned char> touch(static_cast<std::size_t>(rest_.rows()), 0);
+    std::map<std::pair<int, int>, int> edges;
+    for (Eigen::Index t = 0; t < head.triangles.rows(); ++t) {
+      const auto corner = [&](int k) { return head.triangles(t, k); };
+      if (comps.label[static_cast<std::size_t>(corner(0))] != comps.largest) continue;
+      const Eigen::Vector3d a = rest_.row(corner(0)), b = rest_.row(corner(1)),
+                            c = rest_.row(corner(2));
+      const unsigned char bit = (b - a).cross(c - a).dot(eye - (a + b + c) / 3) > 0 ? 1 : 2;
+      for (int k = 0; k < 3; ++k) {
+        touch[static_cast<std::size_t>(corner(k))] |= bit;
+        ++edges[std::minmax(corner(k), corner((k + 1) % 3))];
+      }
+    }
+    for (const auto& [e, n] : edges)
+      if (n == 1)
+        touch[static_cast<std::size_t>(e.first)] = touch[static_cast<std::size_t>(e.second)] = 4;
+    for (int v = 0; v < static_cast<int>(touch.size()); ++v)
+      if (touch[static_cast<std::size_t>(v)] >= 3) contour_.push_back(v);
+  }
+
+  // The eye's frame from its corners in `points`; width 0 when a corner is missing.
+  struct Frame {
+    Eigen::Vector3d mid = Eigen::Vector3d::Zero(), along = Eigen::Vector3d::Zero(),
+                    up = Eigen::Vector3d::Zero();
+    double width = 0;
+  };
+  Frame frame(const Points& points, const Eye& e) const {
+    Frame f;
+    if (!valid(points, e.inner) || !valid(points, e.outer)) return f;
+    // In the image plane: a corner deeper than the other must not turn depth into "along".
+    const Eigen::Vector3d a = points.row(e.outer).transpose(), b = points.row(e.inner).transpose();
+    const Eigen::Vector3d across = (b - a) - (b - a).dot(forward_) * forward_;
+    if (across.norm() <= 0) return f;
+    f.mid = 0.5 * (a + b);
+    f.width = across.norm();
+    f.along = across / f.width;
+    f.up = forward_.cross(f.along).normalized();
+    if (f.up.dot(up_) < 0) f.up = -f.up;
+    return f;
+  }
+
+  // The margin vertex on `side` (+1 above the corners' line, -1 below) nearest to where `x` is
+  // along the line (at most 10 % of the eye's width from it); -1 when there is none. A contour
+  // vertex is on the margin when no contour vertex within 3 % of the width along the line is
+  // nearer the line (that one is the lid's posterior margin, this its front rim).
+  int margin(const Frame& f, int side, const Eigen::Vector3d& x) const {
+    const double at = (x - f.mid).dot(f.along);
+    struct Near {
+      int vertex;
+      double along, height;
+    };
+    std::vector<Near> near;
+    for (int v : contour_) {
+      const Eigen::Vector3d d = rest_.row(v).transpose() - f.mid;
+      const double along = d.dot(f.along), height = side * d.dot(f.up);
+      if (std::abs(along - at) <= 0.15 * f.width && height > 0 && height < 0.5 * f.width &&
+          std::abs(d.dot(forward_)) <= 0.3 * f.width)
+        near.push_back({v, along, height});
+    }
+    int best = -1;
+    double best_gap = 0.1 * f.width;
+    for (const Near& n : near) {
+      const bool rim = std::any_of(near.begin(), near.end(), [&](const Near& o) {
+        return std::abs(o.along - n.along) <= 0.03 * f.width && o.height < n.height;
+      });
+      if (!rim && std::abs(n.along - at) < best_gap) {
+        best = n.vertex;
+        best_gap = std::abs(n.along - at);
+      }
+    }
+    return best;
+  }
+
+  // The lid points of both eyes moved onto the margins.
+  void snap(Points& points) const {
+    for (const Eye& e : kEyes) {
+      const Frame f = frame(points, e);
+      if (f.width <= 0) continue;
+      for (int side : {1, -1})
+        for (int k : side > 0 ? e.upper : e.lower) {
+          if (!valid(points, k)) continue;
+          if (const int v = margin(f, side, points.row(k).transpose()); v >= 0)
+            points.row(k) = rest_.row(v);
+        }
+    }
+  }
+
+ private:
+  Points rest_;
+  Eigen::Vector3d forward_, up_;
+  std::vector<int> contour_;  // skin vertices on the contour seen from the camera, or a border
+};
+
+// A camera far in front of the head (+Z, +Y up: the views' convention), nearly orthographic.
+render::Camera front_of(const anim::Rig& head) {
+  render::Camera c;
+  c.target = head.positions.colwise().mean().transpose();
+  const float size =
+      (head.positions.colwise().maxCoeff() - head.positions.colwise().minCoeff()).norm();
+  c.eye = c.target + Eigen::Vector3f(0, 0, 100 * size);
+  return c;
+}
+
 }  // namespace
 
 HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
@@ -361,6 +489,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   if (reference)
     out.dropped += drop_by_similarity(*reference, options.outlier * iod, out.points, residual);
   out.dropped += drop_by_symmetry(options.symmetry * iod, residual, out.points);
+  if (reference && bias && options.lid_margins) LidMargins(head, front).snap(out.points);
 
   // Each fused point's nearest skin vertex.
   for (int k = 0; k < kLandmarkCount; ++k) {
@@ -393,6 +522,39 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
   if (out.size() < 8)
     throw Error("landmarks: only " + std::to_string(out.size()) +
                 " of 68 landmarks agree with the template's; give --markers");
+  return out;
+}
+
+std::vector<MarkerPair> with_lid_middles(const anim::Rig& tmpl, const anim::Rig& target,
+                                         const Points& registered,
+                                         const std::vector<MarkerPair>& markers) {
+  const auto middles = known_lid_middles(tmpl);
+  if (!middles) return {};
+  Points at = Points::Constant(kLandmarkCount, 3, kNaN);  // the landmarks' target vertices
+  for (const MarkerPair& m : markers) {
+    int k = -1;
+    if (std::sscanf(m.name.c_str(), "dlib_%d", &k) != 1 || k < 0 || k >= kLandmarkCount)
+      return {};  // not (only) the automatic landmarks' pairs
+    at.row(k) = target.positions.row(m.target_vertex).cast<double>();
+  }
+  const LidMargins lids(target, front_of(target));
+  const char* names[4] = {"lid_r_upper_mid", "lid_r_lower_mid", "lid_l_upper_mid",
+                          "lid_l_lower_mid"};
+  std::vector<MarkerPair> added;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const auto f = lids.frame(at, LidMargins::kEyes[i / 2]);
+    if (f.width <= 0) continue;
+    const int v = lids.margin(f, i % 2 ? -1 : 1, registered.row((*middles)[i]).transpose());
+    if (v >= 0) added.push_back({names[i], (*middles)[i], v});
+  }
+  if (added.empty()) return {};
+  // A landmark on a middle's vertex was put there by dlib's narrower eye: the middle wins.
+  std::vector<MarkerPair> out;
+  for (const MarkerPair& m : markers)
+    if (std::none_of(added.begin(), added.end(),
+                     [&](const MarkerPair& a) { return a.target_vertex == m.target_vertex; }))
+      out.push_back(m);
+  out.insert(out.end(), added.begin(), added.end());
   return out;
 }
 

@@ -15,6 +15,7 @@
 // The result can be saved and reused (save_correspondence, load_correspondence).
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -104,12 +105,17 @@ bool reorder_triangles_like(const anim::Rig& tmpl, anim::Rig& target);
 
 /// `template_parts` (per template triangle, may be empty) groups the template into parts that a
 /// target component may correspond to, e.g. materials (all teeth are one part); empty: components.
+/// `refine` (when given) sees the template registered onto the target; markers it returns
+/// replace `markers`, and the registration goes on from there, one step at the last of
+/// options.closest_weights (the lids' middles, docs/algorithms.md#landmarks, step 7).
+using MarkerRefinement = std::function<std::vector<MarkerPair>(const Points& registered)>;
 Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
                                       const std::vector<int>& template_parts,
                                       const Points& target_rest, const Faces& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
-                                      const ProgressFn& progress = {});
+                                      const ProgressFn& progress = {},
+                                      const MarkerRefinement& refine = {});
 
 /// Binary cache with a header that records the mesh sizes; load checks them.
 void save_correspondence(const std::filesystem::path& path, const Correspondence& c);

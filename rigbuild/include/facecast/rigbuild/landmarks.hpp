@@ -41,6 +41,8 @@ struct LandmarkOptions {
   double symmetry = 0.15;       // ... or whose mirror image misses its partner by this much
   double eye_bias_limit = 0.5;  // an eye point's template bias longer than this * the template's
                                 // eye opening is not applied (a failed detection, no convention)
+  bool lid_margins = true;      // a target's lid points go onto its lid margins, and the lids'
+                                // middles are paired too (with_lid_middles)
 };
 
 /// LandmarkOptions from configs/rigbuild/landmarks.json; throws Error naming the field.
@@ -76,7 +78,8 @@ struct HeadLandmarks {
 
 /// `reference`: the template's landmark positions (68 by 3, NaN rows where unknown) that the
 /// target's are checked against; nullptr: no similarity test. `bias` (with a reference): the
-/// template's landmark_bias, added to the fused points in the target's frame.
+/// template's landmark_bias, added to the fused points in the target's frame; then (with
+/// options.lid_margins) the lid points move onto the target's lid margins seen from the front.
 HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
                                const Points* reference = nullptr, const Points* bias = nullptr);
 
@@ -96,6 +99,21 @@ std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& 
 /// ("bias", 68 rows, template units; computed with the default LandmarkOptions), so a build need
 /// not render and detect the template; nullopt when the entry has none.
 std::optional<Points> known_landmark_bias(const anim::Rig& rig);
+
+/// The template's 4 lid-middle vertices (right upper, right lower, left upper, left lower): the
+/// "lid_middles" of its entry in configs/rigbuild/template_landmarks.json; nullopt without one.
+std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig);
+
+/// The automatic landmarks' marker pairs (every name "dlib_NN": found, or found and moved by
+/// hand in the web page) with pairs for the middles of the lids added (docs/algorithms.md
+/// #landmarks, step 7): each of the template's known_lid_middles, where `registered` (the template
+/// registered onto the target with `markers`) puts it along the target's eye, paired with the
+/// target's lid margin there; a landmark pair on the same target vertex is dropped. Empty when
+/// there is nothing to add: other markers, no lid middles known for the template, an eye's
+/// corners missing.
+std::vector<MarkerPair> with_lid_middles(const anim::Rig& tmpl, const anim::Rig& target,
+                                         const Points& registered,
+                                         const std::vector<MarkerPair>& markers);
 
 /// The template's landmarks as marker pairs with the target's detected ones ("dlib_NN"), the
 /// landmarks dropped on either side left out. Throws Error when fewer than 8 remain.
