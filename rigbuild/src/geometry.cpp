@@ -73,6 +73,22 @@ Points centroids(const Points& p, const Faces& f) {
   return c;
 }
 
+std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
+                             const Eigen::Vector3d& towards, const std::vector<char>& keep) {
+  std::vector<unsigned char> facing(static_cast<std::size_t>(p.rows()), 0);
+  for (Eigen::Index f = 0; f < tris.rows(); ++f) {
+    if (!keep.empty() && !keep[static_cast<std::size_t>(f)]) continue;
+    const Eigen::Vector3d a = p.row(tris(f, 0)).cast<double>(),
+                          b = p.row(tris(f, 1)).cast<double>(),
+                          c = p.row(tris(f, 2)).cast<double>();
+    const unsigned char bit = (b - a).cross(c - a).dot(towards) > 0 ? 1 : 2;
+    for (int k = 0; k < 3; ++k) facing[static_cast<std::size_t>(tris(f, k))] |= bit;
+  }
+  std::vector<char> out(facing.size());
+  for (std::size_t v = 0; v < facing.size(); ++v) out[v] = facing[v] == 3;
+  return out;
+}
+
 Points face_normals(const Points& p, const Faces& f) {
   Points n(f.rows(), 3);
   for (Eigen::Index t = 0; t < f.rows(); ++t) {

@@ -27,6 +27,11 @@ Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::R
 /// The length of the diagonal of the points' bounding box (0 for no points).
 double diagonal(const Points& p);
 
+/// Per vertex: on the silhouette seen from `towards`: a vertex of a triangle facing that way and
+/// of one facing away. Only the triangles `keep` selects count (all when it is empty).
+std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
+                             const Eigen::Vector3d& towards, const std::vector<char>& keep = {});
+
 /// Per triangle (#F by 3): its centroid; its unit normal.
 Points centroids(const Points& p, const Faces& f);
 Points face_normals(const Points& p, const Faces& f);

@@ -20,6 +20,7 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/render/renderer.hpp"
+#include "geometry.hpp"
 #include "landmark_views.hpp"
 
 namespace facecast::rigbuild {
@@ -262,27 +263,22 @@ class LidMargins {
       : rest_(head.positions.cast<double>()),
         forward_((camera.target - camera.eye).cast<double>().normalized()),
         up_(camera.up.cast<double>()) {
-    const Eigen::Vector3d eye = camera.eye.cast<double>();
     const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
-    // Per skin vertex: 1 touches a triangle facing the camera, 2 one facing away, 4 a border.
-    std::vector<unsigned char> touch(static_cast<std::size_t>(rest_.rows()), 0);
-    std::map<std::pair<int, int>, int> edges;
-    for (Eigen::Index t = 0; t < head.triangles.rows(); ++t) {
-      const auto corner = [&](int k) { return head.triangles(t, k); };
-      if (comps.label[static_cast<std::size_t>(corner(0))] != comps.largest) continue;
-      const Eigen::Vector3d a = rest_.row(corner(0)), b = rest_.row(corner(1)),
-                            c = rest_.row(corner(2));
-      const unsigned char bit = (b - a).cross(c - a).dot(eye - (a + b + c) / 3) > 0 ? 1 : 2;
-      for (int k = 0; k < 3; ++k) {
-        touch[static_cast<std::size_t>(corner(k))] |= bit;
-        ++edges[std::minmax(corner(k), corner((k + 1) % 3))];
-      }
-    }
+    std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
+    for (int t = 0; t < head.triangle_count(); ++t)
+      skin[static_cast<std::size_t>(t)] =
+          comps.label[static_cast<std::size_t>(head.triangles(t, 0))] == comps.largest;
+    std::vector<char> on = silhouette(head.positions, head.triangles, -forward_, skin);
+    std::map<std::pair<int, int>, int> edges;  // the skin's, with their triangle counts
+    for (int t = 0; t < head.triangle_count(); ++t)
+      if (skin[static_cast<std::size_t>(t)])
+        for (int k = 0; k < 3; ++k)
+          ++edges[std::minmax(head.triangles(t, k), head.triangles(t, (k + 1) % 3))];
     for (const auto& [e, n] : edges)
       if (n == 1)
-        touch[static_cast<std::size_t>(e.first)] = touch[static_cast<std::size_t>(e.second)] = 4;
-    for (int v = 0; v < static_cast<int>(touch.size()); ++v)
-      if (touch[static_cast<std::size_t>(v)] >= 3) contour_.push_back(v);
+        on[static_cast<std::size_t>(e.first)] = on[static_cast<std::size_t>(e.second)] = 1;
+    for (int v = 0; v < head.vertex_count(); ++v)
+      if (on[static_cast<std::size_t>(v)]) contour_.push_back(v);
   }
 
   // The eye's frame from its corners in `points`; width 0 when a corner is missing.

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "facecast/core/error.hpp"
+#include "geometry.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -166,21 +167,6 @@ std::vector<std::vector<int>> jaw_candidates(const PhotoTemplate& tmpl, double r
       if (tmpl.skin[static_cast<std::size_t>(v)] && (row(p, v) - c).norm() < radius)
         out[static_cast<std::size_t>(k)].push_back(v);
   }
-  return out;
-}
-
-// Per vertex: on the silhouette seen from `towards` (an edge of the vertex joins a triangle facing
-// the camera and one facing away).
-std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
-                             const Eigen::Vector3d& towards) {
-  std::vector<signed char> facing(static_cast<std::size_t>(p.rows()), 0);
-  for (Eigen::Index f = 0; f < tris.rows(); ++f) {
-    const Eigen::Vector3d a = row(p, tris(f, 0)), b = row(p, tris(f, 1)), c = row(p, tris(f, 2));
-    const signed char bit = (b - a).cross(c - a).dot(towards) > 0 ? 1 : 2;
-    for (int k = 0; k < 3; ++k) facing[static_cast<std::size_t>(tris(f, k))] |= bit;
-  }
-  std::vector<char> out(facing.size());
-  for (std::size_t v = 0; v < facing.size(); ++v) out[v] = facing[v] == 3;
   return out;
 }
 
