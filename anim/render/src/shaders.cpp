@@ -69,20 +69,18 @@ vec3 to_srgb(vec3 c) {
 #define SAMPLE(var, slot, fallback) \
   vec4 var = fallback;              \
   if (HAS_TEXTURE(slot)) var = texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy)
-vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float rough) {
+// One light's diffuse and specular: GGX distribution, Smith-Schlick visibility (its n.v factor
+// `gv` shared by the lights), Schlick Fresnel; the n.v n.l of the visibility cancels the
+// microfacet denominator's 4 n.v n.l, which leaves one division.
+vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float a2, float k,
+           float gv) {
   float nl = max(dot(n, l), 0.0);
-  if (nl <= 0.0) return vec3(0.0);
   vec3 h = normalize(l + v);
-  float nv = max(dot(n, v), 1e-4), nh = max(dot(n, h), 0.0), vh = max(dot(v, h), 0.0);
-  float a = max(rough * rough, 1e-3), a2 = a * a;
+  float nh = max(dot(n, h), 0.0), m = 1.0 - max(dot(v, h), 0.0), m2 = m * m;
   float q = nh * nh * (a2 - 1.0) + 1.0;
-  float d = a2 / (PI * q * q);
-  float k = (rough + 1.0) * (rough + 1.0) / 8.0;
-  float g = nv / (nv * (1.0 - k) + k) * nl / (nl * (1.0 - k) + k);
-  float m = 1.0 - vh, m2 = m * m;
   vec3 f = f0 + (1.0 - f0) * (m2 * m2 * m);
-  vec3 spec = d * g * f / (4.0 * nv * nl + 1e-4);
-  return ((1.0 - f) * albedo / PI + spec) * radiance * nl;
+  float spec = a2 / (4.0 * PI * q * q * gv * (nl * (1.0 - k) + k));
+  return ((1.0 - f) * albedo * (1.0 / PI) + spec * f) * (radiance * nl);
 }
 void main() {
   SAMPLE(base_texel, BASE_COLOR_SLOT, vec4(1.0));
@@ -109,9 +107,12 @@ void main() {
   float ao = 1.0 + u_occlusion_strength * (occlusion.r - 1.0);
   vec3 albedo = base.rgb * (1.0 - metal);
   vec3 f0 = mix(vec3(0.04), base.rgb, metal);
-  vec3 c = light(n, v, normalize(vec3(-0.45, 0.55, 0.75)), 2.6, albedo, f0, rough)
-         + light(n, v, normalize(vec3(0.6, 0.1, 0.8)), 0.8, albedo, f0, rough)
-         + light(n, v, normalize(vec3(0.0, 0.4, -1.0)), 1.2, albedo, f0, rough);
+  float a = max(rough * rough, 1e-3), a2 = a * a;
+  float k = (rough + 1.0) * (rough + 1.0) / 8.0;
+  float gv = max(dot(n, v), 1e-4) * (1.0 - k) + k;
+  vec3 c = light(n, v, normalize(vec3(-0.45, 0.55, 0.75)), 2.6, albedo, f0, a2, k, gv)
+         + light(n, v, normalize(vec3(0.6, 0.1, 0.8)), 0.8, albedo, f0, a2, k, gv)
+         + light(n, v, normalize(vec3(0.0, 0.4, -1.0)), 1.2, albedo, f0, a2, k, gv);
   vec3 ambient = mix(vec3(0.20, 0.19, 0.18), vec3(0.34, 0.36, 0.40), 0.5 + 0.5 * n.y);
   c += ao * ambient * (albedo + f0 * 0.5);
   SAMPLE(emissive, EMISSIVE_SLOT, vec4(1.0));
