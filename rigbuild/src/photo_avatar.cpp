@@ -122,6 +122,7 @@ PhotoOptions load_photo_options() {
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
       .read("side_noise", o.side_noise)
+      .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
       .read("side_calibration", o.side_calibration)
       .read("front_outline", o.front_outline)
@@ -251,11 +252,10 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
       {"notes", notes},
       {"seconds", timing}};
   if (out.fit.side)
-    out.report["side"] = {{"landmarks", points_json(out.side)},
-                          {"faces", out.side.faces},
-                          {"used", side_points(out.side)},
-                          {"camera", camera_json(*out.fit.side)},
-                          {"rms_pixels", out.fit.side_rms}};
+    out.report["side"] = {
+        {"landmarks", points_json(out.side)}, {"faces", out.side.faces},
+        {"used", side_points(out.side)},      {"camera", camera_json(*out.fit.side)},
+        {"rms_pixels", out.fit.side_rms},     {"noise", out.fit.side_noise}};
   report(progress, "done", 1.0);
   return out;
 }

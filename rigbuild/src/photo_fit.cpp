@@ -290,8 +290,12 @@ void fit_camera(const anim::Positions& positions, const Eigen::VectorXd& c, View
 //     + sigma^2 |c|^2,
 // pi_v = scale-orthographic camera (rotation R exp([w]x), scale s, translation t); an outline
 // point only moves along its normal n_j (it slides along the outline), n_o = `outline_noise`.
+// `scatter` (optional), per photo: its weighted landmark residuals' sum of squares and their
+// redundancy (their count less what the parameters absorb, tr(H^-1 J_v^T J_v)), before the step:
+// the variance components that set the side photo's noise (fit_shape).
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
-                       double iod, double noise, double outline_noise) {
+                       double iod, double noise, double outline_noise,
+                       std::vector<Eigen::Vector2d>* scatter = nullptr) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
   const Eigen::Index n = K + 6 * static_cast<Eigen::Index>(views.size());
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
@@ -299,7 +303,10 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
   g.head(K) = -noise * noise * c;
   const anim::Positions p = apply_modes(tmpl, c);
+  std::vector<Eigen::MatrixXd> Hv;
+  std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
+    if (scatter) Hv.push_back(Eigen::MatrixXd::Zero(n, n));
     const View& view = views[vi];
     const OrthoCamera& cam = view.camera;
     const double unit = 1.0 / (cam.s * iod);
@@ -332,6 +339,11 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       r *= unit / view.noise;
       H += J.transpose() * J;
       g += J.transpose() * r;
+      if (scatter) {
+        Hv[vi] += J.transpose() * J;
+        rss[vi] += r.squaredNorm();
+        count[vi] += 2;
+      }
     }
     for (const OutlinePoint& q : view.outline) {
       const Eigen::Vector3d x = row(p, q.vertex);
@@ -351,7 +363,13 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       H(o + 1, o + 1) += 1;
       H(o + 2, o + 2) += 1;
     }
-  const Eigen::VectorXd dx = H.ldlt().solve(g);
+  const auto ldlt = H.ldlt();
+  const Eigen::VectorXd dx = ldlt.solve(g);
+  if (scatter) {
+    scatter->clear();
+    for (std::size_t vi = 0; vi < views.size(); ++vi)
+      scatter->emplace_back(rss[vi], count[vi] - ldlt.solve(Hv[vi]).trace());
+  }
   c += dx.head(K);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     OrthoCamera& cam = views[vi].camera;
@@ -470,14 +488,27 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
           match_outline(tmpl, p, region, options.outline_window * v.camera.s * iod,
                         0.05 * v.camera.s * iod, v);
       }
+    std::vector<Eigen::Vector2d> scatter;
     for (int step = 0; step < 3; ++step)
       gauss_newton_step(tmpl, views, fit.coefficients, iod, options.landmark_noise,
-                        options.outline_noise);
+                        options.outline_noise, step == 2 ? &scatter : nullptr);
+    if (side && options.estimate_side_noise && it > 0) {
+      // Variance components: each photo's weighted residuals per degree of freedom estimate its
+      // noise relative to its weight; the side's weight follows the ratio to the front's (not
+      // below side_noise). After the first round: its residuals are the template's misfit.
+      const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
+      views[1].noise = std::max(
+          options.side_noise,
+          views[1].noise * std::sqrt(variance(scatter[1]) / std::max(1e-12, variance(scatter[0]))));
+    }
     p = apply_modes(tmpl, fit.coefficients);
   }
   fit.model_positions = p;
   fit.front_rms = rms_pixels(p, fit.coefficients, views[0]);
-  if (side) fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
+  if (side) {
+    fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
+    fit.side_noise = views[1].noise;
+  }
 
   const auto centres =
       calibration_moves(p, fit.coefficients, views, options.side_calibration, &fit.moved_rms);

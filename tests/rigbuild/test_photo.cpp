@@ -4,6 +4,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <iostream>
+#include <iterator>
+#include <sstream>
 
 #include "facecast/render/renderer.hpp"
 #include "facecast/rigbuild/geometry.hpp"
@@ -87,8 +89,14 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
       },
       opt);
   double sum_front = 0, sum_side = 0, sum_reproj = 0;
-  // Identities used for nothing else (the options were chosen on seeds 11..14, 21..24, 31..38).
-  const std::vector<unsigned> seeds{404, 505, 606, 707};
+  // Identities used for nothing else (the options were chosen on seeds 11..14, 21..24, 31..38;
+  // FACECAST_PHOTO_SEEDS="11 12 ..." runs the test on those instead).
+  std::vector<unsigned> seeds{404, 505, 606, 707};
+  if (const char* env = std::getenv("FACECAST_PHOTO_SEEDS")) {
+    std::istringstream in(env);
+    seeds.assign(std::istream_iterator<unsigned>(in), std::istream_iterator<unsigned>());
+  }
+  REQUIRE(!seeds.empty());
   for (unsigned seed : seeds) {
     const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
     const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0);
@@ -102,7 +110,7 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
               << ", front+side "
               << aligned_error(tmpl, b.fit.model_positions, truth.target.positions) / before
               << "; rms px " << a.fit.front_rms << " / " << b.fit.front_rms << ", "
-              << b.fit.side_rms << "\n";
+              << b.fit.side_rms << "; side noise " << b.fit.side_noise << "\n";
     const double reproj = test::reprojection_error(a, shoot.front, opt);
     std::cout << "identity seed " << seed << ": template error " << before
               << " cm; fitted/template ratio front " << front << ", front+side " << side
@@ -121,10 +129,9 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   std::cout << "mean ratio front " << sum_front / n << ", front+side " << sum_side / n
             << ", reprojection " << 100 * sum_reproj / n << " %\n";
   CHECK(sum_front / n <= 0.5);
-  // Lower with the side photo on 13 of 16 tuning identities (0.30 against 0.42 on average); on
-  // these 4 a tie (0.288 against 0.286): reported, not failed (docs/algorithms.md#photo-avatar,
-  // "Accuracy").
-  CHECK_NOFAIL(sum_side < sum_front);
+  // Lower again with the side photo, its noise estimated from the residuals: on 15 of the 16
+  // tuning identities and on all 4 of these (docs/algorithms.md#photo-avatar, "Accuracy").
+  CHECK(sum_side < sum_front);
   CHECK(sum_reproj / n <= 0.02);
 }
 
@@ -187,6 +194,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.iterations == d.iterations);
   CHECK(c.landmark_noise == d.landmark_noise);
   CHECK(c.side_noise == d.side_noise);
+  CHECK(c.estimate_side_noise == d.estimate_side_noise);
   CHECK(c.side_turn == d.side_turn);
   CHECK(c.side_calibration == d.side_calibration);
   CHECK(c.front_outline == d.front_outline);

@@ -37,27 +37,28 @@ inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
 /// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
-  std::string template_path;      // --template default: a template folder or rig file ("" = the
-                                  // shipped template, ict_facekit.glb)
-  int min_face = 80;              // a face box narrower than this (pixels) is "too small"
-  int max_side = 640;             // photos are scaled down to this longest side for detection
-  double box_jitter = 0.06;       // landmarks averaged over face boxes moved by up to this
-  int box_steps = 2;              // fraction of their size, in this many steps each way
-  int iterations = 8;             // camera / coefficient alternations
-  double landmark_noise = 0.01;   // landmark noise, inter-ocular distances: the modes' prior weight
-  double side_noise = 1.0;        // the side photo's landmark noise relative to the front's
-  bool side_turn = true;          // the side camera = the front's with the head turned (a yaw)
-  bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
-  bool front_outline = false;     // the fit matches the face's outline to the front photo's edges
-  bool side_outline = true;       // ... and to the side photo's
-  double outline_noise = 2.0;     // an outline point's noise relative to a front landmark's
-  double outline_window = 0.06;   // edges searched this far from the outline, inter-ocular dist.
-  double rbf_smoothing = 1.0;     // RBF regularisation: 0 moves the landmarks exactly
-  double rbf_radius = 1.2;        // RBF support radius, in inter-ocular distances of the template
-  int texture_size = 1024;        // texture height; the width is twice (face and back of head)
-  double side_gamma = 1.0;        // blend exponent on the normal's components (1: the seed's)
-  bool shapes = true;             // transfer the template's expressions onto the fitted head
-  BuildOptions build;             // that transfer (configs/rigbuild/build.json)
+  std::string template_path;     // --template default: a template folder or rig file ("" = the
+                                 // shipped template, ict_facekit.glb)
+  int min_face = 80;             // a face box narrower than this (pixels) is "too small"
+  int max_side = 640;            // photos are scaled down to this longest side for detection
+  double box_jitter = 0.06;      // landmarks averaged over face boxes moved by up to this
+  int box_steps = 2;             // fraction of their size, in this many steps each way
+  int iterations = 8;            // camera / coefficient alternations
+  double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
+  double side_noise = 1.0;       // the side photo's landmark noise relative to the front's
+  bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
+  bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
+  bool side_calibration = false;    // the RBF calibration moves the side photo's residuals too
+  bool front_outline = false;       // the fit matches the face's outline to the front photo's edges
+  bool side_outline = true;         // ... and to the side photo's
+  double outline_noise = 2.0;       // an outline point's noise relative to a front landmark's
+  double outline_window = 0.06;     // edges searched this far from the outline, inter-ocular dist.
+  double rbf_smoothing = 1.0;       // RBF regularisation: 0 moves the landmarks exactly
+  double rbf_radius = 1.2;          // RBF support radius, in inter-ocular distances of the template
+  int texture_size = 1024;          // texture height; the width is twice (face and back of head)
+  double side_gamma = 1.0;          // blend exponent on the normal's components (1: the seed's)
+  bool shapes = true;               // transfer the template's expressions onto the fitted head
+  BuildOptions build;               // that transfer (configs/rigbuild/build.json)
 };
 
 /// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
@@ -133,7 +134,8 @@ struct PhotoFit {
   std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
   std::array<int, kLandmarkCount> side_vertex{};   // -1 where not used in the side photo
   double front_rms = 0, side_rms = 0;              // landmark residual of the model fit, pixels
-  double moved_rms = 0;  // RMS RBF displacement at the landmarks, model units
+  double side_noise = 0;  // the side landmarks' noise relative to the front's that the fit used
+  double moved_rms = 0;   // RMS RBF displacement at the landmarks, model units
   /// Per landmark, the calibration's move of its front vertex (model units).
   std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
 };
