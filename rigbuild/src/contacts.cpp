@@ -512,7 +512,8 @@ std::pair<int, int> ContactGuard::untangle(
     region.push_back(v);
   };
   Points d = reference - rest_;
-  std::vector<std::size_t> near;
+  std::vector<std::size_t> near;                 // the region's watched pairs, each once:
+  std::vector<int> listed(watched_.size(), -1);  // the step that listed a pair
   // Smoothing can push the region into its surroundings: the fewest crossings seen are kept (the
   // region's rows at that step; a vertex that joined the region later keeps its copied value).
   const Points copied = reference;
@@ -535,11 +536,14 @@ std::pair<int, int> ContactGuard::untangle(
       reference.row(v) = rest_.row(v) + d.row(v);
       for (int k = pair_start_[static_cast<std::size_t>(v)];
            k < pair_start_[static_cast<std::size_t>(v) + 1]; ++k)
-        near.push_back(static_cast<std::size_t>(pair_index_[static_cast<std::size_t>(k)]));
+        if (const auto i = static_cast<std::size_t>(pair_index_[static_cast<std::size_t>(k)]);
+            listed[i] != step) {
+          listed[i] = step;
+          near.push_back(i);
+        }
     }
-    std::sort(near.begin(), near.end());
-    near.erase(std::unique(near.begin(), near.end()), near.end());
     pairs = crossing(near);
+    std::sort(pairs.begin(), pairs.end());  // the region grows in pair order
     if (pairs.size() < fewest) {
       fewest = pairs.size();
       best.clear();
