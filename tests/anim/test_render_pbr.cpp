@@ -7,6 +7,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/render/renderer.hpp"
+#include "gpu_rig.hpp"
 
 using namespace facecast;
 using namespace facecast::render;
@@ -262,4 +263,69 @@ TEST_CASE("a background image covers the frame; bad textures are one-line errors
   broken.materials[0].base_color_texture.texture = 7;
   CHECK_THROWS_WITH(Renderer(broken, options(Framing::kFace)),
                     Catch::Contains("texture out of range"));
+}
+
+TEST_CASE("an occlusion map reads the same from its own texture, an ORM texture or another's alpha",
+          "[render][pbr]") {
+  // The head's occlusion: dark on the upper half of the texture (the top of the head).
+  const auto occlusion = [](int w, int h) {
+    return png(w, h, [h](int, int y) {
+      return y < h / 2 ? Eigen::Vector4i(60, 255, 0, 255) : Eigen::Vector4i(255, 255, 0, 255);
+    });
+  };
+  const auto flat = png(64, 32, [](int, int) { return Eigen::Vector4i(128, 128, 255, 255); });
+  const Rig plain = textured_avatar();
+  // `orm`: the occlusion image is also the metallic-roughness texture (G 255, B 0: the factors');
+  // `width` of the occlusion image (the base colour and the normal map are 64 x 32).
+  const auto with_occlusion = [&](bool normal_map, bool orm, int width) {
+    Rig rig = plain;
+    auto& m = rig.materials[kHead];
+    rig.textures.push_back({"occlusion", "image/png", occlusion(width, width / 2)});
+    m.occlusion_texture.texture = static_cast<int>(rig.textures.size()) - 1;
+    if (orm) m.metallic_roughness_texture.texture = m.occlusion_texture.texture;
+    if (normal_map) {
+      rig.textures.push_back({"normal", "image/png", flat});
+      m.normal_texture.texture = static_cast<int>(rig.textures.size()) - 1;
+    }
+    return rig;
+  };
+  struct Case {
+    const char* what;
+    Rig rig;
+    detail::OcclusionSource source;
+  };
+  const std::vector<Case> cases{
+      {"own texture (its size differs)", with_occlusion(true, false, 128), detail::kOwnOcclusion},
+      {"the normal map's alpha", with_occlusion(true, false, 64), detail::kOcclusionInNormalAlpha},
+      {"the base colour's alpha", with_occlusion(false, false, 64), detail::kOcclusionInBaseAlpha},
+      {"an ORM texture's red", with_occlusion(true, true, 64), detail::kOcclusionInRoughnessRed}};
+  const RenderOptions o = options(Framing::kFace);
+  const std::vector<float> neutral{0.0f};
+  const Image none = Renderer(plain, o).render(neutral);
+  const Image own = Renderer(cases[0].rig, o).render(neutral);
+  const auto mean_difference = [](const Image& a, const Image& b, int rows) {
+    double sum = 0;
+    for (int y = 0; y < rows; ++y)
+      for (int x = 0; x < a.width; ++x)
+        for (int c = 0; c < 3; ++c) sum += std::abs(a.at(x, y, c) - b.at(x, y, c));
+    return sum / (3.0 * rows * a.width);
+  };
+  // The occlusion darkens the top of the head (the frame's top 50 rows, background included: 7.5
+  // levels on average).
+  CHECK(mean_difference(none, own, 50) > 4);
+  for (const Case& c : cases) {
+    INFO(c.what);
+    const detail::PackedRig p = detail::pack_rig(c.rig);
+    const detail::PackedMaterial& m = p.materials[kHead];
+    CHECK(m.occlusion == c.source);
+    CHECK((m.texture[detail::kOcclusionSlot] >= 0) == (c.source == detail::kOwnOcclusion));
+    // No texture is uploaded that nothing samples: the folded normal map or base colour replaces
+    // its original, the occlusion image is gone.
+    std::size_t used = 0;
+    for (const auto& pm : p.materials)
+      for (int t : pm.texture) used = std::max(used, static_cast<std::size_t>(t + 1));
+    CHECK(used == p.textures.size());
+    // The same picture wherever the occlusion is read (within the filtering of its edge).
+    CHECK(mean_difference(Renderer(c.rig, o).render(neutral), own, o.height) < 1.0);
+  }
 }

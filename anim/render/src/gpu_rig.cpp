@@ -111,6 +111,66 @@ void pack_materials(const Rig& rig, PackedRig& p) {
   }
 }
 
+// Each material's occlusion folded into a texture it samples anyway (OcclusionSource): the
+// metallic-roughness texture when it is the same image, else a copy of its normal map or (opaque)
+// base colour with the occlusion's red channel in its alpha, when the two images have the same
+// size, UV transform and sampling (then their filtered values match texel for texel). Textures
+// nothing samples any more are dropped.
+void fold_occlusion(PackedRig& p) {
+  std::map<std::pair<int, int>, int> folded;  // (carrier, occlusion) -> the carrier's copy
+  for (PackedMaterial& m : p.materials) {
+    const int occlusion = m.texture[kOcclusionSlot];
+    if (occlusion < 0) continue;
+    const auto same_sampling = [&](int slot) {
+      const int t = m.texture[slot];
+      if (t < 0 || !m.uv_transform[slot].isApprox(m.uv_transform[kOcclusionSlot])) return false;
+      const PackedTexture &a = p.textures[static_cast<std::size_t>(t)],
+                          &b = p.textures[static_cast<std::size_t>(occlusion)];
+      return a.width == b.width && a.height == b.height && a.repeat_s == b.repeat_s &&
+             a.repeat_t == b.repeat_t && a.nearest == b.nearest;
+    };
+    if (m.texture[kMetallicRoughnessSlot] == occlusion && same_sampling(kMetallicRoughnessSlot)) {
+      m.occlusion = kOcclusionInRoughnessRed;
+    } else {
+      int carrier = -1;
+      if (same_sampling(kNormalSlot)) {
+        carrier = kNormalSlot;
+        m.occlusion = kOcclusionInNormalAlpha;
+      } else if (m.alpha_mode == anim::AlphaMode::kOpaque && same_sampling(kBaseColorSlot)) {
+        carrier = kBaseColorSlot;
+        m.occlusion = kOcclusionInBaseAlpha;
+      } else {
+        continue;
+      }
+      const auto key = std::make_pair(m.texture[carrier], occlusion);
+      auto it = folded.find(key);
+      if (it == folded.end()) {
+        PackedTexture copy = p.textures[static_cast<std::size_t>(key.first)];
+        const auto& red = p.textures[static_cast<std::size_t>(occlusion)].rgba;
+        for (std::size_t i = 3; i < copy.rgba.size(); i += 4) copy.rgba[i] = red[i - 3];
+        p.textures.push_back(std::move(copy));
+        it = folded.emplace(key, static_cast<int>(p.textures.size()) - 1).first;
+      }
+      m.texture[carrier] = it->second;
+    }
+    m.texture[kOcclusionSlot] = -1;
+  }
+  std::vector<int> index(p.textures.size(), -1);
+  for (const PackedMaterial& m : p.materials)
+    for (int t : m.texture)
+      if (t >= 0) index[static_cast<std::size_t>(t)] = 0;
+  std::vector<PackedTexture> kept;
+  for (std::size_t t = 0; t < p.textures.size(); ++t)
+    if (index[t] == 0) {
+      index[t] = static_cast<int>(kept.size());
+      kept.push_back(std::move(p.textures[t]));
+    }
+  p.textures = std::move(kept);
+  for (PackedMaterial& m : p.materials)
+    for (int& t : m.texture)
+      if (t >= 0) t = index[static_cast<std::size_t>(t)];
+}
+
 // Per-vertex tangents from the UVs (the sum over a vertex's triangles of each triangle's
 // d(position)/du, orthogonalised against the normal; w is the handedness of the UV frame).
 void pack_tangents(const Rig& rig, PackedRig& p) {
@@ -225,6 +285,7 @@ PackedRig pack_rig(const Rig& rig) {
     p.uvs.assign(static_cast<std::size_t>(rig.vertex_count()) * 2, 0.0f);
   pack_morphs(rig, p);
   pack_materials(rig, p);
+  fold_occlusion(p);
   const bool normal_maps = std::any_of(p.materials.begin(), p.materials.end(),
                                        [](const auto& m) { return m.texture[kNormalSlot] >= 0; });
   if (normal_maps) pack_tangents(rig, p);

@@ -127,9 +127,12 @@ struct Slot {
   void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    std::vector<unsigned> keys;  // per program: alpha MASK in bit kSlotCount, the slots below
+    // Per program: the occlusion source above bit kSlotCount, alpha MASK in that bit, the slots
+    // below.
+    std::vector<unsigned> keys;
     for (const auto& m : p.materials) {
-      unsigned key = m.alpha_mode == anim::AlphaMode::kMask ? 1u << detail::kSlotCount : 0u;
+      unsigned key = static_cast<unsigned>(m.occlusion) << (detail::kSlotCount + 1);
+      if (m.alpha_mode == anim::AlphaMode::kMask) key |= 1u << detail::kSlotCount;
       for (int slot = 0; slot < detail::kSlotCount; ++slot)
         if (m.texture[slot] >= 0) key |= 1u << slot;
       const auto found = std::find(keys.begin(), keys.end(), key);
@@ -179,7 +182,9 @@ struct Slot {
 
   static Program link_program(unsigned key) {
     Program g;
-    g.id = detail::link_program(key >> detail::kSlotCount, key & ((1u << detail::kSlotCount) - 1));
+    g.id = detail::link_program((key >> detail::kSlotCount) & 1,
+                                key & ((1u << detail::kSlotCount) - 1),
+                                static_cast<int>(key >> (detail::kSlotCount + 1)));
     const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
     g = {g.id,
          at("u_mvp"),

@@ -100,16 +100,26 @@ void main() {
   vec3 n = normalize(v_nrm);
   float side = dot(n, v) < 0.0 ? -1.0 : 1.0;  // two-sided: open sheets and inner surfaces
   n *= side;
+  SAMPLE(normal_texel, NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0));
   if (HAS_TEXTURE(NORMAL_SLOT)) {
     vec3 t = normalize(v_tan.xyz - n * dot(n, v_tan.xyz));
     vec3 b = cross(n, t) * v_tan.w * side;
-    SAMPLE(normal_texel, NORMAL_SLOT, vec4(0.5, 0.5, 1.0, 1.0));
     vec3 tn = normal_texel.xyz * 2.0 - 1.0;
     tn.xy *= u_normal_scale;
     n = normalize(mat3(t, b, n) * tn);
   }
-  SAMPLE(occlusion, OCCLUSION_SLOT, vec4(1.0));
-  float ao = 1.0 + u_occlusion_strength * (occlusion.r - 1.0);
+  // The occlusion where gpu_rig.cpp put it (OCCLUSION_SOURCE: an OcclusionSource).
+#if OCCLUSION_SOURCE == 1
+  float occlusion = mr.r;
+#elif OCCLUSION_SOURCE == 2
+  float occlusion = normal_texel.a;
+#elif OCCLUSION_SOURCE == 3
+  float occlusion = base_texel.a;
+#else
+  SAMPLE(occlusion_texel, OCCLUSION_SLOT, vec4(1.0));
+  float occlusion = occlusion_texel.r;
+#endif
+  float ao = 1.0 + u_occlusion_strength * (occlusion - 1.0);
   vec3 albedo = base.rgb * (1.0 - metal);
   vec3 f0 = mix(vec3(0.04), base.rgb, metal);
   float a = max(rough * rough, 1e-3), a2 = a * a;
@@ -208,10 +218,11 @@ GLuint link(const char* vertex, const char* fragment, const char* what) {
 
 }  // namespace
 
-GLuint link_program(bool alpha_mask, unsigned textures) {
+GLuint link_program(bool alpha_mask, unsigned textures, int occlusion_source) {
   const std::string fragment = std::string("#define ALPHA_MASK ") + (alpha_mask ? "1" : "0") +
-                               "\n#define TEXTURES " + std::to_string(textures) + "\n" +
-                               kFragmentShader;
+                               "\n#define TEXTURES " + std::to_string(textures) +
+                               "\n#define OCCLUSION_SOURCE " + std::to_string(occlusion_source) +
+                               "\n" + kFragmentShader;
   return link(kVertexShader, fragment.c_str(), "avatar");
 }
 

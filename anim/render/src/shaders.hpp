@@ -14,8 +14,9 @@ void check_gl(const char* call);
 /// shader that may discard cannot test depth before shading). `textures` has bit `slot` set for
 /// each texture slot the material fills: the others cost nothing (llvmpipe runs the program per
 /// material variant; a branch on a uniform still costs its masked code). The GPU layout constants
-/// of gpu_rig.hpp are #defined at the top of the sources. Throws Error(kInternal) with the log.
-GLuint link_program(bool alpha_mask, unsigned textures);
+/// of gpu_rig.hpp are #defined at the top of the sources. `occlusion_source`: where the material's
+/// occlusion is read (an OcclusionSource). Throws Error(kInternal) with the log.
+GLuint link_program(bool alpha_mask, unsigned textures, int occlusion_source);
 /// The background image's program: a screen-covering triangle (drawn with no vertex buffer).
 GLuint link_background_program();
 
