@@ -337,10 +337,11 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       for (Eigen::Index m = 0; m < K; ++m) D.col(m) = view.mode(static_cast<int>(m), k);
       const Eigen::MatrixXd J = jacobian(x, D) * (unit / view.noise);
       r *= unit / view.noise;
-      H += J.transpose() * J;
+      const Eigen::MatrixXd JtJ = J.transpose() * J;
+      H += JtJ;
       g += J.transpose() * r;
       if (scatter) {
-        Hv[vi] += J.transpose() * J;
+        Hv[vi] += JtJ;
         rss[vi] += r.squaredNorm();
         count[vi] += 2;
       }
