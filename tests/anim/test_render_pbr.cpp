@@ -178,6 +178,12 @@ TEST_CASE("textures, framing and alpha on a textured skinned avatar", "[render][
   CHECK(right.x() > 2 * right.z());
   CHECK(left.z() > 2 * left.x());
   CHECK_FALSE(is_background(img, 80, 30, face));
+  // A texture transform (KHR_texture_transform) half a turn around u swaps the sides.
+  Rig turned = rig;
+  turned.materials[kHead].base_color_texture.offset.x() = 0.5f;
+  const Image swapped = Renderer(turned, face).render(neutral);
+  CHECK(pixel(swapped, 110, 80).z() > 2 * pixel(swapped, 110, 80).x());
+  CHECK(pixel(swapped, 50, 80).x() > 2 * pixel(swapped, 50, 80).z());
 
   // Full framing shows the body and the cards: the masked card's transparent half shows the body
   // behind it, its opaque half is green; the blended veil mixes with the body's colour.

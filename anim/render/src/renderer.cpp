@@ -94,9 +94,7 @@ struct Slot {
   std::vector<GLuint> textures;  // PackedRig::textures
   GLuint white_tex = 0;          // bound to the slots a material leaves empty
   GLuint fbo = 0, color_rb = 0, depth_rb = 0, resolve_fbo = 0, resolve_rb = 0;
-  // The avatar's program in one variant per kind of material: with `discard` or without (opaque
-  // and blended materials: llvmpipe then tests depth before shading), and with the texture slots
-  // the material fills.
+  // The avatar's program in one variant per kind of material (detail::ProgramVariant).
   struct Program {
     GLuint id = 0;
     GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
@@ -127,19 +125,21 @@ struct Slot {
   void init(const PackedRig& p, const RenderOptions& o) {
     glGetError();
     renderer_name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    // Per program: the occlusion source above bit kSlotCount, alpha MASK in that bit, the slots
-    // below.
-    std::vector<unsigned> keys;
+    std::vector<detail::ProgramVariant> variants;
     for (const auto& m : p.materials) {
-      unsigned key = static_cast<unsigned>(m.occlusion) << (detail::kSlotCount + 1);
-      if (m.alpha_mode == anim::AlphaMode::kMask) key |= 1u << detail::kSlotCount;
+      detail::ProgramVariant v;
+      v.alpha_mask = m.alpha_mode == anim::AlphaMode::kMask;
+      v.occlusion_source = m.occlusion;
       for (int slot = 0; slot < detail::kSlotCount; ++slot)
-        if (m.texture[slot] >= 0) key |= 1u << slot;
-      const auto found = std::find(keys.begin(), keys.end(), key);
-      program_of.push_back(static_cast<std::size_t>(found - keys.begin()));
-      if (found == keys.end()) {
-        keys.push_back(key);
-        programs.push_back(link_program(key));
+        if (m.texture[slot] >= 0) {
+          v.textures |= 1u << slot;
+          v.uv_transform |= m.uv_transform[slot] != Eigen::Matrix3f::Identity();
+        }
+      const auto found = std::find(variants.begin(), variants.end(), v);
+      program_of.push_back(static_cast<std::size_t>(found - variants.begin()));
+      if (found == variants.end()) {
+        variants.push_back(v);
+        programs.push_back(link_program(v));
       }
     }
 
@@ -180,11 +180,9 @@ struct Slot {
     init_framebuffers(o);
   }
 
-  static Program link_program(unsigned key) {
+  static Program link_program(const detail::ProgramVariant& v) {
     Program g;
-    g.id = detail::link_program((key >> detail::kSlotCount) & 1,
-                                key & ((1u << detail::kSlotCount) - 1),
-                                static_cast<int>(key >> (detail::kSlotCount + 1)));
+    g.id = detail::link_program(v);
     const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
     g = {g.id,
          at("u_mvp"),

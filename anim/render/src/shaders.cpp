@@ -40,7 +40,8 @@ void main() {
 
 // Metallic-roughness PBR (GGX, Smith-Schlick, Schlick Fresnel) under a studio rig: a key, a fill
 // and a rim light and a sky/ground ambient; textures in slot order (BASE_COLOR_SLOT, ...), each
-// with its UV transform; alpha MASK discards, BLEND keeps the alpha.
+// with its UV transform (UV_TRANSFORM: else the identity); alpha MASK discards, BLEND keeps the
+// alpha.
 const char* kFragmentShader = R"(
 in vec3 v_pos;
 in vec3 v_nrm;
@@ -68,7 +69,12 @@ vec3 to_srgb(vec3 c) {
 // arrays take constant indices only. The constant condition leaves only one side in the program.
 #define SAMPLE(var, slot, fallback) \
   vec4 var = fallback;              \
-  if (HAS_TEXTURE(slot)) var = texture(u_textures[slot], (u_uv[slot] * vec3(v_uv, 1.0)).xy)
+  if (HAS_TEXTURE(slot)) var = texture(u_textures[slot], UV(slot))
+#if UV_TRANSFORM
+#define UV(slot) (u_uv[slot] * vec3(v_uv, 1.0)).xy
+#else
+#define UV(slot) v_uv
+#endif
 // One light's diffuse and specular: GGX distribution, Smith-Schlick visibility (its n.v factor
 // `gv` shared by the lights), Schlick Fresnel; the n.v n.l of the visibility cancels the
 // microfacet denominator's 4 n.v n.l, which leaves one division.
@@ -213,12 +219,13 @@ GLuint link(const char* vertex, const char* fragment, const char* what) {
 
 }  // namespace
 
-GLuint link_program(bool alpha_mask, unsigned textures, int occlusion_source) {
-  const std::string fragment = std::string("#define ALPHA_MASK ") + (alpha_mask ? "1" : "0") +
-                               "\n#define TEXTURES " + std::to_string(textures) +
-                               "\n#define OCCLUSION_SOURCE " + std::to_string(occlusion_source) +
-                               "\n" + kFragmentShader;
-  return link(kVertexShader, fragment.c_str(), "avatar");
+GLuint link_program(const ProgramVariant& v) {
+  std::ostringstream fragment;
+  fragment << "#define ALPHA_MASK " << v.alpha_mask << "\n#define TEXTURES " << v.textures
+           << "\n#define UV_TRANSFORM " << v.uv_transform << "\n#define OCCLUSION_SOURCE "
+           << v.occlusion_source << "\n"
+           << kFragmentShader;
+  return link(kVertexShader, fragment.str().c_str(), "avatar");
 }
 
 GLuint link_background_program() {
