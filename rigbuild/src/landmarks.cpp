@@ -388,8 +388,11 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   ro.width = ro.height = options.image_size;
   ro.margin = options.frame_margin;
   ro.contexts = 1;
-  ro.trilinear = true;  // the detector's views: quality over speed (the stored biases are from it)
-  ro.lod_pixels = 0;    // the mesh itself
+  // The detector's views: quality over speed, and the exact sRGB curve (the stored biases are
+  // from these renders, and dlib's landmarks move with their last bits).
+  ro.trilinear = true;
+  ro.fast_srgb = false;
+  ro.lod_pixels = 0;  // the mesh itself
   ro.background = Eigen::Vector3f(0.05f, 0.05f, 0.05f);
   Lap lap;
   HeadLandmarks out;

@@ -207,6 +207,7 @@ TEST_CASE("configs/anim/render.json mirrors RenderOptions and VideoOptions", "[r
   CHECK(file.height == code.height);
   CHECK(file.msaa == code.msaa);
   CHECK(file.trilinear == code.trilinear);
+  CHECK(file.fast_srgb == code.fast_srgb);
   CHECK(file.fov_y_deg == code.fov_y_deg);
   CHECK(file.margin == code.margin);
   CHECK(file.background == code.background);

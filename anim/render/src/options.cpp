@@ -24,6 +24,7 @@ Options load_options() {
       .read("height", r.height)
       .read("msaa", r.msaa)
       .read("trilinear", r.trilinear)
+      .read("fast_srgb", r.fast_srgb)
       .read("fov_y_deg", r.fov_y_deg)
       .read("margin", r.margin)
       .read_choice("framing", r.framing,

@@ -129,6 +129,7 @@ struct Slot {
     for (const auto& m : p.materials) {
       detail::ProgramVariant v;
       v.alpha_mask = m.alpha_mode == anim::AlphaMode::kMask;
+      v.fast_srgb = o.fast_srgb;
       v.occlusion_source = m.occlusion;
       for (int slot = 0; slot < detail::kSlotCount; ++slot)
         if (m.texture[slot] >= 0) {

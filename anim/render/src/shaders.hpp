@@ -20,6 +20,7 @@ struct ProgramVariant {
   // the interpolated UV itself, which llvmpipe samples about 7 % faster (a textured frame).
   bool uv_transform = false;
   int occlusion_source = 0;  // where the material's occlusion is read (an OcclusionSource)
+  bool fast_srgb = false;    // RenderOptions::fast_srgb
   bool operator==(const ProgramVariant&) const = default;
 };
 
