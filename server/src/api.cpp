@@ -14,13 +14,15 @@
 #include "routes.hpp"
 #include "video.hpp"
 
+#include "facecast/core/json_limits.hpp"
+
 namespace facecast::server {
 namespace {
 
 using nlohmann::json;
 
-json parse_body(const Request& req) {
-  check_json_depth(req.body(), 64);
+json parse_body(const Request& req, int max_depth) {
+  check_json_depth(req.body(), max_depth, "body");
   try {
     return json::parse(req.body());
   } catch (const json::exception& e) {  // parse_error, out_of_range (number overflow)
@@ -121,7 +123,7 @@ std::string base64_encode(std::string_view bytes) {
 }  // namespace
 
 http::message_generator post_landmarks(State& state, const Request& req) {
-  const json body = parse_body(req);
+  const json body = parse_body(req, state.limits.max_json_depth);
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string template_id = state.options.default_rig;
   const json* mesh = nullptr;
@@ -249,7 +251,7 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
   if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
       type.starts_with("application/octet-stream"))
     return import_rig(state, req, t);
-  const json body = parse_body(req);
+  const json body = parse_body(req, state.limits.max_json_depth);
   const std::string job = state.jobs.submit("rig", rig_work(state, body), body);
   log::info("rig_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
@@ -309,7 +311,7 @@ static Jobs::Work render_work(State& state, const json& body) {
 }
 
 http::message_generator post_render(State& state, const Request& req) {
-  const json body = parse_body(req);
+  const json body = parse_body(req, state.limits.max_json_depth);
   const std::string job = state.jobs.submit("render", render_work(state, body), body);
   log::info("render_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,

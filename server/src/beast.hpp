@@ -1,5 +1,8 @@
 #pragma once
 // Boost.Beast / Asio names used across the server.
+#include <atomic>
+#include <memory>
+
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -21,6 +24,7 @@ using Request = http::request<http::string_body>;
 /// HTTP session to the WebSocket session on upgrade.
 struct ConnectionSlot {
   std::atomic<long>* count = nullptr;
+  std::shared_ptr<void> address;  // the client address's count (client_addresses.hpp), if held
   explicit ConnectionSlot(std::atomic<long>* c) : count(c) {}
   ConnectionSlot(const ConnectionSlot&) = delete;
   ConnectionSlot& operator=(const ConnectionSlot&) = delete;

@@ -55,10 +55,19 @@ class FrameStream {
     return next_.async_read_some(buffers, std::forward<Handler>(handler));
   }
   /// Beast's own bytes (the 101 answer, control frames): copied behind what is being written and
-  /// completed at once (they are a few dozen bytes; the order on the wire is what matters).
+  /// completed at once (they are a few dozen bytes; the order on the wire is what matters). A
+  /// peer that sends pings without reading the pongs would grow them without bound: past
+  /// `control_limit` bytes waiting, the write fails (no_buffer_space), which fails Beast's read
+  /// and closes the connection.
   template <class ConstBuffers, class Handler>
   void async_write_some(const ConstBuffers& buffers, Handler&& handler) {
     const std::size_t n = net::buffer_size(buffers);
+    if (beast_bytes_.size() + beast_writing_.size() + n > control_limit_) {
+      control_overflow_ = true;
+      net::post(get_executor(), beast::bind_front_handler(std::forward<Handler>(handler),
+                                                          net::error::no_buffer_space, 0));
+      return;
+    }
     const std::size_t at = beast_bytes_.size();
     beast_bytes_.resize(at + n);
     net::buffer_copy(net::buffer(beast_bytes_.data() + at, n), buffers);
@@ -66,6 +75,11 @@ class FrameStream {
               beast::bind_front_handler(std::forward<Handler>(handler), beast::error_code{}, n));
     if (!writing_) write_beast_bytes();
   }
+
+  /// Bytes of Beast's control frames that may wait unwritten (max_control_bytes).
+  void limit_control_bytes(std::size_t limit) noexcept { control_limit_ = limit; }
+  /// True once a control frame was refused for that limit.
+  bool control_overflow() const noexcept { return control_overflow_; }
 
   /// Teardown (Beast's close): once every queued byte is out, `then` runs.
   void when_flushed(std::function<void()> then);
@@ -78,6 +92,8 @@ class FrameStream {
   bool writing_ = false;
   std::string beast_bytes_, beast_writing_;  // queued, and being written
   std::vector<net::const_buffer> rest_;      // frames not written at once
+  std::size_t control_limit_ = 65536;
+  bool control_overflow_ = false;
   std::function<void()> on_idle_, flushed_;
   std::function<void(beast::error_code, std::size_t)> on_written_;
   std::weak_ptr<void> owner_;

@@ -34,14 +34,15 @@ bool header_lists(std::string_view value, std::string_view token) {
 }  // namespace
 
 HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<State> state,
-                         std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, bool over_limit)
+                         std::unique_ptr<ConnectionSlot> slot, std::uint64_t id,
+                         std::string refused)
     : stream_(std::move(socket)),
       state_(std::move(state)),
       slot_(std::move(slot)),
       id_(id),
       conn_("c" + std::to_string(id)),
       remote_(endpoint_string(stream_.socket())),
-      over_limit_(over_limit) {
+      refused_(std::move(refused)) {
   state_->metrics.http_connections.fetch_add(1);
 }
 
@@ -52,6 +53,14 @@ HttpSession::~HttpSession() {
 
 void HttpSession::run() {
   state_->add_session(id_, weak_from_this());
+  if (!refused_.empty()) {
+    // Over a connection limit: answered at once, before anything is read, and closed.
+    state_->metrics.connections_refused_total.fetch_add(1);
+    net::dispatch(stream_.get_executor(), [self = shared_from_this()] {
+      self->fail(Problem{Code::kUnavailable, self->refused_, 503}, false);
+    });
+    return;
+  }
   net::dispatch(stream_.get_executor(),
                 beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
 }
@@ -109,6 +118,15 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
       return;
     }
     parser_->body_limit(limit);
+    // The body's bytes count against max_body_memory until it has been answered.
+    const std::size_t bytes = parser_->content_length() ? *parser_->content_length() : limit;
+    if (bytes > 0 && !(body_hold_ = state_->body_memory.reserve(bytes))) {
+      fail(Problem{Code::kUnavailable,
+                   "the server holds too many request bodies now (max_body_memory); retry later",
+                   503},
+           false);
+      return;
+    }
   }
   if (parser_->is_done()) {
     handle();
@@ -156,10 +174,6 @@ void HttpSession::upgrade() {
   };
   if (target.path != "/ws") return refuse(Code::kNotFound, "WebSocket endpoint is /ws");
   if (state_->stopping) return refuse(Code::kUnavailable, "the server is shutting down");
-  if (over_limit_) {
-    state_->metrics.connections_refused_total.fetch_add(1);
-    return refuse(Code::kUnavailable, "too many connections (max_connections)");
-  }
   if (!token_ok(*state_, req, target))
     return refuse(Code::kUnauthorized, "a token is required (?token= or Authorization: Bearer)");
   if (!origin_ok(*state_, req))
@@ -172,6 +186,17 @@ void HttpSession::upgrade() {
       return refuse(Code::kInvalidInput, "subprotocol: the server speaks facecast.v1");
   }
   if (!parser_->is_done()) return refuse(Code::kInvalidInput, "a WebSocket upgrade has no body");
+  if (!slot_->address) {  // from a trusted proxy: count the client it forwards
+    beast::error_code ec;
+    const auto peer = stream_.socket().remote_endpoint(ec);
+    const std::string client =
+        ec ? "" : state_->addresses.client(peer.address(), req["X-Forwarded-For"]);
+    if (!client.empty() && !(slot_->address = state_->addresses.hold(client))) {
+      state_->metrics.connections_refused_total.fetch_add(1);
+      return refuse(Code::kUnavailable,
+                    "too many connections from " + client + " (max_connections_per_address)");
+    }
+  }
   upgraded_ = true;
   state_->remove_session(id_);
   auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), state_, std::move(slot_),
@@ -182,21 +207,15 @@ void HttpSession::upgrade() {
 void HttpSession::handle() {
   Request req = parser_->release();
   const bool keep_alive = req.keep_alive() && !state_->stopping;
-  if (over_limit_) {
-    state_->metrics.connections_refused_total.fetch_add(1);
-    send(error_response(*state_, req.version(), false,
-                        Problem{Code::kUnavailable, "too many connections (max_connections)", 503}),
-         false);
-    return;
-  }
   log::debug("http_request", {{"conn", conn_},
                               {"method", std::string(req.method_string())},
                               {"target", std::string(req.target())},
                               log::Field::if_set("forwarded_for", req["X-Forwarded-For"])});
   if (is_heavy(req)) {
-    net::post(state_->workers, [self = shared_from_this(), req = std::move(req),
-                                keep_alive]() mutable {
+    net::post(state_->workers, [self = shared_from_this(), req = std::move(req), keep_alive,
+                                hold = std::move(body_hold_)]() mutable {
       auto res = handle_request(*self->state_, std::move(req));
+      hold.reset();
       net::post(self->stream_.get_executor(), [self, res = std::move(res), keep_alive]() mutable {
         self->send(std::move(res), keep_alive);
       });
@@ -204,6 +223,7 @@ void HttpSession::handle() {
     return;
   }
   send(handle_request(*state_, std::move(req)), keep_alive);
+  body_hold_.reset();
 }
 
 void HttpSession::fail(const Problem& problem, bool keep_alive) {
@@ -241,6 +261,7 @@ void HttpSession::on_write(bool keep_alive, beast::error_code ec, std::size_t) {
 }
 
 void HttpSession::do_close() {
+  body_hold_.reset();
   // Lingering close: stop sending, then read (and discard) what the client still sends for a
   // moment, so that an error answered before the body was read reaches the client instead of
   // being lost to a reset.

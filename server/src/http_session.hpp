@@ -15,7 +15,7 @@ namespace facecast::server {
 class HttpSession : public std::enable_shared_from_this<HttpSession>, public Closable {
  public:
   HttpSession(tcp::socket&& socket, std::shared_ptr<State> state,
-              std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, bool over_limit);
+              std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, std::string refused);
   ~HttpSession();
   void run();
   void shut_down() override;
@@ -37,7 +37,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession>, public Clo
   std::unique_ptr<ConnectionSlot> slot_;
   std::uint64_t id_;
   std::string conn_, remote_;
-  bool over_limit_;
+  std::string refused_;              // why every request is answered 503 ("" when not)
+  std::shared_ptr<void> body_hold_;  // the request body's share of max_body_memory
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   std::chrono::steady_clock::time_point started_;

@@ -52,6 +52,12 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("max_fps", o.max_fps).read("max_frame_side", o.max_frame_side);
   c.read("max_jobs", o.max_jobs).read("max_render_seconds", o.max_render_seconds);
   c.read("job_retention", o.job_retention);
+  c.read("max_json_depth", o.max_json_depth).read("max_utterance_seconds", o.max_utterance_seconds);
+  c.read("max_piece", o.max_piece);
+  c.read("messages_per_second", o.messages_per_second).read("message_burst", o.message_burst);
+  c.read("max_control_bytes", o.max_control_bytes);
+  c.read("max_connections_per_address", o.max_connections_per_address);
+  c.read("max_body_memory", o.max_body_memory).read("trusted_proxies", o.trusted_proxies);
   c.read("lead", o.lead);
   c.read("min_tick", o.min_tick);
   c.read("channel_tick", o.channel_tick);
@@ -113,6 +119,21 @@ void validate(const ServerOptions& o) {
   need(o.max_jobs >= 1, "max_jobs: must be at least 1");
   need(o.max_render_seconds > 0, "max_render_seconds: must be positive");
   need(o.job_retention >= 0, "job_retention: must not be negative (0 keeps jobs forever)");
+  need(o.max_json_depth >= 4 && o.max_json_depth <= 256, "max_json_depth: must be in 4..256");
+  need(o.max_utterance_seconds >= 1 && o.max_utterance_seconds <= 86400,
+       "max_utterance_seconds: must be in 1..86400");
+  need(o.max_piece >= 16, "max_piece: must be at least 16 characters");
+  need(o.messages_per_second > 0, "messages_per_second: must be positive");
+  need(o.message_burst >= 1, "message_burst: must be at least 1");
+  need(o.max_control_bytes >= 1024, "max_control_bytes: must be at least 1024 bytes");
+  need(o.max_connections_per_address >= 1, "max_connections_per_address: must be at least 1");
+  need(o.max_body_memory >= o.max_upload,
+       "max_body_memory: must be at least max_upload (one upload must fit)");
+  for (const auto& p : o.trusted_proxies) {
+    boost::system::error_code ec;
+    boost::asio::ip::make_address(p, ec);
+    need(!ec, "trusted_proxies: '" + p + "' is not an IP address");
+  }
   need(o.lead >= 0 && o.lead <= 10, "lead: must be in 0..10 seconds");
   need(o.min_tick >= 0 && o.min_tick <= 1, "min_tick: must be in 0..1 seconds");
   need(o.channel_tick >= 0 && o.channel_tick <= 1, "channel_tick: must be in 0..1 seconds");

@@ -15,6 +15,8 @@
 #include "log.hpp"
 #include "routes.hpp"
 
+#include "facecast/core/json_limits.hpp"
+
 namespace facecast::server {
 namespace {
 
@@ -22,8 +24,8 @@ using nlohmann::json;
 
 constexpr int kMaxPhotoSide = 8192;  // larger photos are refused before decoding
 
-json parse_object(const Request& req) {
-  check_json_depth(req.body(), 16);
+json parse_object(const Request& req, int max_depth) {
+  check_json_depth(req.body(), max_depth, "body");
   json body = json::parse(req.body(), nullptr, false);
   if (body.is_discarded()) throw Error("body: malformed JSON");
   if (!body.is_object()) throw Error("body: expected a JSON object");
@@ -123,7 +125,7 @@ Jobs::Work photo_work(State& state, const json& body) {
 }
 
 http::message_generator post_photo(State& state, const Request& req) {
-  const json body = parse_object(req);
+  const json body = parse_object(req, state.limits.max_json_depth);
   const std::string job = state.jobs.submit("photo", photo_work(state, body), body);
   log::info("photo_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
@@ -131,7 +133,7 @@ http::message_generator post_photo(State& state, const Request& req) {
 }
 
 http::message_generator post_photo_landmarks(State& state, const Request& req) {
-  const json body = parse_object(req);
+  const json body = parse_object(req, state.limits.max_json_depth);
   const json* image = nullptr;
   for (const auto& [k, v] : body.items()) {
     if (k == "photo")

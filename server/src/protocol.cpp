@@ -1,5 +1,7 @@
 #include "facecast/server/protocol.hpp"
 
+#include "facecast/core/json_limits.hpp"
+
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -312,29 +314,6 @@ Problem describe(std::exception_ptr error) {
 // ---- client messages
 // --------------------------------------------------------------------------------
 
-void check_json_depth(std::string_view text, int max_depth) {
-  int depth = 0;
-  bool in_string = false, escape = false;
-  for (const char c : text) {
-    if (in_string) {
-      if (escape) {
-        escape = false;
-      } else if (c == '\\') {
-        escape = true;
-      } else if (c == '"') {
-        in_string = false;
-      }
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      if (++depth > max_depth)
-        throw Error("message: JSON nested deeper than " + std::to_string(max_depth) + " levels");
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-}
-
 std::size_t utf8_length(std::string_view text) noexcept {
   std::size_t n = 0;
   for (const char c : text) n += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
@@ -343,7 +322,7 @@ std::size_t utf8_length(std::string_view text) noexcept {
 
 ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& limits,
                                    std::string* id) {
-  check_json_depth(text);
+  check_json_depth(text, limits.max_json_depth, "message");
   json j;
   try {
     j = json::parse(text);
@@ -410,7 +389,10 @@ std::string hello_message(std::string_view server, const std::vector<std::string
                  {"speak_burst", o.speak_burst},
                  {"max_queued_speaks", o.max_queued_speaks},
                  {"max_fps", o.max_fps},
-                 {"max_frame_side", o.max_frame_side}}},
+                 {"max_frame_side", o.max_frame_side},
+                 {"max_utterance_seconds", o.max_utterance_seconds},
+                 {"messages_per_second", o.messages_per_second},
+                 {"message_burst", o.message_burst}}},
                {"lead", o.lead}});
 }
 

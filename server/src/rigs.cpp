@@ -12,6 +12,7 @@
 #include "facecast/core/files.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/template.hpp"
+#include "facecast/server/protocol.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -362,6 +363,17 @@ std::string RigRegistry::import(const std::string& name, const std::string& byte
   return info.id;
 }
 
+// A renderer still loading, or held by a stream besides the cache.
+bool RendererCache::in_use(const Entry& e) {
+  using namespace std::chrono_literals;
+  if (e.renderer.wait_for(0s) != std::future_status::ready) return true;
+  try {
+    return e.renderer.get().use_count() > 1;
+  } catch (...) {
+    return false;  // failed to load: nothing holds it
+  }
+}
+
 std::shared_ptr<render::Renderer> RendererCache::get(const LoadedRig& rig, int width, int height) {
   const auto key = std::make_tuple(rig.id, width, height);
   std::promise<std::shared_ptr<render::Renderer>> promise;
@@ -371,11 +383,20 @@ std::shared_ptr<render::Renderer> RendererCache::get(const LoadedRig& rig, int w
     std::lock_guard lock(mutex_);
     auto it = entries_.find(key);
     if (it == entries_.end()) {
-      // Make room: drop the least recently used renderers (streams keep theirs alive).
+      // Make room: drop the least recently used renderer that no stream (playing or queued)
+      // holds. Every renderer alive counts, so at most `capacity_` exist at once.
       while (static_cast<int>(entries_.size()) >= capacity_) {
-        auto victim = entries_.begin();
-        for (auto e = entries_.begin(); e != entries_.end(); ++e)
-          if (e->second.used < victim->second.used) victim = e;
+        auto victim = entries_.end();
+        for (auto e = entries_.begin(); e != entries_.end(); ++e) {
+          if (in_use(e->second)) continue;
+          if (victim == entries_.end() || e->second.used < victim->second.used) victim = e;
+        }
+        if (victim == entries_.end()) {
+          throw RequestError(Code::kUnavailable,
+                             "frames: " + std::to_string(entries_.size()) +
+                                 " renderers (rig x size) are in use by playing or queued "
+                                 "streams (max_renderers); use a size in use or retry later");
+        }
         entries_.erase(victim);
       }
       future = promise.get_future().share();

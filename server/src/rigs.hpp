@@ -105,7 +105,9 @@ class RendererCache {
   /// `base`: camera, background and MSAA of every renderer (configs/anim/render.json).
   RendererCache(int capacity, int contexts, render::RenderOptions base)
       : capacity_(capacity), contexts_(contexts), base_(std::move(base)) {}
-  /// Creates (and warms up: one GL context, one frame) on first use; thread-safe.
+  /// Creates (and warms up: one GL context, one frame) on first use; thread-safe. At most
+  /// `capacity` renderers exist at once: when every one is held by a playing or queued stream, a
+  /// new (rig, size) is refused with RequestError (unavailable).
   std::shared_ptr<render::Renderer> get(const LoadedRig& rig, int width, int height);
   /// Drops the renderers of rig `id` (after DELETE; defined in operations_api.cpp).
   void drop(const std::string& id);
@@ -115,6 +117,8 @@ class RendererCache {
     std::shared_future<std::shared_ptr<render::Renderer>> renderer;
     unsigned long long used = 0;
   };
+  static bool in_use(const Entry& e);
+
   int capacity_, contexts_;
   render::RenderOptions base_;
   std::mutex mutex_;

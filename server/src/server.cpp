@@ -124,8 +124,18 @@ void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
   auto slot = std::make_unique<ConnectionSlot>(&state->connections);
   state->metrics.connections_total.fetch_add(1);
   const std::uint64_t id = state->next_connection.fetch_add(1);
-  std::make_shared<HttpSession>(std::move(socket), state, std::move(slot), id,
-                                open > o.max_connections)
+  std::string refused;  // answered with 503 and closed when set
+  if (open > o.max_connections) {
+    refused = "too many connections (max_connections)";
+  } else if (const auto peer = socket.remote_endpoint(ec);
+             !ec && !state->addresses.trusted(peer.address())) {
+    // A trusted proxy's connections are counted per client at the request (http_session.cpp).
+    slot->address = state->addresses.hold(peer.address().to_string());
+    if (!slot->address)
+      refused = "too many connections from " + peer.address().to_string() +
+                " (max_connections_per_address)";
+  }
+  std::make_shared<HttpSession>(std::move(socket), state, std::move(slot), id, std::move(refused))
       ->run();
   do_accept();
 }

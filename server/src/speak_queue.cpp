@@ -17,7 +17,7 @@ struct SpeakQueue::Item {
   std::shared_ptr<PreparedSpeech> prepared;
   // Incremental text (request.more): text not yet in a piece, complete pieces not yet prepared,
   // prepared pieces waiting for the stream to start.
-  std::string buffer;
+  std::optional<TextPieces> text;
   std::deque<std::string> pieces;
   std::deque<std::shared_ptr<PreparedSpeech>> ready;
   bool ended = false, preparing = false;
@@ -81,8 +81,10 @@ void SpeakQueue::speak(SpeakRequest&& request) {
                       {"audio", item->request.audio},
                       {"queued", queued() - 1}});
   if (item->request.more) {
-    item->buffer = std::move(*item->request.text);
-    for (auto& piece : take_pieces(item->buffer, false)) item->pieces.push_back(std::move(piece));
+    item->text.emplace(state_->options.max_text, state_->options.max_piece);
+    for (auto& piece : item->text->add(*item->request.text, "text"))
+      item->pieces.push_back(std::move(piece));
+    item->request.text->clear();
     prepare_piece(item);
   } else {
     prepare(item, item->request, item->seed, &SpeakQueue::on_prepared);
@@ -223,15 +225,15 @@ std::shared_ptr<SpeakQueue::Item> SpeakQueue::open_item(const std::string& id, c
 
 void SpeakQueue::append(const AppendRequest& request) {
   const auto item = open_item(request.id, "append");
-  item->buffer += request.text;
-  for (auto& piece : take_pieces(item->buffer, false)) item->pieces.push_back(std::move(piece));
+  for (auto& piece : item->text->add(request.text, "append"))
+    item->pieces.push_back(std::move(piece));
   prepare_piece(item);
 }
 
 void SpeakQueue::end(const EndRequest& request) {
   const auto item = open_item(request.id, "end");
   item->ended = true;
-  for (auto& piece : take_pieces(item->buffer, true)) item->pieces.push_back(std::move(piece));
+  for (auto& piece : item->text->finish()) item->pieces.push_back(std::move(piece));
   if (item->spoken == 0 && item->pieces.empty() && !item->preparing) {
     // Nothing was said: the utterance ends without a stream.
     if (const auto it = std::find(pending_.begin(), pending_.end(), item); it != pending_.end())

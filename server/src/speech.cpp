@@ -1,6 +1,8 @@
 #include "speech.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/analyze.hpp"
@@ -8,6 +10,32 @@
 #include "facecast/viseme/lipsync.hpp"
 
 namespace facecast::server {
+
+namespace {
+
+// The latest time anything in `u` happens: the frame count, idle life and the stream's lifetime
+// are sized by it, so it is checked before any of them is made.
+double utterance_end(const viseme::Utterance& u) {
+  double end = u.duration;
+  for (const auto& p : u.phones) end = std::max(end, p.end);
+  for (const auto& v : u.visemes) end = std::max(end, v.end);
+  for (const auto& w : u.words) end = std::max(end, w.end);
+  for (const auto& e : u.expressions) end = std::max(end, e.start + e.ramp);
+  return end;
+}
+
+void check_length(const viseme::Utterance& u, double max_seconds) {
+  const double end = utterance_end(u);
+  if (!(end <= max_seconds)) {  // NaN too
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "speak: the utterance lasts %.6g s, over max_utterance_seconds (%g s)", end,
+                  max_seconds);
+    throw RequestError(Code::kLimit, buf);
+  }
+}
+
+}  // namespace
 
 viseme::Options speech_options(const State& state, viseme::LangMode lang, viseme::Timing timing,
                                const std::string& voice, double rate) {
@@ -40,6 +68,7 @@ std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest&
                                   r.timestamps->phones, "timestamps");
     if (!r.timestamps->text.empty()) u.text = r.timestamps->text;
   }
+  check_length(u, state.options.max_utterance_seconds);
   anim::AnimOptions ao = state.anim_options;
   ao.idle = r.idle;
   ao.seed = seed;

@@ -19,6 +19,7 @@
 #include "facecast/viseme/options.hpp"
 #include "jobs.hpp"
 #include "metrics.hpp"
+#include "peer_limits.hpp"
 #include "redis_bus.hpp"
 #include "rigs.hpp"
 
@@ -48,6 +49,8 @@ struct State {
   RendererCache renderers;
   ProtocolLimits limits;
   AudioUploads audio_uploads;  // POST /api/audio, spoken by `speak` with audio_id
+  ClientAddresses addresses;   // connections per client address
+  BodyMemory body_memory;      // request body bytes held at once (max_body_memory)
   std::chrono::steady_clock::time_point started = std::chrono::steady_clock::now();
   std::atomic<bool> stopping{false};  // draining or shutting down: /readyz answers 503
   std::atomic<bool> ready{false};     // warmed up: /readyz answers 200

@@ -1,5 +1,8 @@
 #include "websocket_session.hpp"
 
+#include <algorithm>
+#include <cstdio>
+
 #include "live_audio.hpp"
 #include "log.hpp"
 
@@ -16,6 +19,7 @@ WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<State> 
       conn_("c" + std::to_string(id)),
       remote_(std::move(remote)),
       queue_(state_->metrics.write_queue_depth, state_->options.write_queue),
+      message_tokens_(state_->options.message_burst),
       speaks_(std::make_shared<SpeakQueue>(state_, ws_.get_executor(), *this, conn_, id_)),
       watchdog_(ws_.get_executor()),
       close_timer_(ws_.get_executor()) {}
@@ -43,6 +47,7 @@ void WebSocketSession::run(Request request, bool subprotocol) {
   ws_.next_layer().on_idle([this] { do_write(); });
   ws_.next_layer().on_written(
       [this](beast::error_code ec, std::size_t bytes) { on_write(ec, bytes); });
+  ws_.next_layer().limit_control_bytes(o.max_control_bytes);
   ws_.read_message_max(o.max_message);
   ws_.auto_fragment(false);
   state_->add_session(id_, weak_from_this());
@@ -91,11 +96,27 @@ void WebSocketSession::on_read(beast::error_code ec, std::size_t) {
   if (ec) {
     if (ec == websocket::error::message_too_big) {
       log::warn("ws_message_too_big", {{"conn", conn_}, {"limit", state_->options.max_message}});
+    } else if (ws_.next_layer().control_overflow()) {
+      // Pings whose pongs the peer does not read: the socket is closed (no close frame fits).
+      log::warn("ws_control_overflow",
+                {{"conn", conn_}, {"limit", state_->options.max_control_bytes}});
+      beast::error_code ignored;
+      beast::get_lowest_layer(ws_).socket().close(ignored);
     }
     on_closed();
     return;
   }
   state_->metrics.ws_messages_received_total.fetch_add(1);
+  if (!take_message_token()) {
+    char reason[64];
+    std::snprintf(reason, sizeof reason, "more than %g messages per second",
+                  state_->options.messages_per_second);
+    log::warn("ws_message_rate", {{"conn", conn_}, {"limit", state_->options.messages_per_second}});
+    buffer_.consume(buffer_.size());
+    close_with(websocket::close_code::policy_error, reason);
+    do_read();  // until the close handshake ends
+    return;
+  }
   if (closing_) {
     buffer_.consume(buffer_.size());
     do_read();
@@ -110,6 +131,18 @@ void WebSocketSession::on_read(beast::error_code ec, std::size_t) {
   }
   buffer_.consume(buffer_.size());
   do_read();
+}
+
+// The message rate limit: a token bucket of message_burst refilled at messages_per_second.
+bool WebSocketSession::take_message_token() {
+  const auto& o = state_->options;
+  const auto now = Clock::now();
+  message_tokens_ = std::min<double>(
+      o.message_burst, message_tokens_ + seconds(now - message_tokens_at_) * o.messages_per_second);
+  message_tokens_at_ = now;
+  if (message_tokens_ < 1) return false;
+  message_tokens_ -= 1;
+  return true;
 }
 
 // Dispatches one client message; every failure becomes an `error` message.

@@ -56,6 +56,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void on_accept(beast::error_code ec);
   void do_read();
   void on_read(beast::error_code ec, std::size_t bytes);
+  bool take_message_token();
   void handle_text(std::string_view text);
   // Live audio in (websocket_audio.cpp).
   void handle_binary(std::string_view bytes);
@@ -83,6 +84,8 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::string forwarded_for_;  // X-Forwarded-For of the upgrade request ("" without a proxy)
   beast::flat_buffer buffer_;
   OutQueue queue_;
+  double message_tokens_;  // messages_per_second bucket
+  Clock::time_point message_tokens_at_ = Clock::now();
   std::vector<std::array<std::uint8_t, 10>> heads_;  // frame headers of the messages being written
   std::vector<net::const_buffer> frames_;            // their headers and payloads
   std::shared_ptr<SpeakQueue> speaks_;

@@ -251,6 +251,15 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.max_jobs == d.max_jobs);
   CHECK(file.max_render_seconds == d.max_render_seconds);
   CHECK(file.job_retention == d.job_retention);
+  CHECK(file.max_json_depth == d.max_json_depth);
+  CHECK(file.max_utterance_seconds == d.max_utterance_seconds);
+  CHECK(file.max_piece == d.max_piece);
+  CHECK(file.messages_per_second == d.messages_per_second);
+  CHECK(file.message_burst == d.message_burst);
+  CHECK(file.max_control_bytes == d.max_control_bytes);
+  CHECK(file.max_connections_per_address == d.max_connections_per_address);
+  CHECK(file.max_body_memory == d.max_body_memory);
+  CHECK(file.trusted_proxies == d.trusted_proxies);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
   CHECK(file.channel_tick == d.channel_tick);

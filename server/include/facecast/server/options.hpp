@@ -44,6 +44,18 @@ struct ServerOptions {
   int max_jobs = 8;                   // rig builds and renders queued or running
   double max_render_seconds = 120;    // longest video POST /api/render makes
   double job_retention = 604800;      // seconds ended jobs and their videos are kept (0: forever)
+  // Bounds on what one peer can make the server spend (docs/security.md).
+  int max_json_depth = 32;             // nesting of arrays/objects in messages and JSON bodies
+  double max_utterance_seconds = 600;  // longest utterance (timestamps, text, audio)
+  std::size_t max_piece = 400;         // characters of one incremental-text piece (cut at spaces)
+  double messages_per_second = 200;    // WebSocket messages per connection (token bucket)...
+  int message_burst = 400;             // ...with this many at once; over it: close 1008
+  std::size_t max_control_bytes = 65536;    // WebSocket control frames (pongs) queued unread: close
+  int max_connections_per_address = 256;    // connections at once from one client address
+  std::size_t max_body_memory = 268435456;  // request body bytes held at once, all requests
+  // Peers whose X-Forwarded-For is believed (the client is its last address not in this list);
+  // any other peer is the client itself. IP addresses, e.g. ["127.0.0.1"] behind a local nginx.
+  std::vector<std::string> trusted_proxies;
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;          // frames are sent this many seconds before their presentation time

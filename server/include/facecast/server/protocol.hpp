@@ -135,6 +135,7 @@ struct ProtocolLimits {
   std::size_t max_text = 2000;  // characters (code points) of text
   int max_fps = 120;
   int max_frame_side = 1920;
+  int max_json_depth = 32;  // nesting of arrays/objects in a message, checked before parsing
 };
 
 /// Parses one text message. Throws facecast::Error naming the field for malformed JSON, unknown
@@ -149,10 +150,6 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const n
                                                 std::string id, const ProtocolLimits& limits);
 /// A channel name: 1-64 of A-Z a-z 0-9 _ - . (throws Error naming `field`).
 std::string check_channel_name(const nlohmann::json& v, std::string_view field);
-
-/// Throws Error when JSON text nests arrays/objects deeper than `max_depth` (checked before
-/// parsing, so that nothing later recurses deeply).
-void check_json_depth(std::string_view text, int max_depth = 32);
 
 /// Number of Unicode code points of UTF-8 text (invalid bytes count one each).
 std::size_t utf8_length(std::string_view text) noexcept;
