@@ -4,6 +4,7 @@
 // the server answers with a weights stream at 60 fps. The analyser's viseme events go through the
 // same coarticulation and mixing as the text path: a Performance over the last `window` seconds of
 // events is built per chunk and sampled `delay` behind the analysed audio.
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -76,6 +77,9 @@ struct LiveAudio {
   LiveLipsync engine;
   std::uint32_t stream = 0;
   std::string id;  // "audio-<stream>", the stream_start / stream_end id
+  // When the stream opened: audio may run at most live_audio_ahead seconds ahead of real time
+  // (the analysis runs on the connection's I/O thread; a client must not make it run unbounded).
+  std::chrono::steady_clock::time_point opened = std::chrono::steady_clock::now();
 };
 
 }  // namespace facecast::server

@@ -58,6 +58,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
   c.read("max_control_bytes", o.max_control_bytes);
   c.read("max_connections_per_address", o.max_connections_per_address);
   c.read("max_body_memory", o.max_body_memory).read("trusted_proxies", o.trusted_proxies);
+  c.read("live_audio_ahead", o.live_audio_ahead);
   c.read("lead", o.lead);
   c.read("min_tick", o.min_tick);
   c.read("channel_tick", o.channel_tick);
@@ -127,6 +128,8 @@ void validate(const ServerOptions& o) {
   need(o.message_burst >= 1, "message_burst: must be at least 1");
   need(o.max_control_bytes >= 1024, "max_control_bytes: must be at least 1024 bytes");
   need(o.max_connections_per_address >= 1, "max_connections_per_address: must be at least 1");
+  need(o.live_audio_ahead >= 0.5 && o.live_audio_ahead <= 600,
+       "live_audio_ahead: must be in 0.5..600 seconds");
   need(o.max_body_memory >= o.max_upload,
        "max_body_memory: must be at least max_upload (one upload must fit)");
   for (const auto& p : o.trusted_proxies) {

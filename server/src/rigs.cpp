@@ -167,7 +167,11 @@ void RigRegistry::sync_all() const {
 
 std::vector<RigInfo> RigRegistry::list() const {
   std::lock_guard lock(mutex_);
-  sync_all();
+  const auto now = std::chrono::steady_clock::now();
+  if (now - scanned_ > std::chrono::seconds(1)) {
+    sync_all();
+    scanned_ = now;
+  }
   std::vector<RigInfo> out;
   out.push_back(infos_.at(kBuiltin));
   for (const auto& [id, info] : infos_)

@@ -5,6 +5,7 @@
 // folder is written under a temporary name and renamed, so a crash never leaves half a rig). Rigs
 // are listed from meta.json at start-up and loaded (GLB parsed, mapping chosen) on first use.
 // Renderers (GL contexts with the rig uploaded) are cached per rig and frame size.
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <future>
@@ -94,6 +95,9 @@ class RigRegistry {
   // removed it); mutex_ held.
   void sync(const std::string& id) const;
   void sync_all() const;
+  // list() rescans the folder at most this often (a hello per WebSocket connection lists the
+  // rigs: a burst of connections must not become a burst of folder scans).
+  mutable std::chrono::steady_clock::time_point scanned_{};
   std::optional<RigInfo> read_folder(const std::filesystem::path& dir) const;
   std::shared_future<std::shared_ptr<const std::string>> builtin_glb_;
   bool builtin_glb_started_ = false;

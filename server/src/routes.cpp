@@ -344,7 +344,9 @@ std::size_t body_limit(const State& state, const Request& req) {
 
 bool is_heavy(const Request& req) {
   if (req.method() == http::verb::post || req.method() == http::verb::delete_) return true;
-  return req.target().starts_with("/api/rigs/");
+  // Every API answer may touch SQLite, Redis or the rig folders: never on the I/O threads.
+  return req.target().starts_with("/api/") || req.target() == "/api" ||
+         req.target().starts_with("/api?");
 }
 
 http::message_generator error_response(State& state, unsigned version, bool keep_alive,

@@ -29,7 +29,8 @@ http::message_generator channel_api(State& state, const Request& req, const Targ
 bool origin_ok(const State& state, const Request& req);
 /// Body limit of a request (max_upload for POST /api/rigs and /api/render, else max_body).
 std::size_t body_limit(const State& state, const Request& req);
-/// Requests whose handling may take long (bodies to parse, big files): run on the worker pool.
+/// Requests whose handling may take long or block (bodies to parse, big files, SQLite, Redis,
+/// folder scans: every /api/ request): run on the worker pool.
 bool is_heavy(const Request& req);
 
 /// Answers one request. Never throws: failures become JSON errors (describe()).

@@ -2,6 +2,8 @@
 // kind 4 carry PCM16 chunks; the first chunk (first sample 0) opens a weights stream, the chunk
 // flagged last (or the next chunk at sample 0) ends it. A bad chunk gets an `error`; the stream
 // and the connection stay open.
+#include <cstdio>
+
 #include "live_audio.hpp"
 #include "log.hpp"
 #include "websocket_session.hpp"
@@ -48,6 +50,17 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
                   std::to_string(c.first) + "; the stream expects " +
                   std::to_string(audio_->engine.input_rate()) + " Hz from sample " +
                   std::to_string(audio_->engine.samples()) + " (chunks follow on)");
+    }
+    const double audio_end =
+        static_cast<double>(audio_->engine.samples() + c.samples.size()) / c.sample_rate;
+    const double elapsed = seconds(Clock::now() - audio_->opened);
+    if (audio_end > elapsed + state_->options.live_audio_ahead) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "audio chunk: it ends %.2f s into the stream, %.2f s after it opened; audio "
+                    "may run at most live_audio_ahead (%g s) ahead of real time",
+                    audio_end, elapsed, state_->options.live_audio_ahead);
+      throw RequestError(Code::kRateLimited, buf);
     }
     std::vector<float> values;
     const int first = audio_->engine.frames();

@@ -2,24 +2,24 @@
 // one attack class and asserts: a clear error or close within seconds, the server's RSS bounded,
 // /healthz answering within 1 s throughout, and a well-behaved client speaking afterwards with its
 // frames on time.
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <catch2/catch.hpp>
 #include <chrono>
+#include <cmath>
+#include <cstring>
 #include <fstream>
 #include <thread>
 
 #include "client.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
+#include "raw_client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
 
 using namespace fctest;
+using namespace fctest::raw;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -121,62 +121,6 @@ class Target {
   std::atomic<int> health_failures_{0};
 };
 
-// A TCP connection from `source` (a loopback address of its own, so that per-address limits do
-// not count the well-behaved client) with a small receive buffer; -1 when refused.
-int connect_from(const char* source, unsigned short port, int receive_buffer = 0) {
-  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (receive_buffer > 0)
-    setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof receive_buffer);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  inet_pton(AF_INET, source, &a.sin_addr);
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(port);
-  inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof to) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
-
-bool send_all(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-    if (n <= 0) return false;
-    bytes.remove_prefix(static_cast<std::size_t>(n));
-  }
-  return true;
-}
-
-// Reads an HTTP answer's head (until the blank line) with a timeout.
-std::string read_head(int fd, double timeout) {
-  std::string got;
-  const auto t0 = Clock::now();
-  timeval tv{0, 100000};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  while (got.find("\r\n\r\n") == std::string::npos && since(t0) < timeout) {
-    char buf[4096];
-    const ssize_t n = recv(fd, buf, sizeof buf, 0);
-    if (n == 0) break;
-    if (n > 0) got.append(buf, static_cast<std::size_t>(n));
-  }
-  return got;
-}
-
-// A masked client frame (RFC 6455) with a payload under 126 bytes.
-std::string client_frame(std::uint8_t opcode, std::string_view payload) {
-  std::string f;
-  f += static_cast<char>(0x80 | opcode);
-  f += static_cast<char>(0x80 | payload.size());
-  const char mask[4] = {0x11, 0x22, 0x33, 0x44};
-  f.append(mask, 4);
-  for (std::size_t i = 0; i < payload.size(); ++i) f += static_cast<char>(payload[i] ^ mask[i % 4]);
-  return f;
-}
-
 }  // namespace
 
 TEST_CASE("hostile: timestamps that end at 1e9 s are refused at once", "[hostile][ws]") {
@@ -236,33 +180,10 @@ TEST_CASE("hostile: append is bounded by max_text per utterance and max_piece pe
 
 TEST_CASE("hostile: a peer that pings and never reads is closed", "[hostile][ws]") {
   Target t;
-  const int fd = connect_from("127.0.0.2", t.port(), 4096);
-  REQUIRE(fd >= 0);
-  REQUIRE(send_all(fd,
-                   "GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: "
-                   "Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
-                   "Sec-WebSocket-Version: 13\r\n\r\n"));
-  REQUIRE(read_head(fd, 5).starts_with("HTTP/1.1 101"));
-  // Pings with the largest control payload, as fast as the socket takes them, never reading.
-  const std::string ping = client_frame(0x9, std::string(125, 'p'));
-  std::string burst;
-  for (int i = 0; i < 64; ++i) burst += ping;
-  const auto t0 = Clock::now();
-  std::size_t sent = 0;
-  timeval tv{0, 200000};
-  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-  bool closed = false;
-  while (since(t0) < 20 * slowdown()) {
-    const ssize_t n = send(fd, burst.data(), burst.size(), MSG_NOSIGNAL);
-    if (n < 0 && (errno == EPIPE || errno == ECONNRESET)) {
-      closed = true;
-      break;
-    }
-    if (n > 0) sent += static_cast<std::size_t>(n);
-  }
-  close(fd);
-  INFO("sent " << sent << " bytes of pings in " << since(t0) << " s");
-  CHECK(closed);
+  const double closed_after = ping_without_reading("127.0.0.2", t.port(), 20 * slowdown());
+  INFO("closed after " << closed_after << " s");
+  CHECK(closed_after >= 0);
+  CHECK(closed_after < 5 * slowdown());
   CHECK(t.log().find("ws_control_overflow") != std::string::npos);
   t.check_unharmed();
 }
@@ -360,4 +281,45 @@ TEST_CASE("hostile: frames-mode renderers in use are bounded by max_renderers", 
   CHECK(unavailable >= 3);
   c.close();
   t.check_unharmed(300);
+}
+
+TEST_CASE("hostile: live audio may not run far ahead of real time", "[hostile][ws][audio]") {
+  Target t(json{{"live_audio_ahead", 3}});
+  WsClient c(t.port());
+  REQUIRE(c.read_json(10)["type"] == "hello");
+  // 1 s chunks of a 200 Hz tone at 16 kHz, 12 at once: the 4th and later are over 3 s ahead.
+  constexpr std::uint32_t kRate = 16000;
+  std::vector<std::int16_t> pcm(kRate);
+  for (std::size_t i = 0; i < pcm.size(); ++i)
+    pcm[i] = static_cast<std::int16_t>(8000 * std::sin(2 * M_PI * 200 * i / kRate));
+  for (std::uint32_t k = 0; k < 12; ++k) {
+    std::string b(24 + 2 * pcm.size(), '\0');
+    b[0] = 4, b[1] = 1;
+    const auto put = [&](std::size_t at, std::uint32_t v) {
+      for (int i = 0; i < 4; ++i)
+        b[at + static_cast<std::size_t>(i)] = static_cast<char>(v >> (8 * i));
+    };
+    put(4, kRate);
+    put(8, k * kRate);
+    put(12, kRate);
+    std::memcpy(b.data() + 24, pcm.data(), 2 * pcm.size());
+    c.send_binary(b);
+  }
+  // The first chunk over the limit is refused naming it; the later ones no longer follow on.
+  std::vector<json> errors;
+  const auto t0 = Clock::now();
+  while (since(t0) < 5 * slowdown()) {
+    const auto m = c.read(1);
+    if (!m || !m->text) continue;
+    const json j = m->json();
+    if (j["type"] == "error") errors.push_back(j);
+  }
+  const int refused = static_cast<int>(errors.size());
+  REQUIRE(refused > 0);
+  CHECK(errors[0]["code"] == "rate_limited");
+  CHECK(errors[0]["message"].get<std::string>().find("live_audio_ahead (3 s)") !=
+        std::string::npos);
+  CHECK(refused >= 8);
+  c.close();
+  t.check_unharmed();
 }

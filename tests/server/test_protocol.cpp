@@ -259,6 +259,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.max_control_bytes == d.max_control_bytes);
   CHECK(file.max_connections_per_address == d.max_connections_per_address);
   CHECK(file.max_body_memory == d.max_body_memory);
+  CHECK(file.live_audio_ahead == d.live_audio_ahead);
   CHECK(file.trusted_proxies == d.trusted_proxies);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
@@ -290,7 +291,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 59);  // 58 settings + "_doc"
+  CHECK(j.size() == 60);  // 59 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

@@ -53,6 +53,7 @@ struct ServerOptions {
   std::size_t max_control_bytes = 65536;    // WebSocket control frames (pongs) queued unread: close
   int max_connections_per_address = 256;    // connections at once from one client address
   std::size_t max_body_memory = 268435456;  // request body bytes held at once, all requests
+  double live_audio_ahead = 10;  // live audio in may run this many seconds ahead of real time
   // Peers whose X-Forwarded-For is believed (the client is its last address not in this list);
   // any other peer is the client itself. IP addresses, e.g. ["127.0.0.1"] behind a local nginx.
   std::vector<std::string> trusted_proxies;
