@@ -35,6 +35,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -47,6 +48,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
+#include "raw_client.hpp"
 #include "serve_process.hpp"
 
 namespace {
@@ -76,6 +78,7 @@ struct Args {
   std::string exe = FACECAST_EXE;
   std::vector<std::pair<std::string, std::string>> set;  // --set key=json (server config)
   bench::BroadcastArgs broadcast;
+  int hostile = 0;
 };
 
 // ---- the server process -------------------------------------------------------------------------
@@ -321,7 +324,8 @@ Args parse_args(int argc, char** argv) {
   const std::map<std::string, int*> ints = {{"--clients", &a.clients},
                                             {"--frames-clients", &a.frames_clients},
                                             {"--client-threads", &a.client_threads},
-                                            {"--broadcast", &a.broadcast.subscribers}};
+                                            {"--broadcast", &a.broadcast.subscribers},
+                                            {"--hostile", &a.hostile}};
   const std::map<std::string, double*> reals = {{"--seconds", &a.seconds},
                                                 {"--ramp", &a.ramp},
                                                 {"--fps", &a.fps},
@@ -400,8 +404,84 @@ std::vector<ClientResult> run_clients(const Args& a, unsigned short port, const 
   return out;  // the clients (and their sockets) go before the io_context
 }
 
+// Hostile clients (--hostile): each thread cycles through the attack classes of
+// tests/server/test_hostile.cpp until `stop`, counting the attacks and those the server ended
+// (closed or refused) within 10 s.
+struct Hostile {
+  std::atomic<bool> stop{false};
+  std::atomic<long> attacks{0}, ended{0};
+  std::vector<std::thread> threads;
+
+  Hostile(int n, unsigned short port) {
+    for (int i = 0; i < n; ++i)
+      threads.emplace_back([this, port, source = "127.0.1." + std::to_string(i + 1)] {
+        for (int k = 0; !stop; ++k) {
+          attacks.fetch_add(1);
+          if (attack(k % 6, source.c_str(), port)) ended.fetch_add(1);
+        }
+      });
+  }
+  ~Hostile() {
+    stop = true;
+    for (auto& t : threads) t.join();
+  }
+
+  static bool attack(int kind, const char* source, unsigned short port) {
+    namespace raw = fctest::raw;
+    if (kind == 0) return raw::ping_without_reading(source, port, 10) >= 0;
+    if (kind == 1 || kind == 2 || kind == 5) {
+      const int fd = raw::open_websocket(source, port, 4096);
+      if (fd < 0) return true;  // refused: the per-address limit
+      std::string frame;
+      if (kind == 1) {
+        frame = raw::client_frame(0x1, R"({"type":"ping","t":1})");
+      } else if (kind == 2) {
+        frame = raw::client_frame(
+            0x1, json{{"type", "speak"},
+                      {"id", "x"},
+                      {"timestamps",
+                       {{"format", "polly"}, {"data", R"({"time":0,"type":"viseme","value":"p"}
+{"time":1000000000000,"type":"viseme","value":"a"})"}}}}
+                     .dump());
+      } else {
+        raw::send_all(fd, raw::client_frame(0x1, json{{"type", "speak"},
+                                                      {"id", "u"},
+                                                      {"audio", false},
+                                                      {"text", "Hello"},
+                                                      {"more", true}}
+                                                     .dump()));
+        frame = raw::client_frame(
+            0x1, json{{"type", "append"}, {"id", "u"}, {"text", std::string(1000, 'a')}}.dump());
+      }
+      const double closed = raw::flood_until_closed(fd, frame, 10);
+      close(fd);
+      return closed >= 0;
+    }
+    if (kind == 3) {
+      std::vector<int> fds;
+      for (int i = 0; i < 300; ++i)
+        if (const int fd = raw::connect_from(source, port); fd >= 0) fds.push_back(fd);
+      const bool refused =
+          !fds.empty() && raw::read_head(fds.back(), 5).starts_with("HTTP/1.1 503");
+      std::this_thread::sleep_for(std::chrono::seconds(2));
+      for (const int fd : fds) close(fd);
+      return refused;
+    }
+    const int fd = raw::connect_from(source, port);  // 4: a body announced, never sent
+    if (fd < 0) return true;
+    raw::send_all(fd,
+                  "POST /api/rigs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
+                  "model/gltf-binary\r\nContent-Length: 67108864\r\n\r\nglTF");
+    const bool answered = !raw::read_head(fd, 10).empty();  // 408/503 or closed at http_timeout
+    close(fd);
+    return answered;
+  }
+};
+
 // 1. Weights: on-time frames, time to first frame, the server's RSS and CPU.
 void run_weights(const Args& a, const fctest::ServeProcess& server) {
+  std::optional<Hostile> hostile;
+  if (a.hostile > 0) hostile.emplace(a.hostile, server.port());
   double peak_rss = 0;
   const double cpu0 = cpu(server.pid());
   const double client_cpu0 = self_cpu();
@@ -418,6 +498,12 @@ void run_weights(const Args& a, const fctest::ServeProcess& server) {
   });
   const double wall = secs(Clock::now() - t0);
   const double server_cpu = cpu(server.pid()) - cpu0;
+  long attacks = 0, ended = 0;
+  if (hostile) {
+    hostile->stop = true;
+    attacks = hostile->attacks, ended = hostile->ended;
+    hostile.reset();
+  }
   const double client_cpu = self_cpu() - client_cpu0;
   Stats s;
   int failed = 0;
@@ -433,6 +519,9 @@ void run_weights(const Args& a, const fctest::ServeProcess& server) {
       static_cast<unsigned long long>(s.frames), static_cast<unsigned long long>(s.dropped),
       static_cast<unsigned long long>(s.errors), failed);
   for (const auto& m : s.error_messages) std::printf("  error: %s\n", m.c_str());
+  if (a.hostile > 0)
+    std::printf("  beside %d hostile clients: %ld attacks, %ld ended by the server within 10 s\n",
+                a.hostile, attacks, ended);
   std::printf(
       "  frames within 50 ms of schedule: %.3f %%  (after their presentation time: %.3f %%)\n",
       100.0 * s.on_time / std::max<std::uint64_t>(1, s.frames),
@@ -490,8 +579,13 @@ void run_frames(const Args& a, const fctest::ServeProcess& server) {
 // The shipped config with room for the load and the --set values, written to `dir`.
 void write_config(Args& a, const std::filesystem::path& dir) {
   json config = facecast::load_json(facecast::config_path("server.json"));
-  config["max_connections"] = std::max(config["max_connections"].get<int>(),
-                                       std::max(a.clients, a.broadcast.subscribers) + 100);
+  config["max_connections"] =
+      std::max(config["max_connections"].get<int>(),
+               std::max(a.clients, a.broadcast.subscribers) + 100 + 300 * a.hostile);
+  // The normal clients all come from 127.0.0.1; the hostile ones each from an address of its own.
+  config["max_connections_per_address"] =
+      std::max(config["max_connections_per_address"].get<int>(),
+               std::max(a.clients, a.broadcast.subscribers) + 100);
   config["channels"] = {{a.broadcast.channel, {{"producer_token", a.broadcast.token}}}};
   config["log_level"] = "warn";
   if (a.min_tick >= 0) config["min_tick"] = a.min_tick;
