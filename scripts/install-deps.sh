@@ -14,6 +14,7 @@ packages=(
   libfftw3-dev libsndfile1-dev festival festvox-kallpc16k flite sox
   libsqlite3-dev nginx libnginx-mod-rtmp
   libhiredis-dev redis-server
+  libjwt-dev libssl-dev
 )
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)

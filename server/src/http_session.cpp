@@ -3,6 +3,7 @@
 #include <array>
 
 #include "clock.hpp"
+#include "guard.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 #include "websocket_session.hpp"
@@ -94,6 +95,11 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
   started_ = Clock::now();
   state_->metrics.http_requests_total.fetch_add(1);
   auto& req = parser_->get();
+  // Host, Origin and Content-Type (guard.hpp): refused before the body is read.
+  if (const auto problem = check_request_header(*state_, req)) {
+    fail(*problem, false);
+    return;
+  }
   if (websocket::is_upgrade(req)) {
     upgrade();
     return;
@@ -160,11 +166,25 @@ void HttpSession::upgrade() {
     state_->metrics.connections_refused_total.fetch_add(1);
     return refuse(Code::kUnavailable, "too many connections (max_connections)");
   }
-  if (!token_ok(*state_, req, target))
-    return refuse(Code::kUnauthorized, "a token is required (?token= or Authorization: Bearer)");
   if (!origin_ok(*state_, req))
-    return refuse(Code::kForbidden,
-                  "origin '" + std::string(req[http::field::origin]) + "' is not allowed");
+    return refuse(
+        Code::kForbidden,
+        "origin '" + std::string(req[http::field::origin].substr(0, 200)) + "' is not allowed");
+  // Who connects (auth.hpp): a key or viewer token in the upgrade, or, offering the subprotocol
+  // "facecast.token" alone, in the first message.
+  std::optional<Principal> who;
+  try {
+    if (!state_->auth.enabled() || Auth::credential(req, target) ||
+        !Auth::offers_first_message(req)) {
+      who = state_->auth.identify(req, target);
+      if (!who->can(kScopeSpeak) && !who->can(kScopeChannelsSubscribe) &&
+          !who->can(kScopeChannelsProduce))
+        throw RequestError(Code::kForbidden,
+                           "/ws needs the scope speak, channels:subscribe or channels:produce");
+    }
+  } catch (const RequestError& e) {
+    return refuse(e.request_code(), e.what(), e.status());
+  }
   bool subprotocol = false;
   if (req.count(http::field::sec_websocket_protocol)) {
     subprotocol = header_lists(req[http::field::sec_websocket_protocol], kSubprotocol);
@@ -176,7 +196,7 @@ void HttpSession::upgrade() {
   state_->remove_session(id_);
   auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), state_, std::move(slot_),
                                                id_, remote_);
-  ws->run(parser_->release(), subprotocol);
+  ws->run(parser_->release(), subprotocol, std::move(who));
 }
 
 void HttpSession::handle() {
@@ -191,7 +211,7 @@ void HttpSession::handle() {
   }
   log::debug("http_request", {{"conn", conn_},
                               {"method", std::string(req.method_string())},
-                              {"target", std::string(req.target())},
+                              {"target", loggable_target(req.target())},
                               log::Field::if_set("forwarded_for", req["X-Forwarded-For"])});
   if (is_heavy(req)) {
     net::post(state_->workers, [self = shared_from_this(), req = std::move(req),

@@ -2,6 +2,7 @@
 // kind 4 carry PCM16 chunks; the first chunk (first sample 0) opens a weights stream, the chunk
 // flagged last (or the next chunk at sample 0) ends it. A bad chunk gets an `error`; the stream
 // and the connection stay open.
+#include "access.hpp"
 #include "live_audio.hpp"
 #include "log.hpp"
 #include "websocket_session.hpp"
@@ -19,7 +20,12 @@ const viseme::LipsyncOptions& lipsync_options() {
 }  // namespace
 
 void WebSocketSession::handle_binary(std::string_view bytes) {
+  if (!who_) {
+    close_with(websocket::close_code::policy_error, "authenticate first");
+    return;
+  }
   try {
+    authorize_live_audio(*state_, *who_);
     AudioChunk c = read_audio_chunk(bytes);
     if (c.first == 0 && audio_) end_audio();
     if (!audio_) {
