@@ -71,10 +71,11 @@ Auth::Auth(const ServerOptions& o) : token_(o.token), max_ttl_(o.token_max_ttl) 
   std::error_code ec;
   const bool exists = fs::exists(store, ec);
   if (!exists && o.keys != "auto") {
+    const bool named = o.keys != "required";  // "keys": "path" in the config
     throw Error("there is no key store at " + store.string() +
                 " (\"keys\" in the config requires one): create a key with `facecast keys create "
-                "--tenant NAME --scopes admin --data " +
-                o.data.string() + "`");
+                "--tenant NAME --scopes admin " +
+                (named ? std::string("--config YOUR_CONFIG") : "--data " + o.data.string()) + "`");
   }
   if (exists) {
     keys_ = std::make_unique<KeyStore>(store);

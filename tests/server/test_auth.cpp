@@ -552,9 +552,11 @@ TEST_CASE("a viewer token subscribes to its channel or speaks with its rig, and 
   CHECK(WsClient::handshake_status(port, ws_with_key(owner.json()["token"])) == 401);
 
   // Channels are their tenant's: HTTP producers with a key of that tenant, or the producer token.
+  int said = 0;
   const auto say = [&](const std::string& channel, const Headers& h) {
-    return http_request(port, http::verb::post, "/api/channels/" + channel + "/speak",
-                        R"({"text":"hello"})", with(h, "Content-Type", "application/json"))
+    const nlohmann::json body = {{"text", "hello"}, {"id", "say" + std::to_string(++said)}};
+    return http_request(port, http::verb::post, "/api/channels/" + channel + "/speak", body.dump(),
+                        with(h, "Content-Type", "application/json"))
         .status;
   };
   CHECK(say("show", bearer(k.a)) == 202);
