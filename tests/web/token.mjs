@@ -4,7 +4,7 @@
 // tab (sessionStorage) and sends it as Bearer and in the WebSocket subprotocol list.
 
 import { execFileSync } from 'node:child_process';
-import { mkdtempSync } from 'node:fs';
+import { mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { run, startServer, launchBrowser, newPage, screenshot, check, waitFor, binary } from './lib.mjs';
@@ -46,7 +46,7 @@ await run('token', async () => {
 
   // ---- API keys: the page asks for one.
   const data = mkdtempSync(join(tmpdir(), 'facecast-web-keys-'));
-  const key = execFileSync(binary, ['keys', 'create', '--tenant', 'web', '--scopes', 'speak,rigs:read', '--data', data], { encoding: 'utf8' }).trim();
+  const key = execFileSync(binary, ['keys', 'create', '--tenant', 'web', '--scopes', 'speak,rigs:read', '--data', data], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'ignore'] }).trim();
   const keyed = await startServer({ data });
   const asking = await newPage(browser);
   asking.allow(/WebSocket connection to .* failed|401|Failed to load resource/);
@@ -69,5 +69,6 @@ await run('token', async () => {
   check('it speaks with the key', spoken > 0.1, `mouth ${Number(spoken).toFixed(3)}`);
   await screenshot(asking, 'token-02-key');
   await keyed.stop();
+  rmSync(data, { recursive: true, force: true });
 });
 
