@@ -182,8 +182,9 @@ void HttpSession::upgrade() {
         throw RequestError(Code::kForbidden,
                            "/ws needs the scope speak, channels:subscribe or channels:produce");
     }
-  } catch (const RequestError& e) {
-    return refuse(e.request_code(), e.what(), e.status());
+  } catch (...) {  // 401, 403, or a key store that cannot be read (500)
+    const Problem p = describe(std::current_exception());
+    return refuse(p.code, p.message, p.status);
   }
   bool subprotocol = false;
   if (req.count(http::field::sec_websocket_protocol)) {
