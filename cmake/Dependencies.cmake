@@ -14,3 +14,7 @@ add_library(facecast_cholmod INTERFACE)
 target_include_directories(facecast_cholmod SYSTEM INTERFACE ${CHOLMOD_INCLUDE_DIR})
 target_link_libraries(facecast_cholmod INTERFACE ${CHOLMOD_LIBRARY})
 add_library(facecast::cholmod ALIAS facecast_cholmod)
+
+# libjwt (viewer tokens, JWT HS256): Debian 12 ships only a pkg-config file. Target: facecast::jwt.
+pkg_check_modules(FACECAST_JWT REQUIRED IMPORTED_TARGET libjwt)
+add_library(facecast::jwt ALIAS PkgConfig::FACECAST_JWT)

@@ -15,6 +15,7 @@ packages=(
   libsqlite3-dev nginx libnginx-mod-rtmp
   libhiredis-dev redis-server
   clang libclang-rt-14-dev
+  libjwt-dev libssl-dev
 )
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)

@@ -32,11 +32,49 @@ export function parseHeader(buffer) {
   return header;
 }
 
-/** The WebSocket URL of the page's own server, with the page's ?token= passed on. */
+/** The WebSocket URL of the page's own server (the key travels in the subprotocol list). */
 export function defaultUrl(loc = window.location) {
   const scheme = loc.protocol === 'https:' ? 'wss:' : 'ws:';
-  const token = new URLSearchParams(loc.search).get('token');
-  return `${scheme}//${loc.host}/ws${token ? `?token=${encodeURIComponent(token)}` : ''}`;
+  return `${scheme}//${loc.host}/ws`;
+}
+
+const KEY_STORE = 'facecast.key';
+
+/** The page's API key or token: ?token= in the address, else the one entered (sessionStorage). */
+export function currentKey() {
+  const fromUrl = new URLSearchParams(window.location.search).get('token');
+  if (fromUrl) return fromUrl;
+  try {
+    return sessionStorage.getItem(KEY_STORE) || '';
+  } catch {
+    return '';
+  }
+}
+
+let asked = false;
+
+/**
+ * A server that answered 401: asks the person for a key once per page (kept in sessionStorage for
+ * this tab). Returns true when a new key was entered.
+ */
+export function askForKey() {
+  try {
+    if (sessionStorage.getItem(KEY_STORE)) sessionStorage.removeItem(KEY_STORE); // it was refused
+  } catch {
+    return false;
+  }
+  if (asked || new URLSearchParams(window.location.search).has('token')) return false;
+  asked = true;
+  const key = (window.prompt('This server needs an API key (facecast keys create). Key:') || '').trim();
+  if (!key) return false;
+  sessionStorage.setItem(KEY_STORE, key);
+  return true;
+}
+
+/** WebSocket subprotocols: facecast.v1, plus the key as facecast.token.<key> when there is one. */
+export function protocols() {
+  const key = currentKey();
+  return key && /^[A-Za-z0-9._~-]+$/.test(key) ? [PROTOCOL, `facecast.token.${key}`] : [PROTOCOL];
 }
 
 export class FacecastClient extends EventTarget {
@@ -60,7 +98,7 @@ export class FacecastClient extends EventTarget {
     this.setState(this.attempt ? 'reconnecting' : 'connecting', { attempt: this.attempt });
     let ws;
     try {
-      ws = new WebSocket(this.url, PROTOCOL);
+      ws = new WebSocket(this.url, protocols());
     } catch (e) {
       this.scheduleReconnect(String(e.message || e));
       return;
@@ -168,14 +206,23 @@ function closeReason(ev) {
   return ev.reason ? `${ev.reason} (${ev.code})` : `connection closed (${ev.code})`;
 }
 
-/** fetch() that returns parsed JSON and throws an Error with the server's {error: {code, message}}. */
+/**
+ * fetch() that returns parsed JSON and throws an Error with the server's {error: {code, message}}.
+ * A 401 asks for a key (once per page) and tries again with it.
+ */
 export async function fetchJson(url, options = {}) {
-  const token = new URLSearchParams(window.location.search).get('token');
-  const headers = { ...(options.headers || {}) };
-  if (token) headers.Authorization = `Bearer ${token}`;
+  const send = () => {
+    const headers = { ...(options.headers || {}), ...authHeaders() };
+    // JSON bodies say so (the server answers other types with 415).
+    if (typeof options.body === 'string' && !Object.keys(headers).some((h) => h.toLowerCase() === 'content-type')) {
+      headers['Content-Type'] = 'application/json';
+    }
+    return fetch(url, { ...options, headers });
+  };
   let res;
   try {
-    res = await fetch(url, { ...options, headers });
+    res = await send();
+    if (res.status === 401 && askForKey()) res = await send();
   } catch (e) {
     const err = new Error(`cannot reach the server (${e.message})`);
     err.code = 'unreachable';
@@ -200,8 +247,8 @@ export async function fetchJson(url, options = {}) {
 
 /** The headers fetch needs for a protected server (GLTFLoader's requestHeader). */
 export function authHeaders() {
-  const token = new URLSearchParams(window.location.search).get('token');
-  return token ? { Authorization: `Bearer ${token}` } : {};
+  const key = currentKey();
+  return key ? { Authorization: `Bearer ${key}` } : {};
 }
 
 /** Carries the page's ?token= over to the other pages' links (a protected server needs it). */

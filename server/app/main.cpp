@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   facecast::cli::add_render_commands(app);
   facecast::cli::add_animate_commands(app);
   facecast::cli::add_serve_commands(app);
+  facecast::cli::add_keys_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

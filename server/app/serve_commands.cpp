@@ -17,9 +17,10 @@ struct ServeArgs {
 };
 
 void run_serve(const ServeArgs& a) {
+  // Checked once the command line has had its say (--host, --data, --token).
   server::ServerOptions o = a.config.empty()
-                                ? server::load_server_options(config_path("server.json"))
-                                : server::load_server_options(a.config);
+                                ? server::read_server_options(config_path("server.json"))
+                                : server::read_server_options(a.config);
   if (!a.host.empty()) o.host = a.host;
   if (a.port >= 0) o.port = a.port;
   if (!a.data.empty()) o.data = a.data;
@@ -50,12 +51,14 @@ void add_serve_commands(CLI::App& app) {
   cmd->add_option("--config", a->config, "Server config (default: configs/server.json)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--host", a->host,
-                  "Address to bind (default 127.0.0.1; anything else needs a token)");
+                  "Address to bind (default 127.0.0.1; anything else needs a key store: "
+                  "facecast keys create)");
   cmd->add_option("--port", a->port, "Port (default 8080; 0 picks a free one and prints it)")
       ->check(CLI::Range(0, 65535));
   cmd->add_option("--data", a->data, "Folder for built rigs and rendered videos (default data/)");
   cmd->add_option("--token", a->token,
-                  "Token required on /api and /ws (also $FACECAST_TOKEN); required off loopback");
+                  "The single admin key of older versions, accepted on /api and /ws (also "
+                  "$FACECAST_TOKEN); API keys (facecast keys create) are the way now");
   cmd->add_option("--web", a->web, "Folder of the web client (default: web/ of the project)")
       ->check(CLI::ExistingDirectory);
   cmd->add_option(

@@ -1,5 +1,6 @@
 #include "api.hpp"
 
+#include "access.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -122,7 +123,7 @@ std::string base64_encode(std::string_view bytes) {
 
 }  // namespace
 
-http::message_generator post_landmarks(State& state, const Request& req) {
+http::message_generator post_landmarks(State& state, const Request& req, const Principal& who) {
   const json body = parse_body(req, state.limits.max_json_depth);
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string template_id = state.options.default_rig;
@@ -136,37 +137,49 @@ http::message_generator post_landmarks(State& state, const Request& req) {
       throw Error("body: unknown field '" + k + "'");
   }
   std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh);
+  (void)usable_rig(state, who, template_id);
   const auto tmpl = state.rigs.load(template_id);
-  const std::string job = state.jobs.submit("landmarks", [tmpl, user](JobContext& ctx) -> json {
-    ctx.progress("landmarks", 0.0);
-    const rigbuild::AutoMarkers found =
-        rigbuild::auto_markers(*tmpl->rig, user->neutral(), rigbuild::load_landmark_options());
-    json pairs = json::array(), vertices = json::array();
-    for (const auto& m : found.markers)
-      pairs.push_back(
-          {{"name", m.name}, {"template", m.template_vertex}, {"target", m.target_vertex}});
-    for (const int v : found.target.vertex) vertices.push_back(v < 0 ? json(nullptr) : json(v));
-    const std::string jpeg = render::encode_jpeg(rigbuild::landmark_picture(found.target), 85);
-    return {{"template", tmpl->id},
-            {"markers", {{"index_base", 0}, {"pairs", pairs}}},
-            {"target_vertices", vertices},
-            {"views_found", found.target.views_found},
-            {"dropped", found.target.dropped},
-            {"seconds", found.seconds},
-            {"picture", "data:image/jpeg;base64," + base64_encode(jpeg)}};
-  });
+  const std::string job = state.jobs.submit(
+      "landmarks",
+      [tmpl, user](JobContext& ctx) -> json {
+        ctx.progress("landmarks", 0.0);
+        const rigbuild::AutoMarkers found =
+            rigbuild::auto_markers(*tmpl->rig, user->neutral(), rigbuild::load_landmark_options());
+        json pairs = json::array(), vertices = json::array();
+        for (const auto& m : found.markers)
+          pairs.push_back(
+              {{"name", m.name}, {"template", m.template_vertex}, {"target", m.target_vertex}});
+        for (const int v : found.target.vertex) vertices.push_back(v < 0 ? json(nullptr) : json(v));
+        const std::string jpeg = render::encode_jpeg(rigbuild::landmark_picture(found.target), 85);
+        return {{"template", tmpl->id},
+                {"markers", {{"index_base", 0}, {"pairs", pairs}}},
+                {"target_vertices", vertices},
+                {"views_found", found.target.views_found},
+                {"dropped", found.target.dropped},
+                {"seconds", found.seconds},
+                {"picture", "data:image/jpeg;base64," + base64_encode(jpeg)}};
+      },
+      {}, who.tenant);
   log::info("landmarks_upload", {{"job", job}, {"template", tmpl->id}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
+// ?public=1 / true / yes.
+bool public_query(const Target& t) {
+  const auto v = query_value(t.query, "public");
+  return v && (*v == "1" || *v == "true" || *v == "yes");
+}
+
 // POST /api/rigs with a GLB or VRM body: the user's avatar, stored as it is (?name= names it).
-http::message_generator import_rig(State& state, const Request& req, const Target& t) {
+http::message_generator import_rig(State& state, const Request& req, const Target& t,
+                                   const Principal& who) {
   std::string name = query_value(t.query, "name").value_or("Avatar");
   if (name.empty() || utf8_length(name) > 64) throw Error("name: expected 1 to 64 characters");
   const std::string& bytes = req.body();
   if (bytes.empty()) throw Error("body: empty (expected a GLB or VRM file)");
-  const std::string id = state.rigs.import(name, bytes, "upload");
+  const std::string id =
+      state.rigs.import(name, bytes, "upload", RigOwner{who.tenant, public_query(t)});
   const auto info = state.rigs.find(id);
   log::info("rig_import", {{"rig", id}, {"name", name}, {"bytes", bytes.size()}});
   return json_response(state, req, http::status::created, info->to_json());
@@ -174,9 +187,10 @@ http::message_generator import_rig(State& state, const Request& req, const Targe
 
 // A rig build from a POST /api/rigs JSON body: checked here (throws Error naming the field), run
 // by a job worker (with Redis, on any instance: the body is the job's payload).
-static Jobs::Work rig_work(State& state, const json& body) {
+static Jobs::Work rig_work(State& state, const json& body, const std::string& tenant) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string name = "Rig", template_id = state.options.default_rig;
+  RigOwner owner{tenant, false};
   const json* mesh = nullptr;
   const json* markers = nullptr;
   rigbuild::BuildOptions opt = rigbuild::load_build_options();  // configs/rigbuild/build.json
@@ -190,6 +204,9 @@ static Jobs::Work rig_work(State& state, const json& body) {
       mesh = &v;
     } else if (k == "markers") {
       if (!v.is_null()) markers = &v;
+    } else if (k == "public") {
+      if (!v.is_boolean()) throw Error("public: expected true or false");
+      owner.is_public = v.get<bool>();
     } else if (k == "options") {
       if (!v.is_object()) throw Error("options: expected an object");
       for (const auto& [ok, ov] : v.items()) {
@@ -229,7 +246,7 @@ static Jobs::Work rig_work(State& state, const json& body) {
                            {"vertices", vertices},
                            {"markers", markers != nullptr}});
   std::shared_ptr<const rigbuild::BuildTarget> shared_target = std::move(user);
-  return [&state, shared_target, tmpl, opt, name](JobContext& ctx) -> json {
+  return [&state, shared_target, tmpl, opt, name, owner](JobContext& ctx) -> json {
     const auto t0 = std::chrono::steady_clock::now();
     const auto r =
         rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
@@ -239,20 +256,27 @@ static Jobs::Work rig_work(State& state, const json& body) {
         name, tmpl->id, r.rig, shared_target->glb_bytes(r.rig), report,
         opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff ? r.virtual_edges
                                                              : std::vector<rigbuild::VirtualEdge>{},
-        r.ve_stats);
+        r.ve_stats, owner);
     state.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
   };
 }
 
-http::message_generator post_rig(State& state, const Request& req, const Target& t) {
+http::message_generator post_rig(State& state, const Request& req, const Target& t,
+                                 const Principal& who) {
   const std::string type(req[http::field::content_type]);
   if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
       type.starts_with("application/octet-stream"))
-    return import_rig(state, req, t);
-  const json body = parse_body(req, state.limits.max_json_depth);
-  const std::string job = state.jobs.submit("rig", rig_work(state, body), body);
+    return import_rig(state, req, t, who);
+  json body = parse_body(req, state.limits.max_json_depth);
+  if (body.is_object()) {
+    if (const auto it = body.find("template"); it != body.end() && it->is_string())
+      (void)usable_rig(state, who, it->get<std::string>());
+    if (public_query(t)) body["public"] = true;  // the payload carries it (Redis)
+  }
+  const std::string job =
+      state.jobs.submit("rig", rig_work(state, body, who.tenant), body, who.tenant);
   log::info("rig_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});
@@ -310,18 +334,33 @@ static Jobs::Work render_work(State& state, const json& body) {
   return [&state, r](JobContext& ctx) { return render_video(state, r, ctx); };
 }
 
-http::message_generator post_render(State& state, const Request& req) {
+http::message_generator post_render(State& state, const Request& req, const Principal& who) {
   const json body = parse_body(req, state.limits.max_json_depth);
-  const std::string job = state.jobs.submit("render", render_work(state, body), body);
+  if (body.is_object()) {
+    const auto it = body.find("rig");
+    (void)usable_rig(state, who, it != body.end() && it->is_string() ? it->get<std::string>() : "");
+  }
+  const std::string job = state.jobs.submit("render", render_work(state, body), body, who.tenant);
   log::info("render_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
-Jobs::Work job_work(State& state, const std::string& kind, const json& payload) {
-  if (kind == "rig") return rig_work(state, payload);
+http::message_generator patch_rig(State& state, const Request& req, const std::string& id) {
+  const json body = parse_body(req, state.limits.max_json_depth);
+  if (!body.is_object() || body.size() != 1 || !body.contains("public") ||
+      !body["public"].is_boolean())
+    throw Error("body: expected {\"public\": true|false}");
+  if (!state.rigs.set_public(id, body["public"].get<bool>()))
+    throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+  return json_response(state, req, http::status::ok, state.rigs.find(id)->to_json());
+}
+
+Jobs::Work job_work(State& state, const std::string& kind, const json& payload,
+                    const std::string& tenant) {
+  if (kind == "rig") return rig_work(state, payload, tenant);
   if (kind == "render") return render_work(state, payload);
-  if (kind == "photo") return photo_work(state, payload);
+  if (kind == "photo") return photo_work(state, payload, tenant);
   throw Error("job kind '" + kind + "' is not rig, render or photo");
 }
 

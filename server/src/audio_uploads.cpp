@@ -56,7 +56,7 @@ viseme::Audio AudioUploads::decode(std::string_view bytes) const {
   }
 }
 
-std::string AudioUploads::put(viseme::Audio audio) {
+std::string AudioUploads::put(viseme::Audio audio, const std::string& tenant) {
   auto shared = std::make_shared<const viseme::Audio>(std::move(audio));
   std::lock_guard lock(mutex_);
   const auto now = Clock::now();
@@ -71,8 +71,16 @@ std::string AudioUploads::put(viseme::Audio audio) {
   do {
     std::snprintf(id, sizeof id, "a%016llx", static_cast<unsigned long long>(random_()));
   } while (entries_.contains(id));
-  entries_.emplace(id, Entry{std::move(shared), now});
+  entries_.emplace(id, Entry{std::move(shared), now, tenant});
   return id;
+}
+
+std::optional<std::string> AudioUploads::owner(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  expire(Clock::now());
+  const auto it = entries_.find(id);
+  if (it == entries_.end()) return std::nullopt;
+  return it->second.tenant;
 }
 
 std::shared_ptr<const viseme::Audio> AudioUploads::get(const std::string& id) {
@@ -87,10 +95,10 @@ void AudioUploads::expire(Clock::time_point now) {
   std::erase_if(entries_, [&](const auto& e) { return now - e.second.at > ttl; });
 }
 
-http::message_generator post_audio(State& state, const Request& req) {
+http::message_generator post_audio(State& state, const Request& req, const std::string& tenant) {
   viseme::Audio audio = state.audio_uploads.decode(req.body());
   const double seconds = audio.seconds();
-  const std::string id = state.audio_uploads.put(std::move(audio));
+  const std::string id = state.audio_uploads.put(std::move(audio), tenant);
   return json_response(
       state, req, http::status::created,
       {{"audio_id", id}, {"seconds", seconds}, {"expires_in", state.audio_uploads.ttl()}});

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -28,8 +29,10 @@ class AudioUploads {
   /// Decodes an uploaded file; throws a one-line Error ("uploaded audio: ...") when it is empty,
   /// not audio, shorter than audio.min_seconds or longer than align.max_seconds.
   viseme::Audio decode(std::string_view bytes) const;
-  /// Keeps `audio`; returns its id ("a" + 16 hex digits).
-  std::string put(viseme::Audio audio);
+  /// Keeps `audio`, owned by `tenant`; returns its id ("a" + 16 hex digits).
+  std::string put(viseme::Audio audio, const std::string& tenant = "default");
+  /// The tenant of upload `id`, or nullopt when there is none.
+  std::optional<std::string> owner(const std::string& id);
   /// The upload `id`, or nullptr when there is none (never uploaded, expired or evicted).
   std::shared_ptr<const viseme::Audio> get(const std::string& id);
 
@@ -42,6 +45,7 @@ class AudioUploads {
   struct Entry {
     std::shared_ptr<const viseme::Audio> audio;
     Clock::time_point at;
+    std::string tenant;
   };
   void expire(Clock::time_point now);  // with mutex_ held
 
@@ -55,7 +59,8 @@ class AudioUploads {
   std::mt19937_64 random_{std::random_device{}()};
 };
 
-/// POST /api/audio: the body is an audio file; answers {"audio_id", "seconds", "expires_in"}.
-http::message_generator post_audio(State& state, const Request& req);
+/// POST /api/audio: the body is an audio file, kept for `tenant`; answers {"audio_id", "seconds",
+/// "expires_in"}.
+http::message_generator post_audio(State& state, const Request& req, const std::string& tenant);
 
 }  // namespace facecast::server

@@ -2,6 +2,7 @@
 
 #include <future>
 
+#include "access.hpp"
 #include "log.hpp"
 #include "redis_bus.hpp"
 #include "routes.hpp"
@@ -10,11 +11,12 @@
 namespace facecast::server {
 
 Channel::Channel(std::shared_ptr<State> state, net::any_io_executor strand, std::string name,
-                 std::string producer_token)
+                 std::string producer_token, std::string tenant)
     : state_(std::move(state)),
       strand_(std::move(strand)),
       name_(std::move(name)),
       token_(std::move(producer_token)),
+      tenant_(std::move(tenant)),
       presence_timer_(strand_) {
   queue_ = std::make_shared<SpeakQueue>(state_, strand_, *this, "ch:" + name_,
                                         std::hash<std::string>{}(name_));
@@ -237,7 +239,7 @@ ChannelRegistry::ChannelRegistry(const std::shared_ptr<State>& state, net::io_co
   // any_io_executor without a shared, fence-counted target (ThreadSanitizer cannot model fences).
   for (const auto& c : state->options.channels) {
     channels_.push_back(
-        std::make_shared<Channel>(state, net::make_strand(io), c.name, c.producer_token));
+        std::make_shared<Channel>(state, net::make_strand(io), c.name, c.producer_token, c.tenant));
   }
 }
 
@@ -272,7 +274,8 @@ std::string channel_metrics(const ChannelRegistry& channels) {
 namespace {
 
 // POST /api/channels/{c}/speak: the body is a `speak` message (type and id optional).
-http::message_generator post_channel_speak(State& state, const Request& req, Channel& channel) {
+http::message_generator post_channel_speak(State& state, const Request& req, Channel& channel,
+                                           const Principal& who) {
   nlohmann::json body;
   try {
     body = nlohmann::json::parse(req.body());
@@ -284,6 +287,7 @@ http::message_generator post_channel_speak(State& state, const Request& req, Cha
   if (!body.contains("id")) body["id"] = "h" + std::to_string(state.next_stream.load());
   body["channel"] = channel.name();
   ClientMessage m = parse_client_message(body.dump(), state.limits);
+  authorize_message(state, who, m);  // the rig and the upload it names
   const std::string id = std::get<SpeakRequest>(m).id;
   // Runs on a worker (POST is heavy): waiting for the channel's strand blocks no I/O thread.
   auto answer = std::make_shared<std::promise<std::optional<Problem>>>();
@@ -310,19 +314,32 @@ http::message_generator channel_api(State& state, const Request& req, const Targ
   if (tail == "/speak") {
     if (req.method() != http::verb::post)
       throw RequestError(Code::kMethod, "/api/channels/{c}/speak takes POST");
-    const auto token = request_token(req, target);
-    if (!channel) throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
-    if (!token || !channel->producer_token_ok(*token))
+    // The channel's producer token, or (with keys) a key of its tenant with channels:produce.
+    const auto given = Auth::credential(req, target);
+    std::optional<Principal> who;
+    if (channel && given && channel->producer_token_ok(*given)) {
+      who = Principal{channel->tenant(), kScopeChannelsProduce, {}, false, {}, {}};
+    } else if (state.auth.enabled()) {
+      who = state.auth.identify(req, target);
+      if (who->viewer) throw RequestError(Code::kForbidden, "a viewer token cannot speak here");
+      who->require(kScopeChannelsProduce, "POST /api/channels/{c}/speak");
+    } else if (!channel) {
+      throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
+    } else {
       throw RequestError(Code::kUnauthorized,
                          "the channel's producer token is required (Authorization: Bearer)");
-    return post_channel_speak(state, req, *channel);
+    }
+    if (!channel || !who->owns(channel->tenant()))
+      throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
+    return post_channel_speak(state, req, *channel, *who);
   }
-  if (!token_ok(state, req, target))
-    throw RequestError(Code::kUnauthorized,
-                       "a token is required (?token= or Authorization: Bearer)");
-  if (!tail.empty() || !channel) throw Error("not found: " + target.path, ErrorCode::kNotFound);
+  const Principal who = state.auth.identify(req, target);
+  if (who.viewer) throw RequestError(Code::kForbidden, "a viewer token cannot call " + target.path);
+  if (!tail.empty() || !channel || !who.owns(channel->tenant()))
+    throw Error("not found: " + target.path, ErrorCode::kNotFound);
   if (req.method() != http::verb::get && req.method() != http::verb::head)
     throw RequestError(Code::kMethod, "/api/channels/{c} takes GET");
+  who.require(kScopeChannelsSubscribe, "GET /api/channels/{c}");
   return json_response(state, req, http::status::ok,
                        {{"channel", channel->name()},
                         {"subscribers", channel->total_subscribers()},

@@ -42,9 +42,11 @@ class ChannelMember {
 class Channel : public StreamSink, public std::enable_shared_from_this<Channel> {
  public:
   Channel(std::shared_ptr<State> state, net::any_io_executor strand, std::string name,
-          std::string producer_token);
+          std::string producer_token, std::string tenant = "default");
 
   const std::string& name() const noexcept { return name_; }
+  /// Whose channel (ServerOptions::Channel::tenant): other tenants' keys cannot use it.
+  const std::string& tenant() const noexcept { return tenant_; }
   bool producer_token_ok(std::string_view token) const noexcept;
   /// Subscribers on this instance now (any thread; for /metrics and the API).
   long subscribers() const noexcept { return count_.load(); }
@@ -85,7 +87,7 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
 
   std::shared_ptr<State> state_;
   net::any_io_executor strand_;
-  std::string name_, token_;
+  std::string name_, token_, tenant_;
   std::shared_ptr<SpeakQueue> queue_;
   std::vector<std::pair<std::uint64_t, std::weak_ptr<ChannelMember>>> members_;
   std::unordered_map<std::uint64_t, std::size_t> index_;  // member id -> position in members_

@@ -3,6 +3,7 @@
 #include <array>
 
 #include "clock.hpp"
+#include "guard.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 #include "websocket_session.hpp"
@@ -103,6 +104,11 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
   started_ = Clock::now();
   state_->metrics.http_requests_total.fetch_add(1);
   auto& req = parser_->get();
+  // Host, Origin and Content-Type (guard.hpp): refused before the body is read.
+  if (const auto problem = check_request_header(*state_, req)) {
+    fail(*problem, false);
+    return;
+  }
   if (websocket::is_upgrade(req)) {
     upgrade();
     return;
@@ -174,11 +180,26 @@ void HttpSession::upgrade() {
   };
   if (target.path != "/ws") return refuse(Code::kNotFound, "WebSocket endpoint is /ws");
   if (state_->stopping) return refuse(Code::kUnavailable, "the server is shutting down");
-  if (!token_ok(*state_, req, target))
-    return refuse(Code::kUnauthorized, "a token is required (?token= or Authorization: Bearer)");
   if (!origin_ok(*state_, req))
-    return refuse(Code::kForbidden,
-                  "origin '" + std::string(req[http::field::origin]) + "' is not allowed");
+    return refuse(
+        Code::kForbidden,
+        "origin '" + std::string(req[http::field::origin].substr(0, 200)) + "' is not allowed");
+  // Who connects (auth.hpp): a key or viewer token in the upgrade, or, offering the subprotocol
+  // "facecast.token" alone, in the first message.
+  std::optional<Principal> who;
+  try {
+    if (!state_->auth.enabled() || Auth::credential(req, target) ||
+        !Auth::offers_first_message(req)) {
+      who = state_->auth.identify(req, target);
+      if (!who->can(kScopeSpeak) && !who->can(kScopeChannelsSubscribe) &&
+          !who->can(kScopeChannelsProduce))
+        throw RequestError(Code::kForbidden,
+                           "/ws needs the scope speak, channels:subscribe or channels:produce");
+    }
+  } catch (...) {  // 401, 403, or a key store that cannot be read (500)
+    const Problem p = describe(std::current_exception());
+    return refuse(p.code, p.message, p.status);
+  }
   bool subprotocol = false;
   if (req.count(http::field::sec_websocket_protocol)) {
     subprotocol = header_lists(req[http::field::sec_websocket_protocol], kSubprotocol);
@@ -201,7 +222,7 @@ void HttpSession::upgrade() {
   state_->remove_session(id_);
   auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), state_, std::move(slot_),
                                                id_, remote_);
-  ws->run(parser_->release(), subprotocol);
+  ws->run(parser_->release(), subprotocol, std::move(who));
 }
 
 void HttpSession::handle() {
@@ -209,7 +230,7 @@ void HttpSession::handle() {
   const bool keep_alive = req.keep_alive() && !state_->stopping;
   log::debug("http_request", {{"conn", conn_},
                               {"method", std::string(req.method_string())},
-                              {"target", std::string(req.target())},
+                              {"target", loggable_target(req.target())},
                               log::Field::if_set("forwarded_for", req["X-Forwarded-For"])});
   if (is_heavy(req)) {
     net::post(state_->workers, [self = shared_from_this(), req = std::move(req), keep_alive,

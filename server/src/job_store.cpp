@@ -37,7 +37,7 @@ class Statement {
 
 constexpr const char* kColumns =
     "id, kind, state, stage, progress, result, error_code, error_message, error_status, files, "
-    "created, finished, seconds";
+    "created, finished, seconds, tenant";
 
 JobRecord read_row(const Statement& s) {
   JobRecord r;
@@ -66,6 +66,7 @@ JobRecord read_row(const Statement& s) {
   r.created = sqlite3_column_double(s.get(), 10);
   r.finished = sqlite3_column_double(s.get(), 11);
   r.seconds = sqlite3_column_double(s.get(), 12);
+  r.tenant = s.column_text(13);
   return r;
 }
 
@@ -98,7 +99,15 @@ JobStore::JobStore(const std::filesystem::path& file) : file_(file) {
         "CREATE TABLE IF NOT EXISTS jobs (id TEXT PRIMARY KEY, kind TEXT NOT NULL, state TEXT NOT "
         "NULL, stage TEXT NOT NULL, progress REAL NOT NULL, result TEXT NOT NULL, error_code TEXT "
         "NOT NULL, error_message TEXT NOT NULL, error_status INTEGER NOT NULL, files TEXT NOT "
-        "NULL, created REAL NOT NULL, finished REAL NOT NULL, seconds REAL NOT NULL)");
+        "NULL, created REAL NOT NULL, finished REAL NOT NULL, seconds REAL NOT NULL, tenant TEXT "
+        "NOT NULL DEFAULT 'default')");
+    // Stores made before tenants: their jobs are the default tenant's.
+    bool has_tenant = false;
+    {
+      Statement s(db_, "PRAGMA table_info(jobs)", file_);
+      while (sqlite3_step(s.get()) == SQLITE_ROW) has_tenant |= s.column_text(1) == "tenant";
+    }
+    if (!has_tenant) exec("ALTER TABLE jobs ADD COLUMN tenant TEXT NOT NULL DEFAULT 'default'");
   } catch (...) {
     sqlite3_close(db_);
     throw;
@@ -124,8 +133,8 @@ void JobStore::put(const JobRecord& r) {
   std::lock_guard lock(mutex_);
   Statement s(db_,
               "INSERT OR REPLACE INTO jobs (id, kind, state, stage, progress, result, error_code, "
-              "error_message, error_status, files, created, finished, seconds) VALUES "
-              "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+              "error_message, error_status, files, created, finished, seconds, tenant) VALUES "
+              "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14)",
               file_);
   s.text(1, r.id);
   s.text(2, r.kind);
@@ -141,6 +150,7 @@ void JobStore::put(const JobRecord& r) {
   s.real(11, r.created);
   s.real(12, r.finished);
   s.real(13, r.seconds);
+  s.text(14, r.tenant);
   if (sqlite3_step(s.get()) != SQLITE_DONE)
     throw Error(file_.string() + ": cannot store job " + r.id + ": " + sqlite3_errmsg(db_),
                 ErrorCode::kInternal);

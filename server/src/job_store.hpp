@@ -28,6 +28,7 @@ struct JobRecord {
   double created = 0;                                  // Unix seconds
   double finished = 0;                                 // Unix seconds, 0 while unfinished
   double seconds = 0;                                  // running time
+  std::string tenant = "default";                      // whose job (and files)
 
   bool ended() const { return state == "done" || state == "failed"; }
   /// The GET /api/jobs/{id} body.

@@ -110,8 +110,9 @@ void Jobs::save(const JobRecord& record) const {
   }
 }
 
-std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::json& payload) {
-  if (redis_) return redis_submit(kind, payload);
+std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::json& payload,
+                         const std::string& tenant) {
+  if (redis_) return redis_submit(kind, payload, tenant);
   if (store_) expire();
   std::lock_guard lock(mutex_);
   if (stopping_) throw RequestError(Code::kUnavailable, "the server is shutting down");
@@ -126,6 +127,7 @@ std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::jso
   auto job = std::make_shared<Job>();
   job->record.id = "j" + std::to_string(next_id_++);
   job->record.kind = kind;
+  job->record.tenant = tenant;
   job->record.created = unix_now();
   job->work = std::move(work);
   save(job->record);
@@ -157,6 +159,13 @@ std::optional<nlohmann::json> Jobs::get(const std::string& id) const {
   const auto r = record(id);
   if (!r) return std::nullopt;
   return r->to_json();
+}
+
+std::optional<std::pair<std::string, std::string>> Jobs::kind_and_tenant(
+    const std::string& id) const {
+  const auto r = record(id);
+  if (!r) return std::nullopt;
+  return std::make_pair(r->kind, r->tenant);
 }
 
 std::optional<std::filesystem::path> Jobs::file(const std::string& id,

@@ -63,7 +63,8 @@ class Jobs {
 
   /// Rebuilds a job's work from what submit() was given as `payload` (with Redis, on whichever
   /// instance takes the job); throws Error when the payload is not valid.
-  using Factory = std::function<Work(const std::string& kind, const nlohmann::json& payload)>;
+  using Factory = std::function<Work(const std::string& kind, const nlohmann::json& payload,
+                                     const std::string& tenant)>;
 
   /// Opens the store (throws Error naming it when it cannot) and starts the threads (with Redis:
   /// start() does).
@@ -74,13 +75,17 @@ class Jobs {
 
   /// Queues a job ("j1", "j2", ...); throws RequestError(kLimit, 429) when max_jobs are pending.
   /// With Redis the job is queued as `payload` (the factory makes its work where it runs).
-  std::string submit(const std::string& kind, Work work, const nlohmann::json& payload = {});
+  /// `tenant` owns the job and its files (GET/DELETE answer 404 to other tenants).
+  std::string submit(const std::string& kind, Work work, const nlohmann::json& payload = {},
+                     const std::string& tenant = "default");
   /// With Redis: starts the threads, which take jobs from the shared queue.
   void start(Factory factory);
   /// With Redis: moves a dead instance's in-flight jobs back to the queue.
   void requeue_instance(const std::string& instance);
   /// The GET /api/jobs/{id} body, or nullopt.
   std::optional<nlohmann::json> get(const std::string& id) const;
+  /// Kind and tenant of job `id`, or nullopt when there is none.
+  std::optional<std::pair<std::string, std::string>> kind_and_tenant(const std::string& id) const;
   std::optional<std::filesystem::path> file(const std::string& id, const std::string& name) const;
   /// DELETE /api/jobs/{id}: forgets the job and removes its files; a queued job never runs, a
   /// running one is cancelled at its next progress report. False when there is no such job.
@@ -104,7 +109,8 @@ class Jobs {
   // With Redis (defined in redis_jobs.cpp).
   void redis_worker();
   std::shared_ptr<Job> redis_take(RedisClient& client);
-  std::string redis_submit(const std::string& kind, const nlohmann::json& payload);
+  std::string redis_submit(const std::string& kind, const nlohmann::json& payload,
+                           const std::string& tenant);
   bool requeue_stopped(Job& job);
   void save(const JobRecord& record) const;  // to the store, if any; logs a failure
   std::optional<JobRecord> record(const std::string& id) const;

@@ -5,6 +5,7 @@
 
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/server/keys.hpp"
 #include "facecast/server/protocol.hpp"
 
 namespace facecast::server {
@@ -33,12 +34,31 @@ void read_rtmp(ConfigReader& channel, ServerOptions::Rtmp& r) {
 }  // namespace
 
 ServerOptions load_server_options(const std::filesystem::path& path) {
+  ServerOptions o = read_server_options(path);
+  validate(o);
+  return o;
+}
+
+ServerOptions read_server_options(const std::filesystem::path& path) {
   // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
   ServerOptions o;
   ConfigReader c = ConfigReader::open(path);
   c.read("host", o.host).read("port", o.port);
   c.read("data", o.data);
   c.read("token", o.token);
+  if (c.has("keys")) {
+    // false: "auto", true: "required", a string: the store's path ("auto" and "required" too).
+    nlohmann::json keys;
+    c.read("keys", keys);
+    if (keys.is_boolean())
+      o.keys = keys.get<bool>() ? "required" : "auto";
+    else if (keys.is_string() && !keys.get<std::string>().empty())
+      o.keys = keys.get<std::string>();
+    else
+      c.fail("keys", "expected true, false or the key store's path");
+  }
+  c.read("token_max_ttl", o.token_max_ttl);
+  c.read("allowed_hosts", o.allowed_hosts).read("cors_origins", o.cors_origins);
   c.read("web_root", o.web_root).read("three_root", o.three_root);
   c.read("three_vrm_root", o.three_vrm_root);
   c.read("default_rig", o.default_rig);
@@ -84,6 +104,7 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
     ConfigReader ch(v, path.string() + ": channels." + name);
     ServerOptions::Channel channel{name, {}};
     ch.require("producer_token", channel.producer_token);
+    ch.read("tenant", channel.tenant);
     if (ch.has("rtmp")) read_rtmp(ch, o.rtmp[name]);
     ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
@@ -94,7 +115,6 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
     r.read("url", o.redis.url).read("prefix", o.redis.prefix).read("heartbeat", o.redis.heartbeat);
   }
   c.reject_unknown();
-  validate(o);
   return o;
 }
 
@@ -169,6 +189,7 @@ void validate(const ServerOptions& o) {
     check_channel_name(nlohmann::json(ch.name), "channels: name");
     need(ch.producer_token.size() >= 8,
          "channels." + ch.name + ".producer_token: must be at least 8 characters");
+    check_tenant_name(ch.tenant, "channels." + ch.name + ".tenant");
   }
   for (const auto& [name, r] : o.rtmp) {
     const std::string at = "channels." + name + ".rtmp.";
@@ -184,10 +205,22 @@ void validate(const ServerOptions& o) {
     need(r.video_kbps >= 100 && r.audio_kbps >= 16, at + "video_kbps >= 100, audio_kbps >= 16");
     need(r.delay >= 0.1 && r.delay <= 10, at + "delay: must be in 0.1..10 seconds");
   }
-  if (!is_loopback_host(o.host) && o.token.empty()) {
-    throw Error("host " + o.host +
-                " is not a loopback address: set a token (--token, FACECAST_TOKEN or \"token\" in "
-                "the config) so that only your clients can connect");
+  need(o.token_max_ttl >= 10 && o.token_max_ttl <= 86400, "token_max_ttl: must be in 10..86400");
+  for (const auto& h : o.allowed_hosts)
+    need(!h.empty() && h.find_first_of("/ \t") == std::string::npos,
+         "allowed_hosts: '" + h + "' is not a host name");
+  for (const auto& origin : o.cors_origins)
+    need(origin.starts_with("http://") || origin.starts_with("https://"),
+         "cors_origins: '" + origin + "' is not an origin (https://name[:port])");
+  // Off loopback nobody may get in without a key: a key store (or the old single token).
+  std::error_code ec;
+  if (!is_loopback_host(o.host) && o.token.empty() && o.keys == "auto" &&
+      !std::filesystem::exists(key_store_path(o), ec)) {
+    throw Error("host " + o.host + " is not a loopback address and there is no key store (" +
+                key_store_path(o).string() +
+                "): create a key with `facecast keys create --tenant " +
+                "NAME --scopes admin --data " + o.data.string() +
+                "` (or set a token, the single admin key: --token or FACECAST_TOKEN)");
   }
 }
 

@@ -77,9 +77,10 @@ json points_json(const rigbuild::PhotoLandmarks& m) {
 
 }  // namespace
 
-Jobs::Work photo_work(State& state, const json& body) {
+Jobs::Work photo_work(State& state, const json& body, const std::string& tenant) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string name = "Photo avatar";
+  RigOwner owner{tenant, false};
   const json* front = nullptr;
   const json* side = nullptr;
   for (const auto& [k, v] : body.items()) {
@@ -91,6 +92,9 @@ Jobs::Work photo_work(State& state, const json& body) {
       front = &v;
     } else if (k == "side") {
       if (!v.is_null()) side = &v;
+    } else if (k == "public") {
+      if (!v.is_boolean()) throw Error("public: expected true or false");
+      owner.is_public = v.get<bool>();
     } else {
       throw Error("body: unknown field '" + k + "'");
     }
@@ -106,15 +110,15 @@ Jobs::Work photo_work(State& state, const json& body) {
                              {"front", std::to_string((*photos)[0].width) + "x" +
                                            std::to_string((*photos)[0].height)},
                              {"side", photos->size() > 1}});
-  return [&state, photos, opt, tmpl_path, template_id, name](JobContext& ctx) -> json {
+  return [&state, photos, opt, tmpl_path, template_id, name, owner](JobContext& ctx) -> json {
     const auto t0 = std::chrono::steady_clock::now();
     ctx.progress("template", 0.0);
     const auto tmpl = photo_template(tmpl_path);
     const rigbuild::PhotoAvatar avatar = rigbuild::avatar_from_photos(
         *tmpl, (*photos)[0], photos->size() > 1 ? &(*photos)[1] : nullptr, opt, ctx.progress_fn());
     ctx.progress("storing", 1.0);
-    const std::string id = state.rigs.add(name, template_id, avatar.rig,
-                                          anim::glb_bytes(avatar.rig), avatar.report, {}, {});
+    const std::string id = state.rigs.add(
+        name, template_id, avatar.rig, anim::glb_bytes(avatar.rig), avatar.report, {}, {}, owner);
     state.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id},
@@ -124,9 +128,9 @@ Jobs::Work photo_work(State& state, const json& body) {
   };
 }
 
-http::message_generator post_photo(State& state, const Request& req) {
+http::message_generator post_photo(State& state, const Request& req, const std::string& tenant) {
   const json body = parse_object(req, state.limits.max_json_depth);
-  const std::string job = state.jobs.submit("photo", photo_work(state, body), body);
+  const std::string job = state.jobs.submit("photo", photo_work(state, body, tenant), body, tenant);
   log::info("photo_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,
                        {{"job", job}, {"url", "/api/jobs/" + job}});

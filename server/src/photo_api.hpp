@@ -13,10 +13,10 @@
 
 namespace facecast::server {
 
-http::message_generator post_photo(State& state, const Request& req);
+http::message_generator post_photo(State& state, const Request& req, const std::string& tenant);
 http::message_generator post_photo_landmarks(State& state, const Request& req);
 
 /// The photo job's work from its payload (the POST body); throws Error naming the field.
-Jobs::Work photo_work(State& state, const nlohmann::json& body);
+Jobs::Work photo_work(State& state, const nlohmann::json& body, const std::string& tenant);
 
 }  // namespace facecast::server

@@ -19,6 +19,7 @@ json record_to_storage(const JobRecord& r) {
   j["files"] = files;
   j["finished"] = r.finished;
   if (r.error) j["error"]["status"] = r.error->status;
+  j["tenant"] = r.tenant;
   return j;
 }
 
@@ -45,6 +46,7 @@ JobRecord record_from_storage(const json& j) {
   r.created = j.value("created", 0.0);
   r.finished = j.value("finished", 0.0);
   r.seconds = j.value("seconds", 0.0);
+  r.tenant = j.value("tenant", "default");
   return r;
 }
 
@@ -155,7 +157,8 @@ double unix_seconds() {
 
 }  // namespace
 
-std::string Jobs::redis_submit(const std::string& kind, const json& payload) {
+std::string Jobs::redis_submit(const std::string& kind, const json& payload,
+                               const std::string& tenant) {
   expire();
   {
     std::lock_guard lock(mutex_);
@@ -171,6 +174,7 @@ std::string Jobs::redis_submit(const std::string& kind, const json& payload) {
   JobRecord r;
   r.id = redis_->new_id();
   r.kind = kind;
+  r.tenant = tenant;
   r.created = unix_seconds();
   redis_->submit(r, payload);
   log::info("job_queued", {{"job", r.id}, {"kind", kind}, {"queue", "redis"}});
@@ -226,7 +230,7 @@ std::shared_ptr<Jobs::Job> Jobs::redis_take(RedisClient& client) {
   try {
     const auto payload = redis_->payload(*id);
     if (!payload) throw Error("job " + *id + ": its payload is missing from Redis");
-    job->work = factory_(job->record.kind, *payload);
+    job->work = factory_(job->record.kind, *payload, job->record.tenant);
   } catch (...) {
     job->record.state = "failed";
     job->record.error = describe(std::current_exception());

@@ -29,6 +29,8 @@ RigInfo builtin_info() {
   i.shapes = anim::avatar_shape_names();
   i.vertices = anim::default_avatar().vertex_count();
   i.builtin = true;
+  i.tenant.clear();
+  i.is_public = true;
   return i;
 }
 
@@ -41,6 +43,8 @@ RigInfo shipped_info() {
   i.shapes = summary.shapes;
   i.vertices = summary.vertices;
   i.builtin = true;
+  i.tenant.clear();
+  i.is_public = true;
   return i;
 }
 
@@ -54,6 +58,8 @@ RigInfo info_from_meta(const nlohmann::json& j) {
   i.virtual_edges = j.value("virtual_edges", false);
   i.imported = j.value("imported", false);
   i.created = j.value("created", 0.0);
+  i.tenant = j.value("tenant", "default");  // rigs stored before tenants: the default one's
+  i.is_public = j.value("public", false);
   return i;
 }
 
@@ -80,8 +86,10 @@ std::string random_hex(int bytes) {
 nlohmann::json RigInfo::to_json() const {
   nlohmann::json j = {{"id", id},           {"name", name},
                       {"shapes", shapes},   {"vertices", vertices},
-                      {"builtin", builtin}, {"url", "/api/rigs/" + id + ".glb"}};
+                      {"builtin", builtin}, {"url", "/api/rigs/" + id + ".glb"},
+                      {"public", is_public}};
   if (!builtin) {
+    j["tenant"] = tenant;
     j["template"] = template_id;
     j["created"] = created;
     j["virtual_edges"] = virtual_edges;
@@ -321,8 +329,10 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
                              const anim::Rig& rig, const std::string& glb,
                              const nlohmann::json& report,
                              const std::vector<rigbuild::VirtualEdge>& edges,
-                             const rigbuild::VirtualEdgeStats& stats) {
+                             const rigbuild::VirtualEdgeStats& stats, const RigOwner& owner) {
   RigInfo info;
+  info.tenant = owner.tenant;
+  info.is_public = owner.is_public;
   info.id = new_id();
   info.name = name;
   info.template_id = template_id;
@@ -337,7 +347,9 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
          {"shapes", info.shapes},
          {"vertices", info.vertices},
          {"virtual_edges", info.virtual_edges},
-         {"created", info.created}},
+         {"created", info.created},
+         {"tenant", info.tenant},
+         {"public", info.is_public}},
         [&](const fs::path& dir) {
           if (!edges.empty())
             rigbuild::write_virtual_edges_json(dir / "virtual_edges.json", edges, stats);
@@ -346,7 +358,7 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
 }
 
 std::string RigRegistry::import(const std::string& name, const std::string& bytes,
-                                const std::string& what) {
+                                const std::string& what, const RigOwner& owner) {
   const anim::AvatarView view = anim::make_view(anim::AvatarDocument::parse(bytes, what));
   anim::Mapping::for_rig(view.rig.shape_names());  // throws when nothing maps: not a face rig
   RigInfo info;
@@ -356,6 +368,8 @@ std::string RigRegistry::import(const std::string& name, const std::string& byte
   info.vertices = view.rig.vertex_count();
   info.imported = true;
   info.created = now_seconds();
+  info.tenant = owner.tenant;
+  info.is_public = owner.is_public;
   store(info, {{"rig.glb", bytes}},
         {{"id", info.id},
          {"name", name},
@@ -363,7 +377,9 @@ std::string RigRegistry::import(const std::string& name, const std::string& byte
          {"shapes", info.shapes},
          {"vertices", info.vertices},
          {"imported", true},
-         {"created", info.created}});
+         {"created", info.created},
+         {"tenant", info.tenant},
+         {"public", info.is_public}});
   return info.id;
 }
 
@@ -376,6 +392,22 @@ bool RendererCache::in_use(const Entry& e) {
   } catch (...) {
     return false;  // failed to load: nothing holds it
   }
+}
+
+bool RigRegistry::set_public(const std::string& id, bool is_public) {
+  std::lock_guard lock(mutex_);
+  sync(id);
+  const auto it = infos_.find(id);
+  if (it == infos_.end()) return false;
+  if (it->second.builtin)
+    throw Error("rig '" + id + "' is built in (always public)", ErrorCode::kInvalidInput);
+  const fs::path meta_path = rigs_dir_ / id / "meta.json";
+  nlohmann::json meta = load_json(meta_path);
+  meta["public"] = is_public;
+  write_file_atomic(meta_path, meta.dump(2) + "\n");
+  it->second.is_public = is_public;
+  log::info("rig_public", {{"rig", id}, {"public", is_public}});
+  return true;
 }
 
 std::shared_ptr<render::Renderer> RendererCache::get(const LoadedRig& rig, int width, int height) {

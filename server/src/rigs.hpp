@@ -33,6 +33,8 @@ struct RigInfo {
   bool virtual_edges = false;
   bool imported = false;           // a user's avatar stored as it was uploaded
   double created = 0;              // Unix seconds
+  std::string tenant = "default";  // whose rig (meta.json "tenant"; built-in rigs: nobody's)
+  bool is_public = false;          // its GLB loads without a key (built-in rigs: always)
   nlohmann::json to_json() const;  // the GET /api/rigs entry
 };
 
@@ -40,6 +42,12 @@ struct LoadedRig {
   std::string id;
   std::shared_ptr<const anim::Rig> rig;
   anim::Mapping mapping;
+};
+
+/// Who a stored rig belongs to (meta.json "tenant", "public").
+struct RigOwner {
+  std::string tenant = "default";
+  bool is_public = false;
 };
 
 /// A random lowercase hex string of `bytes` bytes: ids that cannot collide between processes.
@@ -70,10 +78,14 @@ class RigRegistry {
   std::string add(const std::string& name, const std::string& template_id, const anim::Rig& rig,
                   const std::string& glb, const nlohmann::json& report,
                   const std::vector<rigbuild::VirtualEdge>& edges,
-                  const rigbuild::VirtualEdgeStats& stats);
+                  const rigbuild::VirtualEdgeStats& stats, const RigOwner& owner = {});
   /// Stores a user's avatar (GLB or VRM bytes) as it is, byte for byte, after checking that it
   /// parses and that the animation can drive it; throws Error naming `what` otherwise.
-  std::string import(const std::string& name, const std::string& bytes, const std::string& what);
+  std::string import(const std::string& name, const std::string& bytes, const std::string& what,
+                     const RigOwner& owner = {});
+  /// Marks a stored rig public or not (meta.json rewritten); false when there is no such rig;
+  /// throws Error (forbidden) for a built-in rig.
+  bool set_public(const std::string& id, bool is_public);
   /// Forgets a stored rig and removes its folder (renamed away first, so a crash never leaves
   /// half a rig); streams that hold it keep it until they end. False when there is no such rig;
   /// throws Error (forbidden) for the built-in rig. Defined in operations_api.cpp.

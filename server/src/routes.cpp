@@ -3,9 +3,12 @@
 #include <ctime>
 #include <regex>
 
+#include "access.hpp"
 #include "api.hpp"
+#include "audio_uploads.hpp"
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
+#include "guard.hpp"
 #include "log.hpp"
 #include "operations_api.hpp"
 #include "photo_api.hpp"
@@ -97,6 +100,7 @@ http::message_generator json_response(State& state, const Request& req, http::st
   res.set(http::field::content_type, "application/json");
   res.set(http::field::cache_control, "no-store");
   res.keep_alive(req.keep_alive());
+  add_cors(state.options, req, res);
   if (req.method() != http::verb::head)
     res.body() = body.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
   return finish(state, std::move(res));
@@ -138,6 +142,7 @@ http::message_generator send_path(State& state, const Request& req, const fs::pa
     res.set(http::field::cache_control, cache);
     res.set("X-Content-Type-Options", "nosniff");
     res.keep_alive(req.keep_alive());
+    add_cors(state.options, req, res);
   };
   if (not_modified) {
     http::response<http::empty_body> res{http::status::not_modified, req.version()};
@@ -185,85 +190,145 @@ const std::regex kJob("/api/jobs/(j[0-9]{1,9})");
 const std::regex kRig("/api/rigs/([A-Za-z0-9_.-]{1,64})");
 const std::regex kJobFile("/api/jobs/(j[0-9]{1,9})/(video\\.mp4)");
 
+// The built-in avatar's GLB, made in memory.
+http::message_generator send_builtin_glb(State& state, const Request& req) {
+  const auto bytes = state.rigs.builtin_glb();
+  const std::string etag = "\"default-" FACECAST_VERSION "-" + std::to_string(bytes->size()) + "\"";
+  if (req[http::field::if_none_match] == etag) {
+    http::response<http::empty_body> res{http::status::not_modified, req.version()};
+    res.set(http::field::etag, etag);
+    res.keep_alive(req.keep_alive());
+    add_cors(state.options, req, res);
+    count_status(state, 304);
+    return http::message_generator(std::move(res));
+  }
+  http::response<http::string_body> res{http::status::ok, req.version()};
+  res.set(http::field::content_type, "model/gltf-binary");
+  res.set(http::field::etag, etag);
+  res.set(http::field::cache_control, "no-cache");
+  res.keep_alive(req.keep_alive());
+  add_cors(state.options, req, res);
+  if (req.method() == http::verb::head) {
+    res.content_length(bytes->size());
+    count_status(state, 200);
+    return http::message_generator(std::move(res));
+  }
+  res.body() = *bytes;
+  return finish(state, std::move(res));
+}
+
+// A rig's GLB or virtual edges: without a key when the rig is public (built-in rigs are), so that
+// viewers' browsers can load it; else rigs:read and a rig the caller may use.
+RigInfo readable_rig(State& state, const Request& req, const Target& t, const std::string& id) {
+  const auto info = state.rigs.find(id);
+  if (info && info->is_public) return *info;
+  const Principal who = state.auth.identify(req, t);
+  who.require(kScopeRigsRead, "GET " + t.path);
+  if (!info || !rig_usable(who, *info))
+    throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+  return *info;
+}
+
+// A stored rig the caller may change (its tenant's; admins: any); 404 otherwise.
+void check_rig_owned(State& state, const Principal& who, const std::string& id) {
+  const auto info = state.rigs.find(id);
+  if (!info || (!info->builtin && !who.owns(info->tenant)))
+    throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+}
+
+// A job the caller may see: its tenant's (admins: any; else 404), with the scope of its kind
+// (render jobs: render; rig builds, landmarks, photos: rigs:write).
+void check_job(State& state, const Principal& who, const std::string& id) {
+  const auto kt = state.jobs.kind_and_tenant(id);
+  if (!kt || !who.owns(kt->second))
+    throw Error("job '" + id + "' does not exist", ErrorCode::kNotFound);
+  who.require(kt->first == "render" ? kScopeRender : kScopeRigsWrite, kt->first + " jobs");
+}
+
+// Every /api path but /api/channels (channel.cpp): the caller is identified first (401), then
+// each route asks for its scope (403) and sees only its tenant's things (404).
 http::message_generator api(State& state, Request& req, const Target& t) {
   std::smatch m;
   const std::string& path = t.path;
+  if (std::regex_match(path, m, kRigGlb)) {
+    require_method(req, {http::verb::get, http::verb::head});
+    const RigInfo info = readable_rig(state, req, t, m[1]);
+    if (!info.builtin || !state.rigs.glb_path(info.id).empty())
+      return send_path(state, req, state.rigs.glb_path(info.id), "model/gltf-binary", "no-cache");
+    return send_builtin_glb(state, req);
+  }
+  if (std::regex_match(path, m, kRigEdges)) {
+    require_method(req, {http::verb::get, http::verb::head});
+    const RigInfo info = readable_rig(state, req, t, m[1]);
+    if (!info.virtual_edges)
+      throw Error("rig '" + info.id + "' has no virtual edges", ErrorCode::kNotFound);
+    return send_path(state, req, state.rigs.virtual_edges_path(info.id), "application/json",
+                     "no-cache");
+  }
+  const Principal who = state.auth.identify(req, t);
+  if (who.viewer)
+    throw RequestError(Code::kForbidden,
+                       "a viewer token cannot call " + path + " (it subscribes or speaks on /ws)");
   if (path == "/api/rigs") {
-    if (req.method() == http::verb::post) return post_rig(state, req, t);
+    if (req.method() == http::verb::post) {
+      who.require(kScopeRigsWrite, "POST /api/rigs");
+      return post_rig(state, req, t, who);
+    }
     require_method(req, {http::verb::get, http::verb::head, http::verb::post});
+    who.require(kScopeRigsRead, "GET /api/rigs");
     json rigs = json::array();
-    for (const auto& r : state.rigs.list()) rigs.push_back(r.to_json());
+    for (const auto& r : state.rigs.list())
+      if (rig_listed(who, r)) rigs.push_back(r.to_json());
     return json_response(state, req, http::status::ok,
                          {{"rigs", rigs}, {"default", state.options.default_rig}});
   }
+  if (path == "/api/tokens") {
+    require_method(req, {http::verb::post});
+    return post_token(state, req, who);
+  }
   if (path == "/api/photo") {
     require_method(req, {http::verb::post});
-    return post_photo(state, req);
+    who.require(kScopeRigsWrite, "POST /api/photo");
+    return post_photo(state, req, who.tenant);
   }
   if (path == "/api/photo/landmarks") {
     require_method(req, {http::verb::post});
+    who.require(kScopeRigsWrite, "POST /api/photo/landmarks");
     return post_photo_landmarks(state, req);
   }
   if (path == "/api/landmarks") {
     require_method(req, {http::verb::post});
-    return post_landmarks(state, req);
+    who.require(kScopeRigsWrite, "POST /api/landmarks");
+    return post_landmarks(state, req, who);
   }
   if (path == "/api/render") {
     require_method(req, {http::verb::post});
-    return post_render(state, req);
+    who.require(kScopeRender, "POST /api/render");
+    return post_render(state, req, who);
   }
   if (path == "/api/audio") {
     require_method(req, {http::verb::post});
-    return post_audio(state, req);
-  }
-  if (std::regex_match(path, m, kRigGlb)) {
-    require_method(req, {http::verb::get, http::verb::head});
-    const std::string id = m[1];
-    if (!state.existing_rig(id).builtin || !state.rigs.glb_path(id).empty())
-      return send_path(state, req, state.rigs.glb_path(id), "model/gltf-binary", "no-cache");
-    const auto bytes = state.rigs.builtin_glb();
-    const std::string etag =
-        "\"default-" FACECAST_VERSION "-" + std::to_string(bytes->size()) + "\"";
-    if (req[http::field::if_none_match] == etag) {
-      http::response<http::empty_body> res{http::status::not_modified, req.version()};
-      res.set(http::field::etag, etag);
-      res.keep_alive(req.keep_alive());
-      count_status(state, 304);
-      return http::message_generator(std::move(res));
-    }
-    http::response<http::string_body> res{http::status::ok, req.version()};
-    res.set(http::field::content_type, "model/gltf-binary");
-    res.set(http::field::etag, etag);
-    res.set(http::field::cache_control, "no-cache");
-    res.keep_alive(req.keep_alive());
-    if (req.method() == http::verb::head) {
-      res.content_length(bytes->size());
-      count_status(state, 200);
-      return http::message_generator(std::move(res));
-    }
-    res.body() = *bytes;
-    return finish(state, std::move(res));
-  }
-  if (std::regex_match(path, m, kRigEdges)) {
-    require_method(req, {http::verb::get, http::verb::head});
-    const std::string id = m[1];
-    if (!state.existing_rig(id).virtual_edges)
-      throw Error("rig '" + id + "' has no virtual edges", ErrorCode::kNotFound);
-    return send_path(state, req, state.rigs.virtual_edges_path(id), "application/json", "no-cache");
+    who.require(kScopeSpeak, "POST /api/audio");
+    return post_audio(state, req, who.tenant);
   }
   if (std::regex_match(path, m, kJob)) {
-    if (req.method() == http::verb::delete_) return delete_job(state, req, m[1]);
     require_method(req, {http::verb::get, http::verb::head, http::verb::delete_});
+    check_job(state, who, m[1]);
+    if (req.method() == http::verb::delete_) return delete_job(state, req, m[1]);
     const auto job = state.jobs.get(m[1]);
     if (!job) throw Error("job '" + std::string(m[1]) + "' does not exist", ErrorCode::kNotFound);
     return json_response(state, req, http::status::ok, *job);
   }
   if (std::regex_match(path, m, kRig) && !path.ends_with(".glb")) {
-    require_method(req, {http::verb::delete_});
+    require_method(req, {http::verb::delete_, http::verb::patch});
+    who.require(kScopeRigsWrite, std::string(req.method_string()) + " /api/rigs/{id}");
+    check_rig_owned(state, who, m[1]);
+    if (req.method() == http::verb::patch) return patch_rig(state, req, m[1]);
     return delete_rig(state, req, m[1]);
   }
   if (std::regex_match(path, m, kJobFile)) {
     require_method(req, {http::verb::get, http::verb::head});
+    check_job(state, who, m[1]);
     const auto file = state.jobs.file(m[1], m[2]);
     if (!file)
       throw Error("job '" + std::string(m[1]) + "' has no " + std::string(m[2]) + " (yet)",
@@ -301,35 +366,19 @@ std::optional<std::string> query_value(std::string_view query, std::string_view 
   return std::nullopt;
 }
 
-std::optional<std::string> request_token(const Request& req, const Target& target) {
-  const auto auth = req[http::field::authorization];
-  if (auth.size() > 7 && beast::iequals(auth.substr(0, 7), "Bearer "))
-    return std::string(auth.substr(7));
-  return query_value(target.query, "token");
-}
-
-bool token_ok(const State& state, const Request& req, const Target& target) {
-  const std::string& token = state.options.token;
-  if (token.empty()) return true;
-  const auto given = request_token(req, target);
-  return given && constant_time_equal(*given, token);
-}
-
-bool origin_ok(const State& state, const Request& req) {
-  if (!req.count(http::field::origin)) return true;  // not a browser
-  const std::string_view origin = req[http::field::origin];
-  for (const auto& allowed : state.options.allowed_origins) {
-    if (allowed == "*" || beast::iequals(allowed, origin)) return true;
+std::string loggable_target(std::string_view target) {
+  std::string out(target);
+  const auto q = out.find('?');
+  if (q == std::string::npos) return out;
+  // ?token=... (and &token=...) values are credentials: never in a log line.
+  for (auto at = out.find("token=", q); at != std::string::npos; at = out.find("token=", at)) {
+    const bool starts = out[at - 1] == '?' || out[at - 1] == '&';
+    at += 6;
+    if (!starts) continue;
+    const auto end = out.find('&', at);
+    out.replace(at, (end == std::string::npos ? out.size() : end) - at, "REDACTED");
   }
-  const std::string_view host = req[http::field::host];
-  if (host.empty()) return false;
-  for (const std::string_view scheme : {"http://", "https://"}) {
-    if (origin.size() == scheme.size() + host.size() &&
-        beast::iequals(origin.substr(0, scheme.size()), scheme) &&
-        beast::iequals(origin.substr(scheme.size()), host))
-      return true;
-  }
-  return false;
+  return out;
 }
 
 std::size_t body_limit(const State& state, const Request& req) {
@@ -350,12 +399,13 @@ bool is_heavy(const Request& req) {
 }
 
 http::message_generator error_response(State& state, unsigned version, bool keep_alive,
-                                       const Problem& problem) {
+                                       const Problem& problem, const Request* req) {
   http::response<http::string_body> res{static_cast<http::status>(problem.status), version};
   res.set(http::field::content_type, "application/json");
   res.set(http::field::cache_control, "no-store");
   if (problem.status == 401) res.set(http::field::www_authenticate, "Bearer");
   res.keep_alive(keep_alive);
+  if (req) add_cors(state.options, *req, res);
   res.body() = error_body(problem) + "\n";
   return finish(state, std::move(res));
 }
@@ -365,6 +415,7 @@ http::message_generator handle_request(State& state, Request&& req) {
     const Target t = parse_target(req.target());
     if (!t.valid) throw Error("bad request target");
     const std::string& path = t.path;
+    if (req.method() == http::verb::options) return preflight(state, req);  // CORS (guard.hpp)
     if (path == "/healthz") {
       require_method(req, {http::verb::get, http::verb::head});
       return json_response(state, req, http::status::ok,
@@ -382,6 +433,8 @@ http::message_generator handle_request(State& state, Request&& req) {
     }
     if (path == "/metrics") {
       require_method(req, {http::verb::get, http::verb::head});
+      // With keys: a key with the metrics (or admin) scope, e.g. Prometheus' bearer credentials.
+      state.auth.identify(req, t).require(kScopeMetrics, "GET /metrics");
       http::response<http::string_body> res{http::status::ok, req.version()};
       res.set(http::field::content_type, "text/plain; version=0.0.4; charset=utf-8");
       res.set(http::field::cache_control, "no-store");
@@ -397,12 +450,7 @@ http::message_generator handle_request(State& state, Request&& req) {
                          "/ws is a WebSocket endpoint (subprotocol facecast.v1)", 426);
     }
     if (path.starts_with("/api/channels/")) return channel_api(state, req, t);
-    if (path == "/api" || path.starts_with("/api/")) {
-      if (!token_ok(state, req, t))
-        throw RequestError(Code::kUnauthorized,
-                           "a token is required (?token= or Authorization: Bearer)");
-      return api(state, req, t);
-    }
+    if (path == "/api" || path.starts_with("/api/")) return api(state, req, t);
     require_method(req, {http::verb::get, http::verb::head});
     if (path.starts_with("/vendor/three/"))
       return serve_file(state, req, state.three_root,
@@ -414,8 +462,8 @@ http::message_generator handle_request(State& state, Request&& req) {
   } catch (...) {
     const Problem p = describe(std::current_exception());
     if (p.status >= 500)
-      log::error("http_error", {{"target", std::string(req.target())}, {"error", p.message}});
-    auto res = error_response(state, req.version(), req.keep_alive(), p);
+      log::error("http_error", {{"target", loggable_target(req.target())}, {"error", p.message}});
+    auto res = error_response(state, req.version(), req.keep_alive(), p, &req);
     return res;
   }
 }

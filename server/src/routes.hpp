@@ -19,14 +19,10 @@ std::optional<std::string> query_value(std::string_view query, std::string_view 
 
 /// Compares secrets in time independent of where they differ.
 bool constant_time_equal(std::string_view a, std::string_view b);
-/// The token a request carries (Authorization: Bearer T, else ?token=T), or nullopt.
-std::optional<std::string> request_token(const Request& req, const Target& target);
-/// True when the request carries the configured token (or no token is configured).
-bool token_ok(const State& state, const Request& req, const Target& target);
 /// /api/channels/{c} and /api/channels/{c}/speak (channel.cpp).
 http::message_generator channel_api(State& state, const Request& req, const Target& target);
-/// True when a browser Origin may open a WebSocket (see ServerOptions::allowed_origins).
-bool origin_ok(const State& state, const Request& req);
+/// A request target for the logs: ?token= values replaced by REDACTED.
+std::string loggable_target(std::string_view target);
 /// Body limit of a request (max_upload for POST /api/rigs and /api/render, else max_body).
 std::size_t body_limit(const State& state, const Request& req);
 /// Requests whose handling may take long or block (bodies to parse, big files, SQLite, Redis,
@@ -37,8 +33,9 @@ bool is_heavy(const Request& req);
 http::message_generator handle_request(State& state, Request&& req);
 http::message_generator json_response(State& state, const Request& req, http::status status,
                                       const nlohmann::json& body);
+/// `req` (optional): the request answered, for its CORS headers.
 http::message_generator error_response(State& state, unsigned version, bool keep_alive,
-                                       const Problem& problem);
+                                       const Problem& problem, const Request* req = nullptr);
 
 /// Static files under `root` (rel is the decoded path below it, "" or ending in '/' means
 /// index.html). Refuses traversal ("..", hidden segments, symlinks out of root).

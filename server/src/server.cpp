@@ -80,9 +80,10 @@ Server::Impl::Impl(ServerOptions options)
     State* s = state.get();  // the bus and the jobs stop before the State goes
     state->redis->start(state->channels,
                         [s](const std::string& dead) { s->jobs.requeue_instance(dead); });
-    state->jobs.start([s](const std::string& kind, const nlohmann::json& payload) {
-      return job_work(*s, kind, payload);
-    });
+    state->jobs.start(
+        [s](const std::string& kind, const nlohmann::json& payload, const std::string& tenant) {
+          return job_work(*s, kind, payload, tenant);
+        });
   }
   const auto& o = state->options;
   beast::error_code ec;
@@ -251,7 +252,8 @@ void Server::start() {
                           {"workers", o.workers},
                           {"data", o.data.string()},
                           {"web", impl_->state->web_root.string()},
-                          {"token", !o.token.empty()}});
+                          {"token", !o.token.empty()},
+                          {"keys", impl_->state->auth.keys() != nullptr}});
   net::dispatch(impl_->acceptor.get_executor(), [this] { impl_->do_accept(); });
   // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
   // loaded once here rather than during the first client's speak.

@@ -15,6 +15,7 @@ std::filesystem::path project_path(const std::filesystem::path& p) {
 
 State::State(ServerOptions opts)
     : options(std::move(opts)),
+      auth(options),
       web_root(project_path(options.web_root)),
       three_root(project_path(options.three_root)),
       three_vrm_root(project_path(options.three_vrm_root)),

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "audio_uploads.hpp"
+#include "auth.hpp"
 #include "facecast/anim/animation.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/render/video.hpp"
@@ -39,6 +40,7 @@ struct State {
   explicit State(ServerOptions opts);
 
   ServerOptions options;
+  Auth auth;  // keys, the old token and viewer tokens: who is calling (auth.hpp)
   std::filesystem::path web_root, three_root, three_vrm_root;  // resolved
   Metrics metrics;
   RigRegistry rigs;

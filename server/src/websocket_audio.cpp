@@ -4,6 +4,7 @@
 // and the connection stay open.
 #include <cstdio>
 
+#include "access.hpp"
 #include "live_audio.hpp"
 #include "log.hpp"
 #include "websocket_session.hpp"
@@ -21,7 +22,12 @@ const viseme::LipsyncOptions& lipsync_options() {
 }  // namespace
 
 void WebSocketSession::handle_binary(std::string_view bytes) {
+  if (!who_) {
+    close_with(websocket::close_code::policy_error, "authenticate first");
+    return;
+  }
   try {
+    authorize_live_audio(*state_, *who_);
     AudioChunk c = read_audio_chunk(bytes);
     if (c.first == 0 && audio_) end_audio();
     if (!audio_) {

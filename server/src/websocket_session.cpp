@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "access.hpp"
+#include "facecast/core/json_limits.hpp"
 #include "live_audio.hpp"
 #include "log.hpp"
 
@@ -30,7 +32,8 @@ WebSocketSession::~WebSocketSession() {
   state_->remove_session(id_);
 }
 
-void WebSocketSession::run(Request request, bool subprotocol) {
+void WebSocketSession::run(Request request, bool subprotocol, std::optional<Principal> who) {
+  who_ = std::move(who);
   const auto& o = state_->options;
   beast::get_lowest_layer(ws_).expires_never();  // the websocket has its own timeouts
   websocket::stream_base::timeout t{};
@@ -78,13 +81,59 @@ void WebSocketSession::on_accept(beast::error_code ec) {
     close_with(websocket::close_code::going_away, "server shutting down");
     return;
   }
-  log::info(
-      "ws_open",
-      {{"conn", conn_}, {"remote", remote_}, log::Field::if_set("forwarded_for", forwarded_for_)});
-  std::vector<std::string> rigs;
-  for (const auto& r : state_->rigs.list()) rigs.push_back(r.id);
-  send(OutMessage::control(hello_message("facecast " FACECAST_VERSION, rigs, state_->options)));
+  log::info("ws_open", {{"conn", conn_},
+                        {"remote", remote_},
+                        log::Field::if_set("forwarded_for", forwarded_for_),
+                        {"tenant", who_ ? who_->tenant : std::string("?")},
+                        log::Field::if_set("key", who_ ? who_->key_id : std::string())});
+  if (who_) {
+    send_hello();
+  } else {
+    // Authentication in the first message: until then nothing else is read, nothing is sent.
+    close_timer_.expires_after(from_seconds(state_->options.ws_handshake_timeout));
+    close_timer_.async_wait([self = shared_from_this()](beast::error_code e) {
+      if (!e && !self->who_)
+        self->close_with(websocket::close_code::policy_error, "authenticate first");
+    });
+  }
   do_read();
+}
+
+void WebSocketSession::send_hello() {
+  // The rig ids this caller may use: built-in and its tenant's (a viewer token: its own rig).
+  std::vector<std::string> rigs;
+  for (const auto& r : state_->rigs.list()) {
+    const bool shown = !who_->viewer       ? rig_listed(*who_, r)
+                       : who_->rig.empty() ? r.builtin
+                                           : r.id == who_->rig;
+    if (shown) rigs.push_back(r.id);
+  }
+  send(OutMessage::control(hello_message("facecast " FACECAST_VERSION, rigs, state_->options)));
+}
+
+void WebSocketSession::authenticate(std::string_view text) {
+  try {
+    check_json_depth(text, 4, "auth");
+    const auto j = nlohmann::json::parse(text, nullptr, false);
+    if (!j.is_object() || j.value("type", "") != "auth" || !j.contains("token") ||
+        !j["token"].is_string())
+      throw RequestError(Code::kUnauthorized,
+                         "the first message must be {\"type\": \"auth\", \"token\": ...}");
+    Principal who = state_->auth.identify(j["token"].get<std::string>());
+    if (!who.can(kScopeSpeak) && !who.can(kScopeChannelsSubscribe) &&
+        !who.can(kScopeChannelsProduce))
+      throw RequestError(Code::kForbidden,
+                         "/ws needs the scope speak, channels:subscribe or channels:produce");
+    who_ = std::move(who);
+    close_timer_.cancel();
+    log::info("ws_authenticated",
+              {{"conn", conn_}, {"tenant", who_->tenant}, log::Field::if_set("key", who_->key_id)});
+    send_hello();
+  } catch (...) {
+    const Problem p = describe(std::current_exception());
+    send_error(std::nullopt, p);
+    close_with(websocket::close_code::policy_error, p.status == 403 ? "forbidden" : "unauthorized");
+  }
 }
 
 void WebSocketSession::do_read() {
@@ -147,9 +196,11 @@ bool WebSocketSession::take_message_token() {
 
 // Dispatches one client message; every failure becomes an `error` message.
 void WebSocketSession::handle_text(std::string_view text) {
+  if (!who_) return authenticate(text);
   std::string id;
   try {
     ClientMessage m = parse_client_message(text, state_->limits, &id);
+    authorize_message(*state_, *who_, m);  // scope, tenant, a viewer token's channel or rig
     if (route_live(m)) return;
     if (auto* speak = std::get_if<SpeakRequest>(&m)) {
       speaks_->speak(std::move(*speak));

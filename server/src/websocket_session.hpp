@@ -35,8 +35,9 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
                    std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, std::string remote);
   ~WebSocketSession();
 
-  /// Completes the upgrade of `request` (already checked: path, token, Origin, subprotocol).
-  void run(Request request, bool subprotocol);
+  /// Completes the upgrade of `request` (already checked: path, Host, Origin, subprotocol) for
+  /// `who`; nullopt: the first message must be {"type": "auth", "token": ...} (auth.hpp).
+  void run(Request request, bool subprotocol, std::optional<Principal> who);
   /// Thread-safe: closes with 1001 (going away).
   void shut_down() override;
 
@@ -54,6 +55,9 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void leave_channel();
 
   void on_accept(beast::error_code ec);
+  void send_hello();
+  // The first message of a connection that authenticates in it.
+  void authenticate(std::string_view text);
   void do_read();
   void on_read(beast::error_code ec, std::size_t bytes);
   bool take_message_token();
@@ -92,6 +96,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   std::shared_ptr<Channel> subscribed_;  // the channel this connection watches
   std::vector<std::string> producing_;   // channels whose producer token it gave
   std::unique_ptr<LiveAudio> audio_;     // the open live audio stream, if any
+  std::optional<Principal> who_;         // who connected (nullopt until the auth message)
 
   net::steady_timer watchdog_;
   std::optional<Clock::time_point> stalled_since_;

@@ -8,7 +8,7 @@ using Catch::Matchers::Contains;
 
 TEST_CASE("JSON depth is counted on the raw bytes, strings skipped", "[json_limits]") {
   CHECK(facecast::json_depth("1", 10) == 0);
-  CHECK(facecast::json_depth(R"({"a": [1, {"b": []}]})", 10) == 3);
+  CHECK(facecast::json_depth(R"({"a": [1, {"b": []}]})", 10) == 4);
   // Brackets inside strings (escaped quotes included) do not count.
   CHECK(facecast::json_depth(R"({"a": "[[[{{{\"[[["})", 10) == 1);
   // Unbalanced closers do not go below zero.

@@ -119,7 +119,7 @@ TEST_CASE("path traversal attempts never leave the web folder", "[http][static]"
     CHECK(r.body.find("HIDDEN-CONTENT") == std::string::npos);
   }
   const std::string raw = raw_request(
-      s.port(), "GET /../../secret.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+      s.port(), "GET /../../secret.txt HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
   CHECK_THAT(raw, Catch::StartsWith("HTTP/1.1 4"));
   CHECK(raw.find("TOP-SECRET") == std::string::npos);
   const std::string garbage = raw_request(s.port(), "NOT HTTP AT ALL\r\n\r\n");
@@ -201,9 +201,9 @@ TEST_CASE("request bodies over the limit are refused", "[http][limits]") {
   char size[16];
   std::snprintf(size, sizeof size, "%zx", chunk.size());
   const std::string raw = raw_request(
-      s.port(), "POST /api/render HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n" +
-                    std::string(size) + "\r\n" + chunk + "\r\n" + size + "\r\n" + chunk +
-                    "\r\n0\r\n\r\n");
+      s.port(),
+      "POST /api/render HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: chunked\r\n\r\n" +
+          std::string(size) + "\r\n" + chunk + "\r\n" + size + "\r\n" + chunk + "\r\n0\r\n\r\n");
   CHECK_THAT(raw, Catch::StartsWith("HTTP/1.1 413"));
   // Other requests have the small limit.
   CHECK(http_request(s.port(), http::verb::get, "/healthz", std::string(2000, 'z')).status == 413);

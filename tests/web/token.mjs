@@ -1,7 +1,13 @@
 // A server started with --token: the page without the token says that a token is needed; with
 // ?token= in the address the socket, the rig download and the API work, and the links keep it.
+// A server with API keys (facecast keys create): the page asks for the key on 401, keeps it for the
+// tab (sessionStorage) and sends it as Bearer and in the WebSocket subprotocol list.
 
-import { run, startServer, launchBrowser, newPage, screenshot, check, waitFor } from './lib.mjs';
+import { execFileSync } from 'node:child_process';
+import { mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { run, startServer, launchBrowser, newPage, screenshot, check, waitFor, binary } from './lib.mjs';
 
 await run('token', async () => {
   const token = 'web-test-token';
@@ -37,4 +43,32 @@ await run('token', async () => {
   await waitFor(page, () => window.__rig?.templateReady, null, { timeout: 90000, what: 'the rig builder with the token' });
   check('the rig builder loads the template with the token', true);
   check('no console errors with the token', page.problems.length === 0, page.problems.join(' | '));
+
+  // ---- API keys: the page asks for one.
+  const data = mkdtempSync(join(tmpdir(), 'facecast-web-keys-'));
+  const key = execFileSync(binary, ['keys', 'create', '--tenant', 'web', '--scopes', 'speak,rigs:read', '--data', data], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'ignore'] }).trim();
+  const keyed = await startServer({ data });
+  const asking = await newPage(browser);
+  asking.allow(/WebSocket connection to .* failed|401|Failed to load resource/);
+  let prompts = 0;
+  asking.on('dialog', (d) => {
+    prompts += 1;
+    d.accept(key);
+  });
+  await asking.goto(`${keyed.url}/`);
+  await waitFor(asking, () => window.__facecast?.ready && window.__facecast.connection === 'open', null, { timeout: 90000, what: 'the page to connect with the key it asked for' });
+  check('the page asked for the key once', prompts === 1, `${prompts} prompts`);
+  check('the key is kept for the tab only', (await asking.evaluate(() => sessionStorage.getItem('facecast.key'))) === key);
+  check('the address carries no key', !asking.url().includes(key));
+  await asking.fill('#text', 'hello!');
+  await asking.click('#speak');
+  const spoken = await asking
+    .waitForFunction(() => window.__facecast.mouth() > 0.1 && window.__facecast.mouth(), null, { timeout: 30000, polling: 40 })
+    .then((h) => h.jsonValue())
+    .catch(() => 0);
+  check('it speaks with the key', spoken > 0.1, `mouth ${Number(spoken).toFixed(3)}`);
+  await screenshot(asking, 'token-02-key');
+  await keyed.stop();
+  rmSync(data, { recursive: true, force: true });
 });
+

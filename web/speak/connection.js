@@ -63,7 +63,9 @@ async function probeAuth() {
       key: 'connection',
       level: 'error',
       code: 'unauthorized',
-      message: has ? 'The server rejected the token in the address (?token=…).' : 'This server needs a token: open the page as /?token=YOUR_TOKEN.',
+      message: has
+        ? 'The server rejected the token in the address (?token=…).'
+        : 'This server needs an API key or token: reload the page and enter it, or open the page as /?token=YOUR_KEY.',
       sticky: true,
     });
   }

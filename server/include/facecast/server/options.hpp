@@ -10,13 +10,21 @@
 namespace facecast::server {
 
 struct ServerOptions {
-  // Where to listen. Any host other than a loopback address requires `token`.
+  // Where to listen. Any host other than a loopback address requires a key store (or `token`).
   std::string host = "127.0.0.1";
   int port = 8080;  // 0 picks a free port
   // Rigs and rendered videos live here (relative: to the working folder).
   std::filesystem::path data = "data";
-  // Required (header "Authorization: Bearer T" or query "?token=T") on /api/* and /ws when set.
+  // The single admin key of older versions (tenant "default", every scope): when set, /api/* and
+  // /ws need it or a key from the key store ("Authorization: Bearer T", or "?token=T").
   std::string token;
+  // API keys (docs/security.md; `facecast keys create`): "auto" loads
+  // <data>/keys.sqlite3 when it exists; "required" (true in the config) refuses to start without
+  // it; any other string is the store's path (required). With a store, every /api/* path and /ws
+  // needs a key or a viewer token; without one (and without `token`) the server is open, which
+  // only a loopback `host` allows.
+  std::string keys = "auto";
+  double token_max_ttl = 3600;  // longest life of a viewer token (POST /api/tokens), seconds
   // Static files: the web client and the pinned three.js package (relative: to the project root,
   // the folder above configs/).
   std::filesystem::path web_root = "web";
@@ -80,9 +88,16 @@ struct ServerOptions {
   double shutdown_timeout = 3;       // SIGINT/SIGTERM: hard stop after this long
   double drain_timeout = 10;         // SIGTERM: running utterances may finish for this long
 
-  // WebSocket Origin check: browsers may connect from the server's own origin and from these
-  // ("*" allows any). Clients that send no Origin (not browsers) are allowed.
+  // Origin check of the WebSocket upgrade and of every POST/PUT/PATCH/DELETE: browsers may come
+  // from the server's own origin and from these ("*" allows any). Clients that send no Origin (not
+  // browsers) are allowed.
   std::vector<std::string> allowed_origins;
+  // Host check of every request (against DNS rebinding): names served besides localhost,
+  // 127.0.0.1, [::1] and IP addresses, any port ("*": any Host). Others get 421.
+  std::vector<std::string> allowed_hosts;
+  // CORS, off by default: pages of these origins ("https://app.example") may call the API
+  // (preflight answered, Access-Control-Allow-Origin sent); they pass the Origin check too.
+  std::vector<std::string> cors_origins;
 
   std::string log_level = "info";  // debug | info | warn | error
 
@@ -101,6 +116,7 @@ struct ServerOptions {
   struct Channel {
     std::string name;
     std::string producer_token;
+    std::string tenant = "default";  // whose channel: keys of other tenants cannot use it
   };
   std::vector<Channel> channels;
   std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)
@@ -125,7 +141,11 @@ struct ServerOptions {
 /// defaults; throws Error naming the file and key.
 ServerOptions load_server_options(const std::filesystem::path& path);
 
-/// Checks ranges and the token rule; throws Error naming the setting.
+/// Like load_server_options, without validate() (for callers that override settings first).
+ServerOptions read_server_options(const std::filesystem::path& path);
+
+/// Checks ranges and the rule that a host other than loopback needs a key store (or `token`);
+/// throws Error naming the setting.
 void validate(const ServerOptions& options);
 
 /// True for 127.0.0.0/8, ::1 and "localhost".
