@@ -260,6 +260,8 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.max_connections_per_address == d.max_connections_per_address);
   CHECK(file.max_body_memory == d.max_body_memory);
   CHECK(file.trusted_proxies == d.trusted_proxies);
+  CHECK(file.max_audio_seconds == d.max_audio_seconds);
+  CHECK(file.audio_decode_timeout == d.audio_decode_timeout);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
   CHECK(file.channel_tick == d.channel_tick);
@@ -290,7 +292,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
-  CHECK(j.size() == 59);  // 58 settings + "_doc"
+  CHECK(j.size() == 61);  // 60 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
@@ -315,6 +317,9 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
   CHECK_THAT(load_error(R"({"port": 70000})"), Catch::Contains("port"));
   CHECK_THAT(load_error(R"({"lead": -1})"), Catch::Contains("lead"));
   CHECK_THAT(load_error(R"({"log_level": "loud"})"), Catch::Contains("log_level"));
+  CHECK_THAT(load_error(R"({"max_audio_seconds": 0})"), Catch::Contains("max_audio_seconds"));
+  CHECK_THAT(load_error(R"({"audio_decode_timeout": 601})"),
+             Catch::Contains("audio_decode_timeout"));
   CHECK_THAT(load_error(R"({"redis": {"url": "http://x"}})"), Catch::Contains("redis.url"));
   CHECK_THAT(load_error(R"({"redis": {"heartbeat": 0}})"), Catch::Contains("redis.heartbeat"));
   CHECK_THAT(load_error(R"({"redis": {"hosts": 1}})"), Catch::Contains("hosts"));
