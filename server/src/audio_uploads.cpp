@@ -1,48 +1,68 @@
 #include "audio_uploads.hpp"
 
-#include <cstdio>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/random.hpp"
 #include "routes.hpp"
 #include "state.hpp"
 
 namespace facecast::server {
 namespace fs = std::filesystem;
 
-AudioUploads::AudioUploads(std::size_t max_count, double ttl)
-    : max_count_(max_count),
-      ttl_(ttl),
+AudioUploads::AudioUploads(AudioUploadOptions options)
+    : tmp_dir_(std::move(options.tmp_dir)),
+      max_count_(options.max_count),
+      ttl_(options.ttl),
       audio_(viseme::load_audio_options()),
       align_(viseme::load_align_options()),
       lipsync_(viseme::load_lipsync_options()) {
   // An upload is either aligned (align.max_seconds bounds the DTW's memory) or lip-synced.
-  audio_.max_seconds = std::min(audio_.max_seconds, align_.max_seconds);
+  audio_.untrusted = true;
+  audio_.decode_timeout = options.decode_timeout;
+  audio_.limit_name = "max_audio_seconds";
+  if (align_.max_seconds < options.max_seconds) audio_.limit_name = "align.max_seconds";
+  audio_.max_seconds = std::min({audio_.max_seconds, align_.max_seconds, options.max_seconds});
 }
 
 viseme::Audio AudioUploads::decode(std::string_view bytes) const {
   if (bytes.empty()) throw Error("uploaded audio: empty body");
-  // libsndfile and ffmpeg read files: the body goes to a private temporary file for the decoding.
-  std::string name;
-  {
-    std::mt19937_64 r{std::random_device{}()};
-    char buf[48];
-    std::snprintf(buf, sizeof buf, "facecast-upload-%016llx", static_cast<unsigned long long>(r()));
-    name = buf;
-  }
-  const fs::path path = fs::temp_directory_path() / name;
+  // ffmpeg reads a file (MP4/M4A needs to seek): the body goes to a private temporary file.
+  const fs::path dir = tmp_dir_.empty() ? fs::temp_directory_path() : tmp_dir_;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  const fs::path path = dir / ("upload-" + random_hex(8) + ".tmp");
   struct Remove {
     fs::path p;
     ~Remove() {
-      std::error_code ec;
-      fs::remove(p, ec);
+      std::error_code ignored;
+      fs::remove(p, ignored);
     }
   } remove{path};
   {
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out) throw Error("uploaded audio: cannot write a temporary file", ErrorCode::kInternal);
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0)
+      throw Error("uploaded audio: cannot write a temporary file: " + std::string(strerror(errno)),
+                  ErrorCode::kInternal);
+    const char* p = bytes.data();
+    std::size_t left = bytes.size();
+    while (left > 0) {
+      const ssize_t n = ::write(fd, p, left);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        ::close(fd);
+        throw Error("uploaded audio: cannot write a temporary file", ErrorCode::kInternal);
+      }
+      p += n;
+      left -= static_cast<std::size_t>(n);
+    }
+    ::close(fd);
   }
   try {
     return viseme::read_audio(path.string(), audio_);
@@ -67,9 +87,9 @@ std::string AudioUploads::put(viseme::Audio audio, const std::string& tenant) {
       if (it->second.at < oldest->second.at) oldest = it;
     entries_.erase(oldest);
   }
-  char id[24];
+  std::string id;
   do {
-    std::snprintf(id, sizeof id, "a%016llx", static_cast<unsigned long long>(random_()));
+    id = "a" + random_hex(8);
   } while (entries_.contains(id));
   entries_.emplace(id, Entry{std::move(shared), now, tenant});
   return id;

@@ -5,11 +5,11 @@
 // or, without text, the face from the audio alone (#audio-lipsync).
 #include <chrono>
 #include <cstddef>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <random>
 #include <string>
 
 #include "beast.hpp"
@@ -21,15 +21,26 @@ namespace facecast::server {
 
 struct State;
 
+struct AudioUploadOptions {
+  // Where an upload waits while ffmpeg decodes it (a private file, removed after; one a killed
+  // server left is swept at the next start). Empty: the system's temporary folder.
+  std::filesystem::path tmp_dir;
+  double max_seconds = 120;    // max_audio_seconds (and at most align.max_seconds)
+  double decode_timeout = 10;  // audio_decode_timeout: ffmpeg is killed after this long
+  std::size_t max_count = 64;  // uploads kept (the oldest goes first)...
+  double ttl = 600;            // ...each for this many seconds
+};
+
 class AudioUploads {
  public:
-  /// Kept at most `max_count` uploads (the oldest goes first), each for `ttl` seconds.
-  explicit AudioUploads(std::size_t max_count = 64, double ttl = 600);
+  explicit AudioUploads(AudioUploadOptions options = {});
 
-  /// Decodes an uploaded file; throws a one-line Error ("uploaded audio: ...") when it is empty,
-  /// not audio, shorter than audio.min_seconds or longer than align.max_seconds.
+  /// Decodes an uploaded file, only in an ffmpeg child (viseme::AudioOptions::untrusted: file
+  /// protocol, allow-listed demuxers, decode_timeout); throws a one-line Error ("uploaded audio:
+  /// ...") when it is empty, not audio ("ffmpeg could not decode the audio: <ffmpeg's reason>"),
+  /// shorter than audio.min_seconds, longer than the limit (kLimit), or too slow to decode.
   viseme::Audio decode(std::string_view bytes) const;
-  /// Keeps `audio`, owned by `tenant`; returns its id ("a" + 16 hex digits).
+  /// Keeps `audio`, owned by `tenant`; returns its id ("a" + 16 random hex digits from the kernel).
   std::string put(viseme::Audio audio, const std::string& tenant = "default");
   /// The tenant of upload `id`, or nullopt when there is none.
   std::optional<std::string> owner(const std::string& id);
@@ -49,6 +60,7 @@ class AudioUploads {
   };
   void expire(Clock::time_point now);  // with mutex_ held
 
+  std::filesystem::path tmp_dir_;
   std::size_t max_count_;
   double ttl_;
   viseme::AudioOptions audio_;
@@ -56,7 +68,6 @@ class AudioUploads {
   viseme::LipsyncOptions lipsync_;
   std::mutex mutex_;
   std::map<std::string, Entry> entries_;
-  std::mt19937_64 random_{std::random_device{}()};
 };
 
 /// POST /api/audio: the body is an audio file, kept for `tenant`; answers {"audio_id", "seconds",

@@ -200,12 +200,4 @@ std::vector<JobRecord> JobStore::take_ended_before(double before) {
   return rows;
 }
 
-long JobStore::max_number() const {
-  std::lock_guard lock(mutex_);
-  Statement s(db_, "SELECT MAX(CAST(SUBSTR(id, 2) AS INTEGER)) FROM jobs WHERE id LIKE 'j%'",
-              file_);
-  if (sqlite3_step(s.get()) != SQLITE_ROW) return 0;
-  return sqlite3_column_int64(s.get(), 0);
-}
-
 }  // namespace facecast::server

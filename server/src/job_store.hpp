@@ -51,8 +51,6 @@ class JobStore {
   bool remove(const std::string& id);
   /// Removes and returns the records that ended before `before` (Unix seconds).
   std::vector<JobRecord> take_ended_before(double before);
-  /// The largest N of the stored ids "jN" (0 when none).
-  long max_number() const;
 
  private:
   std::vector<JobRecord> query(const char* sql, const std::string& arg, double number) const;

@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/random.hpp"
 #include "facecast/server/protocol.hpp"
 #include "log.hpp"
 #include "redis_bus.hpp"
@@ -76,7 +77,6 @@ Jobs::Jobs(Metrics& metrics, JobsOptions options)
   }
   if (!options_.store.empty()) {
     store_ = std::make_unique<JobStore>(options_.store);
-    next_id_ = store_->max_number() + 1;
     // Jobs that were queued or running when the last process ended cannot resume: their work
     // (meshes, options) lived in that process.
     for (JobRecord r : store_->unfinished()) {
@@ -125,7 +125,11 @@ std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::jso
                        429);
   }
   auto job = std::make_shared<Job>();
-  job->record.id = "j" + std::to_string(next_id_++);
+  // Time-ordered and random (core/random.hpp): unique across threads, restarts and instances that
+  // share a data folder, with nothing to coordinate (the Redis queue numbers its own with INCR).
+  do {
+    job->record.id = "j" + time_ordered_hex();
+  } while (jobs_.contains(job->record.id));
   job->record.kind = kind;
   job->record.tenant = tenant;
   job->record.created = unix_now();

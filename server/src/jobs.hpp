@@ -73,7 +73,8 @@ class Jobs {
   Jobs(const Jobs&) = delete;
   Jobs& operator=(const Jobs&) = delete;
 
-  /// Queues a job ("j1", "j2", ...); throws RequestError(kLimit, 429) when max_jobs are pending.
+  /// Queues a job ("j" + 20 hex digits: 12 of Unix milliseconds, 8 random; with Redis "j" + a
+  /// number); throws RequestError(kLimit, 429) when max_jobs are pending.
   /// With Redis the job is queued as `payload` (the factory makes its work where it runs).
   /// `tenant` owns the job and its files (GET/DELETE answer 404 to other tenants).
   std::string submit(const std::string& kind, Work work, const nlohmann::json& payload = {},
@@ -127,7 +128,6 @@ class Jobs {
   std::deque<std::shared_ptr<Job>> queue_;
   std::deque<std::string> finished_;  // oldest first, for trimming the memory
   bool stopping_ = false;
-  long next_id_ = 1;
   std::vector<std::thread> threads_;
 };
 

@@ -1,6 +1,7 @@
 #include "operations_api.hpp"
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
 #include "log.hpp"
 #include "routes.hpp"
 
@@ -24,6 +25,11 @@ bool RigRegistry::remove(const std::string& id) {
     fs::rename(dir, gone, ec);
     if (ec && fs::exists(dir))
       throw Error(dir.string() + ": cannot remove the rig: " + ec.message(), ErrorCode::kInternal);
+    try {
+      fsync_path(rigs_dir_);  // the rename is durable: after a crash the rig is gone or swept
+    } catch (const Error& e) {
+      log::warn("rig_delete_flush_failed", {{"rig", id}, {"error", e.what()}});
+    }
     infos_.erase(it);
     loaded_.erase(id);
   }

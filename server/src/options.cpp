@@ -79,6 +79,8 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   c.read("max_connections_per_address", o.max_connections_per_address);
   c.read("max_body_memory", o.max_body_memory).read("trusted_proxies", o.trusted_proxies);
   c.read("live_audio_ahead", o.live_audio_ahead);
+  c.read("max_audio_seconds", o.max_audio_seconds);
+  c.read("audio_decode_timeout", o.audio_decode_timeout);
   c.read("lead", o.lead);
   c.read("min_tick", o.min_tick);
   c.read("channel_tick", o.channel_tick);
@@ -157,6 +159,10 @@ void validate(const ServerOptions& o) {
     boost::asio::ip::make_address(p, ec);
     need(!ec, "trusted_proxies: '" + p + "' is not an IP address");
   }
+  need(o.max_audio_seconds > 0 && o.max_audio_seconds <= 3600,
+       "max_audio_seconds: must be in (0, 3600]");
+  need(o.audio_decode_timeout > 0 && o.audio_decode_timeout <= 600,
+       "audio_decode_timeout: must be in (0, 600] seconds");
   need(o.lead >= 0 && o.lead <= 10, "lead: must be in 0..10 seconds");
   need(o.min_tick >= 0 && o.min_tick <= 1, "min_tick: must be in 0..1 seconds");
   need(o.channel_tick >= 0 && o.channel_tick <= 1, "channel_tick: must be in 0..1 seconds");

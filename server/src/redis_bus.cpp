@@ -7,6 +7,7 @@
 
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/random.hpp"
 #include "log.hpp"
 
 namespace facecast::server {

@@ -7,6 +7,7 @@
 #include <regex>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/subprocess.hpp"
 
 namespace facecast::server {
 namespace {
@@ -92,6 +93,7 @@ redisContext* RedisClient::connect(const RedisUrl& url, double timeout) {
     if (c) redisFree(c);
     throw Error("redis " + url.where() + ": " + why, ErrorCode::kInternal);
   }
+  set_cloexec(c->fd);  // hiredis connects without SOCK_CLOEXEC: no child may hold Redis
   redisSetTimeout(c, to_timeval(timeout));
   auto check = [&](redisReply* r, const char* what) {
     const bool bad = !r || r->type == REDIS_REPLY_ERROR;

@@ -1,7 +1,6 @@
 #include "rigs.hpp"
 
 #include <chrono>
-#include <random>
 #include <regex>
 
 #include "facecast/anim/avatar.hpp"
@@ -10,6 +9,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/random.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "facecast/server/protocol.hpp"
@@ -65,24 +65,6 @@ RigInfo info_from_meta(const nlohmann::json& j) {
 
 }  // namespace
 
-std::string random_hex(int bytes) {
-  static std::mutex mutex;
-  static std::mt19937_64 rng{[] {
-    std::random_device rd;
-    std::seed_seq seq{rd(), rd(), rd(), rd(), rd(), rd()};
-    return std::mt19937_64(seq);
-  }()};
-  std::lock_guard lock(mutex);
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (int i = 0; i < bytes; ++i) {
-    const auto b = static_cast<unsigned>(rng() & 0xFF);
-    out += hex[b >> 4];
-    out += hex[b & 15];
-  }
-  return out;
-}
-
 nlohmann::json RigInfo::to_json() const {
   nlohmann::json j = {{"id", id},           {"name", name},
                       {"shapes", shapes},   {"vertices", vertices},
@@ -111,12 +93,7 @@ RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig)
   } catch (const std::exception& e) {  // an install without it still serves the default avatar
     log::warn("shipped_template_missing", {{"error", e.what()}});
   }
-  for (const auto& entry : fs::directory_iterator(rigs_dir_)) {
-    const std::string name = entry.path().filename().string();
-    // A crash leftover (only at start: another instance may be writing one now).
-    if (entry.is_directory() && name.find(".tmp") != std::string::npos)
-      fs::remove_all(entry.path(), ec);
-  }
+  // Crash leftovers (".tmp" folders) were swept by the server at start (sweep_leftovers).
   sync_all();
   if (!infos_.contains(default_rig_))
     throw Error("default_rig: no rig '" + default_rig_ + "' in " + rigs_dir_.string(),
@@ -288,7 +265,7 @@ std::shared_ptr<const std::string> RigRegistry::builtin_glb() {
 }
 
 std::string RigRegistry::new_id() {
-  return "r" + random_hex(8);
+  return "r" + random_hex(8);  // 64 bits from the kernel (core/random.hpp)
 }
 
 static double now_seconds() {
@@ -309,7 +286,7 @@ void RigRegistry::store(const RigInfo& info,
     for (const auto& [file, bytes] : files) write_file_atomic(tmp / file, bytes);
     if (more) more(tmp);
     write_file_atomic(tmp / "meta.json", meta.dump(2) + "\n");
-    fs::rename(tmp, dir);
+    commit_file(tmp, dir);  // its files were flushed; the folder, the rename and rigs/ are too
   } catch (const fs::filesystem_error& e) {
     fs::remove_all(tmp, ec);
     throw Error(dir.string() + ": cannot store the rig: " + e.code().message(),

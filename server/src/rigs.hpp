@@ -50,9 +50,6 @@ struct RigOwner {
   bool is_public = false;
 };
 
-/// A random lowercase hex string of `bytes` bytes: ids that cannot collide between processes.
-std::string random_hex(int bytes);
-
 /// Rigs live in one folder that several instances may share: ids are random ("r" and 16 hex
 /// digits), and a rig another instance stored or deleted is seen at the next lookup (no restart).
 class RigRegistry {

@@ -9,6 +9,7 @@
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "guard.hpp"
+#include "facecast/core/subprocess.hpp"
 #include "log.hpp"
 #include "operations_api.hpp"
 #include "photo_api.hpp"
@@ -164,6 +165,7 @@ http::message_generator send_path(State& state, const Request& req, const fs::pa
   beast::error_code bec;
   body.open(path.c_str(), beast::file_mode::scan, bec);
   if (bec) throw Error("not found", ErrorCode::kNotFound);
+  set_cloexec(body.file().native_handle());  // Beast opens without O_CLOEXEC
   http::response<http::file_body> res{std::piecewise_construct, std::make_tuple(std::move(body)),
                                       std::make_tuple(http::status::ok, req.version())};
   headers(res);
@@ -186,9 +188,10 @@ void require_method(const Request& req, std::initializer_list<http::verb> allowe
 
 const std::regex kRigGlb("/api/rigs/([A-Za-z0-9_.-]{1,64})\\.glb");
 const std::regex kRigEdges("/api/rigs/([A-Za-z0-9_.-]{1,64})/virtual_edges\\.json");
-const std::regex kJob("/api/jobs/(j[0-9]{1,9})");
+// Job ids: "j" + 20 hex digits (jobs.hpp), "j" + a number with Redis or from older stores.
+const std::regex kJob("/api/jobs/(j[0-9a-f]{1,24})");
 const std::regex kRig("/api/rigs/([A-Za-z0-9_.-]{1,64})");
-const std::regex kJobFile("/api/jobs/(j[0-9]{1,9})/(video\\.mp4)");
+const std::regex kJobFile("/api/jobs/(j[0-9a-f]{1,24})/(video\\.mp4)");
 
 // The built-in avatar's GLB, made in memory.
 http::message_generator send_builtin_glb(State& state, const Request& req) {

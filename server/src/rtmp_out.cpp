@@ -4,7 +4,6 @@
 #include <poll.h>
 #include <pthread.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -193,19 +192,19 @@ void RtmpOutput::run() {
         clock_start_ + std::chrono::duration_cast<Clock::duration>(
                            std::chrono::duration<double>(static_cast<double>(k) / fps));
     std::this_thread::sleep_until(deadline);
-    if (video_fd_ < 0 && Clock::now() >= next_spawn && !spawn())
+    if (!ffmpeg_ && Clock::now() >= next_spawn && !spawn())
       next_spawn = Clock::now() + std::chrono::seconds(static_cast<int>(kRestartSeconds));
     const auto s0 = static_cast<std::int64_t>(std::llround(static_cast<double>(k) * kRate / fps));
     const auto s1 =
         static_cast<std::int64_t>(std::llround(static_cast<double>(k + 1) * kRate / fps));
     const Pose pose =
         sample(static_cast<double>(k) / fps, s0, static_cast<std::size_t>(s1 - s0), pcm);
-    if (video_fd_ < 0) continue;
+    if (!ffmpeg_) continue;
     // Behind by more than a frame: repeat the last picture (the timeline stays whole).
     const bool late = Clock::now() - deadline > period && !last_image_.pixels.empty();
     if (!late) last_image_ = render(pose);
-    if (!write_all(audio_fd_, pcm.data(), pcm.size() * sizeof(std::int16_t)) ||
-        !write_all(video_fd_, last_image_.pixels.data(), last_image_.pixels.size())) {
+    if (!write_all(ffmpeg_->pipe_fd(3), pcm.data(), pcm.size() * sizeof(std::int16_t)) ||
+        !write_all(ffmpeg_->pipe_fd(0), last_image_.pixels.data(), last_image_.pixels.size())) {
       log::warn("rtmp_ffmpeg_ended", {{"channel", channel_->name()}, {"frame", k}});
       end_ffmpeg();
       next_spawn = Clock::now() + std::chrono::seconds(static_cast<int>(kRestartSeconds));
@@ -257,71 +256,40 @@ bool RtmpOutput::spawn() {
       std::to_string(static_cast<int>(std::lround(2 * r.fps))), "-b:v", kbps(r.video_kbps),
       "-maxrate", kbps(r.video_kbps), "-bufsize", kbps(2 * r.video_kbps), "-c:a", "aac", "-b:a",
       kbps(r.audio_kbps), "-ar", std::to_string(kRate), "-f", "flv", r.url};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
   const std::string log_path =
       (state_->options.data / ("rtmp-" + channel_->name() + ".log")).string();
-  int video[2], audio[2];
-  if (pipe2(video, O_CLOEXEC) != 0) return false;
-  if (pipe2(audio, O_CLOEXEC) != 0) {
-    close(video[0]);
-    close(video[1]);
-    return false;
-  }
-  // Room for whole frames and seconds of sound (best effort); the writing ends do not block.
-  fcntl(video[1], F_SETPIPE_SZ, 1 << 20);
-  fcntl(audio[1], F_SETPIPE_SZ, 1 << 20);
-  fcntl(video[1], F_SETFL, O_NONBLOCK);
-  fcntl(audio[1], F_SETFL, O_NONBLOCK);
   const int log_fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  const pid_t pid = fork();
-  if (pid == 0) {  // only async-signal-safe calls until exec
-    if (log_fd >= 0) {
-      dup2(log_fd, 1);
-      dup2(log_fd, 2);
-    }
-    dup2(video[0], 0);
-    if (audio[0] == 3)
-      fcntl(3, F_SETFD, 0);
-    else
-      dup2(audio[0], 3);
-    close_range(4, ~0U, 0);  // no listening socket or client connection goes with it
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  close(video[0]);
-  close(audio[0]);
-  if (log_fd >= 0) close(log_fd);
-  if (pid < 0) {
-    close(video[1]);
-    close(audio[1]);
-    log::warn("rtmp_spawn_failed", {{"channel", channel_->name()}, {"error", strerror(errno)}});
+  const ChildFd log = log_fd >= 0 ? ChildFd{1, ChildFd::Kind::kFd, log_fd} : ChildFd{1};
+  ChildFd log_err = log;
+  log_err.target = 2;
+  try {
+    // Only these descriptors reach it: no listening socket or client connection goes with it.
+    ffmpeg_.emplace(
+        args,
+        std::vector<ChildFd>{{0, ChildFd::Kind::kWrite}, {3, ChildFd::Kind::kWrite}, log, log_err});
+  } catch (const std::exception& e) {
+    if (log_fd >= 0) close(log_fd);
+    log::warn("rtmp_spawn_failed", {{"channel", channel_->name()}, {"error", e.what()}});
     return false;
   }
-  pid_ = pid;
-  video_fd_ = video[1];
-  audio_fd_ = audio[1];
-  log::info("rtmp_publishing", {{"channel", channel_->name()}, {"pid", pid}, {"log", log_path}});
+  if (log_fd >= 0) close(log_fd);
+  // Room for whole frames and seconds of sound (best effort); the writing ends do not block.
+  fcntl(ffmpeg_->pipe_fd(0), F_SETPIPE_SZ, 1 << 20);
+  fcntl(ffmpeg_->pipe_fd(3), F_SETPIPE_SZ, 1 << 20);
+  log::info("rtmp_publishing",
+            {{"channel", channel_->name()}, {"pid", ffmpeg_->pid()}, {"log", log_path}});
   return true;
 }
 
 void RtmpOutput::end_ffmpeg() {
-  if (video_fd_ >= 0) close(video_fd_);
-  if (audio_fd_ >= 0) close(audio_fd_);
-  video_fd_ = audio_fd_ = -1;
-  if (pid_ <= 0) return;
-  // End of input: ffmpeg flushes the encoders and closes the FLV stream.
-  int status = 0;
-  for (int i = 0; i < 250 && waitpid(pid_, &status, WNOHANG) == 0; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  if (waitpid(pid_, &status, WNOHANG) == 0) {
-    kill(pid_, SIGKILL);
-    waitpid(pid_, &status, 0);
-  }
-  log::info("rtmp_ended", {{"channel", channel_->name()},
-                           {"status", WIFEXITED(status) ? WEXITSTATUS(status) : -1}});
-  pid_ = -1;
+  if (!ffmpeg_) return;
+  // End of input: ffmpeg flushes the encoders and closes the FLV stream (5 s, then killed).
+  const ExitStatus status = ffmpeg_->finish(5.0);
+  log::info("rtmp_ended",
+            {{"channel", channel_->name()},
+             {"status", status.code},
+             log::Field::if_set("signal", status.signal ? std::to_string(status.signal) : "")});
+  ffmpeg_.reset();
 }
 
 std::vector<std::shared_ptr<RtmpOutput>> start_rtmp_outputs(const std::shared_ptr<State>& state) {

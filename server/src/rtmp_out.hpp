@@ -18,11 +18,13 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "channel.hpp"
+#include "facecast/core/subprocess.hpp"
 #include "facecast/render/image.hpp"
 
 namespace facecast::server {
@@ -85,8 +87,7 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
 
   std::atomic<bool> stopping_{false};
   std::thread thread_;
-  int video_fd_ = -1, audio_fd_ = -1;
-  int pid_ = -1;
+  std::optional<Child> ffmpeg_;  // pictures on its stdin, sound on its descriptor 3
   render::Image last_image_;
 };
 

@@ -11,6 +11,7 @@
 #include "beast.hpp"
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/subprocess.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
 #include "rtmp_out.hpp"
@@ -73,6 +74,7 @@ Server::Impl::Impl(ServerOptions options)
   validate(options);
   log::set_level(options.log_level);
   raise_file_limit();
+  sweep_leftovers(options);  // before anything opens or lists the data folder
   state = std::make_shared<State>(std::move(options));
   state->channels = std::make_shared<ChannelRegistry>(state, ioc);
   rtmp = start_rtmp_outputs(state);
@@ -92,6 +94,9 @@ Server::Impl::Impl(ServerOptions options)
   if (ec) throw Error("host: '" + o.host + "' is not an IP address");
   const tcp::endpoint endpoint(address, static_cast<unsigned short>(o.port));
   acceptor.open(endpoint.protocol(), ec);
+  // Asio opens and accepts without close-on-exec: no child (ffmpeg) may hold the listening socket
+  // or a client's connection (the spawn also closes them in the child: core/subprocess.hpp).
+  if (!ec) set_cloexec(acceptor.native_handle());
   if (!ec) acceptor.set_option(net::socket_base::reuse_address(true), ec);
   if (!ec) acceptor.bind(endpoint, ec);
   if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
@@ -119,6 +124,7 @@ void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
     return;
   }
   auto& o = state->options;
+  set_cloexec(socket.native_handle());
   socket.set_option(tcp::no_delay(true), ec);
   if (o.send_buffer > 0) socket.set_option(net::socket_base::send_buffer_size(o.send_buffer), ec);
   const long open = state->connections.fetch_add(1) + 1;

@@ -2,6 +2,8 @@
 
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "log.hpp"
 
 namespace facecast::server {
 namespace {
@@ -12,6 +14,17 @@ std::filesystem::path project_path(const std::filesystem::path& p) {
 }
 
 }  // namespace
+
+std::size_t sweep_leftovers(const ServerOptions& o) {
+  constexpr double kSharedAge = 3600;  // seconds: older temporaries in shared_dir are leftovers
+  std::size_t count = 0;
+  for (const char* sub : {"", "rigs", "renders", "tmp"}) count += sweep_temp_files(o.data / sub);
+  if (!o.shared_dir.empty())
+    for (const char* sub : {"rigs", "renders"})
+      count += sweep_temp_files(o.shared_dir / sub, kSharedAge);
+  log::info("temp_swept", {{"count", count}, {"data", o.data.string()}});
+  return count;
+}
 
 State::State(ServerOptions opts)
     : options(std::move(opts)),
@@ -26,6 +39,8 @@ State::State(ServerOptions opts)
       video_options(render::load_video_options()),
       renderers(options.max_renderers, options.render_contexts, render_options),
       limits{options.max_text, options.max_fps, options.max_frame_side, options.max_json_depth},
+      audio_uploads(AudioUploadOptions{options.data / "tmp", options.max_audio_seconds,
+                                       options.audio_decode_timeout}),
       addresses(options.max_connections_per_address, options.trusted_proxies),
       body_memory(options.max_body_memory),
       redis(options.redis.url.empty() ? nullptr : std::make_unique<RedisBus>(options)),

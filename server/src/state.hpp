@@ -36,6 +36,11 @@ class Closable {
 
 class ChannelRegistry;  // channel.hpp
 
+/// Removes what a killed server left half-written (temporary files and folders: is_temp_name) in
+/// the data folder, its rigs/, renders/ and tmp/, and, older than an hour (another instance may
+/// be writing there now), in shared_dir's rigs/ and renders/. Logs one line; returns the count.
+std::size_t sweep_leftovers(const ServerOptions& options);
+
 struct State {
   explicit State(ServerOptions opts);
 

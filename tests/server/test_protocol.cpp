@@ -261,6 +261,8 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.max_body_memory == d.max_body_memory);
   CHECK(file.live_audio_ahead == d.live_audio_ahead);
   CHECK(file.trusted_proxies == d.trusted_proxies);
+  CHECK(file.max_audio_seconds == d.max_audio_seconds);
+  CHECK(file.audio_decode_timeout == d.audio_decode_timeout);
   CHECK(file.lead == d.lead);
   CHECK(file.min_tick == d.min_tick);
   CHECK(file.channel_tick == d.channel_tick);
@@ -295,7 +297,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.token_max_ttl == d.token_max_ttl);
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
-  CHECK(j.size() == 64);  // 63 settings + "_doc"
+  CHECK(j.size() == 66);  // 65 settings + "_doc"
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
@@ -320,6 +322,9 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
   CHECK_THAT(load_error(R"({"port": 70000})"), Catch::Contains("port"));
   CHECK_THAT(load_error(R"({"lead": -1})"), Catch::Contains("lead"));
   CHECK_THAT(load_error(R"({"log_level": "loud"})"), Catch::Contains("log_level"));
+  CHECK_THAT(load_error(R"({"max_audio_seconds": 0})"), Catch::Contains("max_audio_seconds"));
+  CHECK_THAT(load_error(R"({"audio_decode_timeout": 601})"),
+             Catch::Contains("audio_decode_timeout"));
   CHECK_THAT(load_error(R"({"redis": {"url": "http://x"}})"), Catch::Contains("redis.url"));
   CHECK_THAT(load_error(R"({"redis": {"heartbeat": 0}})"), Catch::Contains("redis.heartbeat"));
   CHECK_THAT(load_error(R"({"redis": {"hosts": 1}})"), Catch::Contains("hosts"));

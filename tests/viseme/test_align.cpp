@@ -133,6 +133,7 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
   CHECK(d.max_seconds == c.max_seconds);
   CHECK(d.min_seconds == c.min_seconds);
   CHECK(d.ffmpeg == c.ffmpeg);
+  CHECK(d.decode_timeout == c.decode_timeout);
   const AlignOptions a, b = load_align_options();
   CHECK(a.min_speed == b.min_speed);
   CHECK(a.max_speed == b.max_speed);

@@ -1,10 +1,6 @@
 // Audio files -> mono float at the working rate: libsndfile in process, ffmpeg for the rest.
 // See docs/algorithms.md#audio-in.
-#include <fcntl.h>
-#include <signal.h>
 #include <sndfile.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -18,6 +14,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/subprocess.hpp"
 #include "facecast/viseme/audio.hpp"
 
 namespace facecast::viseme {
@@ -29,9 +26,9 @@ std::string seconds_text(double s) {
   return o.str();
 }
 
-Error too_long(const std::string& path, const std::string& how_long, double limit) {
+Error too_long(const std::string& path, const std::string& how_long, const AudioOptions& o) {
   return Error(path + ": " + how_long + " of audio is longer than the limit of " +
-                   seconds_text(limit) + " (audio.max_seconds)",
+                   seconds_text(o.max_seconds) + " (" + o.limit_name + ")",
                ErrorCode::kLimit);
 }
 
@@ -65,8 +62,7 @@ bool read_sndfile(const std::string& path, const AudioOptions& o, Audio& out) {
   if (info.channels < 1 || info.samplerate < 1) return false;
   const double limit_frames = o.max_seconds * info.samplerate;
   if (static_cast<double>(info.frames) > limit_frames)
-    throw too_long(path, seconds_text(static_cast<double>(info.frames) / info.samplerate),
-                   o.max_seconds);
+    throw too_long(path, seconds_text(static_cast<double>(info.frames) / info.samplerate), o);
   std::vector<float> mono;
   std::vector<float> block(static_cast<std::size_t>(4096 * info.channels));
   for (;;) {
@@ -80,7 +76,7 @@ bool read_sndfile(const std::string& path, const AudioOptions& o, Audio& out) {
     }
     // The header's length can be an estimate (MP3): the limit also holds while reading.
     if (static_cast<double>(mono.size()) > limit_frames)
-      throw too_long(path, "more than " + seconds_text(o.max_seconds), o.max_seconds);
+      throw too_long(path, "more than " + seconds_text(o.max_seconds), o);
   }
   if (sf_error(f) != SF_ERR_NO_ERROR)
     throw Error(path + ": cannot decode audio: " + sf_strerror(f));
@@ -89,82 +85,70 @@ bool read_sndfile(const std::string& path, const AudioOptions& o, Audio& out) {
   return true;
 }
 
-// ffmpeg as a subprocess writing f32le mono at the working rate to a pipe; its output is capped
-// at the length limit (plus a second) so an over-long file stops early.
+// ffmpeg's last error line for a message: "[mp3 @ 0x55d0c8e4a740] " prefixes (an address of the
+// server's child, nothing a client needs) dropped, "file:<path>" shown as <path>.
+std::string ffmpeg_reason(const RunResult& r, const std::string& path) {
+  std::string line = r.last_error_line();
+  if (line.starts_with("[")) {
+    const auto close = line.find("] ");
+    if (close != std::string::npos && line.find(" @ 0x") < close) line.erase(0, close + 2);
+  }
+  for (const std::string& name : {"file:" + path + ": ", path + ": "})
+    if (line.starts_with(name)) line.erase(0, name.size());
+  for (auto at = line.find("file:" + path); at != std::string::npos;
+       at = line.find("file:" + path, at))
+    line.erase(at, 5);
+  if (r.status.timed_out || r.status.signal != 0 || line.empty()) return r.describe();
+  return line;
+}
+
+// ffmpeg as a subprocess writing f32le mono at the working rate to a pipe (core/subprocess.hpp:
+// stdout and stderr read together, a wall-clock limit). Its output is capped at the length limit
+// plus a second (-t, -fs, and the pipe's byte cap) so an over-long file stops early.
 void read_ffmpeg(const std::string& path, const AudioOptions& o, Audio& out) {
-  const std::vector<std::string> args = {o.ffmpeg,
-                                         "-nostdin",
-                                         "-v",
-                                         "error",
-                                         "-i",
-                                         path,
-                                         "-vn",
-                                         "-ac",
-                                         "1",
-                                         "-ar",
-                                         std::to_string(o.sample_rate),
-                                         "-t",
-                                         std::to_string(o.max_seconds + 1),
-                                         "-f",
-                                         "f32le",
-                                         "pipe:1"};
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  int pout[2], perr[2];
-  if (pipe2(pout, O_CLOEXEC) != 0 || pipe2(perr, O_CLOEXEC) != 0)
-    throw Error("pipe: " + std::string(std::strerror(errno)), ErrorCode::kInternal);
-  const pid_t pid = fork();
-  if (pid < 0) throw Error("fork: " + std::string(std::strerror(errno)), ErrorCode::kInternal);
-  if (pid == 0) {  // only async-signal-safe calls until exec
-    const int null = open("/dev/null", O_RDONLY);
-    if (null >= 0) dup2(null, STDIN_FILENO);
-    dup2(pout[1], STDOUT_FILENO);
-    dup2(perr[1], STDERR_FILENO);
-    execvp(argv[0], argv.data());
-    _exit(127);
+  const double seconds = o.max_seconds + 1;
+  const auto max_bytes =
+      static_cast<std::size_t>(std::ceil(seconds * o.sample_rate)) * sizeof(float) + 65536;
+  std::vector<std::string> args = {o.ffmpeg, "-nostdin", "-hide_banner", "-v", "error"};
+  if (o.untrusted) {
+    // Outside input: local files and pipes only (no network, no playlists reaching other files),
+    // the audio demuxers we accept, nothing else.
+    args.insert(args.end(),
+                {"-protocol_whitelist", "file,pipe", "-format_whitelist", kUntrustedFormats});
   }
-  close(pout[1]);
-  close(perr[1]);
+  args.insert(args.end(), {"-i", "file:" + path, "-map", "0:a:0", "-vn", "-sn", "-dn", "-ac", "1",
+                           "-ar", std::to_string(o.sample_rate), "-t", std::to_string(seconds),
+                           "-fs", std::to_string(max_bytes), "-f", "f32le", "pipe:1"});
+  RunOptions run;
+  run.timeout = o.decode_timeout;
+  run.max_output = max_bytes;
+  run.max_error = 16384;
+  RunResult r;
+  try {
+    r = run_subprocess(args, run);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " to decode " + path, ErrorCode::kInternal);
+  }
   const auto limit = static_cast<std::size_t>(o.max_seconds * o.sample_rate);
-  std::string bytes;
-  char buf[65536];
-  bool over = false;
-  for (;;) {
-    const ssize_t n = read(pout[0], buf, sizeof buf);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    bytes.append(buf, static_cast<std::size_t>(n));
-    if (bytes.size() / 4 > limit) {
-      over = true;
-      kill(pid, SIGKILL);
-      break;
-    }
+  if (r.output_limited || (r.ok() && r.out.size() / 4 > limit))
+    throw too_long(path, "more than " + seconds_text(o.max_seconds), o);
+  if (r.status.timed_out) {
+    throw Error(path + ": decoding took longer than the limit of " +
+                    seconds_text(o.decode_timeout) + " (" +
+                    (o.untrusted ? "audio_decode_timeout" : "audio.decode_timeout") + ")",
+                ErrorCode::kLimit);
   }
-  close(pout[0]);
-  std::string err;
-  for (ssize_t n; (n = read(perr[0], buf, sizeof buf)) > 0;)
-    err.append(buf, static_cast<std::size_t>(n));
-  close(perr[0]);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (over) throw too_long(path, "more than " + seconds_text(o.max_seconds), o.max_seconds);
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-  if (code == 127)
-    throw Error("cannot run '" + o.ffmpeg + "' to decode " + path, ErrorCode::kInternal);
-  if (code != 0) {
-    std::string first = err.substr(0, err.find('\n'));
-    if (const auto colon = first.rfind(": "); colon != std::string::npos)
-      first = first.substr(colon + 2);
-    throw Error(path + ": not audio that libsndfile or ffmpeg can read (" +
-                (first.empty() ? "ffmpeg exit " + std::to_string(code) : first) + ")");
+  if (!r.ok()) {
+    if (o.untrusted)
+      throw Error(path + ": ffmpeg could not decode the audio: " + ffmpeg_reason(r, path));
+    throw Error(path + ": not audio that libsndfile or ffmpeg can read (" + ffmpeg_reason(r, path) +
+                ")");
   }
   out.sample_rate = o.sample_rate;
-  out.samples.resize(bytes.size() / 4);
-  std::memcpy(out.samples.data(), bytes.data(), out.samples.size() * 4);
-  for (float& s : out.samples)
-    if (!std::isfinite(s)) s = 0;
+  out.samples.resize(r.out.size() / 4);
+  std::memcpy(out.samples.data(), r.out.data(), out.samples.size() * 4);
+  for (float& v : out.samples)
+    if (!std::isfinite(v)) v = 0;
 }
 
 }  // namespace
@@ -175,8 +159,10 @@ AudioOptions load_audio_options() {
   c.read("sample_rate", o.sample_rate)
       .read("max_seconds", o.max_seconds)
       .read("min_seconds", o.min_seconds)
-      .read("ffmpeg", o.ffmpeg);
+      .read("ffmpeg", o.ffmpeg)
+      .read("decode_timeout", o.decode_timeout);
   if (o.sample_rate < 8000 || o.sample_rate > 48000) c.fail("sample_rate", "must be 8000..48000");
+  if (!(o.decode_timeout > 0)) c.fail("decode_timeout", "must be positive");
   c.reject_unknown();
   return o;
 }
@@ -187,7 +173,7 @@ Audio read_audio(const std::string& path, const AudioOptions& o) {
     throw Error(path + ": no such audio file", ErrorCode::kNotFound);
   if (std::filesystem::file_size(path, ec) == 0) throw Error(path + ": the file is empty");
   Audio out;
-  if (!read_sndfile(path, o, out)) read_ffmpeg(path, o, out);
+  if (o.untrusted || !read_sndfile(path, o, out)) read_ffmpeg(path, o, out);
   check_length(path, out, o);
   return out;
 }

@@ -1,11 +1,6 @@
 // Offline video through ffmpeg (raw RGB on a pipe) or as an image sequence.
 #include "facecast/render/video.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -16,6 +11,8 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/random.hpp"
+#include "facecast/core/subprocess.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/viseme/wav.hpp"
 
@@ -24,75 +21,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A child process with its stdin on a pipe and its stderr in a file (for the error message).
-class Child {
- public:
-  Child(const std::vector<std::string>& args, const fs::path& stderr_file) : args_(args) {
-    // Everything the child needs is prepared before fork(): between fork and exec only
-    // async-signal-safe calls (the parent may be a multi-threaded server).
-    std::vector<char*> argv;
-    for (const auto& a : args_) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    int fds[2];
-    if (pipe2(fds, O_CLOEXEC) != 0)
-      throw Error("pipe: " + std::string(std::strerror(errno)), ErrorCode::kInternal);
-    pid_ = fork();
-    if (pid_ < 0) throw Error("fork: " + std::string(std::strerror(errno)), ErrorCode::kInternal);
-    if (pid_ == 0) {
-      dup2(fds[0], STDIN_FILENO);
-      const int err = open(stderr_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (err >= 0) dup2(err, STDERR_FILENO);
-      execvp(argv[0], argv.data());
-      _exit(127);
-    }
-    close(fds[0]);
-    in_ = fds[1];
-  }
-  ~Child() {
-    if (in_ >= 0) close(in_);
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-  }
-  /// false when the child has gone (EPIPE).
-  bool write(const void* data, size_t n) {
-    const char* p = static_cast<const char*>(data);
-    while (n > 0) {
-      const ssize_t w = ::write(in_, p, n);
-      if (w < 0) {
-        if (errno == EINTR) continue;
-        return false;
-      }
-      p += w;
-      n -= static_cast<size_t>(w);
-    }
-    return true;
-  }
-  /// Closes stdin and waits; the exit status (or 128 + signal).
-  int finish() {
-    close(in_);
-    in_ = -1;
-    int status = 0;
-    while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-    }
-    pid_ = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-
- private:
-  std::vector<std::string> args_;
-  pid_t pid_ = -1;
-  int in_ = -1;
-};
-
-std::string last_line(const fs::path& file) {
-  std::ifstream in(file);
-  std::string line, last;
-  while (std::getline(in, line))
-    if (!line.empty()) last = line;
-  return last;
-}
+// A stalled encoder (nothing taken for this long) or one that does not finish is killed.
+constexpr double kStallSeconds = 60;
+constexpr double kFinishSeconds = 300;
 
 bool is_pattern(const fs::path& out) {
   return out.filename().string().find('%') != std::string::npos;
@@ -156,21 +87,17 @@ VideoResult write_video(const Renderer& renderer, const anim::Performance& perfo
       throw Error(out.string() +
                   ": a video needs .mp4, .mkv or .mov, or a frame pattern like "
                   "frames/%05d.png");
-    // Writing into a pipe whose reader died must give EPIPE, not kill the process.
-    signal(SIGPIPE, SIG_IGN);
-    const fs::path tmp =
-        out.parent_path() / (".tmp-" + out.stem().string() + "-" + std::to_string(getpid()) + ext);
-    const fs::path wav = out.parent_path() /
-                         (".tmp-" + out.stem().string() + "-" + std::to_string(getpid()) + ".wav");
-    const fs::path log = out.parent_path() /
-                         (".tmp-" + out.stem().string() + "-" + std::to_string(getpid()) + ".log");
+    // Temporaries named for the sweep at start (is_temp_name) should this process be killed.
+    const std::string tag = ".tmp-" + out.stem().string() + "-" + random_hex(6);
+    const fs::path tmp = out.parent_path() / (tag + ext);
+    const fs::path wav = out.parent_path() / (tag + ".wav");
     struct Cleanup {
       std::vector<fs::path> files;
       ~Cleanup() {
         std::error_code ec;
         for (const auto& f : files) fs::remove(f, ec);
       }
-    } cleanup{{tmp, wav, log}};
+    } cleanup{{tmp, wav}};
     std::vector<std::string> args = {options.ffmpeg, "-nostdin",
                                      "-hide_banner", "-loglevel",
                                      "error",        "-y",
@@ -190,20 +117,33 @@ VideoResult write_video(const Renderer& renderer, const anim::Performance& perfo
       args.insert(args.end(), {"-map", "1:a", "-c:a", "aac", "-b:a",
                                std::to_string(options.audio_bitrate_kbps) + "k"});
     args.push_back(tmp.string());
-    Child ffmpeg(args, log);
+    // stdin: the frames; stderr: kept (its end) for the error message; nothing else inherited.
+    Child ffmpeg(args, {{0, ChildFd::Kind::kWrite}, {2, ChildFd::Kind::kRead, -1, 16384, true}});
     bool alive = true;
     render_frames(renderer, performance, options.fps, result.frames, options.pipeline, progress,
                   [&](int, const Image& image) {
-                    if (alive) alive = ffmpeg.write(image.pixels.data(), image.pixels.size());
+                    if (alive)
+                      alive = ffmpeg.write(
+                          0,
+                          std::string_view(reinterpret_cast<const char*>(image.pixels.data()),
+                                           image.pixels.size()),
+                          kStallSeconds);
                   });
-    const int status = ffmpeg.finish();
-    if (status != 0 || !alive) {
-      const std::string why = last_line(log);
-      throw Error("ffmpeg failed (exit " + std::to_string(status) + ")" +
-                      (why.empty() ? std::string() : ": " + why),
+    // An encoder that stopped taking frames has ended or is ending: a few seconds to say why.
+    const ExitStatus status = ffmpeg.finish(alive ? kFinishSeconds : 5);
+    if (!status.ok() || !alive) {
+      RunResult r;  // for its one-line description, naming ffmpeg and its last error line
+      r.program = ffmpeg.program();
+      r.status = status;
+      r.err = ffmpeg.output(2);
+      r.timeout = alive ? kFinishSeconds : 5;
+      const std::string why = r.last_error_line();
+      throw Error(status.ok() ? r.program + " stopped reading the frames" +
+                                    (why.empty() ? std::string() : ": " + why)
+                              : r.describe(),
                   ErrorCode::kInternal);
     }
-    fs::rename(tmp, out);
+    commit_file(tmp, out);  // flushed, renamed, the folder flushed
   }
   result.render_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -65,6 +65,8 @@ struct ServerOptions {
   // Peers whose X-Forwarded-For is believed (the client is its last address not in this list);
   // any other peer is the client itself. IP addresses, e.g. ["127.0.0.1"] behind a local nginx.
   std::vector<std::string> trusted_proxies;
+  double max_audio_seconds = 120;    // longest POST /api/audio, decoded (413 beyond)
+  double audio_decode_timeout = 10;  // seconds ffmpeg may decode an upload; then killed (413)
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;          // frames are sent this many seconds before their presentation time

@@ -5,7 +5,9 @@
 // libsndfile (in process) reads WAV, AIFF, FLAC, OGG/Vorbis, Opus and MP3 and reports the length
 // before decoding, so an absurdly long file is refused from its header; anything else (AAC/M4A,
 // WebM, video containers) goes to the ffmpeg binary as a subprocess (configs/viseme/audio.json
-// names it), whose output is capped at the length limit so a 10-hour file is never decoded whole.
+// names it), whose output is capped at the length limit so a 10-hour file is never decoded whole,
+// and whose run is capped at decode_timeout seconds (core/subprocess.hpp). Untrusted input (the
+// server's uploads) goes to ffmpeg only, with allow-listed protocols and demuxers.
 // libsndfile's channels are averaged and resampled here (windowed sinc); ffmpeg does both itself.
 #include <cstdint>
 #include <string>
@@ -19,7 +21,18 @@ struct AudioOptions {
   double max_seconds = 1800;  // longer input is refused
   double min_seconds = 0.05;  // shorter (or empty) input is refused
   std::string ffmpeg = "ffmpeg";
+  double decode_timeout = 300;  // wall-clock seconds ffmpeg may take; then it is killed
+  // Not in the config file: set by whoever decodes files from outside (the server's uploads).
+  // Untrusted input is decoded only by ffmpeg in a child process (never libsndfile in process),
+  // with its protocols limited to file/pipe and its demuxers to kUntrustedFormats.
+  bool untrusted = false;
+  std::string limit_name = "audio.max_seconds";  // the setting a too-long error names
 };
+
+/// The ffmpeg demuxers untrusted audio may use (-format_whitelist): WAV/W64, MP3, Ogg (Vorbis,
+/// Opus, FLAC), FLAC, raw AAC, MP4/M4A/MOV, Matroska/WebM, AIFF, CAF, AU.
+inline constexpr const char* kUntrustedFormats =
+    "wav,w64,mp3,ogg,flac,aac,mov,matroska,aiff,caf,au";
 
 /// Options from configs/viseme/audio.json; Error naming the file and key.
 AudioOptions load_audio_options();
