@@ -286,7 +286,7 @@ class Packer {
         if (!uri.starts_with("data:")) budget_.add_file_bytes(data_[i].size());
         changed_ = true;
       } else if (c_.glb && i == 0) {
-        data_[i] = c_.bin;
+        data_[i] = std::move(c_.bin);  // one copy of the BIN chunk, however large
       } else if (meshopt_of(b)) {
         fallback_[i] = true;
         declared_[i] = size_field(b, "byteLength", at);

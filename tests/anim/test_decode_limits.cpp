@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "facecast/anim/avatar_document.hpp"
@@ -13,69 +14,15 @@
 #include "facecast/anim/decode_limits.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "hostile_glb.hpp"
 
 using namespace facecast;
 using namespace facecast::anim;
 using nlohmann::json;
+using namespace facecast::test::hostile;
 
 namespace {
-
-// A GLB from its JSON text and BIN bytes (the text may be JSON no parser here could build).
-std::string make_glb(std::string text, std::string bin) {
-  while (text.size() % 4) text += ' ';
-  while (bin.size() % 4) bin += '\0';
-  std::string out;
-  const auto u32 = [&](std::size_t v) {
-    const auto x = static_cast<std::uint32_t>(v);
-    out.append(reinterpret_cast<const char*>(&x), 4);
-  };
-  out += "glTF";
-  u32(2);
-  u32(12 + 8 + text.size() + 8 + bin.size());
-  u32(text.size());
-  out += "JSON";
-  out += text;
-  u32(bin.size());
-  out.append("BIN\0", 4);
-  out += bin;
-  return out;
-}
-
-// One triangle with one morph target, in a GLB of `pad` bytes at least (its BIN padded).
-struct Doc {
-  json doc;
-  std::string bin;
-  std::string glb() const { return make_glb(doc.dump(), bin); }
-};
-
-Doc triangle(std::size_t pad = 0) {
-  Doc d;
-  const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
-  const float delta[9] = {0, 0, 0, 0, 0, 0.5f, 0, 0, 0};
-  const std::uint32_t idx[3] = {0, 1, 2};
-  d.bin.append(reinterpret_cast<const char*>(pos), sizeof pos);
-  d.bin.append(reinterpret_cast<const char*>(delta), sizeof delta);
-  d.bin.append(reinterpret_cast<const char*>(idx), sizeof idx);
-  if (d.bin.size() < pad) d.bin.resize(pad, '\0');
-  d.doc = json::parse(R"({
-    "asset": {"version": "2.0"},
-    "buffers": [{"byteLength": 0}],
-    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
-                    {"buffer": 0, "byteOffset": 36, "byteLength": 36},
-                    {"buffer": 0, "byteOffset": 72, "byteLength": 12}],
-    "accessors": [
-      {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-       "min": [0, 0, 0], "max": [1, 1, 0]},
-      {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
-      {"bufferView": 2, "componentType": 5125, "count": 3, "type": "SCALAR"}],
-    "meshes": [{"name": "face", "primitives": [{"attributes": {"POSITION": 0}, "indices": 2,
-                "targets": [{"POSITION": 1}]}], "extras": {"targetNames": ["jawOpen"]}}],
-    "nodes": [{"mesh": 0}],
-    "scenes": [{"nodes": [0]}],
-    "scene": 0})");
-  d.doc["buffers"][0]["byteLength"] = d.bin.size();
-  return d;
-}
 
 struct Outcome {
   std::string message = "(no error)";
@@ -109,74 +56,6 @@ void check_refused(const Outcome& o, const std::string& starts_with) {
   CHECK(o.message.rfind(starts_with, 0) == 0);
   CHECK(o.message.find('\n') == std::string::npos);
   CHECK(o.seconds < 2.0);
-}
-
-std::string nested(std::size_t depth) {
-  return std::string(depth, '[') + std::string(depth, ']');
-}
-
-// The JSON of `d` with `member` (text) added to its top-level object.
-std::string with_member(const Doc& d, const std::string& member) {
-  std::string text = d.doc.dump();
-  text.insert(text.size() - 1, "," + member);
-  return text;
-}
-
-std::string varint(std::uint64_t v) {
-  std::string out;
-  do {
-    const auto byte = static_cast<unsigned char>(v & 0x7F);
-    v >>= 7;
-    out.push_back(static_cast<char>(v ? byte | 0x80 : byte));
-  } while (v);
-  return out;
-}
-
-// A Draco 2.2 triangle-mesh header (no metadata) that declares `faces` and `points`.
-std::string draco_header(bool edgebreaker, std::uint64_t faces, std::uint64_t points) {
-  std::string s = "DRACO";
-  s += '\x02';
-  s += '\x02';
-  s += '\x01';                         // triangular mesh
-  s += edgebreaker ? '\x01' : '\x00';  // method
-  s.append("\0\0", 2);                 // flags
-  if (edgebreaker) {
-    s += '\x00';  // standard traversal
-    s += varint(points) + varint(faces);
-    s += '\x00';                     // attribute data
-    s += varint(faces) + varint(0);  // symbols, split symbols
-  } else {
-    s += varint(faces) + varint(points);
-  }
-  s.append(64, '\0');
-  return s;
-}
-
-// A PNG signature and IHDR chunk declaring `w` x `h` RGBA, and nothing else.
-std::string png_header(std::uint32_t w, std::uint32_t h) {
-  std::string s("\x89PNG\r\n\x1a\n", 8);
-  const auto be = [&](std::uint32_t v) {
-    for (int k = 3; k >= 0; --k) s += static_cast<char>((v >> (8 * k)) & 0xFF);
-  };
-  be(13);
-  s += "IHDR";
-  be(w);
-  be(h);
-  s += '\x08';  // bit depth
-  s += '\x06';  // RGBA
-  s.append(3, '\0');
-  be(0);  // CRC (not checked by a header reader)
-  return s;
-}
-
-// `d` with an image of `bytes` in a new buffer view.
-void add_image(Doc& d, const std::string& bytes, const char* mime) {
-  while (d.bin.size() % 4) d.bin += '\0';
-  const std::size_t at = d.bin.size();
-  d.bin += bytes;
-  d.doc["buffers"][0]["byteLength"] = d.bin.size();
-  d.doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", bytes.size()}});
-  d.doc["images"].push_back({{"bufferView", d.doc["bufferViews"].size() - 1}, {"mimeType", mime}});
 }
 
 }  // namespace
@@ -444,4 +323,41 @@ TEST_CASE("OBJ lines, faces and records are bounded", "[anim][obj][limits]") {
     CHECK_THAT(o.message, Catch::Contains(": face of ") && Catch::Contains("over the budget of") &&
                               Catch::Contains("16 x the"));
   }
+}
+
+TEST_CASE("each attack the server is tested with is refused by the loader", "[anim][glb][limits]") {
+  for (const auto& f : glb_attacks()) {
+    INFO(f.name << ": " << f.bytes.size() << " bytes");
+    check_refused(parse_outcome(f.bytes), "upload.glb" + f.error);
+  }
+}
+
+TEST_CASE("the fuzzers' seeds are small, and each reaches the check it is next to",
+          "[anim][glb][gltf][obj][limits]") {
+  const auto root = std::filesystem::path(FACECAST_SOURCE_DIR) / "anim/fuzz/seeds";
+  int files = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(root)) {
+    if (!entry.is_regular_file()) continue;
+    ++files;
+    const auto& path = entry.path();
+    const std::string stem = path.stem().string(), ext = path.extension().string();
+    INFO(path.string());
+    CHECK(entry.file_size() < 4096);
+    const std::string bytes = read_file(path);
+    const Outcome o = outcome_of([&] {
+      if (ext == ".obj")
+        (void)parse_obj(bytes, "seed" + ext);
+      else
+        (void)parse_glb(bytes, "seed" + ext);
+    });
+    INFO(o.message);
+    if (stem == "plain" || stem == "string_brackets") {
+      CHECK(o.message == "(no error)");
+    } else if (stem == "long_line" || stem == "wide_face") {
+      CHECK(o.code != ErrorCode::kInternal);  // within the limits, or refused by them
+    } else {
+      CHECK(o.code == ErrorCode::kLimit);
+    }
+  }
+  CHECK(files == 17);
 }
