@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "facecast/anim/decode_limits.hpp"
+
 namespace facecast::server {
 
 struct ServerOptions {
@@ -57,6 +59,10 @@ struct ServerOptions {
   // Peers whose X-Forwarded-For is believed (the client is its last address not in this list);
   // any other peer is the client itself. IP addresses, e.g. ["127.0.0.1"] behind a local nginx.
   std::vector<std::string> trusted_proxies;
+  // What an uploaded avatar, rig mesh or photo may make the server decode (configs: "decode";
+  // the fields and defaults of anim::DecodeLimits): checked before parsing, decoding or
+  // allocating, answered 413 with the file and field.
+  anim::DecodeLimits decode;
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;          // frames are sent this many seconds before their presentation time
