@@ -332,31 +332,33 @@ TEST_CASE("each attack the server is tested with is refused by the loader", "[an
   }
 }
 
-TEST_CASE("the fuzzers' seeds are small, and each reaches the check it is next to",
+TEST_CASE("the fuzzers' limit_* seeds are small, and each reaches the check it is next to",
           "[anim][glb][gltf][obj][limits]") {
-  const auto root = std::filesystem::path(FACECAST_SOURCE_DIR) / "anim/fuzz/seeds";
+  const auto root = std::filesystem::path(FACECAST_SOURCE_DIR) / "tests/fuzz/corpus";
   int files = 0;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(root)) {
-    if (!entry.is_regular_file()) continue;
-    ++files;
-    const auto& path = entry.path();
-    const std::string stem = path.stem().string(), ext = path.extension().string();
-    INFO(path.string());
-    CHECK(entry.file_size() < 4096);
-    const std::string bytes = read_file(path);
-    const Outcome o = outcome_of([&] {
-      if (ext == ".obj")
-        (void)parse_obj(bytes, "seed" + ext);
-      else
-        (void)parse_glb(bytes, "seed" + ext);
-    });
-    INFO(o.message);
-    if (stem == "plain" || stem == "string_brackets") {
-      CHECK(o.message == "(no error)");
-    } else if (stem == "long_line" || stem == "wide_face") {
-      CHECK(o.code != ErrorCode::kInternal);  // within the limits, or refused by them
-    } else {
-      CHECK(o.code == ErrorCode::kLimit);
+  for (const char* target : {"fuzz_glb", "fuzz_gltf", "fuzz_obj"}) {
+    for (const auto& entry : std::filesystem::directory_iterator(root / target)) {
+      const auto& path = entry.path();
+      const std::string stem = path.stem().string(), ext = path.extension().string();
+      if (!stem.starts_with("limit_")) continue;
+      ++files;
+      INFO(path.string());
+      CHECK(entry.file_size() < 4096);
+      const std::string bytes = read_file(path);
+      const Outcome o = outcome_of([&] {
+        if (ext == ".obj")
+          (void)parse_obj(bytes, "seed" + ext);
+        else
+          (void)parse_glb(bytes, "seed" + ext);
+      });
+      INFO(o.message);
+      if (stem == "limit_plain" || stem == "limit_string_brackets") {
+        CHECK(o.message == "(no error)");
+      } else if (stem == "limit_long_line") {
+        CHECK(o.code == ErrorCode::kInvalidInput);  // within the limits: no faces
+      } else {
+        CHECK(o.code == ErrorCode::kLimit);
+      }
     }
   }
   CHECK(files == 17);

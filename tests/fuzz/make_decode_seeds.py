@@ -1,15 +1,16 @@
 #!/usr/bin/env python3
-"""Writes the fuzzers' seed corpus (anim/fuzz/seeds/<format>/): one tiny file (< 4 KB) per class of
-hostile avatar file that decode_limits.hpp bounds, so that the fuzzers start next to each check.
-The same attacks, full size, are built by tests/anim/hostile_glb.cpp. Run from anywhere:
-  python3 anim/fuzz/make_seeds.py
-then ./fuzz_glb seeds/glb, ./fuzz_gltf seeds/gltf, ./fuzz_obj seeds/obj."""
+"""Writes the limit_* seeds of fuzz_glb, fuzz_gltf and fuzz_obj (tests/fuzz/corpus/<target>/): one
+tiny file (< 4 KB) per class of hostile avatar file that anim/decode_limits.hpp bounds, so that the
+fuzzers start next to each check. The same attacks, full size, are built by
+tests/anim/hostile_glb.cpp. Run from anywhere: python3 tests/fuzz/make_decode_seeds.py
+(scripts/fuzz.sh runs the fuzzers from the corpus)."""
 import base64
 import json
 import os
 import struct
 
-HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "seeds")
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "corpus")
+DIRS = {"glb": "fuzz_glb", "gltf": "fuzz_gltf", "obj": "fuzz_obj"}
 
 
 def glb(text, binary):
@@ -91,8 +92,8 @@ def seeds():
 
 
 def main():
-    for fmt in ("glb", "gltf", "obj"):
-        os.makedirs(os.path.join(HERE, fmt), exist_ok=True)
+    for target in DIRS.values():
+        os.makedirs(os.path.join(HERE, target), exist_ok=True)
     for name, seed in seeds().items():
         if isinstance(seed, str):
             doc_text, binary = seed, triangle()[1]
@@ -100,7 +101,7 @@ def main():
             doc_text, binary = json.dumps(seed[0], separators=(",", ":")), seed[1]
         data = glb(doc_text, binary)
         gltf = json.loads(doc_text) if name != "deep_json" else None
-        with open(os.path.join(HERE, "glb", name + ".glb"), "wb") as f:
+        with open(os.path.join(HERE, DIRS["glb"], "limit_" + name + ".glb"), "wb") as f:
             f.write(data)
         if gltf is not None:
             gltf["buffers"][0]["uri"] = ("data:application/octet-stream;base64," +
@@ -109,7 +110,7 @@ def main():
         else:
             uri = "data:application/octet-stream;base64," + base64.b64encode(binary).decode()
             text = doc_text.replace('"buffers":[{', '"buffers":[{"uri":"%s",' % uri, 1)
-        with open(os.path.join(HERE, "gltf", name + ".gltf"), "w") as f:
+        with open(os.path.join(HERE, DIRS["gltf"], "limit_" + name + ".gltf"), "w") as f:
             f.write(text)
     obj = {
         "plain": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
@@ -117,11 +118,12 @@ def main():
         "wide_face": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf" + " 1 2 3" * 300 + "\n",
     }
     for name, text in obj.items():
-        with open(os.path.join(HERE, "obj", name + ".obj"), "w") as f:
+        with open(os.path.join(HERE, DIRS["obj"], "limit_" + name + ".obj"), "w") as f:
             f.write(text)
     for root, _, files in os.walk(HERE):
         for name in files:
-            assert os.path.getsize(os.path.join(root, name)) < 4096, name
+            if name.startswith("limit_"):
+                assert os.path.getsize(os.path.join(root, name)) < 4096, name
 
 
 if __name__ == "__main__":
