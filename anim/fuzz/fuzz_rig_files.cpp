@@ -1,11 +1,14 @@
 // libFuzzer target: the avatar file parsers that uploads reach. Build with -DFACECAST_FUZZ=ON
 // -DCMAKE_CXX_COMPILER=clang++; run
-//   ./fuzz_glb -max_total_time=600 -rss_limit_mb=2048   (and ./fuzz_gltf, ./fuzz_obj the same way)
-// FACECAST_FUZZ_FORMAT picks the input (1: GLB/VRM bytes, 3: .gltf JSON text, 2: OBJ). glTF goes
-// through the avatar document (packing, meshopt and Draco decoding, tinygltf), both views, a
-// write-back of the shapes, the document's GLB and Facecast's own GLB writer. Anything but
-// facecast::Error (a crash, a sanitizer report, another exception, running out of memory on a
-// declared size) is a bug.
+//   ./fuzz_glb -max_total_time=600 -rss_limit_mb=2048 tests/fuzz/corpus/fuzz_glb
+// (and ./fuzz_gltf, ./fuzz_obj the same way; scripts/fuzz.sh does it). The corpus' limit_* seeds
+// (tests/fuzz/make_decode_seeds.py writes them) are one tiny file per class of hostile file that
+// DecodeLimits bounds (deep JSON, meshopt and Draco sizes, sparse rows, image headers, OBJ lines
+// and faces), so that mutations start next to each check. FACECAST_FUZZ_FORMAT picks the input (1:
+// GLB/VRM bytes, 3: .gltf JSON text, 2: OBJ). glTF goes through the avatar document (packing,
+// meshopt and Draco decoding, tinygltf), both views, a write-back of the shapes, the document's GLB
+// and Facecast's own GLB writer. Anything but facecast::Error (a crash, a sanitizer report, another
+// exception, running out of memory on a declared size) is a bug.
 #include <cstddef>
 #include <cstdint>
 #include <string_view>

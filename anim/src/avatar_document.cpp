@@ -66,20 +66,31 @@ AvatarDocument::AvatarDocument(AvatarDocument&&) noexcept = default;
 AvatarDocument& AvatarDocument::operator=(AvatarDocument&&) noexcept = default;
 AvatarDocument::~AvatarDocument() = default;
 
-AvatarDocument AvatarDocument::parse(std::string_view bytes, std::string_view name) {
+AvatarDocument AvatarDocument::parse(std::string_view bytes, std::string_view name,
+                                     const DecodeLimits& limits) {
   AvatarDocument doc;
   doc.name_ = std::string(name);
+  doc.limits_ = limits;
   if (bytes.size() > 0x7FFFFFFF) throw Error(doc.name_ + ": file exceeds 2 GiB", ErrorCode::kLimit);
-  *doc.model_ = load_packed(detail::pack_glb(bytes, doc.name_, std::nullopt), doc.name_);
+  detail::DecodeBudget budget(limits, bytes.size());
+  const std::string packed = detail::pack_glb(bytes, doc.name_, std::nullopt, budget);
+  *doc.model_ = load_packed(packed, doc.name_);
+  doc.source_bytes_ = bytes.size();
+  doc.decoded_bytes_ = packed.size();
   return doc;
 }
 
-AvatarDocument AvatarDocument::read(const std::filesystem::path& path) {
+AvatarDocument AvatarDocument::read(const std::filesystem::path& path, const DecodeLimits& limits) {
   AvatarDocument doc;
   doc.name_ = path.string();
+  doc.limits_ = limits;
   const std::string bytes = read_file(path);
   if (bytes.size() > 0x7FFFFFFF) throw Error(doc.name_ + ": file exceeds 2 GiB", ErrorCode::kLimit);
-  *doc.model_ = load_packed(detail::pack_glb(bytes, doc.name_, path.parent_path()), doc.name_);
+  detail::DecodeBudget budget(limits, bytes.size());
+  const std::string packed = detail::pack_glb(bytes, doc.name_, path.parent_path(), budget);
+  *doc.model_ = load_packed(packed, doc.name_);
+  doc.source_bytes_ = budget.file_bytes();
+  doc.decoded_bytes_ = packed.size();
   return doc;
 }
 

@@ -45,8 +45,21 @@ std::vector<std::string> names_in(const tinygltf::Value& extras) {
 
 class ViewBuilder {
  public:
+  // A document read from a file keeps to its limits: every accessor read and per-vertex array
+  // is charged to a budget of its size decoded (what the view reads: compressed data unpacked).
   ViewBuilder(const AvatarDocument& doc, const ViewOptions& opt)
-      : m_(doc.model()), what_(doc.name()), g_(detail::node_graph(m_, what_)), opt_(opt) {}
+      : m_(doc.model()),
+        what_(doc.name()),
+        g_(detail::node_graph(m_, what_)),
+        opt_(opt),
+        budget_(view_budget(doc)) {}
+
+  static detail::DecodeBudget view_budget(const AvatarDocument& doc) {
+    if (!doc.source_bytes()) return {};
+    if (doc.decoded_bytes() <= doc.source_bytes())
+      return detail::DecodeBudget(doc.limits(), doc.source_bytes());
+    return detail::DecodeBudget(doc.limits(), doc.decoded_bytes(), 0, "decoded file");
+  }
 
   AvatarView build() {
     bool any_targets = false;
@@ -106,16 +119,18 @@ class ViewBuilder {
     const auto w_it = prim[0].attributes.find("WEIGHTS_0");
     if (j_it == prim[0].attributes.end() || w_it == prim[0].attributes.end()) return false;
     const auto& joints = m_.skins[static_cast<std::size_t>(n.skin)].joints;
+    std::vector<char> joint_on_head(joints.size());  // once per joint, not per vertex
+    for (std::size_t k = 0; k < joints.size(); ++k) joint_on_head[k] = under(joints[k], head);
     const std::string at = what_ + ": meshes[" + std::to_string(n.mesh) + "]";
-    const auto j = read_uints(m_, j_it->second, 4, at + " JOINTS_0");
-    const auto w = read_floats(m_, w_it->second, 4, at + " WEIGHTS_0");
+    const auto j = read_uints(m_, j_it->second, 4, at + " JOINTS_0", &budget_);
+    const auto w = read_floats(m_, w_it->second, 4, at + " WEIGHTS_0", &budget_);
     if (j.size() != static_cast<std::size_t>(w.rows()) * 4) return false;
     double on = 0, total = 0;
     for (Eigen::Index v = 0; v < w.rows(); ++v)
       for (int c = 0; c < 4; ++c) {
         const std::uint32_t k = j[static_cast<std::size_t>(v) * 4 + static_cast<std::size_t>(c)];
         total += w(v, c);
-        if (k < joints.size() && under(joints[k], head)) on += w(v, c);
+        if (k < joints.size() && joint_on_head[k]) on += w(v, c);
       }
     return total > 0 && on >= 0.5 * total;
   }
@@ -180,7 +195,7 @@ class ViewBuilder {
     std::vector<Eigen::Matrix4f> joint_matrix;
     detail::FloatRows ibm;
     if (skin.inverseBindMatrices >= 0) {
-      ibm = read_floats(m_, skin.inverseBindMatrices, 16, at + " inverseBindMatrices");
+      ibm = read_floats(m_, skin.inverseBindMatrices, 16, at + " inverseBindMatrices", &budget_);
       if (static_cast<std::size_t>(ibm.rows()) < skin.joints.size())
         throw Error(at + ": fewer inverse bind matrices than joints");
     }
@@ -197,8 +212,8 @@ class ViewBuilder {
       if (fresh) joint_nodes_.push_back(jn);
       global[k] = jt->second;
     }
-    const auto joints = read_uints(m_, j_it->second, 4, at + " JOINTS_0");
-    const auto weights = read_floats(m_, w_it->second, 4, at + " WEIGHTS_0");
+    const auto joints = read_uints(m_, j_it->second, 4, at + " JOINTS_0", &budget_);
+    const auto weights = read_floats(m_, w_it->second, 4, at + " WEIGHTS_0", &budget_);
     if (joints.size() != n * 4 || static_cast<std::size_t>(weights.rows()) != n)
       throw Error(at + ": JOINTS_0/WEIGHTS_0 counts differ from POSITION");
     d.part.skinned = true;
@@ -232,9 +247,12 @@ class ViewBuilder {
       const auto it = prim.attributes.find(name);
       return it == prim.attributes.end() ? -1 : it->second;
     };
-    d.pos = read_floats(m_, attr("POSITION"), 3, at + " POSITION");
+    d.pos = read_floats(m_, attr("POSITION"), 3, at + " POSITION", &budget_);
     const Eigen::Index n = d.pos.rows();
     d.part.vertex_count = static_cast<int>(n);
+    // Per vertex: its map and shift here, its row of the merged rig (positions, normals, UVs,
+    // joints, weights, the map again) in assemble().
+    budget_.charge(detail::product(static_cast<std::size_t>(n), 2 * 48 + 56), at, "vertex data");
     std::vector<Eigen::Vector3f> shift;
     place(d, prim, at, shift);
     for (Eigen::Index v = 0; v < n; ++v)
@@ -242,7 +260,7 @@ class ViewBuilder {
                       shift[static_cast<std::size_t>(v)])
                          .transpose();
     if (attr("NORMAL") >= 0) {
-      d.nrm = read_floats(m_, attr("NORMAL"), 3, at + " NORMAL");
+      d.nrm = read_floats(m_, attr("NORMAL"), 3, at + " NORMAL", &budget_);
       if (d.nrm.rows() != n)
         throw Error(at + " NORMAL: " + std::to_string(d.nrm.rows()) + " elements for " +
                     std::to_string(n) + " positions");
@@ -255,7 +273,7 @@ class ViewBuilder {
       }
     }
     if (attr("TEXCOORD_0") >= 0) {
-      d.uv = read_floats(m_, attr("TEXCOORD_0"), 2, at + " TEXCOORD_0");
+      d.uv = read_floats(m_, attr("TEXCOORD_0"), 2, at + " TEXCOORD_0", &budget_);
       if (d.uv.rows() != n)
         throw Error(at + " TEXCOORD_0: " + std::to_string(d.uv.rows()) + " elements for " +
                     std::to_string(n) + " positions");
@@ -264,9 +282,11 @@ class ViewBuilder {
     if (names.empty()) names = names_in(m_.meshes[static_cast<std::size_t>(d.part.mesh)].extras);
     for (std::size_t t = 0; t < prim.targets.size(); ++t) {
       const auto tp = prim.targets[t].find("POSITION");
+      if (tp == prim.targets[t].end())
+        budget_.charge(detail::product(static_cast<std::size_t>(n), 12), at, "morph target");
       Positions delta = Positions::Zero(n, 3);
       if (tp != prim.targets[t].end()) {
-        delta = read_floats(m_, tp->second, 3, at + " target " + std::to_string(t));
+        delta = read_floats(m_, tp->second, 3, at + " target " + std::to_string(t), &budget_);
         if (delta.rows() != n)
           throw Error(at + ": morph target " + std::to_string(t) + " size differs from POSITION");
         for (Eigen::Index v = 0; v < n; ++v)
@@ -285,7 +305,7 @@ class ViewBuilder {
     const auto count = static_cast<std::uint32_t>(part.vertex_count);
     std::vector<std::uint32_t> idx;
     if (prim.indices >= 0) {
-      idx = read_uints(m_, prim.indices, 1, at + " indices");
+      idx = read_uints(m_, prim.indices, 1, at + " indices", &budget_);
     } else {
       idx.resize(count);
       for (std::uint32_t i = 0; i < count; ++i) idx[i] = i;
@@ -296,6 +316,10 @@ class ViewBuilder {
                     std::to_string(count) + " vertices)");
     if (mode == TINYGLTF_MODE_TRIANGLES && idx.size() % 3)
       throw Error(at + ": index count is not a multiple of 3");
+    // Per triangle (a strip or fan makes one per index): corners, material, group, and the rig's
+    // row of them.
+    const std::size_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? idx.size() / 3 : idx.size();
+    budget_.charge(detail::product(triangles, 2 * 20), at, "triangles");
     const int material =
         prim.material >= 0 && static_cast<std::size_t>(prim.material) < m_.materials.size()
             ? prim.material
@@ -327,6 +351,7 @@ class ViewBuilder {
   std::string what_;
   detail::NodeGraph g_;
   ViewOptions opt_;
+  mutable detail::DecodeBudget budget_;
   std::vector<PartData> parts_;
   std::map<std::pair<int, int>, int> owner_;  // (node, POSITION accessor) -> part
   std::map<int, int> group_of_, joint_index_;

@@ -388,12 +388,12 @@ void write_glb(const std::filesystem::path& path, const Rig& rig) {
   write_file_atomic(path, glb_bytes(rig));
 }
 
-Rig parse_glb(std::string_view bytes, std::string_view name) {
-  return make_view(AvatarDocument::parse(bytes, name)).rig;
+Rig parse_glb(std::string_view bytes, std::string_view name, const DecodeLimits& limits) {
+  return make_view(AvatarDocument::parse(bytes, name, limits)).rig;
 }
 
-Rig read_glb(const std::filesystem::path& path) {
-  return make_view(AvatarDocument::read(path)).rig;
+Rig read_glb(const std::filesystem::path& path, const DecodeLimits& limits) {
+  return make_view(AvatarDocument::read(path, limits)).rig;
 }
 
 }  // namespace facecast::anim

@@ -104,6 +104,16 @@ void read_elements(const Span& span, std::size_t csize, int comps, Put put) {
       put(i, c, span.data + i * span.stride + static_cast<std::size_t>(c) * csize);
 }
 
+// What reading the accessor allocates (its elements as 4-byte values, the sparse indices),
+// charged before anything is read.
+void charge(DecodeBudget* budget, const tinygltf::Accessor& a, int comps, const std::string& what) {
+  if (!budget) return;
+  std::size_t bytes = product(product(a.count, static_cast<std::size_t>(comps)), 4);
+  if (a.sparse.isSparse && a.sparse.count > 0)
+    bytes += product(static_cast<std::size_t>(a.sparse.count), 4);
+  budget->charge(bytes, what, a.sparse.isSparse ? "sparse accessor read" : "accessor read");
+}
+
 // The sparse part of an accessor: the indices it replaces, checked against `count`.
 std::vector<std::uint32_t> sparse_indices(const tinygltf::Model& m, const tinygltf::Accessor& a,
                                           const std::string& what) {
@@ -135,11 +145,13 @@ const tinygltf::Accessor& accessor_at(const tinygltf::Model& m, int index,
   return m.accessors[static_cast<std::size_t>(index)];
 }
 
-FloatRows read_floats(const tinygltf::Model& m, int index, int comps, const std::string& what) {
+FloatRows read_floats(const tinygltf::Model& m, int index, int comps, const std::string& what,
+                      DecodeBudget* budget) {
   const auto& a = accessor_at(m, index, what);
   if (tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type)) != comps)
     throw Error(what + ": expected " + std::to_string(comps) + " components per element",
                 ErrorCode::kUnsupported);
+  charge(budget, a, comps, what);
   const std::size_t csize = component_size(a.componentType, what);
   const Span span = span_of(m, a.bufferView, a.byteOffset, a.count,
                             csize * static_cast<std::size_t>(comps), 0, what);
@@ -164,7 +176,7 @@ FloatRows read_floats(const tinygltf::Model& m, int index, int comps, const std:
 }
 
 std::vector<std::uint32_t> read_uints(const tinygltf::Model& m, int index, int comps,
-                                      const std::string& what) {
+                                      const std::string& what, DecodeBudget* budget) {
   const auto& a = accessor_at(m, index, what);
   const int type = a.componentType;
   if (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
@@ -173,6 +185,7 @@ std::vector<std::uint32_t> read_uints(const tinygltf::Model& m, int index, int c
     throw Error(what + ": expected unsigned 8, 16 or 32 bit integers");
   if (tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type)) != comps)
     throw Error(what + ": expected " + std::to_string(comps) + " components per element");
+  charge(budget, a, comps, what);
   const std::size_t csize = component_size(type, what);
   const Span span = span_of(m, a.bufferView, a.byteOffset, a.count,
                             csize * static_cast<std::size_t>(comps), 0, what);

@@ -1,6 +1,7 @@
 // Packing a glTF container into one self-contained GLB (see gltf_package.hpp). Every offset and
-// length the JSON declares is checked against the bytes at hand before anything is read; decoded
-// sizes are bounded by a multiple of the input before they are allocated.
+// length the JSON declares is checked against the bytes at hand before anything is read; the JSON's
+// nesting and size, the counts of glTF objects, image headers and every decoded size are checked
+// against the DecodeLimits before a parser, decoder or allocation spends them.
 #include "gltf_package.hpp"
 
 #include <meshoptimizer.h>
@@ -14,21 +15,45 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/json_limits.hpp"
 
 namespace facecast::anim::detail {
 namespace {
 
 using nlohmann::json;
 
-// Decoded data (meshopt fallback buffers, Draco output) may not exceed this many times the input,
-// nor kMaxDecoded bytes: a file that declares more is refused before allocating.
-constexpr std::size_t kMaxExpansion = 1024;
-constexpr std::size_t kMaxDecoded = std::size_t{1} << 31;
-
 constexpr std::array kSupportedRequired = {
-    "KHR_mesh_quantization",      "KHR_texture_transform", "EXT_meshopt_compression",
-    "KHR_draco_mesh_compression", "KHR_materials_unlit",   "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",           "KHR_texture_transform",      "EXT_meshopt_compression",
+    "KHR_meshopt_compression",         "KHR_draco_mesh_compression", "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
 };
+// The two names of meshopt compression: the vendor extension and its ratified successor (same
+// fields; a stream in a newer codec version than the library's fails to decode, with an error).
+constexpr std::array kMeshopt = {"EXT_meshopt_compression", "KHR_meshopt_compression"};
+
+// The values (and object keys) of JSON text, counted without parsing: an upper bound from the
+// separators outside strings. Stops counting past `stop_at`.
+std::size_t json_values(std::string_view text, std::size_t stop_at) {
+  std::size_t n = 1;
+  bool in_string = false, escaped = false;
+  for (const char c : text) {
+    if (in_string) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        in_string = false;
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == ',' || c == ':' || c == '[' || c == '{') {
+      if (++n > stop_at) return n;
+    }
+  }
+  return n;
+}
 
 struct Container {
   json doc;
@@ -42,7 +67,7 @@ std::uint32_t u32_at(std::string_view b, std::size_t at) {
   return v;
 }
 
-Container split(std::string_view bytes, const std::string& what) {
+Container split(std::string_view bytes, const std::string& what, const DecodeLimits& limits) {
   Container c;
   std::string_view text = bytes;
   if (bytes.size() >= 4 && bytes.substr(0, 4) == "glTF") {
@@ -60,6 +85,13 @@ Container split(std::string_view bytes, const std::string& what) {
       c.bin = std::string(bytes.substr(at + 8, bin_len));
     }
   }
+  // Before any parser: nesting (parsers recurse) and the number of values (each costs a parser
+  // many times its bytes).
+  check_json_depth(text, limits.max_json_depth, what);
+  if (const std::size_t n = json_values(text, limits.max_json_values); n > limits.max_json_values)
+    throw Error(what + ": the glTF JSON holds more than " + std::to_string(limits.max_json_values) +
+                    " values (max_json_values)",
+                ErrorCode::kLimit);
   c.doc = json::parse(text, nullptr, false);
   if (c.doc.is_discarded() || !c.doc.is_object())
     throw Error(what + ": the glTF JSON is not a valid JSON object");
@@ -167,14 +199,45 @@ void drop_from_lists(json& doc, const char* name) {
   }
 }
 
+// Counts of glTF objects, checked on the parsed JSON before tinygltf builds its (much larger)
+// structures from it.
+void check_counts(json& doc, const std::string& what, const DecodeLimits& limits) {
+  const auto over = [&](std::size_t n, std::size_t max, const std::string& field, const char* key) {
+    if (n > max)
+      throw Error(what + ": " + field + " holds " + std::to_string(n) + ", over the limit of " +
+                      std::to_string(max) + " (" + key + ")",
+                  ErrorCode::kLimit);
+  };
+  over(array_of(doc, "nodes", what).size(), limits.max_nodes, "nodes", "max_nodes");
+  over(array_of(doc, "meshes", what).size(), limits.max_meshes, "meshes", "max_meshes");
+  over(array_of(doc, "accessors", what).size(), limits.max_accessors, "accessors", "max_accessors");
+  over(array_of(doc, "bufferViews", what).size(), limits.max_accessors, "bufferViews",
+       "max_accessors");
+  over(array_of(doc, "images", what).size(), limits.max_images, "images", "max_images");
+  // Every other array of objects: no more of them than of accessors.
+  for (const char* key :
+       {"buffers", "materials", "textures", "samplers", "skins", "animations", "cameras", "scenes"})
+    over(array_of(doc, key, what).size(), limits.max_accessors, key, "max_accessors");
+  std::size_t primitives = 0, targets = 0, joints = 0, channels = 0;
+  for (auto& mesh : array_of(doc, "meshes", what)) {
+    auto& prims = array_of(mesh, "primitives", what);
+    primitives += prims.size();
+    for (auto& p : prims) targets += array_of(p, "targets", what).size();
+  }
+  for (auto& skin : array_of(doc, "skins", what)) joints += array_of(skin, "joints", what).size();
+  for (auto& a : array_of(doc, "animations", what))
+    channels += array_of(a, "channels", what).size() + array_of(a, "samplers", what).size();
+  over(primitives, limits.max_primitives, "the meshes' primitives", "max_primitives");
+  over(targets, limits.max_morph_targets, "the primitives' morph targets", "max_morph_targets");
+  over(joints, limits.max_joints, "the skins' joints", "max_joints");
+  over(channels, limits.max_accessors, "the animations' channels and samplers", "max_accessors");
+}
+
 class Packer {
  public:
   Packer(Container c, const std::string& what, const std::optional<std::filesystem::path>& dir,
-         std::size_t input_size)
-      : c_(std::move(c)),
-        what_(what),
-        dir_(dir),
-        budget_(std::min(kMaxDecoded, input_size * kMaxExpansion)) {}
+         DecodeBudget& budget)
+      : c_(std::move(c)), what_(what), dir_(dir), budget_(budget) {}
 
   std::string run(std::string_view original) {
     check_required();
@@ -187,6 +250,8 @@ class Packer {
   }
 
  private:
+  const DecodeLimits& limits() const { return budget_.limits(); }
+
   void check_required() {
     for (const auto& e : array_of(c_.doc, "extensionsRequired", what_)) {
       if (!e.is_string()) throw Error(what_ + ": extensionsRequired holds a non-string");
@@ -196,32 +261,35 @@ class Packer {
     }
   }
 
-  void charge(std::size_t bytes) {
-    if (bytes > budget_)
-      throw Error(what_ + ": declared sizes exceed what the file can hold (" +
-                      std::to_string(bytes) + " bytes)",
-                  ErrorCode::kLimit);
-    budget_ -= bytes;
+  static const char* meshopt_of(const json& o) {
+    if (!o.is_object() || !o.contains("extensions") || !o["extensions"].is_object()) return nullptr;
+    for (const char* name : kMeshopt)
+      if (o["extensions"].contains(name)) return name;
+    return nullptr;
   }
 
-  // Buffers with data first (their bytes raise the decoding budget: external .bin files count),
-  // then the meshopt fallback buffers that decoding fills.
+  // Buffers with data first (an external .bin file of a file on disk raises the budget as the
+  // file's own bytes do); meshopt fallback buffers are only declared here: decode_meshopt
+  // allocates them once the views that fill them are checked.
   void load_buffers() {
     auto& buffers = array_of(c_.doc, "buffers", what_);
     data_.resize(buffers.size());
-    std::vector<std::size_t> fallback;
+    declared_.assign(buffers.size(), 0);
+    fallback_.assign(buffers.size(), false);
     for (std::size_t i = 0; i < buffers.size(); ++i) {
       json& b = buffers[i];
       const std::string at = what_ + " buffers[" + std::to_string(i) + "]";
       if (b.contains("uri")) {
         if (!b["uri"].is_string()) throw Error(at + ": uri is not a string");
-        data_[i] = read_uri(b["uri"].get<std::string>(), at, dir_, nullptr);
-        budget_ = std::min(kMaxDecoded, budget_ + data_[i].size() * kMaxExpansion);
+        const std::string& uri = b["uri"].get_ref<const std::string&>();
+        data_[i] = read_uri(uri, at, dir_, nullptr);
+        if (!uri.starts_with("data:")) budget_.add_file_bytes(data_[i].size());
         changed_ = true;
       } else if (c_.glb && i == 0) {
-        data_[i] = c_.bin;
-      } else if (b.contains("extensions") && b["extensions"].contains("EXT_meshopt_compression")) {
-        fallback.push_back(i);
+        data_[i] = std::move(c_.bin);  // one copy of the BIN chunk, however large
+      } else if (meshopt_of(b)) {
+        fallback_[i] = true;
+        declared_[i] = size_field(b, "byteLength", at);
         continue;
       } else {
         throw Error(at + ": buffer has no data");
@@ -230,50 +298,77 @@ class Packer {
       if (data_[i].size() < length)
         throw Error(at + ": byteLength " + std::to_string(length) + " exceeds its " +
                     std::to_string(data_[i].size()) + " bytes");
-    }
-    for (const std::size_t i : fallback) {
-      const std::size_t length = size_field(buffers[i], "byteLength", what_ + " buffers");
-      charge(length);
-      data_[i].assign(length, '\0');  // filled by decode_meshopt
-      remove_extension(buffers[i], "EXT_meshopt_compression");
+      declared_[i] = data_[i].size();
     }
   }
 
-  // The bytes [offset, offset + length) of buffer `index`, checked.
+  // The bytes [offset, offset + length) of buffer `index`, checked (against the declared length
+  // of a fallback buffer not yet allocated).
   std::string_view slice(std::size_t index, std::size_t offset, std::size_t length,
                          const std::string& at) const {
     if (index >= data_.size())
       throw Error(at + ": buffer " + std::to_string(index) + " does not exist");
-    const std::string& d = data_[index];
-    if (offset > d.size() || length > d.size() - offset)
+    const std::size_t size = std::max(data_[index].size(), declared_[index]);
+    if (offset > size || length > size - offset)
       throw Error(at + ": byte range runs past the end of buffer " + std::to_string(index));
-    return std::string_view(d).substr(offset, length);
+    if (data_[index].size() < size) return {};  // not allocated yet
+    return std::string_view(data_[index]).substr(offset, length);
   }
 
+  // Every meshopt view is checked and its decoded size charged before any fallback buffer is
+  // allocated or any stream decoded.
   void decode_meshopt() {
     auto& views = array_of(c_.doc, "bufferViews", what_);
+    struct Job {
+      std::size_t view, count, stride, dst_buffer, dst_offset;
+      std::string at, mode, filter;
+      const char* ext;
+    };
+    std::vector<Job> jobs;
     for (std::size_t i = 0; i < views.size(); ++i) {
       json& v = views[i];
-      if (!v.is_object() || !v.contains("extensions") || !v["extensions"].is_object() ||
-          !v["extensions"].contains("EXT_meshopt_compression"))
-        continue;
+      const char* ext = meshopt_of(v);
+      if (!ext) continue;
       const std::string at = what_ + " bufferViews[" + std::to_string(i) + "]";
-      const json& e = v["extensions"]["EXT_meshopt_compression"];
-      const std::size_t count = size_field(e, "count", at),
-                        stride = size_field(e, "byteStride", at);
-      const std::string_view src =
-          slice(size_field(e, "buffer", at), size_field(e, "byteOffset", at),
-                size_field(e, "byteLength", at), at);
-      const std::size_t dst_buffer = size_field(v, "buffer", at);
-      const std::size_t dst_offset = size_field(v, "byteOffset", at);
+      const json& e = v["extensions"][ext];
+      if (!e.is_object()) throw Error(at + ": " + ext + " is not an object");
+      Job job{i,
+              size_field(e, "count", at),
+              size_field(e, "byteStride", at),
+              size_field(v, "buffer", at),
+              size_field(v, "byteOffset", at),
+              at,
+              e.value("mode", std::string()),
+              e.value("filter", std::string("NONE")),
+              ext};
+      (void)slice(size_field(e, "buffer", at), size_field(e, "byteOffset", at),
+                  size_field(e, "byteLength", at), at);
       const std::size_t dst_length = size_field(v, "byteLength", at);
-      (void)slice(dst_buffer, dst_offset, dst_length, at);
-      if (stride == 0 || stride > 256 || count > dst_length / stride)
+      (void)slice(job.dst_buffer, job.dst_offset, dst_length, at);
+      budget_.charge(product(job.count, job.stride), at, "meshopt decode");
+      if (job.stride == 0 || job.stride > 256 || job.count > dst_length / job.stride)
         throw Error(at + ": meshopt count and stride do not fit the buffer view");
-      auto* dst = reinterpret_cast<unsigned char*>(data_[dst_buffer].data() + dst_offset);
+      jobs.push_back(std::move(job));
+    }
+    auto& buffers = array_of(c_.doc, "buffers", what_);
+    for (std::size_t i = 0; i < buffers.size(); ++i) {
+      if (!fallback_[i]) continue;
+      budget_.charge(declared_[i], what_ + " buffers[" + std::to_string(i) + "]",
+                     "meshopt fallback buffer");
+      data_[i].assign(declared_[i], '\0');  // filled by the views below
+      for (const char* name : kMeshopt) remove_extension(buffers[i], name);
+    }
+    for (const Job& job : jobs) {
+      json& v = views[job.view];
+      const json& e = v["extensions"][job.ext];
+      const std::string_view src =
+          slice(size_field(e, "buffer", job.at), size_field(e, "byteOffset", job.at),
+                size_field(e, "byteLength", job.at), job.at);
+      const std::size_t count = job.count, stride = job.stride;
+      auto* dst = reinterpret_cast<unsigned char*>(data_[job.dst_buffer].data() + job.dst_offset);
       const auto* in = reinterpret_cast<const unsigned char*>(src.data());
-      const std::string mode = e.value("mode", std::string());
-      const std::string filter = e.value("filter", std::string("NONE"));
+      const std::string& mode = job.mode;
+      const std::string& filter = job.filter;
       int rc = -1;
       if (mode == "ATTRIBUTES" && stride % 4 == 0) {
         rc = meshopt_decodeVertexBuffer(dst, count, stride, in, src.size());
@@ -282,7 +377,7 @@ class Packer {
       } else if (mode == "INDICES" && (stride == 2 || stride == 4)) {
         rc = meshopt_decodeIndexSequence(dst, count, stride, in, src.size());
       }
-      if (rc != 0) throw Error(at + ": meshopt data cannot be decoded (mode " + mode + ")");
+      if (rc != 0) throw Error(job.at + ": meshopt data cannot be decoded (mode " + mode + ")");
       if (filter == "OCTAHEDRAL" && (stride == 4 || stride == 8))
         meshopt_decodeFilterOct(dst, count, stride);
       else if (filter == "QUATERNION" && stride == 8)
@@ -290,12 +385,12 @@ class Packer {
       else if (filter == "EXPONENTIAL" && stride % 4 == 0)
         meshopt_decodeFilterExp(dst, count, stride);
       else if (filter != "NONE")
-        throw Error(at + ": meshopt filter " + filter + " does not fit stride " +
+        throw Error(job.at + ": meshopt filter " + filter + " does not fit stride " +
                     std::to_string(stride));
-      remove_extension(v, "EXT_meshopt_compression");
+      remove_extension(v, job.ext);
       changed_ = true;
     }
-    drop_from_lists(c_.doc, "EXT_meshopt_compression");
+    for (const char* name : kMeshopt) drop_from_lists(c_.doc, name);
   }
 
   // Appends bytes as a new buffer (merged by assemble) and returns a buffer view over it.
@@ -303,6 +398,8 @@ class Packer {
     auto& views = c_.doc["bufferViews"];
     if (!views.is_array()) views = json::array();
     json v = {{"buffer", data_.size()}, {"byteOffset", 0}, {"byteLength", bytes.size()}};
+    declared_.push_back(bytes.size());
+    fallback_.push_back(false);
     data_.push_back(std::move(bytes));
     views.push_back(v);
     return views.size() - 1;
@@ -335,6 +432,7 @@ class Packer {
 
   void decode_draco_primitive(json& p, const std::string& at) {
     const json& e = p["extensions"]["KHR_draco_mesh_compression"];
+    if (!e.is_object()) throw Error(at + ": KHR_draco_mesh_compression is not an object");
     const std::size_t view = size_field(e, "bufferView", at);
     auto& views = array_of(c_.doc, "bufferViews", what_);
     if (view >= views.size()) throw Error(at + ": Draco buffer view does not exist");
@@ -346,9 +444,9 @@ class Packer {
       throw Error(at + ": Draco primitive without indices or attributes");
     json& idx = accessor(p["indices"], at);
     const std::size_t index_count = size_field(idx, "count", at);
-    charge(index_count * 4);
     std::vector<DracoRequest> requests;
     std::vector<json*> targets;
+    std::size_t point_bytes = 0;  // decoded bytes per point, over the requested attributes
     for (const auto& [name, id] : e["attributes"].items()) {
       if (!p["attributes"].contains(name) || !id.is_number_integer())
         throw Error(at + ": Draco attribute " + name + " has no accessor");
@@ -362,10 +460,28 @@ class Packer {
       if (it == comps.end()) throw Error(at + ": bad accessor type for " + name);
       r.components = it->second;
       r.count = size_field(a, "count", at);
-      charge(r.count * static_cast<std::size_t>(r.components) * 4);
+      point_bytes += static_cast<std::size_t>(r.components) * 4;
       requests.push_back(std::move(r));
       targets.push_back(&a);
     }
+    // The stream's own header says how many faces and points it decodes to: checked against the
+    // accessors, and what decoding them allocates (Draco's mesh and corner table, its attribute
+    // values, our converted copies) charged, before the decoder runs.
+    const DracoCounts counts = draco_counts(src, at);
+    if (product(counts.faces, 3) != index_count)
+      throw Error(at + ": Draco stream has " + std::to_string(product(counts.faces, 3)) +
+                  " indices, the accessor " + std::to_string(index_count));
+    std::size_t points = counts.points;
+    for (const auto& r : requests) {
+      if (counts.sequential && r.count != counts.points)
+        throw Error(at + ": Draco stream has " + std::to_string(counts.points) +
+                    " points, the accessor " + std::to_string(r.count));
+      points = std::max(points, r.count);
+    }
+    // Our copies (uint32 indices, attributes as the accessors declare them, at most 4 bytes a
+    // component) and Draco's own mesh of about the same size.
+    const std::size_t out = product(product(counts.faces, 3), 4) + product(points, point_bytes);
+    budget_.charge(product(out, 2), at, "Draco decode");
     std::string indices;
     decode_draco(src, index_count, indices, requests, at);
     idx["bufferView"] = add_view(std::move(indices));
@@ -378,16 +494,33 @@ class Packer {
     remove_extension(p, "KHR_draco_mesh_compression");
   }
 
+  // Every image's header is read (no decoder runs here or in tinygltf) and checked against the
+  // image limits; images given by URI get a buffer view.
   void pack_images() {
     auto& images = array_of(c_.doc, "images", what_);
+    auto& views = array_of(c_.doc, "bufferViews", what_);
+    std::size_t total = 0;
     for (std::size_t i = 0; i < images.size(); ++i) {
       json& im = images[i];
-      if (!im.is_object() || !im.contains("uri")) continue;
       const std::string at = what_ + " images[" + std::to_string(i) + "]";
+      if (!im.is_object()) throw Error(at + ": not an object");
+      if (!im.contains("uri")) {
+        if (!im.contains("bufferView")) continue;
+        const std::size_t vi = size_field(im, "bufferView", at);
+        if (vi >= views.size()) throw Error(at + ": buffer view does not exist");
+        const json& v = views[vi];
+        total += image_cost(slice(size_field(v, "buffer", at), size_field(v, "byteOffset", at),
+                                  size_field(v, "byteLength", at), at),
+                            at);
+        check_texture_total(total, at);
+        continue;
+      }
       if (!im["uri"].is_string()) throw Error(at + ": uri is not a string");
       const std::string uri = im["uri"].get<std::string>();
       std::string mime;
       std::string bytes = read_uri(uri, at, dir_, &mime);
+      total += image_cost(bytes, at);
+      check_texture_total(total, at);
       if (mime.empty() || mime == "application/octet-stream") {
         const std::string ext = std::filesystem::path(uri).extension().string();
         mime = ext == ".png"                       ? "image/png"
@@ -401,6 +534,26 @@ class Packer {
       im.erase("uri");
       changed_ = true;
     }
+  }
+
+  // What an image decodes to, from its header; an image over the limits is an error, one whose
+  // header cannot be read is kept as it is (no decoder of Facecast's takes it: decode_image checks
+  // the header again, strictly).
+  std::size_t image_cost(std::string_view bytes, const std::string& at) const {
+    try {
+      return check_image(bytes, at, limits());
+    } catch (const Error& e) {
+      if (e.code() == ErrorCode::kLimit) throw;
+      return 0;
+    }
+  }
+
+  void check_texture_total(std::size_t total, const std::string& at) const {
+    if (total > limits().max_texture_bytes)
+      throw Error(at + ": the images decode to " + std::to_string(total) +
+                      " bytes in all, over the limit of " +
+                      std::to_string(limits().max_texture_bytes) + " (max_texture_bytes)",
+                  ErrorCode::kLimit);
   }
 
   // One buffer: every buffer's bytes one after another (each start 16-byte aligned, so views keep
@@ -453,8 +606,10 @@ class Packer {
   Container c_;
   std::string what_;
   std::optional<std::filesystem::path> dir_;
-  std::size_t budget_;
+  DecodeBudget& budget_;
   std::vector<std::string> data_;
+  std::vector<std::size_t> declared_;  // byteLength of each buffer (fallbacks: before allocating)
+  std::vector<bool> fallback_;
   bool changed_ = false;
 };
 
@@ -467,9 +622,11 @@ bool is_supported_required_extension(std::string_view name) {
 }
 
 std::string pack_glb(std::string_view bytes, const std::string& what,
-                     const std::optional<std::filesystem::path>& base_dir) {
+                     const std::optional<std::filesystem::path>& base_dir, DecodeBudget& budget) {
   try {
-    Packer packer(split(bytes, what), what, base_dir, bytes.size() + 4096);
+    Container c = split(bytes, what, budget.limits());
+    check_counts(c.doc, what, budget.limits());
+    Packer packer(std::move(c), what, base_dir, budget);
     return packer.run(bytes);
   } catch (const nlohmann::json::exception& e) {
     throw Error(what + ": malformed glTF JSON (" + e.what() + ")");

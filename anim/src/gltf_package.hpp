@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "decode_budget.hpp"
+
 namespace facecast::anim::detail {
 
 /// Extensions a file may list in extensionsRequired; any other is refused with a one-line error.
@@ -19,10 +21,20 @@ bool is_supported_required_extension(std::string_view name);
 /// `bytes`: a GLB (or .vrm) or .gltf JSON text; `what` names it in errors. `base_dir`: where
 /// external buffers and images of a file on disk lie; nullopt (an upload): any URI that is not a
 /// data: URI is an error. Returns the GLB bytes for tinygltf (the input itself when it is a GLB
-/// with nothing to pack). Sizes the file declares are checked against what it holds before
-/// anything is allocated.
+/// with nothing to pack). Sizes the file declares are checked against what it holds, and the
+/// JSON, counts, image headers and decoded sizes against `budget` and its limits, before anything
+/// is parsed, decoded or allocated.
 std::string pack_glb(std::string_view bytes, const std::string& what,
-                     const std::optional<std::filesystem::path>& base_dir);
+                     const std::optional<std::filesystem::path>& base_dir, DecodeBudget& budget);
+
+/// What a Draco mesh stream's header declares (read without decoding): faces, and points (a
+/// sequential stream: exactly; an edgebreaker stream: the connectivity's vertices, at most three
+/// per face). Error naming `what` for a stream that is not a readable Draco mesh.
+struct DracoCounts {
+  std::size_t faces = 0, points = 0;
+  bool sequential = false;
+};
+DracoCounts draco_counts(std::string_view bytes, const std::string& what);
 
 /// Decodes the Draco-compressed primitive `bytes` into `indices` (uint32) and, per attribute
 /// unique id, values converted to `component_type` (a glTF component type) with `components`

@@ -14,6 +14,7 @@
 #include <thread>
 #include <unordered_map>
 
+#include "decode_budget.hpp"
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
@@ -27,10 +28,17 @@ struct LineReader {
   std::string_view text;
   std::size_t pos = 0;
   int line = 0;
+  std::string_view name = {};  // for the error on a long line
+  std::size_t max_line = 0;    // 0: any length
   bool next(std::string_view& out) {
     if (pos >= text.size()) return false;
     std::size_t end = text.find('\n', pos);
     if (end == std::string_view::npos) end = text.size();
+    if (max_line && end - pos > max_line)
+      throw Error(std::string(name) + ":" + std::to_string(line + 1) + ": line of " +
+                      std::to_string(end - pos) + " bytes is over the limit of " +
+                      std::to_string(max_line) + " (max_obj_line)",
+                  ErrorCode::kLimit);
     out = text.substr(pos, end - pos);
     if (!out.empty() && out.back() == '\r') out.remove_suffix(1);
     pos = end + 1;
@@ -113,7 +121,8 @@ std::string trim(std::string_view s) {
 // The image a map_Kd line names (its last token: options may come first), relative to the .mtl.
 // PNG and JPEG are read; a missing or other image only loses the texture, as a missing material
 // library loses the colours in every OBJ viewer.
-int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view rest) {
+int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view rest,
+                 const DecodeLimits& limits) {
   std::string file = trim(rest);
   if (const auto space = file.find_last_of(" \t"); space != std::string::npos)
     file = file.substr(space + 1);
@@ -125,6 +134,11 @@ int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view re
   }
   const bool png = bytes.rfind("\x89PNG", 0) == 0, jpeg = bytes.rfind("\xff\xd8\xff", 0) == 0;
   if (!png && !jpeg) return -1;
+  try {  // over the image limits: an error, before any decoder; unreadable: as any bad texture
+    (void)check_image(bytes, (mtl.parent_path() / file).string(), limits);
+  } catch (const Error& e) {
+    if (e.code() == ErrorCode::kLimit) throw;
+  }
   rig.textures.push_back({file, png ? "image/png" : "image/jpeg", std::move(bytes)});
   return static_cast<int>(rig.textures.size()) - 1;
 }
@@ -132,14 +146,14 @@ int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view re
 // Reads an .mtl file into the rig's materials (names not in the file keep grey): Kd colour, d
 // (or Tr = 1 - d) opacity, blended when below 1; map_Kd as the base-colour texture. (Ns/Ks are not
 // read: without a physically based model in the file, Facecast's default roughness looks better.)
-void apply_mtl(Rig& rig, const std::filesystem::path& mtl) {
+void apply_mtl(Rig& rig, const std::filesystem::path& mtl, const DecodeLimits& limits) {
   std::string text;
   try {
     text = read_file(mtl);
   } catch (const Error&) {
     return;  // a missing material library only loses colours, as in every OBJ viewer
   }
-  LineReader lr{text};
+  LineReader lr{text, 0, 0, mtl.native(), limits.max_obj_line};
   std::string_view line;
   Material* current = nullptr;
   const auto opacity = [&](float d) {
@@ -164,7 +178,7 @@ void apply_mtl(Rig& rig, const std::filesystem::path& mtl) {
     } else if (key == "Tr") {
       opacity(1.0f - parse_floats<1>(rest, mtl.string(), lr.line, "Tr")[0]);
     } else if (key == "map_Kd") {
-      current->base_color_texture.texture = read_texture(rig, mtl, rest);
+      current->base_color_texture.texture = read_texture(rig, mtl, rest, limits);
     }
   }
 }
@@ -210,7 +224,13 @@ struct ParsedObj {
   std::vector<std::string> mtllibs;
 };
 
-ParsedObj parse(std::string_view text, std::string_view name) {
+// What each record costs once parsed (its row in the lists here and in the rig), charged to the
+// file's decoded budget before it is stored: a small file of long faces cannot ask for much more.
+constexpr std::size_t kVertexBytes = 12 + 12 + 12 + 8 + 8, kTexBytes = 8 + 8, kNormalBytes = 12,
+                      kTriangleBytes = 12 + 24 + 4 + 4 + 4 + 12, kNameBytes = 256;
+
+ParsedObj parse(std::string_view text, std::string_view name, const DecodeLimits& limits) {
+  detail::DecodeBudget budget(limits, text.size());
   ParsedObj out;
   Rig& rig = out.rig;
   std::vector<Eigen::RowVector3f> pos;
@@ -224,21 +244,31 @@ ParsedObj parse(std::string_view text, std::string_view name) {
   int cur_mat = -1, cur_group = -1;
   std::vector<Corner> corners;
 
-  LineReader lr{text};
+  LineReader lr{text, 0, 0, name, limits.max_obj_line};
   std::string_view line;
+  const auto charge = [&](std::size_t bytes, const char* what) {
+    budget.charge(bytes, std::string(name) + ":" + std::to_string(lr.line), what);
+  };
   while (lr.next(line)) {
     std::string_view rest = line;
     const std::string_view key = next_token(rest);
     if (key.empty() || key.front() == '#') continue;
     if (key == "v") {
+      charge(kVertexBytes, "vertex");
       pos.push_back(parse_floats<3>(rest, name, lr.line, "v"));
     } else if (key == "vt") {
+      charge(kTexBytes, "texture coordinate");
       tex.push_back(parse_floats<2>(rest, name, lr.line, "vt"));
     } else if (key == "vn") {
+      charge(kNormalBytes, "normal");
       nrm.push_back(parse_floats<3>(rest, name, lr.line, "vn"));
     } else if (key == "f") {
       corners.clear();
       for (std::string_view tok = next_token(rest); !tok.empty(); tok = next_token(rest)) {
+        if (corners.size() >= limits.max_obj_face)
+          throw Error(where(name, lr.line) + "face of more than " +
+                          std::to_string(limits.max_obj_face) + " corners (max_obj_face)",
+                      ErrorCode::kLimit);
         Corner c;
         const std::size_t s1 = tok.find('/');
         c.v = parse_index(tok.substr(0, s1), static_cast<int>(pos.size()), name, lr.line);
@@ -258,6 +288,7 @@ ParsedObj parse(std::string_view text, std::string_view name) {
         throw Error(where(name, lr.line) + "face with fewer than 3 vertices");
       }
       if (cur_mat < 0) cur_mat = intern(mat_names, mat_index, "default");
+      charge(detail::product(corners.size() - 2, kTriangleBytes), "face");
       for (std::size_t k = 1; k + 1 < corners.size(); ++k) {  // fan triangulation
         const Corner& a = corners[0];
         const Corner& b = corners[k];
@@ -269,9 +300,11 @@ ParsedObj parse(std::string_view text, std::string_view name) {
         rig.triangle_group.push_back(cur_group);
       }
     } else if (key == "usemtl") {
+      charge(kNameBytes + 2 * rest.size(), "material name");
       cur_mat = intern(mat_names, mat_index, trim(rest));
     } else if (key == "g" || key == "o") {
       if (key == "o" && cur_group >= 0) continue;  // groups are finer than objects
+      charge(kNameBytes + 2 * rest.size(), "group name");
       const std::string g = trim(rest);
       cur_group = g.empty() ? -1 : intern(group_names, group_index, g);
     } else if (key == "mtllib") {
@@ -329,16 +362,16 @@ ParsedObj parse(std::string_view text, std::string_view name) {
 
 }  // namespace
 
-Rig parse_obj(std::string_view text, std::string_view name) {
-  Rig rig = parse(text, name).rig;
+Rig parse_obj(std::string_view text, std::string_view name, const DecodeLimits& limits) {
+  Rig rig = parse(text, name, limits).rig;
   rig.validate(name);
   return rig;
 }
 
-Rig read_obj(const std::filesystem::path& path) {
+Rig read_obj(const std::filesystem::path& path, const DecodeLimits& limits) {
   const std::string text = read_file(path);
-  ParsedObj p = parse(text, path.string());
-  for (const auto& lib : p.mtllibs) apply_mtl(p.rig, path.parent_path() / lib);
+  ParsedObj p = parse(text, path.string(), limits);
+  for (const auto& lib : p.mtllibs) apply_mtl(p.rig, path.parent_path() / lib, limits);
   apply_presets(p.rig);
   p.rig.validate(path.string());
   return std::move(p.rig);

@@ -27,14 +27,14 @@ BuildTarget BuildTarget::read(const std::filesystem::path& path) {
 }
 
 BuildTarget BuildTarget::parse(std::string_view bytes, std::string_view format,
-                               std::string_view name) {
+                               std::string_view name, const anim::DecodeLimits& limits) {
   if (format == "glb" || format == "gltf" || format == "vrm")
-    return from_document(anim::AvatarDocument::parse(bytes, name));
+    return from_document(anim::AvatarDocument::parse(bytes, name, limits));
   if (format != "obj")
     throw Error(std::string(name) + ": format '" + std::string(format) +
                 "' is not obj, glb, gltf or vrm");
   BuildTarget t;
-  t.neutral_ = anim::parse_obj(bytes, name);
+  t.neutral_ = anim::parse_obj(bytes, name, limits);
   t.neutral_.shapes.clear();
   return t;
 }

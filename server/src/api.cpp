@@ -89,7 +89,8 @@ namespace {
 
 // The "mesh" field of a rig or landmarks request: an OBJ's text, or a base64 GLB/VRM, read as a
 // build target (an avatar is kept: the built shapes go into its own meshes).
-std::shared_ptr<rigbuild::BuildTarget> parse_mesh(const json* mesh) {
+std::shared_ptr<rigbuild::BuildTarget> parse_mesh(const json* mesh,
+                                                  const anim::DecodeLimits& limits) {
   if (!mesh) throw Error("mesh: missing ({\"format\": \"obj\"|\"glb\", \"data\": ...})");
   if (!mesh->is_object() || !mesh->contains("format") || !mesh->contains("data"))
     throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
@@ -98,7 +99,7 @@ std::shared_ptr<rigbuild::BuildTarget> parse_mesh(const json* mesh) {
   if (format != "obj" && format != "glb" && format != "vrm")
     throw Error("mesh.format: '" + format + "' is not obj, glb or vrm");
   auto user = std::make_shared<rigbuild::BuildTarget>(rigbuild::BuildTarget::parse(
-      format == "obj" ? data : base64_decode(data, "mesh.data"), format, "mesh"));
+      format == "obj" ? data : base64_decode(data, "mesh.data"), format, "mesh", limits));
   user->neutral().validate("mesh");
   return user;
 }
@@ -136,7 +137,7 @@ http::message_generator post_landmarks(State& state, const Request& req, const P
     else
       throw Error("body: unknown field '" + k + "'");
   }
-  std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh);
+  std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh, state.options.decode);
   (void)usable_rig(state, who, template_id);
   const auto tmpl = state.rigs.load(template_id);
   const std::string job = state.jobs.submit(
@@ -229,7 +230,7 @@ static Jobs::Work rig_work(State& state, const json& body, const std::string& te
       throw Error("body: unknown field '" + k + "'");
     }
   }
-  auto user = parse_mesh(mesh);
+  auto user = parse_mesh(mesh, state.options.decode);
   anim::Rig& target = user->neutral();
   const auto tmpl = state.rigs.load(template_id);
 

@@ -111,6 +111,19 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
     ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
   }
+  if (c.has("decode")) {
+    ConfigReader& d = c.section("decode");
+    anim::DecodeLimits& l = o.decode;
+    d.read("max_json_depth", l.max_json_depth).read("max_json_values", l.max_json_values);
+    d.read("max_decoded_bytes", l.max_decoded_bytes).read("max_decoded_ratio", l.max_decoded_ratio);
+    d.read("max_image_side", l.max_image_side).read("max_image_bytes", l.max_image_bytes);
+    d.read("max_texture_bytes", l.max_texture_bytes);
+    d.read("max_nodes", l.max_nodes).read("max_meshes", l.max_meshes);
+    d.read("max_primitives", l.max_primitives).read("max_morph_targets", l.max_morph_targets);
+    d.read("max_joints", l.max_joints).read("max_accessors", l.max_accessors);
+    d.read("max_images", l.max_images);
+    d.read("max_obj_line", l.max_obj_line).read("max_obj_face", l.max_obj_face);
+  }
   c.read("shared_dir", o.shared_dir);
   if (c.has("redis")) {
     ConfigReader& r = c.section("redis");
@@ -187,6 +200,23 @@ void validate(const ServerOptions& o) {
   need(!o.default_rig.empty(), "default_rig: empty");
   need(o.presence_interval > 0, "presence_interval: must be positive");
   need(o.channel_idle >= 0 && o.channel_idle <= 3600, "channel_idle: must be in 0..3600 seconds");
+  const anim::DecodeLimits& d = o.decode;
+  need(d.max_json_depth >= 16 && d.max_json_depth <= 10000,
+       "decode.max_json_depth: must be in 16..10000");
+  need(d.max_json_values >= 1024, "decode.max_json_values: must be at least 1024");
+  need(d.max_decoded_bytes >= (1u << 20), "decode.max_decoded_bytes: must be at least 1 MiB");
+  need(d.max_decoded_ratio >= 4, "decode.max_decoded_ratio: must be at least 4");
+  need(d.max_image_side >= 16 && d.max_image_side <= 65535,
+       "decode.max_image_side: must be in 16..65535");
+  need(d.max_image_bytes >= 1024, "decode.max_image_bytes: must be at least 1024");
+  need(d.max_texture_bytes >= d.max_image_bytes,
+       "decode.max_texture_bytes: must be at least max_image_bytes");
+  need(d.max_nodes >= 1 && d.max_meshes >= 1 && d.max_primitives >= 1 && d.max_joints >= 1 &&
+           d.max_accessors >= 1 && d.max_images >= 1,
+       "decode: max_nodes, max_meshes, max_primitives, max_joints, max_accessors and max_images "
+       "must be at least 1");
+  need(d.max_obj_line >= 256, "decode.max_obj_line: must be at least 256 bytes");
+  need(d.max_obj_face >= 3, "decode.max_obj_face: must be at least 3");
   need(o.redis.url.empty() || o.redis.url.starts_with("redis://"),
        "redis.url: '" + o.redis.url + "' is not a redis:// address");
   need(o.redis.heartbeat >= 0.05 && o.redis.heartbeat <= 60,

@@ -22,8 +22,6 @@ namespace {
 
 using nlohmann::json;
 
-constexpr int kMaxPhotoSide = 8192;  // larger photos are refused before decoding
-
 json parse_object(const Request& req, int max_depth) {
   check_json_depth(req.body(), max_depth, "body");
   json body = json::parse(req.body(), nullptr, false);
@@ -34,7 +32,8 @@ json parse_object(const Request& req, int max_depth) {
 
 // A photo field: base64 JPEG/PNG bytes, or a data URL ("data:image/jpeg;base64,...") as a
 // browser's FileReader or canvas.toDataURL gives it; as 3-channel RGB.
-render::Image photo_field(const json& v, const std::string& field) {
+render::Image photo_field(const json& v, const std::string& field,
+                          const anim::DecodeLimits& limits) {
   if (!v.is_string()) throw Error(field + ": expected a base64 JPEG or PNG (or a data URL)");
   std::string_view text = v.get_ref<const std::string&>();
   if (text.starts_with("data:")) {
@@ -44,7 +43,8 @@ render::Image photo_field(const json& v, const std::string& field) {
     text.remove_prefix(comma + 1);
   }
   if (text.empty()) throw Error(field + ": empty");
-  const render::Image rgba = render::decode_image(base64_decode(text, field), field, kMaxPhotoSide);
+  // The header's size is checked against the limits before the photo is decoded.
+  const render::Image rgba = render::decode_image(base64_decode(text, field), field, limits);
   if (rgba.channels == 3) return rgba;
   render::Image rgb;
   rgb.width = rgba.width;
@@ -101,8 +101,8 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
   }
   if (!front) throw Error("front: missing (the front photo, base64 JPEG or PNG)");
   auto photos = std::make_shared<std::vector<render::Image>>();
-  photos->push_back(photo_field(*front, "front"));
-  if (side) photos->push_back(photo_field(*side, "side"));
+  photos->push_back(photo_field(*front, "front", state.options.decode));
+  if (side) photos->push_back(photo_field(*side, "side", state.options.decode));
   const rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
   const std::filesystem::path tmpl_path = rigbuild::photo_template_path(opt, "");
   const std::string template_id = opt.template_path.empty() ? rigbuild::kShippedTemplateId : "";
@@ -146,7 +146,7 @@ http::message_generator post_photo_landmarks(State& state, const Request& req) {
       throw Error("body: unknown field '" + k + "'");
   }
   if (!image) throw Error("photo: missing (base64 JPEG or PNG)");
-  const render::Image photo = photo_field(*image, "photo");
+  const render::Image photo = photo_field(*image, "photo", state.options.decode);
   const rigbuild::PhotoLandmarks marks =
       rigbuild::detect_photo_landmarks(photo, "photo", rigbuild::load_photo_options());
   return json_response(state, req, http::status::ok,

@@ -80,8 +80,10 @@ nlohmann::json RigInfo::to_json() const {
   return j;
 }
 
-RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig)
-    : rigs_dir_(std::move(data_dir) / "rigs"), default_rig_(std::move(default_rig)) {
+RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig, anim::DecodeLimits limits)
+    : rigs_dir_(std::move(data_dir) / "rigs"),
+      default_rig_(std::move(default_rig)),
+      limits_(limits) {
   std::error_code ec;
   fs::create_directories(rigs_dir_, ec);
   if (ec)
@@ -206,7 +208,7 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
       // goes through its GLB too, as users' files do.
       anim::AvatarDocument doc = id == kBuiltin
                                      ? anim::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
-                                     : anim::AvatarDocument::read(glb_path(id));
+                                     : anim::AvatarDocument::read(glb_path(id), limits_);
       loaded->rig =
           std::make_shared<const anim::Rig>(anim::make_view(doc, {.all_meshes = true}).rig);
       log::info(
@@ -336,7 +338,7 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
 
 std::string RigRegistry::import(const std::string& name, const std::string& bytes,
                                 const std::string& what, const RigOwner& owner) {
-  const anim::AvatarView view = anim::make_view(anim::AvatarDocument::parse(bytes, what));
+  const anim::AvatarView view = anim::make_view(anim::AvatarDocument::parse(bytes, what, limits_));
   anim::Mapping::for_rig(view.rig.shape_names());  // throws when nothing maps: not a face rig
   RigInfo info;
   info.id = new_id();

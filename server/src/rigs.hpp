@@ -55,7 +55,9 @@ struct RigOwner {
 class RigRegistry {
  public:
   /// Creates <data>/rigs if needed and lists the stored rigs; `default_rig` is what "" resolves to.
-  RigRegistry(std::filesystem::path data_dir, std::string default_rig);
+  /// Uploads and stored rigs are read within `limits` (anim/decode_limits.hpp).
+  RigRegistry(std::filesystem::path data_dir, std::string default_rig,
+              anim::DecodeLimits limits = {});
 
   std::vector<RigInfo> list() const;
   std::optional<RigInfo> find(const std::string& id) const;
@@ -91,6 +93,7 @@ class RigRegistry {
  private:
   std::filesystem::path rigs_dir_;
   std::string default_rig_;
+  anim::DecodeLimits limits_;
   mutable std::mutex mutex_;
   mutable std::map<std::string, RigInfo> infos_;
   std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;

@@ -9,6 +9,7 @@
 #include "facecast/anim/rig_io.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
+#include "hostile_glb.hpp"
 #include "test_data.hpp"
 
 using namespace fctest;
@@ -175,4 +176,26 @@ TEST_CASE("astronaut.png becomes a listed, textured, speaking rig", "[photo][slo
   REQUIRE_FALSE(streamed.error);
   CHECK(streamed.start["rig"] == id);
   CHECK(streamed.end["frames"] == streamed.start["frames"]);
+}
+
+TEST_CASE("photos are checked against the decode limits from their header", "[photo][limits]") {
+  TestServer s([](facecast::server::ServerOptions& o) { o.decode.max_image_bytes = 4 << 20; });
+  const auto refused = [&](const std::string& target, const nlohmann::json& body) {
+    const auto r = http_request(s.port(), http::verb::post, target, body.dump());
+    INFO(r.body);
+    CHECK(r.status == 413);
+    return r.json()["error"]["message"].get<std::string>();
+  };
+  const std::string huge = base64(facecast::test::hostile::png_header(100000, 100000));
+  CHECK(refused("/api/photo/landmarks", {{"photo", huge}}) ==
+        "photo: png image of 100000x100000 is over the limit of 8192 pixels a side "
+        "(max_image_side)");
+  CHECK(refused("/api/photo", {{"front", "data:image/png;base64," + huge}}) ==
+        "front: png image of 100000x100000 is over the limit of 8192 pixels a side "
+        "(max_image_side)");
+  // Within the side, over the server's max_image_bytes (4 MiB here).
+  CHECK(refused("/api/photo/landmarks", {{"photo", gradient_png(1100, 1000)}}) ==
+        "photo: png image of 1100x1000 decodes to 4400000 bytes, over the limit of 4194304 "
+        "(max_image_bytes)");
+  CHECK(rig_count(s.port()) == builtin_rig_ids().size());
 }

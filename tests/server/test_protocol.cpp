@@ -290,6 +290,24 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.presence_interval == d.presence_interval);
   CHECK(file.channel_idle == d.channel_idle);
   CHECK(file.drain_timeout == d.drain_timeout);
+  const facecast::anim::DecodeLimits& fd = file.decode;
+  const facecast::anim::DecodeLimits& dd = d.decode;
+  CHECK(fd.max_json_depth == dd.max_json_depth);
+  CHECK(fd.max_json_values == dd.max_json_values);
+  CHECK(fd.max_decoded_bytes == dd.max_decoded_bytes);
+  CHECK(fd.max_decoded_ratio == dd.max_decoded_ratio);
+  CHECK(fd.max_image_side == dd.max_image_side);
+  CHECK(fd.max_image_bytes == dd.max_image_bytes);
+  CHECK(fd.max_texture_bytes == dd.max_texture_bytes);
+  CHECK(fd.max_nodes == dd.max_nodes);
+  CHECK(fd.max_meshes == dd.max_meshes);
+  CHECK(fd.max_primitives == dd.max_primitives);
+  CHECK(fd.max_morph_targets == dd.max_morph_targets);
+  CHECK(fd.max_joints == dd.max_joints);
+  CHECK(fd.max_accessors == dd.max_accessors);
+  CHECK(fd.max_images == dd.max_images);
+  CHECK(fd.max_obj_line == dd.max_obj_line);
+  CHECK(fd.max_obj_face == dd.max_obj_face);
   // Every key of the file is one the loader knows (it rejects unknown keys), and every setting is
   // in the file: a key per field above.
   const auto j = load_json(config_path("server.json"));
@@ -297,7 +315,8 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.token_max_ttl == d.token_max_ttl);
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
-  CHECK(j.size() == 66);  // 65 settings + "_doc"
+  CHECK(j.size() == 67);            // 66 settings + "_doc"
+  CHECK(j["decode"].size() == 16);  // every field of anim::DecodeLimits
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {
@@ -327,6 +346,10 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
              Catch::Contains("audio_decode_timeout"));
   CHECK_THAT(load_error(R"({"redis": {"url": "http://x"}})"), Catch::Contains("redis.url"));
   CHECK_THAT(load_error(R"({"redis": {"heartbeat": 0}})"), Catch::Contains("redis.heartbeat"));
+  CHECK_THAT(load_error(R"({"decode": {"max_json_depth": 2}})"),
+             Catch::Contains("decode.max_json_depth"));
+  CHECK_THAT(load_error(R"({"decode": {"max_image_sides": 2}})"),
+             Catch::Contains("unknown key 'decode.max_image_sides'"));
   CHECK_THAT(load_error(R"({"redis": {"hosts": 1}})"), Catch::Contains("hosts"));
   CHECK_THAT(load_error(R"({"host": "0.0.0.0"})"), Catch::Contains("set a token"));
   CHECK(load_error(R"({"host": "0.0.0.0", "token": "t0k3n"})").empty());

@@ -106,14 +106,17 @@ void write_image(const std::filesystem::path& path, const Image& image, int jpeg
   write_file_atomic(path, bytes);
 }
 
-Image decode_image(std::string_view bytes, std::string_view what, int max_side) {
+Image decode_image(std::string_view bytes, std::string_view what,
+                   const anim::DecodeLimits& limits) {
   const std::string name(what);
+  const int max_side = limits.max_image_side;
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   // The format from the signature: the name an avatar gives an image need not have an extension.
   const bool png =
       bytes.size() >= 8 && bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8);
   const bool jpeg = bytes.size() >= 3 && bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3);
   if (!png && !jpeg) throw Error(name + ": not a PNG or JPEG image", ErrorCode::kUnsupported);
+  (void)anim::check_image(bytes, what, limits);  // the header's size, before any decoder runs
   OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
   OIIO::ImageSpec config;
   const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value
@@ -150,11 +153,33 @@ Image decode_image(std::string_view bytes, std::string_view what, int max_side) 
   return img;
 }
 
-Image read_image(const std::filesystem::path& path) {
+Image read_image(const std::filesystem::path& path, const anim::DecodeLimits& limits) {
+  // PNG, JPEG and WebP headers are read by us before OpenImageIO opens the file (some of its
+  // readers allocate per image on open); other formats' sizes from the header OpenImageIO read.
+  {
+    std::string head;
+    try {
+      head = read_file(path);
+    } catch (const Error&) {
+    }
+    (void)anim::check_image(head, path.string(), limits);
+  }
   auto in = OIIO::ImageInput::open(path.string());
   if (!in)
     throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
   const OIIO::ImageSpec& spec = in->spec();
+  const auto side = static_cast<long long>(limits.max_image_side);
+  if (spec.width < 1 || spec.height < 1 || spec.width > side || spec.height > side ||
+      spec.nchannels < 1 || spec.nchannels > 64 ||
+      static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+              static_cast<std::size_t>(std::max(spec.nchannels, 4)) >
+          limits.max_image_bytes)
+    throw Error(path.string() + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is over the image limits (max_image_side " +
+                    std::to_string(limits.max_image_side) + ", max_image_bytes " +
+                    std::to_string(limits.max_image_bytes) + ")",
+                ErrorCode::kLimit);
   const std::size_t count = static_cast<std::size_t>(spec.width) * spec.height;
   std::vector<std::uint8_t> raw(count * spec.nchannels);
   if (spec.format.basetype == OIIO::TypeDesc::FLOAT ||

@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "facecast/anim/decode_limits.hpp"
+
 namespace tinygltf {
 class Model;
 }
@@ -18,11 +20,13 @@ namespace facecast::anim {
 class AvatarDocument {
  public:
   /// Reads a .glb, .vrm or .gltf file; a .gltf's external buffers and images are read relative to
-  /// its folder.
-  static AvatarDocument read(const std::filesystem::path& path);
+  /// its folder. What the file declares is checked against `limits` before it is parsed, decoded
+  /// or allocated (Error(kLimit) naming the file and the field); make_view keeps to them too.
+  static AvatarDocument read(const std::filesystem::path& path, const DecodeLimits& limits = {});
   /// Parses a self-contained GLB/VRM or .gltf JSON (an upload): URIs other than data: URIs are
-  /// refused, images are kept encoded. `name` is used in error messages.
-  static AvatarDocument parse(std::string_view bytes, std::string_view name);
+  /// refused, images are kept encoded (their headers checked). `name` is used in error messages.
+  static AvatarDocument parse(std::string_view bytes, std::string_view name,
+                              const DecodeLimits& limits = {});
   /// Wraps a model built in code (the GLB writer's, tests').
   static AvatarDocument from_model(tinygltf::Model model, std::string name);
 
@@ -35,6 +39,12 @@ class AvatarDocument {
   tinygltf::Model& model() { return *model_; }
   /// The file name (or upload name) errors refer to.
   const std::string& name() const { return name_; }
+  /// The limits the document was read with, the size of what was read (file and external
+  /// buffers) and of the document decoded (compressed data and URIs unpacked, as tinygltf read
+  /// it); 0 for a document built in code (no limits apply to it).
+  const DecodeLimits& limits() const { return limits_; }
+  std::size_t source_bytes() const { return source_bytes_; }
+  std::size_t decoded_bytes() const { return decoded_bytes_; }
 
   AvatarDocument(AvatarDocument&&) noexcept;
   AvatarDocument& operator=(AvatarDocument&&) noexcept;
@@ -44,6 +54,8 @@ class AvatarDocument {
   AvatarDocument();
   std::unique_ptr<tinygltf::Model> model_;
   std::string name_;
+  DecodeLimits limits_;
+  std::size_t source_bytes_ = 0, decoded_bytes_ = 0;
 };
 
 }  // namespace facecast::anim

@@ -5,16 +5,19 @@
 #include <string>
 #include <string_view>
 
+#include "facecast/anim/decode_limits.hpp"
 #include "facecast/anim/rig.hpp"
 
 namespace facecast::anim {
 
 /// Reads one OBJ as a rig without shapes. Keeps vertex order exactly as in the file, triangulates
 /// polygons as fans, keeps groups ("g") and materials ("usemtl", with Kd colours from "mtllib").
-/// Per-vertex UVs and normals take the first value a face assigns to each vertex.
-Rig read_obj(const std::filesystem::path& path);
+/// Per-vertex UVs and normals take the first value a face assigns to each vertex. Lines, face
+/// corners and what the records decode to are bounded by `limits` (max_obj_line, max_obj_face,
+/// the decoded budget); a texture's image header by the image limits.
+Rig read_obj(const std::filesystem::path& path, const DecodeLimits& limits = {});
 /// Parses OBJ text; `name` is used in error messages. Materials come from usemtl names only.
-Rig parse_obj(std::string_view text, std::string_view name);
+Rig parse_obj(std::string_view text, std::string_view name, const DecodeLimits& limits = {});
 
 /// Reads only the "v" records of an OBJ (fast path for blendshape files).
 Positions read_obj_positions(const std::filesystem::path& path);
@@ -44,9 +47,9 @@ struct GlbOptions {
 std::string glb_bytes(const Rig& rig, const GlbOptions& options);
 void write_glb(const std::filesystem::path& path, const Rig& rig);
 /// The face view (avatar_view.hpp) of a self-contained GLB/VRM/.gltf upload, or of a file (whose
-/// .gltf may name external buffers and images beside it).
-Rig parse_glb(std::string_view bytes, std::string_view name);
-Rig read_glb(const std::filesystem::path& path);
+/// .gltf may name external buffers and images beside it), read within `limits`.
+Rig parse_glb(std::string_view bytes, std::string_view name, const DecodeLimits& limits = {});
+Rig read_glb(const std::filesystem::path& path, const DecodeLimits& limits = {});
 
 /// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);

@@ -16,8 +16,10 @@ class BuildTarget {
  public:
   /// Reads .obj, .glb, .gltf or .vrm (by extension).
   static BuildTarget read(const std::filesystem::path& path);
-  /// An upload: `format` is obj, glb, gltf or vrm; `name` is used in error messages.
-  static BuildTarget parse(std::string_view bytes, std::string_view format, std::string_view name);
+  /// An upload: `format` is obj, glb, gltf or vrm; `name` is used in error messages. Read within
+  /// `limits` (anim/decode_limits.hpp).
+  static BuildTarget parse(std::string_view bytes, std::string_view format, std::string_view name,
+                           const anim::DecodeLimits& limits = {});
 
   /// The neutral the build works on: the OBJ's mesh, or the avatar's face view (its meshes with
   /// morph targets, or what the head joint carries; avatar_view.hpp), without its shapes.

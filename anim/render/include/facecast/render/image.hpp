@@ -7,6 +7,8 @@
 #include <string_view>
 #include <vector>
 
+#include "facecast/anim/decode_limits.hpp"
+
 namespace facecast::render {
 
 /// Interleaved 8-bit sRGB pixels, rows from top to bottom.
@@ -28,11 +30,15 @@ std::string encode_jpeg(const Image& image, int quality = 85);
 std::string encode_png(const Image& image);
 
 /// Reads any format OpenImageIO knows, as 8-bit with 3 channels (alpha dropped, grey expanded).
-Image read_image(const std::filesystem::path& path);
+/// The size the header declares is checked against `limits` (max_image_side, max_image_bytes)
+/// before anything is decoded.
+Image read_image(const std::filesystem::path& path, const anim::DecodeLimits& limits = {});
 
-/// Decodes PNG or JPEG bytes (a texture embedded in an avatar) as 8-bit RGBA, refusing images
-/// wider or taller than `max_side` before decoding. Throws facecast::Error naming `what`.
-Image decode_image(std::string_view bytes, std::string_view what, int max_side = 8192);
+/// Decodes PNG or JPEG bytes (a texture embedded in an avatar, a photo upload) as 8-bit RGBA,
+/// refusing images over `limits` (max_image_side, max_image_bytes) from their header, before
+/// decoding. Throws facecast::Error naming `what`.
+Image decode_image(std::string_view bytes, std::string_view what,
+                   const anim::DecodeLimits& limits = {});
 
 struct ImageDifference {
   double mean_abs = 0;       // mean absolute channel difference, 0..255
