@@ -33,7 +33,8 @@ void read_rtmp(ConfigReader& channel, ServerOptions::Rtmp& r) {
 }  // namespace
 
 ServerOptions load_server_options(const std::filesystem::path& path) {
-  // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
+  // Every key is optional (the defaults are ServerOptions'); a line per row of the table in
+  // docs/server.md (Configuration).
   ServerOptions o;
   ConfigReader c = ConfigReader::open(path);
   c.read("host", o.host).read("port", o.port);
