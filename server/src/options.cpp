@@ -40,7 +40,8 @@ ServerOptions load_server_options(const std::filesystem::path& path) {
 }
 
 ServerOptions read_server_options(const std::filesystem::path& path) {
-  // Every key is optional (the defaults are ServerOptions'); a line per row of the README's table.
+  // Every key is optional (the defaults are ServerOptions'); a line per row of the table in
+  // docs/server.md (Configuration).
   ServerOptions o;
   ConfigReader c = ConfigReader::open(path);
   c.read("host", o.host).read("port", o.port);

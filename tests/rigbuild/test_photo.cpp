@@ -130,7 +130,7 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
             << ", reprojection " << 100 * sum_reproj / n << " %\n";
   CHECK(sum_front / n <= 0.5);
   // Lower again with the side photo, its noise estimated from the residuals: on 15 of the 16
-  // tuning identities and on all 4 of these (docs/algorithms.md#photo-avatar, "Accuracy").
+  // tuning identities and on all 4 of these (docs/benchmarks.md#photo-avatar).
   CHECK(sum_side < sum_front);
   CHECK(sum_reproj / n <= 0.02);
 }

@@ -1,6 +1,7 @@
 #pragma once
 // Every setting and limit of `facecast serve`. The defaults here mirror configs/server.json (a
-// test checks that they agree); README.md ("The server") and docs/protocol.md document each one.
+// test checks that they agree); docs/server.md ("Configuration") and docs/protocol.md document
+// each one.
 #include <cstddef>
 #include <filesystem>
 #include <map>
