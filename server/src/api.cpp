@@ -179,6 +179,7 @@ http::message_generator import_rig(State& state, const Request& req, const Targe
   if (name.empty() || utf8_length(name) > 64) throw Error("name: expected 1 to 64 characters");
   const std::string& bytes = req.body();
   if (bytes.empty()) throw Error("body: empty (expected a GLB or VRM file)");
+  const auto job = state.jobs.hold("rig import");
   const std::string id =
       state.rigs.import(name, bytes, "upload", RigOwner{who.tenant, public_query(t)});
   const auto info = state.rigs.find(id);

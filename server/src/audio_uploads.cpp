@@ -116,6 +116,7 @@ void AudioUploads::expire(Clock::time_point now) {
 }
 
 http::message_generator post_audio(State& state, const Request& req, const std::string& tenant) {
+  const auto job = state.jobs.hold("audio decode");
   viseme::Audio audio = state.audio_uploads.decode(req.body());
   const double seconds = audio.seconds();
   const std::string id = state.audio_uploads.put(std::move(audio), tenant);

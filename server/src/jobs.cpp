@@ -110,20 +110,41 @@ void Jobs::save(const JobRecord& record) const {
   }
 }
 
+long Jobs::pending_locked() const {
+  long pending = inline_;
+  for (const auto& [id, job] : jobs_) pending += !job->record.ended();
+  return pending;
+}
+
+void Jobs::refuse_locked(long pending, const std::string& what) const {
+  throw RequestError(Code::kLimit,
+                     what + ": " + std::to_string(pending) +
+                         " jobs (rig builds, renders, imports, audio decodes, photo landmarks) are "
+                         "queued or running (max_jobs " +
+                         std::to_string(options_.max_jobs) + "); try again later",
+                     429);
+}
+
+std::shared_ptr<void> Jobs::hold(const std::string& what) {
+  std::lock_guard lock(mutex_);
+  if (stopping_) throw RequestError(Code::kUnavailable, "the server is shutting down");
+  if (const long pending = pending_locked(); pending >= options_.max_jobs)
+    refuse_locked(pending, what);
+  ++inline_;
+  return std::shared_ptr<void>(this, [this](void*) {
+    std::lock_guard l(mutex_);
+    --inline_;
+  });
+}
+
 std::string Jobs::submit(const std::string& kind, Work work, const nlohmann::json& payload,
                          const std::string& tenant) {
   if (redis_) return redis_submit(kind, payload, tenant);
   if (store_) expire();
   std::lock_guard lock(mutex_);
   if (stopping_) throw RequestError(Code::kUnavailable, "the server is shutting down");
-  long pending = 0;
-  for (const auto& [id, job] : jobs_) pending += !job->record.ended();
-  if (pending >= options_.max_jobs) {
-    throw RequestError(Code::kLimit,
-                       std::to_string(pending) + " jobs are queued or running (max_jobs " +
-                           std::to_string(options_.max_jobs) + "); try again later",
-                       429);
-  }
+  if (const long pending = pending_locked(); pending >= options_.max_jobs)
+    refuse_locked(pending, kind);
   auto job = std::make_shared<Job>();
   // Time-ordered and random (core/random.hpp): unique across threads, restarts and instances that
   // share a data folder, with nothing to coordinate (the Redis queue numbers its own with INCR).

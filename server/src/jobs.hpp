@@ -79,6 +79,10 @@ class Jobs {
   /// `tenant` owns the job and its files (GET/DELETE answer 404 to other tenants).
   std::string submit(const std::string& kind, Work work, const nlohmann::json& payload = {},
                      const std::string& tenant = "default");
+  /// Work done within a request that costs like a job (a rig import, an audio decode, photo
+  /// landmarks) counts against max_jobs while the returned handle lives; throws
+  /// RequestError(kLimit, 429) naming `what` when max_jobs are pending.
+  std::shared_ptr<void> hold(const std::string& what);
   /// With Redis: starts the threads, which take jobs from the shared queue.
   void start(Factory factory);
   /// With Redis: moves a dead instance's in-flight jobs back to the queue.
@@ -116,7 +120,11 @@ class Jobs {
   void save(const JobRecord& record) const;  // to the store, if any; logs a failure
   std::optional<JobRecord> record(const std::string& id) const;
 
+  long pending_locked() const;  // jobs not ended + work held inline; mutex_ held
+  [[noreturn]] void refuse_locked(long pending, const std::string& what) const;
+
   Metrics& metrics_;
+  long inline_ = 0;  // hold()s alive
   JobsOptions options_;
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<RedisJobQueue> redis_;

@@ -138,6 +138,7 @@ http::message_generator post_photo(State& state, const Request& req, const std::
 
 http::message_generator post_photo_landmarks(State& state, const Request& req) {
   const json body = parse_object(req, state.limits.max_json_depth);
+  const auto job = state.jobs.hold("photo landmarks");
   const json* image = nullptr;
   for (const auto& [k, v] : body.items()) {
     if (k == "photo")

@@ -14,6 +14,7 @@
 #include "client.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/viseme/wav.hpp"
 #include "raw_client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
@@ -321,5 +322,36 @@ TEST_CASE("hostile: live audio may not run far ahead of real time", "[hostile][w
         std::string::npos);
   CHECK(refused >= 8);
   c.close();
+  t.check_unharmed();
+}
+
+TEST_CASE("hostile: imports, audio decodes and photo landmarks count against max_jobs",
+          "[hostile][http][jobs]") {
+  Target t(json{{"max_jobs", 1}, {"job_workers", 1}});
+  // One long render job holds the only slot.
+  const auto job = http_request(t.port(), http::verb::post, "/api/render",
+                                json{{"text", std::string(60, 'a') + " and more words, again."},
+                                     {"size", {320, 240}},
+                                     {"fps", 30}}
+                                    .dump(),
+                                {{"Content-Type", "application/json"}});
+  REQUIRE(job.status == 202);
+  // Work done within a request is refused while it runs, naming what and the limit.
+  const std::string wav = facecast::viseme::encode_wav(std::vector<std::int16_t>(16000, 0), 16000);
+  const auto audio =
+      http_request(t.port(), http::verb::post, "/api/audio", wav, {{"Content-Type", "audio/wav"}});
+  CHECK(audio.status == 429);
+  CHECK(audio.body.find("audio decode") != std::string::npos);
+  CHECK(audio.body.find("max_jobs 1") != std::string::npos);
+  // Once the job has ended, the decode goes through.
+  const auto t0 = Clock::now();
+  int status = 0;
+  while (since(t0) < 120 * slowdown() && status != 201) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    status =
+        http_request(t.port(), http::verb::post, "/api/audio", wav, {{"Content-Type", "audio/wav"}})
+            .status;
+  }
+  CHECK(status == 201);
   t.check_unharmed();
 }
