@@ -22,7 +22,7 @@ std::size_t sweep_leftovers(const ServerOptions& o) {
   if (!o.shared_dir.empty())
     for (const char* sub : {"rigs", "renders"})
       count += sweep_temp_files(o.shared_dir / sub, kSharedAge);
-  log::info("temp_swept", {{"count", count}, {"data", o.data.string()}});
+  if (count > 0) log::info("temp_swept", {{"count", count}, {"data", o.data.string()}});
   return count;
 }
 

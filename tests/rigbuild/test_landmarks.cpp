@@ -50,7 +50,26 @@ void check_stored_bias(const anim::Rig& tmpl, const Points& computed, const Poin
   const auto stored = known_landmark_bias(tmpl);
   REQUIRE(stored);
   const double iod = (reference.row(36) - reference.row(45)).norm();
-  CHECK((*stored - computed).rowwise().norm().maxCoeff() <= 0.02 * iod);
+  // dlib sees llvmpipe's renders, whose last bits follow the CPU's vector code: on another CPU a
+  // point near the detector's threshold may not be found at all (landmark_bias gives it a zero
+  // row). The points found here must match the stored bias; a few may be missing.
+  double worst = 0;
+  int missing = 0;
+  std::ostringstream per_point;
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    if (stored->row(k).isZero(0)) continue;  // not found where the bias was stored
+    if (computed.row(k).isZero(0)) {
+      ++missing;
+      continue;
+    }
+    worst = std::max(worst, (stored->row(k) - computed.row(k)).norm());
+    per_point << " " << k << ":" << (stored->row(k) - computed.row(k)).norm() / iod;
+  }
+  INFO("per point:" << per_point.str());
+  INFO(missing << " points not found in this machine's renders; worst difference " << worst << " ("
+               << worst / iod << " of the inter-ocular distance)");
+  CHECK(missing <= 4);
+  CHECK(worst <= 0.02 * iod);
 }
 
 }  // namespace
@@ -287,10 +306,17 @@ TEST_CASE("the default avatar's stored landmarks are where the detector finds th
   // The detector sees llvmpipe's renders, whose last bits differ between machines (the JIT
   // follows the CPU): the landmarks were stored where 55 agreed; on another machine 54 do, the
   // others moving by a vertex ring or two. The lid-corner vertices the rig tests measure with are
-  // the stored ones; the stored bias is this machine's (the check below prints it).
+  // the stored ones. The avatar's bias moves further (a tenth of the inter-ocular distance
+  // between an Intel and an AMD machine, three eye points lost on the latter), so none is stored:
+  // a build computes it where it is used.
   CHECK(agree >= 50);
+  CHECK_FALSE(known_landmark_bias(avatar));
   const Points reference = landmark_points(avatar, *stored);
-  check_stored_bias(avatar, landmark_bias(avatar, reference, load_landmark_options()), reference);
+  const Points bias = landmark_bias(avatar, reference, load_landmark_options());
+  int in_bias = 0;
+  for (int k = 0; k < kLandmarkCount; ++k) in_bias += !bias.row(k).isZero(0);
+  CHECK(in_bias >= 60);
+  CHECK(bias.rowwise().norm().maxCoeff() <= 0.25 * iod);
 }
 
 TEST_CASE("the shipped template's stored landmark bias is the one computed",
