@@ -3,37 +3,12 @@
 #include <sqlite3.h>
 
 #include "facecast/core/error.hpp"
+#include "sqlite_statement.hpp"
 
 namespace facecast::server {
 namespace {
 
 using nlohmann::json;
-
-// One prepared statement, finalized on every path.
-class Statement {
- public:
-  Statement(sqlite3* db, const char* sql, const std::filesystem::path& file) {
-    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK)
-      throw Error(file.string() + ": " + sqlite3_errmsg(db), ErrorCode::kInternal);
-  }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-  sqlite3_stmt* get() const { return stmt_; }
-  void text(int i, const std::string& s) {
-    sqlite3_bind_text(stmt_, i, s.data(), static_cast<int>(s.size()), SQLITE_TRANSIENT);
-  }
-  void real(int i, double v) { sqlite3_bind_double(stmt_, i, v); }
-  std::string column_text(int i) const {
-    const auto* p = sqlite3_column_text(stmt_, i);
-    return p ? std::string(reinterpret_cast<const char*>(p),
-                           static_cast<std::size_t>(sqlite3_column_bytes(stmt_, i)))
-             : std::string();
-  }
-
- private:
-  sqlite3_stmt* stmt_ = nullptr;
-};
 
 constexpr const char* kColumns =
     "id, kind, state, stage, progress, result, error_code, error_message, error_status, files, "
