@@ -2,7 +2,7 @@
 # One command from a fresh Debian 12 machine (as root) to a passing test suite:
 # installs dependencies, builds (Release), runs every test through ctest, then builds again with
 # AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there, and runs the server
-# tests under ThreadSanitizer (build-tsan/, only the server and what it links), and runs every
+# fast tests under ThreadSanitizer (build-tsan/, only the server and what it links), and runs every
 # libFuzzer target for 30 s from its seed corpus (scripts/fuzz.sh, clang).
 # Options: --fast  skip tests labelled slow (CI runs everything)
 #          --no-sanitize  skip the sanitizer and fuzzing passes
@@ -28,9 +28,7 @@ if ((sanitize)); then
   # ThreadSanitizer on the multi-threaded part: the server and its tests only.
   scripts/build.sh build-tsan --target=test_server -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF
-  tsan_filter=()
-  ((fast)) && tsan_filter=("~[slow]")
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
-    build-tsan/tests/server/test_server "${tsan_filter[@]}"
+    build-tsan/tests/server/test_server "~[slow]"
   scripts/fuzz.sh "${FACECAST_FUZZ_SECONDS:-30}"
 fi
