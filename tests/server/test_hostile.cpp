@@ -160,7 +160,7 @@ TEST_CASE("hostile: append is bounded by max_text per utterance and max_piece pe
   std::vector<std::string> pieces;
   const auto t0 = Clock::now();
   while (since(t0) < 30 * slowdown() && (pieces.size() < 3 || !error)) {
-    const auto m = c.read(5);
+    const auto m = c.read(10 * slowdown());
     REQUIRE(m);
     if (!m->text) continue;
     const json j = m->json();
