@@ -38,6 +38,8 @@ nlohmann::json load_json(const std::filesystem::path& path) {
     }
     throw Error(path.string() + ":" + std::to_string(line) + ":" + std::to_string(col) +
                 ": invalid JSON");
+  } catch (const nlohmann::json::exception&) {  // out_of_range: a number too large for a double
+    throw Error(path.string() + ": invalid JSON: a number is out of range");
   }
 }
 

@@ -133,6 +133,9 @@ TEST_CASE("generic JSON phones: pinyin syllables and errors", "[viseme][import]"
   CHECK_THAT(error_of(TimestampFormat::kRhubarb, "0.0\tX\nzero\tA\n"), Catch::Contains("in:2"));
   CHECK_THAT(error_of(TimestampFormat::kAzure, "[{\"AudioOffset\": 1000, \"VisemeId\": 99}]"),
              Catch::Contains("unknown Azure viseme '99'"));
+  // A number past a double's range is a one-line error, not an escaping json exception (fuzz).
+  CHECK_THAT(error_of(TimestampFormat::kElevenLabs, "{\"characters\": 1e999999}"),
+             Catch::Contains("in: invalid JSON: a number is out of range"));
 }
 
 TEST_CASE("the timestamp format is detected from the content", "[viseme][import]") {

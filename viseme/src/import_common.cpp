@@ -132,6 +132,8 @@ json parse_json(std::string_view content, const std::string& source) {
     return json::parse(content);
   } catch (const json::parse_error& e) {
     throw Error(source + ": invalid JSON at byte " + std::to_string(e.byte));
+  } catch (const json::exception&) {  // out_of_range: a number too large for a double
+    throw Error(source + ": invalid JSON: a number is out of range");
   }
 }
 
