@@ -10,9 +10,9 @@
 #include <string>
 
 #include "facecast/anim/animation.hpp"
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/render/video.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/viseme/viseme.hpp"
 
 using namespace facecast;
@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const anim::Rig rig = rig_path.empty() ? anim::default_avatar() : anim::load_rig(rig_path);
+    const rig::Rig rig = rig_path.empty() ? avatar::default_avatar() : rig::load_rig(rig_path);
     const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
     const anim::AnimOptions options = anim::load_anim_options();
     std::cout << std::fixed << std::setprecision(3);
@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
     {
       const anim::Performance p(u60, mapping, options);
       std::vector<float> w(rig.shapes.size());
-      anim::HeadPose head;
+      rig::HeadPose head;
       const int n = 100000;
       const auto t0 = Clock::now();
       for (int i = 0; i < n; ++i) p.sample((i % 3600) / 60.0, w, &head);

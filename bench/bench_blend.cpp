@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <random>
 
-#include "facecast/anim/blend.hpp"
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/blend.hpp"
+#include "facecast/rig/rig_io.hpp"
 
-using namespace facecast::anim;
+using namespace facecast::rig;
 using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) try {

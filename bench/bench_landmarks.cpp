@@ -11,8 +11,8 @@
 #include <string>
 #include <utility>
 
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 
 using namespace facecast;
@@ -36,11 +36,11 @@ void print_landmarks(const char* side, const rigbuild::LandmarkTimings& t) {
 // How far a blink closes the lids: 1 - (lid gap with the shape) / (lid gap at rest), the gap
 // being the mean distance of the landmark pairs 37-41 and 38-40 (the subject's right eye) or
 // 43-47 and 44-46 (left), at the vertices `v` (the template's or the target's landmarks).
-double closure(const anim::Rig& rig, const std::array<int, rigbuild::kLandmarkCount>& v,
+double closure(const rig::Rig& rig, const std::array<int, rigbuild::kLandmarkCount>& v,
                const std::string& shape, bool left) {
   const int k = rig.find_shape(shape);
   if (k < 0) return 0;
-  const anim::Positions posed =
+  const rig::Positions posed =
       rig.positions + rig.shapes[static_cast<std::size_t>(k)].dense(rig.vertex_count());
   const int o = left ? 6 : 0;
   double rest = 0, closed = 0;
@@ -53,8 +53,8 @@ double closure(const anim::Rig& rig, const std::array<int, rigbuild::kLandmarkCo
   return 1 - closed / rest;
 }
 
-void bench(const char* name, const anim::Rig& tmpl, const std::filesystem::path& head) {
-  const anim::Rig target = anim::load_rig(head);
+void bench(const char* name, const rig::Rig& tmpl, const std::filesystem::path& head) {
+  const rig::Rig target = rig::load_rig(head);
   const rigbuild::BuildOptions options = rigbuild::load_build_options();
   // Each stage's wall time, from one progress report to the next.
   std::string stage;
@@ -105,8 +105,7 @@ int main(int argc, char** argv) try {
   for (int i = 1; i < argc; ++i)
     if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
   const auto dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
-  const anim::Rig tmpl =
-      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   for (int run = 0; run < runs; ++run) {
     bench("MakeHuman head", tmpl, shared_data_dir() / "makehuman/head.obj");
     bench("MediaPipe canonical face", tmpl,

@@ -14,10 +14,10 @@
 #include <string>
 #include <thread>
 
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/intersections.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/intersections.hpp"
+#include "facecast/rig/rig_io.hpp"
 
 using namespace facecast;
 using Clock = std::chrono::steady_clock;
@@ -60,7 +60,7 @@ Figures stream(const render::Renderer& r, std::size_t shapes, int frames, unsign
   return f;
 }
 
-void bench(const char* label, const anim::Rig& rig, int frames, int msaa, float lod_pixels) {
+void bench(const char* label, const rig::Rig& rig, int frames, int msaa, float lod_pixels) {
   render::RenderOptions o;
   o.msaa = msaa;
   o.lod_pixels = lod_pixels;
@@ -97,7 +97,7 @@ void bench(const char* label, const anim::Rig& rig, int frames, int msaa, float 
 
 // The avatar with a 1024x1024 base-colour texture of its own per material (value noise in the
 // material's colour), and a normal and an occlusion map on the skin.
-anim::Rig heavily_textured(anim::Rig rig) {
+rig::Rig heavily_textured(rig::Rig rig) {
   const int n = 1024;
   std::mt19937 rng(7);
   std::uniform_int_distribution<int> grain(-12, 12);
@@ -137,10 +137,10 @@ int main(int argc, char** argv) try {
   const float lod = argc > 4 ? std::strtof(argv[4], nullptr) : render::RenderOptions{}.lod_pixels;
   const auto wanted = [&](const char* name) { return only.empty() || only == name; };
   auto t0 = Clock::now();
-  const anim::Rig avatar = anim::make_avatar();
+  const rig::Rig avatar = avatar::make_avatar();
   const double generation = ms_since(t0);
   t0 = Clock::now();
-  const std::size_t glb = anim::glb_bytes(avatar).size();
+  const std::size_t glb = rig::glb_bytes(avatar).size();
   std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation,
               ms_since(t0), glb / 1024);
   if (wanted("avatar")) bench("avatar", avatar, frames, msaa, lod);
@@ -153,14 +153,14 @@ int main(int argc, char** argv) try {
     std::printf("ICT FaceKit not extracted under %s: skipped\n", ict.c_str());
     return 0;
   }
-  const anim::Rig rig = anim::read_obj_shapes(ict / "generic_neutral_mesh.obj", ict, {"identity*"});
+  const rig::Rig rig = rig::read_obj_shapes(ict / "generic_neutral_mesh.obj", ict, {"identity*"});
   bench("ICT FaceKit", rig, frames, msaa, lod);
   bench("ICT FaceKit", rig, frames / 2, 4, lod);
   t0 = Clock::now();
-  const auto rep = anim::find_intersections(rig.positions, rig.triangles);
+  const auto rep = rig::find_intersections(rig.positions, rig.triangles);
   std::printf("intersection check, ICT neutral: %.1f ms (%zu pairs)\n", ms_since(t0), rep.count);
   t0 = Clock::now();
-  const auto rep2 = anim::find_intersections(avatar.positions, avatar.triangles);
+  const auto rep2 = rig::find_intersections(avatar.positions, avatar.triangles);
   std::printf("intersection check, avatar neutral: %.1f ms (%zu pairs incl. touching lips)\n",
               ms_since(t0), rep2.count);
   return 0;

@@ -17,7 +17,7 @@ namespace {
 // Skin self-intersections (vertices 0-14061) of the built rig that the truth shape does not have.
 void report_intersections(const rigbuild::BuildResult& r, const test::IctTruth& truth,
                           bool verbose) {
-  anim::Rig truth_rig = truth.target;
+  rig::Rig truth_rig = truth.target;
   truth_rig.shapes = truth.template_rig.shapes;
   rigbuild::IntersectionCheck skin;
   for (int t = 0; t < r.rig.triangle_count(); ++t)

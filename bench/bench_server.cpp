@@ -45,6 +45,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_broadcast.hpp"
+#include "bench_hostile.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
@@ -404,83 +405,9 @@ std::vector<ClientResult> run_clients(const Args& a, unsigned short port, const 
   return out;  // the clients (and their sockets) go before the io_context
 }
 
-// Hostile clients (--hostile): each thread cycles through the attack classes of
-// tests/server/test_hostile.cpp until `stop`, counting the attacks and those the server ended
-// (closed or refused) within 10 s.
-struct Hostile {
-  std::atomic<bool> stop{false};
-  std::atomic<long> attacks{0}, ended{0};
-  std::vector<std::thread> threads;
-
-  Hostile(int n, unsigned short port) {
-    for (int i = 0; i < n; ++i)
-      threads.emplace_back([this, port, source = "127.0.1." + std::to_string(i + 1)] {
-        for (int k = 0; !stop; ++k) {
-          attacks.fetch_add(1);
-          if (attack(k % 6, source.c_str(), port)) ended.fetch_add(1);
-        }
-      });
-  }
-  ~Hostile() {
-    stop = true;
-    for (auto& t : threads) t.join();
-  }
-
-  static bool attack(int kind, const char* source, unsigned short port) {
-    namespace raw = fctest::raw;
-    if (kind == 0) return raw::ping_without_reading(source, port, 10) >= 0;
-    if (kind == 1 || kind == 2 || kind == 5) {
-      const int fd = raw::open_websocket(source, port, 4096);
-      if (fd < 0) return true;  // refused: the per-address limit
-      std::string frame;
-      if (kind == 1) {
-        frame = raw::client_frame(0x1, R"({"type":"ping","t":1})");
-      } else if (kind == 2) {
-        frame = raw::client_frame(
-            0x1, json{{"type", "speak"},
-                      {"id", "x"},
-                      {"timestamps",
-                       {{"format", "polly"}, {"data", R"({"time":0,"type":"viseme","value":"p"}
-{"time":1000000000000,"type":"viseme","value":"a"})"}}}}
-                     .dump());
-      } else {
-        raw::send_all(fd, raw::client_frame(0x1, json{{"type", "speak"},
-                                                      {"id", "u"},
-                                                      {"audio", false},
-                                                      {"text", "Hello"},
-                                                      {"more", true}}
-                                                     .dump()));
-        frame = raw::client_frame(
-            0x1, json{{"type", "append"}, {"id", "u"}, {"text", std::string(1000, 'a')}}.dump());
-      }
-      const double closed = raw::flood_until_closed(fd, frame, 10);
-      close(fd);
-      return closed >= 0;
-    }
-    if (kind == 3) {
-      std::vector<int> fds;
-      for (int i = 0; i < 300; ++i)
-        if (const int fd = raw::connect_from(source, port); fd >= 0) fds.push_back(fd);
-      const bool refused =
-          !fds.empty() && raw::read_head(fds.back(), 5).starts_with("HTTP/1.1 503");
-      std::this_thread::sleep_for(std::chrono::seconds(2));
-      for (const int fd : fds) close(fd);
-      return refused;
-    }
-    const int fd = raw::connect_from(source, port);  // 4: a body announced, never sent
-    if (fd < 0) return true;
-    raw::send_all(fd,
-                  "POST /api/rigs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
-                  "model/gltf-binary\r\nContent-Length: 67108864\r\n\r\nglTF");
-    const bool answered = !raw::read_head(fd, 10).empty();  // 408/503 or closed at http_timeout
-    close(fd);
-    return answered;
-  }
-};
-
 // 1. Weights: on-time frames, time to first frame, the server's RSS and CPU.
 void run_weights(const Args& a, const fctest::ServeProcess& server) {
-  std::optional<Hostile> hostile;
+  std::optional<bench::Hostile> hostile;
   if (a.hostile > 0) hostile.emplace(a.hostile, server.port());
   double peak_rss = 0;
   const double cpu0 = cpu(server.pid());

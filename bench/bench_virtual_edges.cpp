@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <map>
 
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
 
 using namespace facecast;
@@ -42,7 +42,7 @@ void subdivide(Points& p, Faces& f) {
 int main(int argc, char** argv) try {
   const long want = argc > 1 ? std::atol(argv[1]) : 1000000;
   const auto dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
-  const anim::Rig rig = anim::read_obj(dir / "generic_neutral_mesh.obj");
+  const rig::Rig rig = rig::read_obj(dir / "generic_neutral_mesh.obj");
   Points p = rig.positions.cast<double>();
   Faces f = rig.triangles;
   VirtualEdgeStats base;

@@ -5,5 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
-scripts/build.sh build
-exec build/server/facecast serve "$@"
+# Only what serving needs: the executable (with the lexicon and lip-sync templates it reads);
+# scripts/test.sh builds the tests and benchmarks.
+scripts/build.sh build --target=facecast
+exec build/app/facecast serve "$@"

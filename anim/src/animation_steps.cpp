@@ -247,12 +247,12 @@ std::array<float, 2> gaze_at(const IdleLife& idle, double t) {
           static_cast<float>(prev.second[1] + (cur.second[1] - prev.second[1]) * u)};
 }
 
-HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t) {
+rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t) {
   // Slow sums of sines, faded in and out over 0.5 s so consecutive utterances join at rest.
   const auto& phase = idle.head_phase;
   const double env = smooth(t / 0.5) * smooth((idle.duration - t) / 0.5);
   const double a = options.head_motion * env;
-  HeadPose head;
+  rig::HeadPose head;
   head.yaw = static_cast<float>(a * (0.6 * std::sin(2 * M_PI * 0.13 * t + phase[0]) +
                                      0.4 * std::sin(2 * M_PI * 0.31 * t + phase[1])));
   head.pitch = static_cast<float>(a * 0.7 *

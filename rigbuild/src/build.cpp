@@ -24,7 +24,7 @@ auto timed(const ProgressFn& progress, const char* name, double& seconds, Stage&
   return out;
 }
 
-void check_inputs(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options) {
+void check_inputs(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options) {
   tmpl.validate("template");
   target.validate("target");
   if (tmpl.shapes.empty()) throw Error("template: rig has no blendshapes");
@@ -54,9 +54,8 @@ void check_inputs(const anim::Rig& tmpl, const anim::Rig& target, const BuildOpt
 
 }  // namespace
 
-Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
-                          const BuildOptions& options, std::optional<AutoMarkers>& found,
-                          const ProgressFn& progress) {
+Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
+                          std::optional<AutoMarkers>& found, const ProgressFn& progress) {
   const std::vector<MarkerPair>* markers = &options.markers;
   if (options.markers.empty()) {
     if (auto same = same_topology_correspondence(tmpl.vertex_count(), tmpl.triangles,
@@ -90,7 +89,7 @@ Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
   return c;
 }
 
-BuildResult build_rig(const anim::Rig& tmpl, const anim::Rig& target, const BuildOptions& options,
+BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
                       const ProgressFn& progress) {
   const auto t_start = Clock::now();
   check_inputs(tmpl, target, options);

@@ -155,7 +155,7 @@ std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& pa
   return out;
 }
 
-void write_virtual_edges_obj(const std::filesystem::path& path, const anim::Positions& positions,
+void write_virtual_edges_obj(const std::filesystem::path& path, const rig::Positions& positions,
                              const std::vector<VirtualEdge>& edges) {
   std::string s = "# facecast virtual edges: the target neutral's vertices, one 'l' per edge\n";
   char buf[96];

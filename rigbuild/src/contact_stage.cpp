@@ -29,7 +29,7 @@ std::vector<char> vertices_of(const Placement& placement, PlacedPart::Kind kind)
 
 }  // namespace
 
-ContactStage::ContactStage(const anim::Rig& tmpl, const TemplateShapes& source,
+ContactStage::ContactStage(const rig::Rig& tmpl, const TemplateShapes& source,
                            const TriangleMap& map, const Points& rest, const Faces& faces,
                            const MeshParts& parts, const Placement& placement,
                            const ContactOptions& options)

@@ -7,7 +7,7 @@
 #include <numeric>
 #include <utility>
 
-#include "facecast/anim/intersections.hpp"
+#include "facecast/rig/intersections.hpp"
 #include "geometry.hpp"
 #include "parallel.hpp"
 
@@ -23,8 +23,8 @@ bool cross(const Points& p, const Faces& f, int a, int b) {
     return bounds.extend(corner(t, 2));
   };
   if (!box(a).intersects(box(b))) return false;
-  return anim::triangles_intersect(corner(a, 0), corner(a, 1), corner(a, 2), corner(b, 0),
-                                   corner(b, 1), corner(b, 2));
+  return rig::triangles_intersect(corner(a, 0), corner(a, 1), corner(a, 2), corner(b, 0),
+                                  corner(b, 1), corner(b, 2));
 }
 
 // The smallest distance from a corner of either triangle to the other triangle (close to the
@@ -66,8 +66,8 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
       if (kept[i]) out.push_back(candidates[i]);
     return out;
   };
-  const anim::Positions p = target_rest.cast<float>();
-  watched_ = keep(anim::near_triangle_pairs(p, target_faces, margin), [&](auto pair) {
+  const rig::Positions p = target_rest.cast<float>();
+  watched_ = keep(rig::near_triangle_pairs(p, target_faces, margin), [&](auto pair) {
     const auto [a, b] = pair;
     return part_of(a) == part_of(b) && corner_distance(target_rest, target_faces, a, b) <= margin &&
            !cross(target_rest, target_faces, a, b);  // not the neutral's own
@@ -77,7 +77,7 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   std::vector<char> placed(static_cast<std::size_t>(target_faces.rows()), 0);
   for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
     placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
-  auto candidates = anim::near_triangle_pairs(p, target_faces, part_margin, placed);
+  auto candidates = rig::near_triangle_pairs(p, target_faces, part_margin, placed);
   for (auto& [a, b] : candidates)
     if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
   part_pairs_ = keep(std::move(candidates), [&](auto pair) {
@@ -246,7 +246,7 @@ ContactGuard::PartTriangles ContactGuard::group(const std::function<bool(int)>& 
     if (i == 0 || part_of(g.triangles[i]) != part_of(g.triangles[i - 1]))
       g.start.push_back(static_cast<int>(i));
   g.start.push_back(static_cast<int>(g.triangles.size()));
-  const auto near = anim::near_triangle_pairs(rest_.cast<float>(), faces_, 0.0, g.member);
+  const auto near = rig::near_triangle_pairs(rest_.cast<float>(), faces_, 0.0, g.member);
   std::vector<char> crossing(near.size());
   parallel_for(near.size(), [&](std::size_t i) {
     crossing[i] = cross(rest_, faces_, near[i].first, near[i].second);
@@ -278,7 +278,7 @@ std::vector<std::pair<int, int>> ContactGuard::crossings_of(const Points& shape,
            displaced[static_cast<std::size_t>(faces_(t, 1))] ||
            displaced[static_cast<std::size_t>(faces_(t, 2))];
   };
-  const anim::Positions p = shape.cast<float>();
+  const rig::Positions p = shape.cast<float>();
   // Per part, a prefilter: the other triangles whose boxes meet the part's box in this
   // shape (only moving ones when the part itself stays), then the box pairs among those (a
   // bounding-volume hierarchy over the part and what lies around it).
@@ -302,7 +302,7 @@ std::vector<std::pair<int, int>> ContactGuard::crossings_of(const Points& shape,
       sub.row(static_cast<Eigen::Index>(k)) = faces_.row(local[k]);
     std::vector<char> from(local.size(), 0);
     std::fill(from.begin(), from.begin() + static_cast<std::ptrdiff_t>(own), 1);
-    for (const auto& [x, y] : anim::near_triangle_pairs(p, sub, 0.0, from)) {
+    for (const auto& [x, y] : rig::near_triangle_pairs(p, sub, 0.0, from)) {
       const int a = local[static_cast<std::size_t>(x)], b = local[static_cast<std::size_t>(y)];
       if (!(moves(a) || moves(b)) || !cross(shape, faces_, a, b)) continue;
       if (std::binary_search(g.neutral.begin(), g.neutral.end(),
@@ -557,7 +557,7 @@ std::pair<int, int> ContactGuard::untangle(
   return {found, static_cast<int>(fewest)};
 }
 
-TemplateCrossings::TemplateCrossings(const anim::Rig& tmpl, const TriangleMap& map,
+TemplateCrossings::TemplateCrossings(const rig::Rig& tmpl, const TriangleMap& map,
                                      const std::vector<Points>& shapes)
     : sites_(tmpl, map, 3), shapes_(shapes), answers_(shapes.size()) {}
 

@@ -162,7 +162,7 @@ class ContactGuard {
 class TemplateCrossings {
  public:
   /// `shapes`: the template's positions per shape. Keeps references to its arguments.
-  TemplateCrossings(const anim::Rig& tmpl, const TriangleMap& map,
+  TemplateCrossings(const rig::Rig& tmpl, const TriangleMap& map,
                     const std::vector<Points>& shapes);
   bool crosses(std::size_t k, int a, int b);
   /// crosses() for shape k, as ContactGuard asks it.

@@ -145,7 +145,7 @@ Points register_template(const Points& x0, const Faces& faces, const MeshGraph& 
   for (double wc : weights) {
     for (int it = 0; it < iterations; ++it, ++step) {
       report(progress, "registration", static_cast<double>(step) / steps);
-      const Points yn = anim::vertex_normals(y, faces);
+      const Points yn = rig::vertex_normals(y, faces);
       std::vector<double> weight(static_cast<std::size_t>(ns), 0.0);
       Points target_pt = Points::Zero(ns, 3);
       parallel_for(ns, [&](int v) {
@@ -205,9 +205,9 @@ class PartPairs {
 };
 
 // The template's parts per vertex: `parts` (per triangle) when given, else its components.
-anim::Components template_labels(int vertex_count, const Faces& faces,
-                                 const std::vector<int>& parts) {
-  anim::Components out = anim::connected_components(vertex_count, faces);
+rig::Components template_labels(int vertex_count, const Faces& faces,
+                                const std::vector<int>& parts) {
+  rig::Components out = rig::connected_components(vertex_count, faces);
   if (parts.empty()) return out;
   if (parts.size() != static_cast<std::size_t>(faces.rows()))
     throw Error("correspondence: one template part per triangle expected");
@@ -219,8 +219,8 @@ anim::Components template_labels(int vertex_count, const Faces& faces,
 }
 
 PartPairs pair_parts(const SurfaceQuery& registered, const Faces& template_faces,
-                     const anim::Components& template_parts, const Points& target_rest,
-                     const Points& target_normals, const anim::Components& target_parts) {
+                     const rig::Components& template_parts, const Points& target_rest,
+                     const Points& target_normals, const rig::Components& target_parts) {
   const int nt = static_cast<int>(target_rest.rows());
   std::vector<int> vote(static_cast<std::size_t>(nt), -1);
   parallel_for(nt, [&](int v) {
@@ -252,11 +252,11 @@ PartPairs pair_parts(const SurfaceQuery& registered, const Faces& template_faces
 struct Sides {
   const Points& template_at;  // the registered template
   const Faces& template_faces;
-  const anim::Components& template_parts;
+  const rig::Components& template_parts;
   const SurfaceQuery& template_surface;
   const Points& target_rest;
   const Faces& target_faces;
-  const anim::Components& target_parts;
+  const rig::Components& target_parts;
   const SurfaceQuery& target_surface;
   const PartPairs& pairs;
 
@@ -365,10 +365,10 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
 
   report(progress, "triangle correspondence", 0.0);
   const SurfaceQuery reg_surface(c.registered, template_faces);
-  const anim::Components sparts =
+  const rig::Components sparts =
       template_labels(c.template_vertices, template_faces, template_parts);
-  const anim::Components tparts = anim::connected_components(c.target_vertices, target_faces);
-  const Points tgt_vn = anim::vertex_normals(target_rest, target_faces);
+  const rig::Components tparts = rig::connected_components(c.target_vertices, target_faces);
+  const Points tgt_vn = rig::vertex_normals(target_rest, target_faces);
   const PartPairs pairs =
       pair_parts(reg_surface, template_faces, sparts, target_rest, tgt_vn, tparts);
   const Sides sides{c.registered, template_faces, sparts,         reg_surface, target_rest,

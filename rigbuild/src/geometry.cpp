@@ -73,7 +73,7 @@ Points centroids(const Points& p, const Faces& f) {
   return c;
 }
 
-std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
+std::vector<char> silhouette(const rig::Positions& p, const rig::Triangles& tris,
                              const Eigen::Vector3d& towards, const std::vector<char>& keep) {
   std::vector<unsigned char> facing(static_cast<std::size_t>(p.rows()), 0);
   for (Eigen::Index f = 0; f < tris.rows(); ++f) {
@@ -158,7 +158,7 @@ bool SurfaceQuery::on_boundary(const Hit& hit) const {
 }
 
 MeshParts::MeshParts(int vertex_count, const Faces& faces)
-    : components(anim::connected_components(vertex_count, faces)),
+    : components(rig::connected_components(vertex_count, faces)),
       members(static_cast<std::size_t>(components.count)),
       skin(std::max(components.largest, 0)) {
   for (int v = 0; v < vertex_count; ++v)

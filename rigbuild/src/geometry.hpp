@@ -1,6 +1,6 @@
 #pragma once
 // The rig builder's geometric toolbox, private to rigbuild: closest points on a mesh (on a
-// triangle: anim::closest_on_triangle), a point carried by a triangle, k-d trees over points, a
+// triangle: rig::closest_on_triangle), a point carried by a triangle, k-d trees over points, a
 // mesh's parts. The least-squares fit of point sets (procrustes) is public:
 // facecast/rigbuild/geometry.hpp.
 #include <Eigen/Core>
@@ -11,12 +11,12 @@
 #include <utility>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 
 namespace facecast::rigbuild {
 
-using anim::closest_on_triangle;
+using rig::closest_on_triangle;
 
 /// Where `point` goes when it moves with the triangle with corners t from `rest` to `now` as it
 /// sat on it at rest: its closest point on the triangle follows the triangle, its offset from
@@ -29,7 +29,7 @@ double diagonal(const Points& p);
 
 /// Per vertex: on the silhouette seen from `towards`: a vertex of a triangle facing that way and
 /// of one facing away. Only the triangles `keep` selects count (all when it is empty).
-std::vector<char> silhouette(const anim::Positions& p, const anim::Triangles& tris,
+std::vector<char> silhouette(const rig::Positions& p, const rig::Triangles& tris,
                              const Eigen::Vector3d& towards, const std::vector<char>& keep = {});
 
 /// Per triangle (#F by 3): its centroid; its unit normal.
@@ -141,12 +141,12 @@ class SurfaceQuery {
 };
 
 /// A mesh's connected components and their vertices; the skin is the largest
-/// (anim::Components::largest), the others are parts: teeth, eyeballs, lashes, a tongue.
+/// (rig::Components::largest), the others are parts: teeth, eyeballs, lashes, a tongue.
 struct MeshParts {
   MeshParts(int vertex_count, const Faces& faces);
-  anim::Components components;            // per vertex its component, -1 in no triangle
+  rig::Components components;             // per vertex its component, -1 in no triangle
   std::vector<std::vector<int>> members;  // per component its vertices, ascending
-  int skin = 0;                           // anim::Components::largest
+  int skin = 0;                           // rig::Components::largest
   int of(int vertex) const { return components.label[static_cast<std::size_t>(vertex)]; }
 };
 

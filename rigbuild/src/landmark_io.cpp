@@ -43,7 +43,7 @@ LandmarkOptions load_landmark_options() {
 namespace {
 
 // The entry of template_landmarks.json made for `rig` (its vertex and triangle counts), or null.
-const nlohmann::json* template_entry(const nlohmann::json& j, const anim::Rig& rig) {
+const nlohmann::json* template_entry(const nlohmann::json& j, const rig::Rig& rig) {
   if (!j.contains("templates")) return nullptr;
   for (const auto& t : j["templates"])
     if (t.value("vertices", -1) == rig.vertex_count() &&
@@ -54,7 +54,7 @@ const nlohmann::json* template_entry(const nlohmann::json& j, const anim::Rig& r
 
 }  // namespace
 
-std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& rig) {
+std::optional<std::array<int, kLandmarkCount>> known_landmarks(const rig::Rig& rig) {
   std::array<int, kLandmarkCount> out;
   out.fill(-1);
   int stored = 0;
@@ -85,7 +85,7 @@ std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& 
   return out;
 }
 
-std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig) {
+std::optional<std::array<int, 4>> known_lid_middles(const rig::Rig& rig) {
   const auto path = config_path("rigbuild/template_landmarks.json");
   const nlohmann::json j = load_json(path);
   const nlohmann::json* t = template_entry(j, rig);
@@ -105,7 +105,7 @@ std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig) {
   return out;
 }
 
-std::optional<Points> known_landmark_bias(const anim::Rig& rig) {
+std::optional<Points> known_landmark_bias(const rig::Rig& rig) {
   const auto path = config_path("rigbuild/template_landmarks.json");
   const nlohmann::json j = load_json(path);
   const nlohmann::json* t = template_entry(j, rig);

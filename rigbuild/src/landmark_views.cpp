@@ -12,31 +12,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// The renderer's projection (anim/render/src/renderer.cpp), in double: OpenGL's perspective
-// times a look-at view.
-Eigen::Matrix4d view_projection(const render::Camera& c, double aspect) {
-  const double t = 1.0 / std::tan(0.5 * c.fov_y_deg * kPi / 180.0);
-  const double n = c.near_plane, f = c.far_plane;
-  Eigen::Matrix4d p = Eigen::Matrix4d::Zero();
-  p(0, 0) = t / aspect;
-  p(1, 1) = t;
-  p(2, 2) = (f + n) / (n - f);
-  p(2, 3) = 2 * f * n / (n - f);
-  p(3, 2) = -1;
-  const Eigen::Vector3d eye = c.eye.cast<double>();
-  const Eigen::Vector3d fw = (c.target.cast<double>() - eye).normalized();
-  const Eigen::Vector3d s = fw.cross(c.up.cast<double>()).normalized();
-  const Eigen::Vector3d u = s.cross(fw);
-  Eigen::Matrix4d v = Eigen::Matrix4d::Identity();
-  v.block<1, 3>(0, 0) = s.transpose();
-  v.block<1, 3>(1, 0) = u.transpose();
-  v.block<1, 3>(2, 0) = -fw.transpose();
-  v(0, 3) = -s.dot(eye);
-  v(1, 3) = -u.dot(eye);
-  v(2, 3) = fw.dot(eye);
-  return p * v;
-}
-
 struct Projected {
   Eigen::Vector2d xy;  // continuous pixel coordinates: pixel (i, j) covers [i, i+1) x [j, j+1)
   double w = 0;        // view distance along the axis; <= 0 behind the camera
@@ -53,7 +28,7 @@ Projected project(const Eigen::Matrix4d& mvp, const Eigen::RowVector3d& p, int s
 
 }  // namespace
 
-render::Camera wide_camera(const anim::Rig& head, float margin, int image_size) {
+render::Camera wide_camera(const rig::Rig& head, float margin, int image_size) {
   render::RenderOptions o;
   o.width = o.height = image_size;
   o.margin = margin;
@@ -79,7 +54,7 @@ render::Camera orbit(const render::Camera& camera, double yaw_deg) {
 SkinBuffer::SkinBuffer(const Points& rest, const Faces& faces, const std::vector<char>& skin,
                        const render::Camera& camera, int size, double depth_tolerance)
     : rest_(rest), faces_(faces), size_(size), tolerance_(depth_tolerance) {
-  const Eigen::Matrix4d mvp = view_projection(camera, 1.0);
+  const Eigen::Matrix4d mvp = render::view_projection(camera, 1.0);
   inverse_ = mvp.inverse();
   eye_ = camera.eye.cast<double>();
   const auto pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 
 namespace dlib {
@@ -21,7 +21,7 @@ const dlib::shape_predictor& shape_predictor(const std::string& path);
 
 /// A camera in front of the head (render::frame_avatar with `margin`, face framing): the first,
 /// wide view.
-render::Camera wide_camera(const anim::Rig& head, float margin, int image_size);
+render::Camera wide_camera(const rig::Rig& head, float margin, int image_size);
 /// `wide` turned to look at `centre` (the face dlib found in it) and zoomed by `zoom`.
 render::Camera face_camera(const render::Camera& wide, const Eigen::Vector3d& centre, double zoom);
 /// `camera` orbited by `yaw_deg` about the vertical axis through its target.

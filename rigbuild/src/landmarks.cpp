@@ -22,6 +22,7 @@
 #include "facecast/render/renderer.hpp"
 #include "geometry.hpp"
 #include "landmark_views.hpp"
+#include "lid_margins.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -244,118 +245,8 @@ Points fuse(const std::vector<LandmarkView>& views,
   return out;
 }
 
-// The lid margins (docs/algorithms.md#landmarks, step 7). On a grey render of a head whose
-// eye sockets are empty, dlib sees a narrower eye than the lids make and puts the lid points
-// inside the opening, a lower lid's sometimes on the upper lid (MakeHuman's head: up to 0.1 of
-// the eye's width off, more than the opening). The margin seen from the front is where the skin
-// turns away from the camera into the socket, or ends at a hole: its contour (`margin` below).
-class LidMargins {
- public:
-  struct Eye {
-    int inner, outer;                 // corner landmarks
-    std::array<int, 2> upper, lower;  // lid landmarks
-  };
-  static constexpr std::array<Eye, 2> kEyes{Eye{39, 36, {37, 38}, {41, 40}},
-                                            Eye{42, 45, {43, 44}, {47, 46}}};
-
-  // `head` seen from `camera`; its skin is its largest connected component.
-  LidMargins(const anim::Rig& head, const render::Camera& camera)
-      : rest_(head.positions.cast<double>()),
-        forward_((camera.target - camera.eye).cast<double>().normalized()),
-        up_(camera.up.cast<double>()) {
-    const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
-    std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
-    for (int t = 0; t < head.triangle_count(); ++t)
-      skin[static_cast<std::size_t>(t)] =
-          comps.label[static_cast<std::size_t>(head.triangles(t, 0))] == comps.largest;
-    std::vector<char> on = silhouette(head.positions, head.triangles, -forward_, skin);
-    std::map<std::pair<int, int>, int> edges;  // the skin's, with their triangle counts
-    for (int t = 0; t < head.triangle_count(); ++t)
-      if (skin[static_cast<std::size_t>(t)])
-        for (int k = 0; k < 3; ++k)
-          ++edges[std::minmax(head.triangles(t, k), head.triangles(t, (k + 1) % 3))];
-    for (const auto& [e, n] : edges)
-      if (n == 1)
-        on[static_cast<std::size_t>(e.first)] = on[static_cast<std::size_t>(e.second)] = 1;
-    for (int v = 0; v < head.vertex_count(); ++v)
-      if (on[static_cast<std::size_t>(v)]) contour_.push_back(v);
-  }
-
-  // The eye's frame from its corners in `points`; width 0 when a corner is missing.
-  struct Frame {
-    Eigen::Vector3d mid = Eigen::Vector3d::Zero(), along = Eigen::Vector3d::Zero(),
-                    up = Eigen::Vector3d::Zero();
-    double width = 0;
-  };
-  Frame frame(const Points& points, const Eye& e) const {
-    Frame f;
-    if (!valid(points, e.inner) || !valid(points, e.outer)) return f;
-    // In the image plane: a corner deeper than the other must not turn depth into "along".
-    const Eigen::Vector3d a = points.row(e.outer).transpose(), b = points.row(e.inner).transpose();
-    const Eigen::Vector3d across = (b - a) - (b - a).dot(forward_) * forward_;
-    if (across.norm() <= 0) return f;
-    f.mid = 0.5 * (a + b);
-    f.width = across.norm();
-    f.along = across / f.width;
-    f.up = forward_.cross(f.along).normalized();
-    if (f.up.dot(up_) < 0) f.up = -f.up;
-    return f;
-  }
-
-  // The margin vertex on `side` (+1 above the corners' line, -1 below) nearest to where `x` is
-  // along the line (at most 10 % of the eye's width from it); -1 when there is none. A contour
-  // vertex is on the margin when no contour vertex within 3 % of the width along the line is
-  // nearer the line (that one is the lid's posterior margin, this its front rim).
-  int margin(const Frame& f, int side, const Eigen::Vector3d& x) const {
-    const double at = (x - f.mid).dot(f.along);
-    struct Near {
-      int vertex;
-      double along, height;
-    };
-    std::vector<Near> near;
-    for (int v : contour_) {
-      const Eigen::Vector3d d = rest_.row(v).transpose() - f.mid;
-      const double along = d.dot(f.along), height = side * d.dot(f.up);
-      if (std::abs(along - at) <= 0.15 * f.width && height > 0 && height < 0.5 * f.width &&
-          std::abs(d.dot(forward_)) <= 0.3 * f.width)
-        near.push_back({v, along, height});
-    }
-    int best = -1;
-    double best_gap = 0.1 * f.width;
-    for (const Near& n : near) {
-      const bool rim = std::any_of(near.begin(), near.end(), [&](const Near& o) {
-        return std::abs(o.along - n.along) <= 0.03 * f.width && o.height < n.height;
-      });
-      if (!rim && std::abs(n.along - at) < best_gap) {
-        best = n.vertex;
-        best_gap = std::abs(n.along - at);
-      }
-    }
-    return best;
-  }
-
-  // The lid points of both eyes moved onto the margins.
-  void snap(Points& points) const {
-    for (const Eye& e : kEyes) {
-      const Frame f = frame(points, e);
-      if (f.width <= 0) continue;
-      for (int side : {1, -1})
-        for (int k : side > 0 ? e.upper : e.lower) {
-          if (!valid(points, k)) continue;
-          if (const int v = margin(f, side, points.row(k).transpose()); v >= 0)
-            points.row(k) = rest_.row(v);
-        }
-    }
-  }
-
- private:
-  Points rest_;
-  Eigen::Vector3d forward_, up_;
-  std::vector<int> contour_;  // skin vertices on the contour seen from the camera, or a border
-};
-
 // A camera far in front of the head (+Z, +Y up: the views' convention), nearly orthographic.
-render::Camera front_of(const anim::Rig& head) {
+render::Camera front_of(const rig::Rig& head) {
   render::Camera c;
   c.target = head.positions.colwise().mean().transpose();
   const float size =
@@ -366,7 +257,7 @@ render::Camera front_of(const anim::Rig& head) {
 
 }  // namespace
 
-HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
+HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& options,
                                const Points* reference, const Points* bias) {
   if (options.image_size < 64 || options.image_size > 4096)
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
@@ -377,7 +268,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
     return &shape_predictor(options.predictor);
   });
   // The neutral alone (the renderer takes at most 256 shapes; the views need none).
-  anim::Rig neutral = head;
+  rig::Rig neutral = head;
   neutral.shapes.clear();
   // Matte: specular highlights move with the view and read as edges to the detector.
   for (auto& m : neutral.materials) {
@@ -401,7 +292,7 @@ HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& opt
   lap(time.render);
 
   const Points rest = head.positions.cast<double>();
-  const anim::Components comps = anim::connected_components(head.vertex_count(), head.triangles);
+  const rig::Components comps = rig::connected_components(head.vertex_count(), head.triangles);
   std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
   for (int t = 0; t < head.triangle_count(); ++t)
     skin[static_cast<std::size_t>(t)] =
@@ -524,7 +415,7 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
   return out;
 }
 
-std::vector<MarkerPair> with_lid_middles(const anim::Rig& tmpl, const anim::Rig& target,
+std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
                                          const Points& registered,
                                          const std::vector<MarkerPair>& markers) {
   const auto middles = known_lid_middles(tmpl);
@@ -557,7 +448,7 @@ std::vector<MarkerPair> with_lid_middles(const anim::Rig& tmpl, const anim::Rig&
   return out;
 }
 
-Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
+Points landmark_bias(const rig::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
                      LandmarkTimings* timings) {
   const HeadLandmarks found = detect_landmarks(tmpl, options, &reference);
   if (timings) *timings = found.timings;
@@ -567,7 +458,7 @@ Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const Landm
   return bias;
 }
 
-AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
+AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                          const LandmarkOptions& options) {
   AutoMarkers out;
   if (const auto known = known_landmarks(tmpl)) {

@@ -8,7 +8,7 @@
 
 namespace facecast::rigbuild {
 
-TemplateShapes template_shapes(const anim::Rig& tmpl) {
+TemplateShapes template_shapes(const rig::Rig& tmpl) {
   TemplateShapes s;
   s.rest = tmpl.positions.cast<double>();
   s.faces = tmpl.triangles;

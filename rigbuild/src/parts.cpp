@@ -11,9 +11,9 @@
 
 namespace facecast::rigbuild {
 
-std::vector<int> template_parts(const anim::Rig& tmpl) {
+std::vector<int> template_parts(const rig::Rig& tmpl) {
   if (tmpl.materials.size() < 2) return {};
-  const anim::Components comps = anim::connected_components(tmpl.vertex_count(), tmpl.triangles);
+  const rig::Components comps = rig::connected_components(tmpl.vertex_count(), tmpl.triangles);
   std::vector<std::map<int, int>> count(static_cast<std::size_t>(comps.count));
   for (int t = 0; t < tmpl.triangle_count(); ++t) {
     ++count[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])][tmpl.triangle_material[t]];
@@ -45,7 +45,7 @@ Points rows(const Points& p, const std::vector<int>& vertices) {
 
 }  // namespace
 
-RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, double tolerance) {
+RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateShapes& source, double tolerance) {
   const MeshParts comps(tmpl.vertex_count(), tmpl.triangles);
   const std::vector<int> parts = template_parts(tmpl);
   const int count = comps.components.count;
@@ -130,7 +130,7 @@ double angle(const Eigen::Matrix3d& r) {
 
 // Per shape, the eyeball's turn about `centre` (template frame: +x the subject's left, +y up, +z
 // forward) that an eyeLook shape of its side asks for; identity for every other shape.
-std::vector<Similarity> gaze(const anim::Rig& tmpl, const Eigen::RowVector3d& centre, bool left,
+std::vector<Similarity> gaze(const rig::Rig& tmpl, const Eigen::RowVector3d& centre, bool left,
                              const EyeLookOptions& look) {
   const double deg = std::acos(-1.0) / 180, side = left ? 1 : -1;
   const std::string suffix = left ? "Left" : "Right";
@@ -151,7 +151,7 @@ std::vector<Similarity> gaze(const anim::Rig& tmpl, const Eigen::RowVector3d& ce
 
 }  // namespace
 
-std::vector<TemplateEye> template_eyes(const anim::Rig& tmpl, const TemplateShapes& source,
+std::vector<TemplateEye> template_eyes(const rig::Rig& tmpl, const TemplateShapes& source,
                                        const RigidParts& rigid, const EyeLookOptions& look) {
   std::vector<TemplateEye> turned, still;
   const double tiny = 1e-6 * diagonal(source.rest);

@@ -6,10 +6,10 @@
 #include <cctype>
 #include <chrono>
 
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "photo_detail.hpp"
 
@@ -29,7 +29,7 @@ bool has(const std::string& s, const char* part) {
 // Per vertex: skin (the face and back-of-head materials, textured from the photos) and rigid
 // groups (each eye, the mouth interior), from the materials' names.
 void classify_vertices(PhotoTemplate& t) {
-  const anim::Rig& rig = t.rig;
+  const rig::Rig& rig = t.rig;
   std::vector<char> skin_material(rig.materials.size(), 0);
   std::vector<int> group_material(rig.materials.size(), 0);
   bool any_skin = false;
@@ -76,13 +76,13 @@ nlohmann::json camera_json(const OrthoCamera& c) {
 
 }  // namespace
 
-anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positions,
-                        const render::Image& texture) {
-  anim::Rig rig = tmpl.rig;
+rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& positions,
+                       const render::Image& texture) {
+  rig::Rig rig = tmpl.rig;
   rig.shapes.clear();
   rig.positions = positions;
-  rig.normals = anim::vertex_normals(rig.positions, rig.triangles);
-  anim::Texture tex;
+  rig.normals = rig::vertex_normals(rig.positions, rig.triangles);
+  rig::Texture tex;
   tex.name = "photo_skin";
   tex.mime_type = "image/jpeg";
   tex.bytes = render::encode_jpeg(texture, 92);
@@ -103,7 +103,7 @@ anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positi
     if (!skin_material[m]) continue;
     auto& mat = rig.materials[m];
     mat.base_color = Eigen::Vector4f(1, 1, 1, 1);
-    mat.base_color_texture = anim::TextureRef{};
+    mat.base_color_texture = rig::TextureRef{};
     mat.base_color_texture.texture = index;
     mat.base_color_texture.scale = Eigen::Vector2f(1.0f / tiles, 1.0f);
   }
@@ -167,16 +167,16 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
     if (!std::filesystem::exists(neutral))
       throw Error(path.string() + ": no generic_neutral_mesh.obj (not an ICT FaceKit folder)",
                   ErrorCode::kNotFound);
-    t.rig = anim::read_obj_shapes(neutral, path, {"identity*"});
+    t.rig = rig::read_obj_shapes(neutral, path, {"identity*"});
     std::vector<std::filesystem::path> files;
     for (const auto& e : std::filesystem::directory_iterator(path))
       if (e.path().stem().string().rfind("identity", 0) == 0 && e.path().extension() == ".obj")
         files.push_back(e.path());
     std::sort(files.begin(), files.end());
-    for (const auto& f : files) t.modes.push_back(anim::read_obj_positions(f) - t.rig.positions);
+    for (const auto& f : files) t.modes.push_back(rig::read_obj_positions(f) - t.rig.positions);
   } else {
-    t.rig = anim::load_rig(path);
-    std::vector<anim::Blendshape> keep;
+    t.rig = rig::load_rig(path);
+    std::vector<rig::Blendshape> keep;
     for (auto& s : t.rig.shapes) {
       if (s.name.rfind("identity", 0) == 0)
         t.modes.push_back(s.dense(t.rig.vertex_count()));
@@ -220,7 +220,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   t = std::chrono::steady_clock::now();
   const render::Image texture =
       bake_photo_texture(tmpl, out.fit, front, side, options, &out.texture_coverage);
-  anim::Rig head = textured_head(tmpl, out.fit.positions, texture);
+  rig::Rig head = textured_head(tmpl, out.fit.positions, texture);
   timing["texture"] = seconds_since(t);
   t = std::chrono::steady_clock::now();
   if (options.shapes && !tmpl.rig.shapes.empty()) {

@@ -62,7 +62,7 @@ double wendland(double r, double radius) {
 
 }  // namespace
 
-void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
+void rbf_deform(rig::Positions& positions, const std::vector<RbfCentre>& centres,
                 const std::vector<int>& rigid, double radius, double merge, double smoothing) {
   // Merge centres that (nearly) coincide: their moves are averaged.
   std::vector<Eigen::Vector3d> at, move;
@@ -103,7 +103,7 @@ void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centre
   std::vector<Eigen::Vector3d> group_move(static_cast<std::size_t>(groups) + 1,
                                           Eigen::Vector3d::Zero());
   std::vector<int> group_count(group_move.size(), 0);
-  anim::Positions out = positions;
+  rig::Positions out = positions;
   for (Eigen::Index v = 0; v < positions.rows(); ++v) {
     const Eigen::Vector3d d = field(positions.row(v).cast<double>().transpose());
     const int g = rigid.empty() ? 0 : rigid[static_cast<std::size_t>(v)];
@@ -125,7 +125,7 @@ void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centre
   positions = std::move(out);
 }
 
-render::Camera render_camera(const OrthoCamera& camera, const anim::Positions& positions, int width,
+render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& positions, int width,
                              int height) {
   // A narrow perspective camera far away approximates the orthographic projection: the photo's
   // centre pixel back-projected at the head's mean depth is the target.

@@ -26,7 +26,7 @@ struct RbfCentre {
 /// the field's mean over the group. `radius`: the kernel's support. `smoothing` (lambda >= 0):
 /// the kernel matrix K + lambda I, so the field approximates the moves (an isolated centre moves
 /// by 1 / (1 + lambda) of its move) instead of interpolating them exactly (lambda = 0).
-void rbf_deform(anim::Positions& positions, const std::vector<RbfCentre>& centres,
+void rbf_deform(rig::Positions& positions, const std::vector<RbfCentre>& centres,
                 const std::vector<int>& rigid, double radius, double merge, double smoothing = 0);
 
 /// A mesh's depth seen through a photo's camera, per photo pixel (larger = nearer): the texture's
@@ -35,7 +35,7 @@ struct DepthBuffer {
   static constexpr float kEmpty = -std::numeric_limits<float>::max();  // no triangle there
   int w = 0, h = 0;
   std::vector<float> depth;  // w * h, rows from the top
-  DepthBuffer(const anim::Positions& positions, const anim::Triangles& triangles,
+  DepthBuffer(const rig::Positions& positions, const rig::Triangles& triangles,
               const OrthoCamera& camera, int width, int height);
   /// Depth z at the pixel nearest `at` is not behind the mesh by more than `tolerance`.
   bool visible(const Eigen::Vector2d& at, double z, double tolerance) const;
@@ -49,12 +49,12 @@ struct DepthBuffer {
 /// Calls f(texel index, surface point, unit normal) for every texel of a w x h texture (u scaled
 /// by 1 / `tiles`) that a skin triangle of `positions` covers.
 void for_each_skin_texel(
-    const PhotoTemplate& tmpl, const anim::Positions& positions, int w, int h, int tiles,
+    const PhotoTemplate& tmpl, const rig::Positions& positions, int w, int h, int tiles,
     const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f);
 
 /// `positions` on the template's topology as a rig without shapes, its skin materials sampling
 /// `texture` (2 N x N: u scaled onto the skin's UV tiles).
-anim::Rig textured_head(const PhotoTemplate& tmpl, const anim::Positions& positions,
-                        const render::Image& texture);
+rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& positions,
+                       const render::Image& texture);
 
 }  // namespace facecast::rigbuild

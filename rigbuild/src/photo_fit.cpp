@@ -115,7 +115,7 @@ struct View {
 
   // Where the detector puts landmark k on the head with coefficients c (positions p): its vertex
   // plus the detector's convention offset for that identity.
-  Eigen::Vector3d point(const anim::Positions& p, const Eigen::VectorXd& c, int k) const {
+  Eigen::Vector3d point(const rig::Positions& p, const Eigen::VectorXd& c, int k) const {
     const auto i = static_cast<std::size_t>(k);
     Eigen::Vector3d x = p.row(vertex[i]).cast<double>().transpose();
     if (contour[i]) return x;
@@ -145,12 +145,12 @@ Eigen::Matrix3d turn_matrix(double angle) {
   return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
 }
 
-Eigen::Vector3d row(const anim::Positions& p, int v) {
+Eigen::Vector3d row(const rig::Positions& p, int v) {
   return p.row(v).cast<double>().transpose();
 }
 
-anim::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) {
-  anim::Positions p = tmpl.rig.positions;
+rig::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) {
+  rig::Positions p = tmpl.rig.positions;
   for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
     p += static_cast<float>(c(static_cast<Eigen::Index>(m))) * tmpl.modes[m];
   return p;
@@ -172,7 +172,7 @@ std::vector<std::vector<int>> jaw_candidates(const PhotoTemplate& tmpl, double r
 
 // Jaw landmarks (dlib traces the face's outline) take, among the template's own jaw vertex and
 // the silhouette vertices near it, the one projecting nearest the photo's point.
-void match_contour(const PhotoTemplate& tmpl, const anim::Positions& positions,
+void match_contour(const PhotoTemplate& tmpl, const rig::Positions& positions,
                    const std::vector<std::vector<int>>& candidates, View& view) {
   const std::vector<char> outline =
       silhouette(positions, tmpl.rig.triangles, view.camera.towards());
@@ -221,12 +221,12 @@ std::vector<char> outline_region(const PhotoTemplate& tmpl, double iod) {
 // normal within `window` pixels (|gradient . normal|, sub-pixel by a parabola). An edge's weight
 // falls to zero at the window's end (Tukey's biweight), and edges weaker than a quarter of the
 // median are dropped: another feature than the outline was found, or none.
-void match_outline(const PhotoTemplate& tmpl, const anim::Positions& p,
+void match_outline(const PhotoTemplate& tmpl, const rig::Positions& p,
                    const std::vector<char>& region, double window, double spacing, View& view) {
   const OrthoCamera& cam = view.camera;
   const EdgeImage& edges = *view.edges;
   const std::vector<char> outline = silhouette(p, tmpl.rig.triangles, cam.towards());
-  const anim::Positions normals = anim::vertex_normals(p, tmpl.rig.triangles);
+  const rig::Positions normals = rig::vertex_normals(p, tmpl.rig.triangles);
   const DepthBuffer cover(p, tmpl.rig.triangles, cam, edges.width(), edges.height());
   std::set<std::pair<long, long>> cells;
   std::vector<std::pair<OutlinePoint, double>> found;  // with the edge's strength
@@ -273,7 +273,7 @@ void match_outline(const PhotoTemplate& tmpl, const anim::Positions& p,
     if (f.second >= 0.25 * median) view.outline.push_back(f.first);
 }
 
-void fit_camera(const anim::Positions& positions, const Eigen::VectorXd& c, View& view) {
+void fit_camera(const rig::Positions& positions, const Eigen::VectorXd& c, View& view) {
   std::vector<Eigen::Vector3d> pts;
   std::vector<Eigen::Vector2d> px;
   for (int k : view.used) {
@@ -302,7 +302,7 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   H.topLeftCorner(K, K).diagonal().array() += noise * noise;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
   g.head(K) = -noise * noise * c;
-  const anim::Positions p = apply_modes(tmpl, c);
+  const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
@@ -386,7 +386,7 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   }
 }
 
-double rms_pixels(const anim::Positions& p, const Eigen::VectorXd& c, const View& view) {
+double rms_pixels(const rig::Positions& p, const Eigen::VectorXd& c, const View& view) {
   double sum = 0;
   for (int k : view.used)
     sum +=
@@ -400,7 +400,7 @@ double rms_pixels(const anim::Positions& p, const Eigen::VectorXd& c, const View
 // that the depth a single photo does not see stays put. `side_moves` false: the front photo's
 // only (the side photo's depth then comes from the modes alone: its residuals are mostly the
 // detector's noise, which a depth move amplifies by 1 / sin(turn)).
-std::vector<RbfCentre> calibration_moves(const anim::Positions& p, const Eigen::VectorXd& c,
+std::vector<RbfCentre> calibration_moves(const rig::Positions& p, const Eigen::VectorXd& c,
                                          const std::vector<View>& views, bool side_moves,
                                          double* rms) {
   std::vector<int> order;
@@ -465,7 +465,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
 
   PhotoFit fit;
   fit.coefficients = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tmpl.modes.size()));
-  anim::Positions p = X0;
+  rig::Positions p = X0;
   for (auto& v : views) fit_camera(p, fit.coefficients, v);
   if (side && options.side_turn) {
     // The side photo's camera as the front's with the head turned: the turn is the yaw of the
@@ -559,7 +559,7 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
                                const PhotoOptions& options, double amplitude) {
   using Offsets = std::array<Eigen::Vector3d, kLandmarkCount>;
   // Per photo alone (all 68 points), the offsets on the head at `positions`: front, side.
-  const auto measure = [&](const anim::Positions& positions) {
+  const auto measure = [&](const rig::Positions& positions) {
     PhotoTemplate t = tmpl;
     t.rig.positions = positions;
     const auto [front, side] = shoot(positions);

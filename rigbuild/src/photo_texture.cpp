@@ -104,8 +104,8 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
 
 }  // namespace
 
-DepthBuffer::DepthBuffer(const anim::Positions& p, const anim::Triangles& tri,
-                         const OrthoCamera& cam, int w_, int h_)
+DepthBuffer::DepthBuffer(const rig::Positions& p, const rig::Triangles& tri, const OrthoCamera& cam,
+                         int w_, int h_)
     : w(w_), h(h_), depth(static_cast<std::size_t>(w_) * h_, kEmpty) {
   std::vector<Eigen::Vector2d> px(static_cast<std::size_t>(p.rows()));
   std::vector<double> z(px.size());
@@ -141,14 +141,14 @@ bool DepthBuffer::covered(const Eigen::Vector2d& at) const {
 }
 
 void for_each_skin_texel(
-    const PhotoTemplate& tmpl, const anim::Positions& positions, int w, int h, int tiles,
+    const PhotoTemplate& tmpl, const rig::Positions& positions, int w, int h, int tiles,
     const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f) {
-  const anim::Rig& rig = tmpl.rig;
-  const anim::Positions normals = anim::vertex_normals(positions, rig.triangles);
+  const rig::Rig& rig = tmpl.rig;
+  const rig::Positions normals = rig::vertex_normals(positions, rig.triangles);
   const auto uv = [&](int v) {
     return Eigen::Vector2d(rig.uvs(v, 0) / tiles * w - 0.5, rig.uvs(v, 1) * h - 0.5);
   };
-  const auto at = [](const anim::Positions& p, int v) {
+  const auto at = [](const rig::Positions& p, int v) {
     return Eigen::Vector3d(p.row(v).cast<double>().transpose());
   };
   // Triangles across a UV seam (one UV per vertex: a corner takes the other island's) are
@@ -185,7 +185,7 @@ void for_each_skin_texel(
 render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                                  const render::Image& front, const render::Image* side,
                                  const PhotoOptions& options, double* coverage) {
-  const anim::Rig& rig = tmpl.rig;
+  const rig::Rig& rig = tmpl.rig;
   if (rig.uvs.rows() != rig.vertex_count()) throw Error("photo avatar: the template has no UVs");
   float umax = 1;
   for (int v = 0; v < rig.vertex_count(); ++v)

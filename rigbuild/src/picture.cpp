@@ -31,7 +31,7 @@ struct View {
   int x0;
 };
 
-void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions& p,
+void draw(Canvas& cv, const View& v, const rig::Rig& rig, const rig::Positions& p,
           const std::vector<VirtualEdge>& edges, const std::vector<char>& marked,
           const Eigen::Vector3f& lo, float scale, bool see_through) {
   const int size = cv.h;
@@ -108,8 +108,8 @@ void draw(Canvas& cv, const View& v, const anim::Rig& rig, const anim::Positions
   }
 }
 
-void write_views(const std::filesystem::path& png, const anim::Rig& rig,
-                 const anim::Positions& positions, const std::vector<VirtualEdge>& edges,
+void write_views(const std::filesystem::path& png, const rig::Rig& rig,
+                 const rig::Positions& positions, const std::vector<VirtualEdge>& edges,
                  const std::vector<char>& marked, const PictureOptions& options) {
   const int size = options.size;
   Canvas cv(2 * size, size);
@@ -156,15 +156,15 @@ void write_views(const std::filesystem::path& png, const anim::Rig& rig,
 
 }  // namespace
 
-void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Rig& rig,
-                                const anim::Positions& positions,
+void write_virtual_edge_picture(const std::filesystem::path& png, const rig::Rig& rig,
+                                const rig::Positions& positions,
                                 const std::vector<VirtualEdge>& edges,
                                 const PictureOptions& options) {
   write_views(png, rig, positions, edges, {}, options);
 }
 
-void write_crossing_picture(const std::filesystem::path& png, const anim::Rig& rig,
-                            const anim::Positions& positions,
+void write_crossing_picture(const std::filesystem::path& png, const rig::Rig& rig,
+                            const rig::Positions& positions,
                             const std::vector<std::pair<int, int>>& pairs,
                             const PictureOptions& options) {
   std::vector<char> marked(static_cast<std::size_t>(rig.triangle_count()), 0);

@@ -173,7 +173,7 @@ std::vector<int> triangles_of(const Faces& faces, const MeshParts& parts, int co
 
 }  // namespace
 
-Placement place_components(const anim::Rig& tmpl, const Points& rest, const Faces& faces,
+Placement place_components(const rig::Rig& tmpl, const Points& rest, const Faces& faces,
                            const MeshParts& parts, const Correspondence& c,
                            const TemplateShapes& source, const Moved& moved,
                            const BuildOptions& options, bool same_topology) {

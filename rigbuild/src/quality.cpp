@@ -4,7 +4,7 @@
 #include <chrono>
 #include <optional>
 
-#include "facecast/anim/intersections.hpp"
+#include "facecast/rig/intersections.hpp"
 #include "parallel.hpp"
 
 #include "facecast/core/error.hpp"
@@ -28,8 +28,8 @@ ShapeError stats(const std::string& name, std::vector<double>& err, double diag)
 }
 }  // namespace
 
-std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positions& truth_neutral,
-                                     const anim::Rig& truth_deltas, int first, int last) {
+std::vector<ShapeError> truth_errors(const rig::Rig& built, const rig::Positions& truth_neutral,
+                                     const rig::Rig& truth_deltas, int first, int last) {
   const int nv = built.vertex_count();
   if (truth_neutral.rows() != nv) throw Error("truth: vertex count differs from the built rig");
   last = std::min(last, nv);
@@ -40,8 +40,8 @@ std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positio
   for (const auto& s : built.shapes) {
     const int ti = truth_deltas.find_shape(s.name);
     if (ti < 0) continue;
-    const anim::Positions got = built.positions + s.dense(nv);
-    const anim::Positions want =
+    const rig::Positions got = built.positions + s.dense(nv);
+    const rig::Positions want =
         truth_neutral + truth_deltas.shapes[static_cast<std::size_t>(ti)].dense(nv);
     err.clear();
     for (int v = first; v < last; ++v) err.push_back((got.row(v) - want.row(v)).norm());
@@ -50,8 +50,8 @@ std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positio
   return out;
 }
 
-std::vector<ShapeError> truth_errors(const anim::Rig& built,
-                                     const std::vector<anim::Positions>& truth) {
+std::vector<ShapeError> truth_errors(const rig::Rig& built,
+                                     const std::vector<rig::Positions>& truth) {
   const int nv = built.vertex_count();
   const double diag =
       (built.positions.colwise().maxCoeff() - built.positions.colwise().minCoeff()).norm();
@@ -60,7 +60,7 @@ std::vector<ShapeError> truth_errors(const anim::Rig& built,
   for (std::size_t k = 0; k < built.shapes.size() && k < truth.size(); ++k) {
     if (truth[k].rows() != nv)
       throw Error("truth shape '" + built.shapes[k].name + "': vertex count differs");
-    const anim::Positions got = built.positions + built.shapes[k].dense(nv);
+    const rig::Positions got = built.positions + built.shapes[k].dense(nv);
     err.clear();
     for (int v = 0; v < nv; ++v) err.push_back((got.row(v) - truth[k].row(v)).norm());
     out.push_back(stats(built.shapes[k].name, err, diag));
@@ -71,13 +71,13 @@ std::vector<ShapeError> truth_errors(const anim::Rig& built,
 namespace {
 
 // Intersecting pairs of `rig`'s shape `k` (or the neutral for k < 0) that involve a moved triangle.
-anim::IntersectionReport shape_pairs(const anim::Rig& rig, int k,
-                                     const std::function<bool(int, int)>& ignore,
-                                     std::size_t max_listed) {
-  anim::IntersectionOptions opt;
+rig::IntersectionReport shape_pairs(const rig::Rig& rig, int k,
+                                    const std::function<bool(int, int)>& ignore,
+                                    std::size_t max_listed) {
+  rig::IntersectionOptions opt;
   opt.ignore = ignore;
   opt.max_listed = max_listed;
-  if (k < 0) return anim::find_intersections(rig.positions, rig.triangles, opt);
+  if (k < 0) return rig::find_intersections(rig.positions, rig.triangles, opt);
   const auto& shape = rig.shapes[static_cast<std::size_t>(k)];
   std::vector<char> moved(static_cast<std::size_t>(rig.vertex_count()), 0);
   for (const int v : shape.vertices) moved[static_cast<std::size_t>(v)] = 1;
@@ -90,25 +90,24 @@ anim::IntersectionReport shape_pairs(const anim::Rig& rig, int k,
         any = true;
       }
   if (!any) return {};
-  return anim::find_intersections(rig.positions + shape.dense(rig.vertex_count()), rig.triangles,
-                                  opt);
+  return rig::find_intersections(rig.positions + shape.dense(rig.vertex_count()), rig.triangles,
+                                 opt);
 }
 
 std::function<bool(int, int)> group_filter(
-    const anim::Rig& rig, const std::vector<std::pair<std::string, std::string>>& groups) {
+    const rig::Rig& rig, const std::vector<std::pair<std::string, std::string>>& groups) {
   std::vector<std::pair<std::string, std::string>> present;
   for (const auto& [a, b] : groups)
     if (std::count(rig.groups.begin(), rig.groups.end(), a) &&
         std::count(rig.groups.begin(), rig.groups.end(), b))
       present.emplace_back(a, b);
   return present.empty() ? std::function<bool(int, int)>{}
-                         : anim::ignore_between_groups(rig, present);
+                         : rig::ignore_between_groups(rig, present);
 }
 
 }  // namespace
 
-ReferenceCrossings::ReferenceCrossings(const anim::Rig& reference, const TriangleMap& map,
-                                       int rings)
+ReferenceCrossings::ReferenceCrossings(const rig::Rig& reference, const TriangleMap& map, int rings)
     : reference_(reference),
       map_(map),
       rings_(rings),
@@ -163,8 +162,8 @@ bool ReferenceCrossings::crosses_at(const Points& positions, int a, int b) const
       const Box& y = bb[j];
       if ((x.lo - y.hi).maxCoeff() > 0 || (y.lo - x.hi).maxCoeff() > 0) continue;
       if (x.t != y.t && !share(x.t, y.t) &&
-          anim::triangles_intersect(corner(x.t, 0), corner(x.t, 1), corner(x.t, 2), corner(y.t, 0),
-                                    corner(y.t, 1), corner(y.t, 2)))
+          rig::triangles_intersect(corner(x.t, 0), corner(x.t, 1), corner(x.t, 2), corner(y.t, 0),
+                                   corner(y.t, 1), corner(y.t, 2)))
         return true;
     }
   }
@@ -209,7 +208,7 @@ bool ReferenceCrossings::at(const std::vector<std::pair<int, int>>& pairs, int a
   return false;
 }
 
-IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig* reference,
+IntersectionSummary shape_intersections(const rig::Rig& built, const rig::Rig* reference,
                                         const TriangleMap& map, const IntersectionCheck& check) {
   const auto t0 = std::chrono::steady_clock::now();
   if (reference && map.sources.size() != static_cast<std::size_t>(built.triangle_count()))

@@ -115,19 +115,19 @@ std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,
   return solved;
 }
 
-anim::Rig with_shapes(const anim::Rig& tmpl, const anim::Rig& target, const Points& rest,
-                      const std::vector<Points>& solved) {
-  anim::Rig rig = target;
+rig::Rig with_shapes(const rig::Rig& tmpl, const rig::Rig& target, const Points& rest,
+                     const std::vector<Points>& solved) {
+  rig::Rig rig = target;
   rig.shapes.clear();
   const float keep = static_cast<float>(1e-7 * diagonal(rest));
   for (std::size_t k = 0; k < solved.size(); ++k) {
-    const anim::Positions d = (solved[k] - rest).cast<float>();
-    rig.shapes.push_back(anim::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
+    const rig::Positions d = (solved[k] - rest).cast<float>();
+    rig.shapes.push_back(rig::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
   }
   return rig;
 }
 
-void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<Points>& solved,
+void measure_gaps(const rig::Rig& built, const Points& rest, const std::vector<Points>& solved,
                   const std::vector<VirtualEdge>& edges, const std::vector<Points>& edge_targets,
                   std::vector<ShapeQuality>& quality) {
   // Each gap normalised so the neutral gap is 10 (docs/algorithms.md#virtual-edges).
@@ -138,7 +138,7 @@ void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<
     q.shape = built.shapes[k].name;
     q.max_displacement = built.shapes[k].max_displacement();
     q.min_gap = ne ? std::numeric_limits<double>::max() : 0.0;
-    const anim::Positions d = (solved[k] - rest).cast<float>();
+    const rig::Positions d = (solved[k] - rest).cast<float>();
     for (std::size_t i = 0; i < ne; ++i) {
       const auto& ve = edges[i];
       const double neutral = (rest.row(ve.a) - rest.row(ve.b)).norm();

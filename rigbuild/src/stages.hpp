@@ -83,7 +83,7 @@ struct Placement {
 /// The template's parts for the correspondence: each connected component labelled by its most
 /// common material, so that all 32 teeth of the ICT FaceKit form one part. One material: empty
 /// (the components are the parts).
-std::vector<int> template_parts(const anim::Rig& tmpl);
+std::vector<int> template_parts(const rig::Rig& tmpl);
 
 /// The template's rigid parts: connected components that every shape moves rigidly (teeth,
 /// eyeballs), those of one template part that move together joined -- the ICT's 16 upper teeth
@@ -92,7 +92,7 @@ struct RigidParts {
   std::vector<int> of_vertex;                   // per template vertex: its rigid part, or -1
   std::vector<std::vector<Similarity>> motion;  // per part, per shape
 };
-RigidParts rigid_parts(const anim::Rig& tmpl, const TemplateShapes& source, double tolerance);
+RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateShapes& source, double tolerance);
 
 /// A sphere fitted to the rows of `p` (algebraic least squares) and the RMS of |p - centre| -
 /// radius.
@@ -118,21 +118,20 @@ struct TemplateEye {
   Sphere sphere;
   std::vector<Similarity> motion;  // per shape, in template coordinates
 };
-std::vector<TemplateEye> template_eyes(const anim::Rig& tmpl, const TemplateShapes& source,
+std::vector<TemplateEye> template_eyes(const rig::Rig& tmpl, const TemplateShapes& source,
                                        const RigidParts& rigid, const EyeLookOptions& look);
 
 /// Another topology without markers: `found` gets the automatic landmarks' markers
 /// (BuildOptions::auto_landmarks).
-Correspondence correspond(const anim::Rig& tmpl, const anim::Rig& target,
-                          const BuildOptions& options, std::optional<AutoMarkers>& found,
-                          const ProgressFn& progress);
-TemplateShapes template_shapes(const anim::Rig& tmpl);
+Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
+                          std::optional<AutoMarkers>& found, const ProgressFn& progress);
+TemplateShapes template_shapes(const rig::Rig& tmpl);
 /// A vertex moves when the point it maps to moves at least still_tolerance * the template's
 /// bounding-box diagonal.
 Moved classify_motion(const Correspondence& c, const TemplateShapes& source,
                       double still_tolerance);
 /// `same_topology`: the correspondence is vertex to vertex.
-Placement place_components(const anim::Rig& tmpl, const Points& rest, const Faces& faces,
+Placement place_components(const rig::Rig& tmpl, const Points& rest, const Faces& faces,
                            const MeshParts& parts, const Correspondence& c,
                            const TemplateShapes& source, const Moved& moved,
                            const BuildOptions& options, bool same_topology);
@@ -168,10 +167,10 @@ std::vector<Points> solve_shapes(const Transfer& transfer, const Points& rest,
 void carry_attached(const Placement& placement, const MeshParts& parts, const Points& rest,
                     std::vector<Points>& solved);
 /// The target with the solved shapes as deltas (the template's names and order).
-anim::Rig with_shapes(const anim::Rig& tmpl, const anim::Rig& target, const Points& rest,
-                      const std::vector<Points>& solved);
+rig::Rig with_shapes(const rig::Rig& tmpl, const rig::Rig& target, const Points& rest,
+                     const std::vector<Points>& solved);
 /// Per shape: its name, largest displacement and the virtual edges' gap measure.
-void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<Points>& solved,
+void measure_gaps(const rig::Rig& built, const Points& rest, const std::vector<Points>& solved,
                   const std::vector<VirtualEdge>& edges, const std::vector<Points>& edge_targets,
                   std::vector<ShapeQuality>& quality);
 
@@ -179,7 +178,7 @@ void measure_gaps(const anim::Rig& built, const Points& rest, const std::vector<
 class ContactStage {
  public:
   /// Keeps references to its arguments.
-  ContactStage(const anim::Rig& tmpl, const TemplateShapes& source, const TriangleMap& map,
+  ContactStage(const rig::Rig& tmpl, const TemplateShapes& source, const TriangleMap& map,
                const Points& rest, const Faces& faces, const MeshParts& parts,
                const Placement& placement, const ContactOptions& options);
   /// Per shape, the reference: the copy moved out of the placed parts and smoothed where it

@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <map>
 
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/template.hpp"
 
@@ -23,7 +23,7 @@ constexpr int kDropFirst = 24591, kDropEnd = 25351;
 
 // ARKit's 52 names are the built-in avatar's shapes (tongueOut: the FaceKit has none).
 bool is_arkit(const std::string& name) {
-  const auto& arkit = anim::avatar_shape_names();
+  const auto& arkit = avatar::avatar_shape_names();
   return std::find(arkit.begin(), arkit.end(), name) != arkit.end();
 }
 
@@ -52,12 +52,12 @@ const std::array<Look, 9> kLooks = {{
 
 // The rig without the vertices outside `keep` (and the triangles on them); shapes, landmarks and
 // materials that nothing uses any more follow.
-anim::Rig keep_vertices(const anim::Rig& in, const std::vector<bool>& keep) {
+rig::Rig keep_vertices(const rig::Rig& in, const std::vector<bool>& keep) {
   std::vector<int> to(static_cast<std::size_t>(in.vertex_count()), -1);
   int n = 0;
   for (int v = 0; v < in.vertex_count(); ++v)
     if (keep[static_cast<std::size_t>(v)]) to[static_cast<std::size_t>(v)] = n++;
-  anim::Rig out;
+  rig::Rig out;
   out.positions.resize(n, 3);
   out.normals.resize(n, 3);
   if (in.uvs.rows()) out.uvs.resize(n, 2);
@@ -86,7 +86,7 @@ anim::Rig keep_vertices(const anim::Rig& in, const std::vector<bool>& keep) {
   for (std::size_t f = 0; f < tris.size(); ++f)
     for (int k = 0; k < 3; ++k) out.triangles(static_cast<Eigen::Index>(f), k) = tris[f][k];
   for (const auto& s : in.shapes) {
-    anim::Blendshape b;
+    rig::Blendshape b;
     b.name = s.name;
     std::vector<Eigen::Index> rows;
     for (std::size_t i = 0; i < s.vertices.size(); ++i)
@@ -113,9 +113,9 @@ std::string arkit_name(const std::string& ict) {
 
 // Shapes in ARKit's order, then the FaceKit's extras, then the visemes: sum_s w_s * delta_s over
 // each Oculus row of configs/anim/visemes_arkit.json (names the rig lacks, tongueOut, skipped).
-std::vector<anim::Blendshape> arkit_shapes(const anim::Rig& rig) {
+std::vector<rig::Blendshape> arkit_shapes(const rig::Rig& rig) {
   const int nv = rig.vertex_count();
-  std::map<std::string, anim::Positions> dense;
+  std::map<std::string, rig::Positions> dense;
   std::vector<std::string> extras;
   for (const auto& s : rig.shapes) {
     const std::string name = arkit_name(s.name);
@@ -127,10 +127,10 @@ std::vector<anim::Blendshape> arkit_shapes(const anim::Rig& rig) {
     if (dense.contains(b + "_L") && dense.contains(b + "_R"))
       dense[b] = dense[b + "_L"] + dense[b + "_R"];
   }
-  std::vector<anim::Blendshape> out;
-  for (const auto& a : anim::avatar_shape_names())
-    if (dense.contains(a)) out.push_back(anim::Blendshape::from_dense(a, dense[a]));
-  for (const auto& e : extras) out.push_back(anim::Blendshape::from_dense(e, dense[e]));
+  std::vector<rig::Blendshape> out;
+  for (const auto& a : avatar::avatar_shape_names())
+    if (dense.contains(a)) out.push_back(rig::Blendshape::from_dense(a, dense[a]));
+  for (const auto& e : extras) out.push_back(rig::Blendshape::from_dense(e, dense[e]));
   const auto path = config_path("anim/visemes_arkit.json");
   const nlohmann::json table = load_json(path);
   if (!table.contains("visemes") || !table["visemes"].contains("oculus"))
@@ -139,21 +139,21 @@ std::vector<anim::Blendshape> arkit_shapes(const anim::Rig& rig) {
     const std::string at = path.string() + ": visemes.oculus." + viseme;
     if (!table["visemes"]["oculus"].contains(viseme)) throw Error(at + " is missing");
     const nlohmann::json& row = table["visemes"]["oculus"][viseme];
-    anim::Positions d = anim::Positions::Zero(nv, 3);
+    rig::Positions d = rig::Positions::Zero(nv, 3);
     for (const auto& [name, w] : row.items()) {
       if (!w.is_number()) throw Error(at + "." + name + ": not a number");
       if (const auto it = dense.find(name); it != dense.end()) d += w.get<float>() * it->second;
     }
-    out.push_back(anim::Blendshape::from_dense(std::string("viseme_") + viseme, d));
+    out.push_back(rig::Blendshape::from_dense(std::string("viseme_") + viseme, d));
   }
   return out;
 }
 
 }  // namespace
 
-anim::Rig ict_template_rig(const std::filesystem::path& dir) {
+rig::Rig ict_template_rig(const std::filesystem::path& dir) {
   const auto neutral = dir / "generic_neutral_mesh.obj";
-  anim::Rig ict = anim::read_obj_shapes(neutral, dir, {"identity*"});
+  rig::Rig ict = rig::read_obj_shapes(neutral, dir, {"identity*"});
   if (ict.vertex_count() < kDropEnd)
     throw Error(neutral.string() + ": " + std::to_string(ict.vertex_count()) +
                 " vertices, not the ICT FaceKit's 26719");
@@ -173,7 +173,7 @@ anim::Rig ict_template_rig(const std::filesystem::path& dir) {
   }
   std::vector<bool> keep(static_cast<std::size_t>(ict.vertex_count()), true);
   std::fill(keep.begin() + kDropFirst, keep.begin() + kDropEnd, false);
-  anim::Rig rig = keep_vertices(ict, keep);
+  rig::Rig rig = keep_vertices(ict, keep);
   rig.shapes = arkit_shapes(rig);
   for (auto& m : rig.materials) {
     for (const auto& look : kLooks) {
@@ -183,26 +183,26 @@ anim::Rig ict_template_rig(const std::filesystem::path& dir) {
       m.double_sided = look.double_sided;
     }
   }
-  rig.normals = anim::vertex_normals(rig.positions, rig.triangles);
+  rig.normals = rig::vertex_normals(rig.positions, rig.triangles);
   rig.validate(dir.string());
   return rig;
 }
 
-std::vector<anim::Positions> ict_identity_modes(const std::filesystem::path& dir) {
-  const anim::Positions neutral = anim::read_obj_positions(dir / "generic_neutral_mesh.obj");
+std::vector<rig::Positions> ict_identity_modes(const std::filesystem::path& dir) {
+  const rig::Positions neutral = rig::read_obj_positions(dir / "generic_neutral_mesh.obj");
   std::vector<std::filesystem::path> files;
   for (const auto& e : std::filesystem::directory_iterator(dir))
     if (e.path().stem().string().starts_with("identity") && e.path().extension() == ".obj")
       files.push_back(e.path());
   std::sort(files.begin(), files.end());
-  std::vector<anim::Positions> modes;
+  std::vector<rig::Positions> modes;
   const Eigen::Index kept = neutral.rows() - (kDropEnd - kDropFirst);
   for (const auto& f : files) {
-    const anim::Positions p = anim::read_obj_positions(f);
+    const rig::Positions p = rig::read_obj_positions(f);
     if (p.rows() != neutral.rows())
       throw Error(f.string() + ": " + std::to_string(p.rows()) + " vertices, the neutral has " +
                   std::to_string(neutral.rows()));
-    anim::Positions d(kept, 3);
+    rig::Positions d(kept, 3);
     d.topRows(kDropFirst) = p.topRows(kDropFirst) - neutral.topRows(kDropFirst);
     d.bottomRows(kept - kDropFirst) =
         p.bottomRows(kept - kDropFirst) - neutral.bottomRows(kept - kDropFirst);

@@ -10,10 +10,10 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
-#include "facecast/anim/avatar_document.hpp"
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/install.hpp"
+#include "facecast/rig/avatar_document.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
 
 namespace facecast::rigbuild {
@@ -94,7 +94,7 @@ struct Packer {
   }
 };
 
-json material_json(const anim::Material& m) {
+json material_json(const rig::Material& m) {
   json j = {
       {"name", m.name},
       {"pbrMetallicRoughness",
@@ -131,13 +131,13 @@ std::string glb_container(const json& doc, std::string bin) {
 
 // The identity modes as int16 accessors that no primitive uses (template.hpp says why), each
 // [{name, accessor}] of mesh.extras.facecast.identity.
-json identity_accessors(Packer& p, const std::vector<anim::Positions>& identity, int nv,
+json identity_accessors(Packer& p, const std::vector<rig::Positions>& identity, int nv,
                         double scale) {
   json out = json::array();
   for (std::size_t k = 0; k < identity.size(); ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "identity%03zu", k);
-    const anim::Positions& d = identity[k];
+    const rig::Positions& d = identity[k];
     if (d.rows() != nv || d.cols() != 3)
       throw Error(std::string("template GLB: ") + name + " has " + std::to_string(d.rows()) +
                   " rows, the rig " + std::to_string(nv) + " vertices");
@@ -152,7 +152,7 @@ json identity_accessors(Packer& p, const std::vector<anim::Positions>& identity,
 
 }  // namespace
 
-double quantization_step(const anim::Rig& rig) {
+double quantization_step(const rig::Rig& rig) {
   const Eigen::RowVector3f lo = rig.positions.colwise().minCoeff();
   const Eigen::RowVector3f hi = rig.positions.colwise().maxCoeff();
   double range = 0.5 * static_cast<double>((hi - lo).maxCoeff());
@@ -164,7 +164,7 @@ double quantization_step(const anim::Rig& rig) {
   return 0.5 * range / 8191.0;
 }
 
-std::string compact_glb_bytes(const anim::Rig& rig, const std::vector<anim::Positions>& identity) {
+std::string compact_glb_bytes(const rig::Rig& rig, const std::vector<rig::Positions>& identity) {
   rig.validate("template");
   const int nv = rig.vertex_count();
   const Eigen::RowVector3d lo = rig.positions.colwise().minCoeff().cast<double>();
@@ -187,14 +187,14 @@ std::string compact_glb_bytes(const anim::Rig& rig, const std::vector<anim::Posi
   if (rig.uvs.rows() == nv) {
     // As the rig holds them (the tree's GLB writer and reader do not flip v either), rounded to
     // 1/4096 so the floats' low mantissa bytes are zero and compress to nothing.
-    const anim::UVs uv = (rig.uvs.array() * kUvSteps).round() / kUvSteps;
+    const rig::UVs uv = (rig.uvs.array() * kUvSteps).round() / kUvSteps;
     attributes["TEXCOORD_0"] =
         p.accessor(p.view(uv.data(), static_cast<std::size_t>(nv), 8, false, kArrayBuffer), kFloat,
                    false, static_cast<std::size_t>(nv), "VEC2");
   }
   json targets = json::array(), names = json::array(), weights = json::array();
   for (const auto& s : rig.shapes) {
-    const anim::Positions d = s.dense(nv);
+    const rig::Positions d = s.dense(nv);
     targets.push_back({{"POSITION", p.vec3_short(d.cast<double>(), scale)}});
     names.push_back(s.name);
     weights.push_back(0);
@@ -254,21 +254,20 @@ std::filesystem::path shipped_template_path() {
   const std::filesystem::path path =
       share.empty() ? std::filesystem::path(FACECAST_SHIPPED_TEMPLATE) : share / "ict_facekit.glb";
   if (!std::filesystem::exists(path))
-    throw Error(
-        path.string() +
-            ": the shipped template was not built (the build makes it from the ICT FaceKit, "
-            "../shared/data/ict-facekit.tar.xz, when it finds it); give --template",
-        ErrorCode::kNotFound);
+    throw Error(path.string() +
+                    ": the shipped template is missing (data/ict_facekit.glb of the source tree, "
+                    "installed into share/facecast); give --template",
+                ErrorCode::kNotFound);
   return path;
 }
 
-anim::Rig load_shipped_template() {
-  return anim::read_glb(shipped_template_path());
+rig::Rig load_shipped_template() {
+  return rig::read_glb(shipped_template_path());
 }
 
 TemplateSummary shipped_template_summary() {
   const auto path = shipped_template_path();
-  const anim::AvatarDocument doc = anim::AvatarDocument::read(path);
+  const rig::AvatarDocument doc = rig::AvatarDocument::read(path);
   const tinygltf::Model& m = doc.model();
   if (m.meshes.empty() || m.meshes[0].primitives.empty())
     throw Error(path.string() + ": meshes[0] has no primitives");
@@ -287,11 +286,11 @@ TemplateSummary shipped_template_summary() {
   return s;
 }
 
-std::vector<anim::Positions> read_template_identity(const std::filesystem::path& path) {
+std::vector<rig::Positions> read_template_identity(const std::filesystem::path& path) {
   // The document decodes the meshopt views on load; the modes' accessors are read from them.
-  const anim::AvatarDocument doc = anim::AvatarDocument::read(path);
+  const rig::AvatarDocument doc = rig::AvatarDocument::read(path);
   const tinygltf::Model& m = doc.model();
-  std::vector<anim::Positions> modes;
+  std::vector<rig::Positions> modes;
   if (m.meshes.empty()) return modes;
   const tinygltf::Value& list = m.meshes[0].extras.Get("facecast").Get("identity");
   if (!list.IsArray()) return modes;
@@ -317,7 +316,7 @@ std::vector<anim::Positions> read_template_identity(const std::filesystem::path&
       throw Error(where + ": its data runs past its buffer");
     const unsigned char* data =
         m.buffers[static_cast<std::size_t>(v.buffer)].data.data() + v.byteOffset + a.byteOffset;
-    anim::Positions d(static_cast<Eigen::Index>(a.count), 3);
+    rig::Positions d(static_cast<Eigen::Index>(a.count), 3);
     for (std::size_t i = 0; i < a.count; ++i) {
       std::int16_t q[3];
       std::memcpy(q, data + i * stride, sizeof q);

@@ -57,7 +57,7 @@ std::optional<Correspondence> same_topology_correspondence(int template_vertices
   return c;
 }
 
-bool reorder_triangles_like(const anim::Rig& tmpl, anim::Rig& target) {
+bool reorder_triangles_like(const rig::Rig& tmpl, rig::Rig& target) {
   if (tmpl.vertex_count() != target.vertex_count()) return false;
   if (tmpl.triangles == target.triangles) return true;
   const auto order = match_triangle_order(tmpl.triangles, target.triangles);

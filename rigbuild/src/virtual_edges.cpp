@@ -5,8 +5,8 @@
 #include <cmath>
 #include <queue>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/rig.hpp"
 #include "geometry.hpp"
 #include "mesh_graph.hpp"
 #include "parallel.hpp"
@@ -116,7 +116,7 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
   const double spacing = options.spacing > 0 ? options.spacing : 0.5 * graph.median_edge_length();
 
   const PointIndex tree(points);
-  const anim::Components comps = anim::connected_components(n, faces);
+  const rig::Components comps = rig::connected_components(n, faces);
 
   // Per vertex: its `per_vertex` shortest qualifying partners on its own surface, and as many in
   // other parts. The two kinds of gap are kept apart through the density control too: a lid

@@ -1,10 +1,10 @@
 #include "api.hpp"
 
 #include "access.hpp"
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
@@ -90,7 +90,7 @@ namespace {
 // The "mesh" field of a rig or landmarks request: an OBJ's text, or a base64 GLB/VRM, read as a
 // build target (an avatar is kept: the built shapes go into its own meshes).
 std::shared_ptr<rigbuild::BuildTarget> parse_mesh(const json* mesh,
-                                                  const anim::DecodeLimits& limits) {
+                                                  const rig::DecodeLimits& limits) {
   if (!mesh) throw Error("mesh: missing ({\"format\": \"obj\"|\"glb\", \"data\": ...})");
   if (!mesh->is_object() || !mesh->contains("format") || !mesh->contains("data"))
     throw Error("mesh: expected {\"format\": \"obj\"|\"glb\", \"data\": ...}");
@@ -232,7 +232,7 @@ static Jobs::Work rig_work(State& state, const json& body, const std::string& te
     }
   }
   auto user = parse_mesh(mesh, state.options.decode);
-  anim::Rig& target = user->neutral();
+  rig::Rig& target = user->neutral();
   const auto tmpl = state.rigs.load(template_id);
 
   // Without markers, another topology is registered through landmarks found automatically on

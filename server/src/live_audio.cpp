@@ -105,7 +105,7 @@ int LiveLipsync::emit(double until, std::vector<float>& values) {
   for (; next_frame_ / fps_ <= end; ++next_frame_, ++count) {
     const std::size_t at = values.size();
     values.resize(at + shapes + 3);
-    anim::HeadPose head;
+    rig::HeadPose head;
     p.sample(next_frame_ / fps_, std::span<float>(values.data() + at, shapes), &head);
     values[at + shapes] = head.yaw;
     values[at + shapes + 1] = head.pitch;

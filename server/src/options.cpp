@@ -114,7 +114,7 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   }
   if (c.has("decode")) {
     ConfigReader& d = c.section("decode");
-    anim::DecodeLimits& l = o.decode;
+    rig::DecodeLimits& l = o.decode;
     d.read("max_json_depth", l.max_json_depth).read("max_json_values", l.max_json_values);
     d.read("max_decoded_bytes", l.max_decoded_bytes).read("max_decoded_ratio", l.max_decoded_ratio);
     d.read("max_image_side", l.max_image_side).read("max_image_bytes", l.max_image_bytes);
@@ -201,7 +201,7 @@ void validate(const ServerOptions& o) {
   need(!o.default_rig.empty(), "default_rig: empty");
   need(o.presence_interval > 0, "presence_interval: must be positive");
   need(o.channel_idle >= 0 && o.channel_idle <= 3600, "channel_idle: must be in 0..3600 seconds");
-  const anim::DecodeLimits& d = o.decode;
+  const rig::DecodeLimits& d = o.decode;
   need(d.max_json_depth >= 16 && d.max_json_depth <= 10000,
        "decode.max_json_depth: must be in 16..10000");
   need(d.max_json_values >= 1024, "decode.max_json_values: must be at least 1024");

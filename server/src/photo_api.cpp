@@ -7,9 +7,9 @@
 #include <mutex>
 
 #include "api.hpp"
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "log.hpp"
@@ -33,7 +33,7 @@ json parse_object(const Request& req, int max_depth) {
 // A photo field: base64 JPEG/PNG bytes, or a data URL ("data:image/jpeg;base64,...") as a
 // browser's FileReader or canvas.toDataURL gives it; as 3-channel RGB.
 render::Image photo_field(const json& v, const std::string& field,
-                          const anim::DecodeLimits& limits) {
+                          const rig::DecodeLimits& limits) {
   if (!v.is_string()) throw Error(field + ": expected a base64 JPEG or PNG (or a data URL)");
   std::string_view text = v.get_ref<const std::string&>();
   if (text.starts_with("data:")) {
@@ -117,8 +117,8 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
     const rigbuild::PhotoAvatar avatar = rigbuild::avatar_from_photos(
         *tmpl, (*photos)[0], photos->size() > 1 ? &(*photos)[1] : nullptr, opt, ctx.progress_fn());
     ctx.progress("storing", 1.0);
-    const std::string id = state.rigs.add(
-        name, template_id, avatar.rig, anim::glb_bytes(avatar.rig), avatar.report, {}, {}, owner);
+    const std::string id = state.rigs.add(name, template_id, avatar.rig, rig::glb_bytes(avatar.rig),
+                                          avatar.report, {}, {}, owner);
     state.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id},

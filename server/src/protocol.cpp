@@ -314,12 +314,6 @@ Problem describe(std::exception_ptr error) {
 // ---- client messages
 // --------------------------------------------------------------------------------
 
-std::size_t utf8_length(std::string_view text) noexcept {
-  std::size_t n = 0;
-  for (const char c : text) n += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
-  return n;
-}
-
 ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& limits,
                                    std::string* id) {
   check_json_depth(text, limits.max_json_depth, "message");

@@ -3,13 +3,13 @@
 #include <chrono>
 #include <regex>
 
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/avatar_view.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/core/random.hpp"
+#include "facecast/rig/avatar_view.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "facecast/server/protocol.hpp"
@@ -26,8 +26,8 @@ RigInfo builtin_info() {
   i.id = kBuiltin;
   i.name = "Default avatar";
   i.template_id = "";
-  i.shapes = anim::avatar_shape_names();
-  i.vertices = anim::default_avatar().vertex_count();
+  i.shapes = avatar::avatar_shape_names();
+  i.vertices = avatar::default_avatar().vertex_count();
   i.builtin = true;
   i.tenant.clear();
   i.is_public = true;
@@ -80,7 +80,7 @@ nlohmann::json RigInfo::to_json() const {
   return j;
 }
 
-RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig, anim::DecodeLimits limits)
+RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig, rig::DecodeLimits limits)
     : rigs_dir_(std::move(data_dir) / "rigs"),
       default_rig_(std::move(default_rig)),
       limits_(limits) {
@@ -206,11 +206,10 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
       const auto t0 = std::chrono::steady_clock::now();
       // Every mesh (hair, body, clothes too): the frames show the whole avatar. The built-in one
       // goes through its GLB too, as users' files do.
-      anim::AvatarDocument doc = id == kBuiltin
-                                     ? anim::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
-                                     : anim::AvatarDocument::read(glb_path(id), limits_);
-      loaded->rig =
-          std::make_shared<const anim::Rig>(anim::make_view(doc, {.all_meshes = true}).rig);
+      rig::AvatarDocument doc = id == kBuiltin
+                                    ? rig::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
+                                    : rig::AvatarDocument::read(glb_path(id), limits_);
+      loaded->rig = std::make_shared<const rig::Rig>(rig::make_view(doc, {.all_meshes = true}).rig);
       log::info(
           "rig_loaded",
           {{"rig", id},
@@ -256,7 +255,7 @@ std::shared_ptr<const std::string> RigRegistry::builtin_glb() {
   if (loader) {
     try {
       promise.set_value(
-          std::make_shared<const std::string>(anim::glb_bytes(anim::default_avatar())));
+          std::make_shared<const std::string>(rig::glb_bytes(avatar::default_avatar())));
     } catch (...) {
       promise.set_exception(std::current_exception());
       std::lock_guard lock(mutex_);
@@ -305,7 +304,7 @@ void RigRegistry::store(const RigInfo& info,
 }
 
 std::string RigRegistry::add(const std::string& name, const std::string& template_id,
-                             const anim::Rig& rig, const std::string& glb,
+                             const rig::Rig& rig, const std::string& glb,
                              const nlohmann::json& report,
                              const std::vector<rigbuild::VirtualEdge>& edges,
                              const rigbuild::VirtualEdgeStats& stats, const RigOwner& owner) {
@@ -338,7 +337,7 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
 
 std::string RigRegistry::import(const std::string& name, const std::string& bytes,
                                 const std::string& what, const RigOwner& owner) {
-  const anim::AvatarView view = anim::make_view(anim::AvatarDocument::parse(bytes, what, limits_));
+  const rig::AvatarView view = rig::make_view(rig::AvatarDocument::parse(bytes, what, limits_));
   anim::Mapping::for_rig(view.rig.shape_names());  // throws when nothing maps: not a face rig
   RigInfo info;
   info.id = new_id();

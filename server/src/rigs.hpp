@@ -19,8 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "facecast/anim/animation.hpp"
-#include "facecast/anim/rig.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
 
 namespace facecast::server {
@@ -40,7 +40,7 @@ struct RigInfo {
 
 struct LoadedRig {
   std::string id;
-  std::shared_ptr<const anim::Rig> rig;
+  std::shared_ptr<const rig::Rig> rig;
   anim::Mapping mapping;
 };
 
@@ -55,9 +55,9 @@ struct RigOwner {
 class RigRegistry {
  public:
   /// Creates <data>/rigs if needed and lists the stored rigs; `default_rig` is what "" resolves to.
-  /// Uploads and stored rigs are read within `limits` (anim/decode_limits.hpp).
+  /// Uploads and stored rigs are read within `limits` (rig/decode_limits.hpp).
   RigRegistry(std::filesystem::path data_dir, std::string default_rig,
-              anim::DecodeLimits limits = {});
+              rig::DecodeLimits limits = {});
 
   std::vector<RigInfo> list() const;
   std::optional<RigInfo> find(const std::string& id) const;
@@ -74,7 +74,7 @@ class RigRegistry {
 
   /// Stores a built rig (`glb`: its file, rigbuild::BuildTarget::glb_bytes) and returns its new
   /// id.
-  std::string add(const std::string& name, const std::string& template_id, const anim::Rig& rig,
+  std::string add(const std::string& name, const std::string& template_id, const rig::Rig& rig,
                   const std::string& glb, const nlohmann::json& report,
                   const std::vector<rigbuild::VirtualEdge>& edges,
                   const rigbuild::VirtualEdgeStats& stats, const RigOwner& owner = {});
@@ -93,7 +93,7 @@ class RigRegistry {
  private:
   std::filesystem::path rigs_dir_;
   std::string default_rig_;
-  anim::DecodeLimits limits_;
+  rig::DecodeLimits limits_;
   mutable std::mutex mutex_;
   mutable std::map<std::string, RigInfo> infos_;
   std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;
@@ -118,7 +118,7 @@ class RigRegistry {
 /// Renderers per (rig, width, height), least recently used dropped beyond `capacity`.
 class RendererCache {
  public:
-  /// `base`: camera, background and MSAA of every renderer (configs/anim/render.json).
+  /// `base`: camera, background and MSAA of every renderer (configs/render/render.json).
   RendererCache(int capacity, int contexts, render::RenderOptions base)
       : capacity_(capacity), contexts_(contexts), base_(std::move(base)) {}
   /// Creates (and warms up: one GL context, one frame) on first use; thread-safe. At most

@@ -163,7 +163,7 @@ render::Image RtmpOutput::render(const Pose& pose) {
     const std::size_t n = rig->mapping.shape_names().size();
     std::vector<float> v = pose.values;
     v.resize(n + 3, 0.0f);
-    const anim::HeadPose head{v[n], v[n + 1], v[n + 2]};
+    const rig::HeadPose head{v[n], v[n + 1], v[n + 2]};
     v.resize(n);
     return renderer->render(v, head);
   } catch (const std::exception& e) {

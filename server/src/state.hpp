@@ -51,8 +51,8 @@ struct State {
   RigRegistry rigs;
   viseme::Options viseme_options;
   anim::AnimOptions anim_options;
-  render::RenderOptions render_options;  // configs/anim/render.json (camera, background, msaa)
-  render::VideoOptions video_options;    // configs/anim/render.json "video"
+  render::RenderOptions render_options;  // configs/render/render.json (camera, background, msaa)
+  render::VideoOptions video_options;    // configs/render/render.json "video"
   RendererCache renderers;
   ProtocolLimits limits;
   AudioUploads audio_uploads;  // POST /api/audio, spoken by `speak` with audio_id

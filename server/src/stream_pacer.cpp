@@ -280,7 +280,7 @@ void StreamPacer::render(int frame) {
   std::vector<float> values;
   frame_values(frame, values);
   const std::size_t n = static_cast<std::size_t>(names_);
-  const anim::HeadPose head{values[n], values[n + 1], values[n + 2]};
+  const rig::HeadPose head{values[n], values[n + 1], values[n + 2]};
   values.resize(n);  // the renderer takes the shapes, and the head pose apart
   in_flight_.push_back(Render{frame, false, nullptr});
   net::post(state_->workers, [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
@@ -353,7 +353,7 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
     const double t = frame / fps_;
     while (segment_ + 1 < segments_.size() && segments_[segment_ + 1].t0 <= t) ++segment_;
     const Segment& seg = segments_[segment_];
-    anim::HeadPose head;
+    rig::HeadPose head;
     seg.p->performance->sample(t - seg.t0, std::span<float>(out.data(), n), &head);
     out[n] = head.yaw;
     out[n + 1] = head.pitch;

@@ -1,5 +1,6 @@
 #include "text_pieces.hpp"
 
+#include "facecast/core/utf8.hpp"
 #include "facecast/server/protocol.hpp"
 
 namespace facecast::server {
@@ -7,10 +8,6 @@ namespace {
 
 bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\n' || c == '\r';
-}
-
-bool is_continuation(char c) {
-  return (static_cast<unsigned char>(c) & 0xC0) == 0x80;
 }
 
 // Chinese clause marks (UTF-8, 3 bytes each): 。！？；，、：
@@ -58,7 +55,7 @@ void TextPieces::cut(std::vector<std::string>& out, std::size_t at) {
   buffer_.erase(0, at);
   scanned_ -= at;
   piece_chars_ = 0;
-  for (std::size_t i = 0; i < scanned_; ++i) piece_chars_ += !is_continuation(buffer_[i]);
+  for (std::size_t i = 0; i < scanned_; ++i) piece_chars_ += !is_utf8_continuation(buffer_[i]);
   last_space_ = 0;
 }
 
@@ -88,11 +85,11 @@ void TextPieces::scan(std::vector<std::string>& out, bool final) {
     }
     const std::size_t width = end > i ? end - i : 1;
     scanned_ = i + width;
-    piece_chars_ += is_continuation(c) ? 0 : 1;
+    piece_chars_ += is_utf8_continuation(c) ? 0 : 1;
     if (end) {
       cut(out, end);
     } else if (piece_chars_ >= max_piece_ &&
-               !(scanned_ < buffer_.size() && is_continuation(buffer_[scanned_]))) {
+               !(scanned_ < buffer_.size() && is_utf8_continuation(buffer_[scanned_]))) {
       // Too long without a sentence end: cut at the last space, or here (a tag left open by
       // then is cut too: it was not a tag).
       const std::size_t at = last_space_ ? last_space_ : scanned_;

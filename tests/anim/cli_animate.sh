@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # facecast animate and facecast render of speech: JSON and binary weights, timestamps in, a short
-# MP4 and a frame sequence, one-line errors with a non-zero exit and no file left behind.
-# Usage: cli_animate.sh FACECAST SOURCE_DIR
+# MP4 and a frame sequence, the timeline plot, one-line errors with a non-zero exit and no file left behind.
+# Usage: cli_animate.sh FACECAST SOURCE_DIR ARTIFACTS_DIR
 set -euo pipefail
-facecast=$1 src=$2
+facecast=$1 src=$2 artifacts=$3
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one line naming PATTERN
@@ -22,6 +22,11 @@ const peak = Math.max(...j.weights.map(r => r[jaw]));
 if (!(peak > 0.2)) throw "the jaw never opens: " + peak;
 if (j.weights[j.frames - 1].some(v => v > 0.02)) throw "not at rest at the end";
 ' "$tmp/w.json"
+# The timeline picture (kept in the test artifacts for people to look at).
+"$facecast" animate --text "(joy, 60, 0.3)Hello, world. Papa bought a map." --out "$tmp/p.json" --plot "$tmp/timeline.png"
+[[ $(head -c 4 "$tmp/timeline.png" | tail -c 3) == PNG ]] || fail "timeline PNG"
+(( $(stat -c %s "$tmp/timeline.png") > 10000 )) || fail "timeline PNG too small to hold the lanes"
+mkdir -p "$artifacts/anim" && cp "$tmp/timeline.png" "$artifacts/anim/speech_timeline.png"
 "$facecast" animate --timestamps "$src/tests/viseme/fixtures/rhubarb.tsv" --out "$tmp/w.bin"
 [[ $(head -c 4 "$tmp/w.bin") == FCWT ]] || fail "binary magic"
 "$facecast" animate --timestamps "$src/tests/viseme/fixtures/azure_visemes.json" --out "$tmp/a.json"

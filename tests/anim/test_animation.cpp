@@ -3,17 +3,18 @@
 #include <cmath>
 
 #include "facecast/anim/animation.hpp"
-#include "facecast/anim/avatar.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/analyze.hpp"
 
 using namespace facecast;
 using namespace facecast::anim;
+using namespace facecast::rig;
 
 namespace {
 
-const Rig& avatar() {
-  static const Rig rig = default_avatar();
+const Rig& face() {
+  static const Rig rig = avatar::default_avatar();
   return rig;
 }
 
@@ -57,7 +58,7 @@ TEST_CASE("the options file mirrors AnimOptions", "[anim][animation]") {
 }
 
 TEST_CASE("mappings resolve ARKit, ICT _L/_R and Oculus names", "[anim][animation]") {
-  const Mapping arkit = Mapping::for_rig(avatar().shape_names());
+  const Mapping arkit = Mapping::for_rig(face().shape_names());
   CHECK(arkit.table() == "arkit");
   CHECK(arkit.blink_left >= 0);
   const auto& a_row =
@@ -96,7 +97,7 @@ TEST_CASE("mappings resolve ARKit, ICT _L/_R and Oculus names", "[anim][animatio
 }
 
 TEST_CASE("bilabials and labiodentals reach closure", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   // A smiling, surprised speaker: expressions drive jawOpen and smiles, closure must still win.
   const auto u = zh("(surprise, 63, 0.2)(joy, 63, 0.2)爸爸买了很多面包，妈妈非常高兴。");
   const Performance p(u, m, quiet());
@@ -122,7 +123,7 @@ TEST_CASE("bilabials and labiodentals reach closure", "[anim][animation]") {
 }
 
 TEST_CASE("neighbours colour a viseme (coarticulation)", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   // The same /d/ between rounded vowels and between spread ones.
   viseme::Utterance rounded, spread;
   rounded.set = spread.set = viseme::VisemeSet::kZh15;
@@ -141,7 +142,7 @@ TEST_CASE("neighbours colour a viseme (coarticulation)", "[anim][animation]") {
 }
 
 TEST_CASE("the face rests in long pauses and after the utterance", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   viseme::Utterance u;
   u.set = viseme::VisemeSet::kOculus;
   u.visemes = {{"sil", 0, 0.2},   {"aa", 0.2, 0.4}, {"PP", 0.4, 0.5},
@@ -168,7 +169,7 @@ TEST_CASE("the face rests in long pauses and after the utterance", "[anim][anima
 }
 
 TEST_CASE("expression ramps follow the three start cases", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   viseme::Utterance u;
   u.set = viseme::VisemeSet::kZh15;
   u.duration = 6;
@@ -203,7 +204,7 @@ TEST_CASE("expression ramps follow the three start cases", "[anim][animation]") 
 }
 
 TEST_CASE("idle life blinks, moves the eyes and head, and is reproducible", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   viseme::Utterance u;
   u.set = viseme::VisemeSet::kZh15;
   u.duration = 12;
@@ -238,7 +239,7 @@ TEST_CASE("idle life blinks, moves the eyes and head, and is reproducible", "[an
 }
 
 TEST_CASE("bake gives frames at pts f over fps and both output formats", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   const auto u = zh("你好");
   const Performance p(u, m);
   const WeightTrack t = bake(p, 30);
@@ -273,7 +274,7 @@ TEST_CASE("fade to rest is smooth and ends at zero", "[anim][animation]") {
 // ---- The steps of the chain on their own (animation_steps.hpp). ---------------------------------
 
 TEST_CASE("the mapping table names the closure visemes of every set", "[anim][animation]") {
-  const Mapping m = Mapping::for_rig(avatar().shape_names());
+  const Mapping m = Mapping::for_rig(face().shape_names());
   using viseme::VisemeSet;
   CHECK(m.closure_channels(VisemeSet::kZh15) ==
         std::vector<int>{channel(m, VisemeSet::kZh15, "bpm"), channel(m, VisemeSet::kZh15, "f")});

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Writes the limit_* seeds of fuzz_glb, fuzz_gltf and fuzz_obj (tests/fuzz/corpus/<target>/): one
-tiny file (< 4 KB) per class of hostile avatar file that anim/decode_limits.hpp bounds, so that the
+tiny file (< 4 KB) per class of hostile avatar file that rig/decode_limits.hpp bounds, so that the
 fuzzers start next to each check. The same attacks, full size, are built by
-tests/anim/hostile_glb.cpp. Run from anywhere: python3 tests/fuzz/make_decode_seeds.py
+tests/rig/hostile_glb.cpp. Run from anywhere: python3 tests/fuzz/make_decode_seeds.py
 (scripts/fuzz.sh runs the fuzzers from the corpus)."""
 import base64
 import json

@@ -77,10 +77,10 @@ struct PhotoShoot {
 
 /// The template at `positions`, textured, rendered 512 x 512 from the front and turned by `yaw`
 /// degrees (the subject's right towards the camera).
-inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const anim::Positions& positions,
+inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const rig::Positions& positions,
                              double yaw, int size = 512) {
   static const render::Image texture = skin_texture(t);
-  const anim::Rig rig = rigbuild::textured_head(t, positions, texture);
+  const rig::Rig rig = rigbuild::textured_head(t, positions, texture);
   render::RenderOptions ro;
   ro.width = ro.height = size;
   ro.fov_y_deg = 3;  // a long lens: the fit's camera is scale-orthographic
@@ -100,7 +100,7 @@ inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const anim::Posit
 }
 
 /// `rig` rendered as the photo's camera saw it (the photo's size), with the given weights.
-inline render::Image render_as_photo(const anim::Rig& rig, const rigbuild::OrthoCamera& camera,
+inline render::Image render_as_photo(const rig::Rig& rig, const rigbuild::OrthoCamera& camera,
                                      const render::Image& photo,
                                      const std::vector<std::pair<std::string, float>>& named = {}) {
   render::RenderOptions ro;

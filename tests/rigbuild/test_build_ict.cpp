@@ -8,7 +8,7 @@
 
 #include "facecast/core/error.hpp"
 
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/quality.hpp"
@@ -48,7 +48,7 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
   const int jaw = on.rig.find_shape("jawOpen");
   REQUIRE(jaw >= 0);
   // The lower teeth move with jawOpen.
-  const anim::Positions d =
+  const rig::Positions d =
       on.rig.shapes[static_cast<std::size_t>(jaw)].dense(on.rig.vertex_count());
   CHECK(d.middleRows(19247, 2204).rowwise().norm().maxCoeff() > 0.5f);
 
@@ -70,7 +70,7 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
   // separate parts that already cross the skin in the ICT neutral). The transfer alone adds a few
   // crossing pairs per shape at the mouth corners, where the neutral's gap (0.006 units) is below
   // its error; contacts remove every one.
-  anim::Rig truth_rig = truth.target;
+  rig::Rig truth_rig = truth.target;
   truth_rig.shapes = truth.template_rig.shapes;
   const auto identity = TriangleMap::identity(on.rig.triangle_count());
   IntersectionCheck skin;
@@ -104,9 +104,8 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   const auto mh = test::shared_data() / "makehuman/head.obj";
   const auto markers = test::shared_data() / "markers/makehuman_head_to_ict.json";
   if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh)) return;
-  const anim::Rig tmpl =
-      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
-  const anim::Rig target = anim::read_obj(mh);
+  const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const rig::Rig target = rig::read_obj(mh);
   BuildOptions opt;
   opt.markers = read_markers(markers, tmpl.vertex_count(), target.vertex_count());
   const auto r = build_rig(tmpl, target, opt);
@@ -223,8 +222,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // The teeth and eyes move rigidly with the template's teeth rows and eyeballs (the points they
   // map to lie partly on the template's gums and lips, which do not): the upper teeth stay, the
   // lower ones drop with the jaw; the eyes are rigid parts that turn about their own centres.
-  const anim::Components comps =
-      anim::connected_components(target.vertex_count(), target.triangles);
+  const rig::Components comps = rig::connected_components(target.vertex_count(), target.triangles);
   for (int t = 0; t < target.triangle_count(); ++t) {
     const std::string& g = group_of(t);
     if (g.ends_with("-teeth") || g.ends_with("-eye"))
@@ -233,7 +231,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
                 .placement == (g.ends_with("-eye") ? "eye" : "rigid"));
   }
   const auto moved_in = [&](const char* shape, const char* group) {
-    const anim::Positions d =
+    const rig::Positions d =
         r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(shape))].dense(r.rig.vertex_count());
     float most = 0;
     for (int t = 0; t < target.triangle_count(); ++t)
@@ -244,7 +242,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   CHECK(moved_in("jawOpen", "helper-lower-teeth") > 0.2f);
   // The lashes lie on the lids and are carried by them: through eyeBlink each lash vertex moves
   // as the skin vertex nearest to it does, give or take the turn of the lid.
-  const anim::Positions blink =
+  const rig::Positions blink =
       r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape("eyeBlink_L"))].dense(
           r.rig.vertex_count());
   int body = -1;
@@ -287,7 +285,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // gap (docs/algorithms.md#gap-scaling) it left 0.22 on both sides; with the closing edges
   // enforced (#closing-gaps) 0.162 and 0.168.
   const auto gap = [&](const char* shape, int upper, int lower) {
-    const anim::Positions p =
+    const rig::Positions p =
         r.rig.positions +
         r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(shape))].dense(r.rig.vertex_count());
     return (p.row(upper) - p.row(lower)).norm() /
@@ -306,9 +304,8 @@ TEST_CASE("the MediaPipe mask (holes, no inner mouth) builds from its marker fil
   const auto dir = test::ict_dir();
   const auto mp = test::shared_data() / "mediapipe/canonical_face_model.obj";
   if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mp)) return;
-  const anim::Rig tmpl =
-      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
-  const anim::Rig target = anim::read_obj(mp);
+  const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const rig::Rig target = rig::read_obj(mp);
   BuildOptions opt;
   opt.markers = read_markers(test::shared_data() / "markers/mediapipe_to_ict.json",
                              tmpl.vertex_count(), target.vertex_count());

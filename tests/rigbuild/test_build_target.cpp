@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <fstream>
 
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/avatar_view.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/avatar_view.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/build_target.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
@@ -67,8 +67,8 @@ void bind(tinygltf::Model& m, tinygltf::Primitive& prim, std::uint16_t joint) {
 // The default avatar's GLB with its morph targets removed, a skeleton (Hips > Neck > Head) that
 // carries the face meshes by the head, and a body box under them bound to the hips.
 std::string avatar_without_shapes() {
-  anim::AvatarDocument doc =
-      anim::AvatarDocument::parse(anim::glb_bytes(anim::default_avatar()), "avatar.glb");
+  rig::AvatarDocument doc =
+      rig::AvatarDocument::parse(rig::glb_bytes(avatar::default_avatar()), "avatar.glb");
   tinygltf::Model& m = doc.model();
   for (auto& mesh : m.meshes) {
     for (auto& p : mesh.primitives) p.targets.clear();
@@ -145,20 +145,20 @@ bool validator_clean(const fs::path& path) {
 }
 
 // |a - b| / |b| over all vertices.
-double relative_difference(const anim::Rig& a, const anim::Rig& b, const std::string& shape) {
+double relative_difference(const rig::Rig& a, const rig::Rig& b, const std::string& shape) {
   const int sa = a.find_shape(shape), sb = b.find_shape(shape);
   REQUIRE(sa >= 0);
   REQUIRE(sb >= 0);
-  const anim::Positions da = a.shapes[static_cast<std::size_t>(sa)].dense(a.vertex_count());
-  const anim::Positions db = b.shapes[static_cast<std::size_t>(sb)].dense(b.vertex_count());
+  const rig::Positions da = a.shapes[static_cast<std::size_t>(sa)].dense(a.vertex_count());
+  const rig::Positions db = b.shapes[static_cast<std::size_t>(sb)].dense(b.vertex_count());
   return (da - db).norm() / db.norm();
 }
 
 // `out` (the build written into `in`) keeps `in`'s nodes, skin, materials and images byte for
 // byte; the body gets no targets, the head many.
 void check_kept(const fs::path& in, const fs::path& out) {
-  const auto before = anim::AvatarDocument::read(in);
-  const auto after = anim::AvatarDocument::read(out);
+  const auto before = rig::AvatarDocument::read(in);
+  const auto after = rig::AvatarDocument::read(out);
   const tinygltf::Model &a = before.model(), &b = after.model();
   REQUIRE(a.meshes.size() == b.meshes.size());
   CHECK(a.nodes.size() == b.nodes.size());
@@ -189,7 +189,7 @@ TEST_CASE("a build into an avatar file writes the shapes into its face meshes an
           "[rigbuild][avatar]") {
   const fs::path in = out_dir() / "no-shapes.glb", out = out_dir() / "rebuilt.glb";
   write_file_atomic(in, avatar_without_shapes());
-  const anim::Rig& tmpl = anim::default_avatar();
+  const rig::Rig& tmpl = avatar::default_avatar();
 
   const rigbuild::BuildTarget target = rigbuild::BuildTarget::read(in);
   REQUIRE(target.is_avatar());
@@ -204,8 +204,8 @@ TEST_CASE("a build into an avatar file writes the shapes into its face meshes an
   check_kept(in, out);
 
   // Same topology as the template: the shapes come back as the template's.
-  const auto after = anim::AvatarDocument::read(out);
-  const anim::AvatarView view = anim::make_view(after);
+  const auto after = rig::AvatarDocument::read(out);
+  const rig::AvatarView view = rig::make_view(after);
   CHECK(view.rig.vertex_count() == tmpl.vertex_count());
   for (const char* shape : {"jawOpen", "eyeBlinkLeft", "mouthSmileLeft", "eyeLookInLeft"}) {
     INFO(shape);
@@ -222,13 +222,13 @@ namespace {
 // 15 % of the eye's width, |y - cy| < 60 %, in front of the corners' depth less 30 %), split by the
 // neutral into above and below the centre; the gap is the lowest of those above minus the highest
 // of those below.
-double lid_gap(const anim::Rig& rig, const std::array<int, 68>& lm, int inner, int outer,
-               const anim::Positions& delta) {
+double lid_gap(const rig::Rig& rig, const std::array<int, 68>& lm, int inner, int outer,
+               const rig::Positions& delta) {
   const Eigen::RowVector3f a = rig.positions.row(lm[static_cast<std::size_t>(inner)]);
   const Eigen::RowVector3f b = rig.positions.row(lm[static_cast<std::size_t>(outer)]);
   const Eigen::RowVector3f c = 0.5f * (a + b);
   const float w = (a - b).norm();
-  const anim::Rig& layout = anim::default_avatar();
+  const rig::Rig& layout = avatar::default_avatar();
   REQUIRE(layout.vertex_count() == rig.vertex_count());
   REQUIRE(!layout.meshes.empty());
   float upper = 1e9f, lower = -1e9f;
@@ -255,9 +255,9 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   if (!test::require_data(test::ict_dir() / "generic_neutral_mesh.obj")) return;  // packed from it
   const fs::path in = out_dir() / "no-shapes-ict.glb", out = out_dir() / "rebuilt-ict.glb";
   write_file_atomic(in, avatar_without_shapes());
-  const anim::Rig tmpl = load_shipped_template();
+  const rig::Rig tmpl = load_shipped_template();
   const rigbuild::BuildTarget target = rigbuild::BuildTarget::read(in);
-  const anim::Rig& head = target.neutral();
+  const rig::Rig& head = target.neutral();
   REQUIRE(head.vertex_count() != tmpl.vertex_count());
 
   const auto r = rigbuild::build_rig(tmpl, head, rigbuild::load_build_options());
@@ -265,9 +265,9 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   write_file_atomic(out, target.glb_bytes(r.rig));
   CHECK(validator_clean(out));
   check_kept(in, out);
-  const auto after = anim::AvatarDocument::read(out);
+  const auto after = rig::AvatarDocument::read(out);
   // Every mesh in node order: the five face meshes, then the body's 8 vertices.
-  anim::Rig built = anim::make_view(after, {.all_meshes = true}).rig;
+  rig::Rig built = rig::make_view(after, {.all_meshes = true}).rig;
   REQUIRE(built.vertex_count() == head.vertex_count() + 8);
   built.positions.conservativeResize(head.vertex_count(), 3);
   for (auto& s : built.shapes) {
@@ -281,18 +281,18 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
 
   // The head's own 68 landmarks (stored for the default avatar; its dropped lid midpoints are
   // not needed: corners 36/39 and 42/45, inner lips 62/66).
-  const auto lm = rigbuild::known_landmarks(anim::default_avatar());
+  const auto lm = rigbuild::known_landmarks(avatar::default_avatar());
   REQUIRE(lm);
   const auto dense = [&](const char* name) {
     const int s = built.find_shape(name);
     REQUIRE(s >= 0);
     return built.shapes[static_cast<std::size_t>(s)].dense(built.vertex_count());
   };
-  const anim::Positions still = anim::Positions::Zero(built.vertex_count(), 3);
+  const rig::Positions still = rig::Positions::Zero(built.vertex_count(), 3);
   const double iod = (head.positions.row((*lm)[36]) - head.positions.row((*lm)[45])).norm();
   // jawOpen parts the inner lips by a good part of the eyes' distance.
-  const anim::Positions jaw = dense("jawOpen");
-  const auto lip_gap = [&](const anim::Positions& d) {
+  const rig::Positions jaw = dense("jawOpen");
+  const auto lip_gap = [&](const rig::Positions& d) {
     return (head.positions.row((*lm)[62]) + d.row((*lm)[62]) - head.positions.row((*lm)[66]) -
             d.row((*lm)[66]))
         .norm();
@@ -305,7 +305,7 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   const double right_closed = 1.0 - lid_gap(head, *lm, 39, 36, dense("eyeBlinkRight")) / right_open;
   const double left_other = 1.0 - lid_gap(head, *lm, 42, 45, dense("eyeBlinkRight")) / left_open;
   // The measure on the head's own (the default avatar's) blinks, for comparison.
-  const anim::Rig& own = anim::default_avatar();
+  const rig::Rig& own = avatar::default_avatar();
   const auto own_dense = [&](const char* name) {
     return own.shapes[static_cast<std::size_t>(own.find_shape(name))].dense(own.vertex_count());
   };
@@ -325,7 +325,7 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(left_other < 0.5 * left_closed);
   // The eyeballs (separate meshes) turn with the template's eyes about their own centres, each
   // with its own eyeLook shapes; the lower teeth and the tongue follow the jaw.
-  const anim::Rig& layout = anim::default_avatar();
+  const rig::Rig& layout = avatar::default_avatar();
   const auto members = [&](auto&& keep) {
     std::vector<int> kept;
     for (int v = 0; v < head.vertex_count(); ++v)
@@ -338,7 +338,7 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   REQUIRE(!eye_pos.empty());
   REQUIRE(!eye_neg.empty());
   if (head.positions(eye_pos[0], 0) < 0) std::swap(eye_pos, eye_neg);  // +x: the subject's left
-  const auto turn = [&](const std::vector<int>& eye, const anim::Positions& d) {
+  const auto turn = [&](const std::vector<int>& eye, const rig::Positions& d) {
     rigbuild::Points at(static_cast<Eigen::Index>(eye.size()), 3);
     for (std::size_t i = 0; i < eye.size(); ++i)
       at.row(static_cast<Eigen::Index>(i)) = head.positions.row(eye[i]).cast<double>();
@@ -366,7 +366,7 @@ TEST_CASE("an avatar of another topology gets the shipped template's shapes with
   CHECK(in_left_other.norm() < 1e-6);
   // The teeth mesh's two rows: the lower (smaller y) opens with the jaw, the upper stays.
   std::vector<int> teeth = members([](const std::string& m, int) { return m == "Teeth"; });
-  const anim::Components rows = anim::connected_components(head.vertex_count(), head.triangles);
+  const rig::Components rows = rig::connected_components(head.vertex_count(), head.triangles);
   double mean_y[2] = {0, 0}, moved_y[2] = {0, 0};
   int count[2] = {0, 0}, first_row = rows.label[static_cast<std::size_t>(teeth[0])];
   for (int v : teeth) {

@@ -8,10 +8,10 @@
 #include <sstream>
 #include <tuple>
 
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/template.hpp"
@@ -24,7 +24,7 @@ namespace {
 
 // The landmark vertices' positions; NaN rows where a landmark is unknown (-1), as landmark_bias
 // and detect_landmarks take them.
-Points landmark_points(const anim::Rig& rig, const std::array<int, kLandmarkCount>& ids) {
+Points landmark_points(const rig::Rig& rig, const std::array<int, kLandmarkCount>& ids) {
   Points p(kLandmarkCount, 3);
   for (int k = 0; k < kLandmarkCount; ++k) {
     const int v = ids[static_cast<std::size_t>(k)];
@@ -39,7 +39,7 @@ Points landmark_points(const anim::Rig& rig, const std::array<int, kLandmarkCoun
 // The bias stored in configs/rigbuild/template_landmarks.json (known_landmark_bias) is the one
 // landmark_bias computes, within 2% of the inter-ocular distance; prints the entry's "bias" to
 // regenerate it.
-void check_stored_bias(const anim::Rig& tmpl, const Points& computed, const Points& reference) {
+void check_stored_bias(const rig::Rig& tmpl, const Points& computed, const Points& reference) {
   std::ostringstream json;
   json << std::setprecision(5);
   for (int k = 0; k < kLandmarkCount; ++k)
@@ -78,7 +78,7 @@ TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of 
           "[rigbuild][landmarks][ict]") {
   const auto dir = test::ict_dir();
   if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
-  const anim::Rig neutral = anim::read_obj(dir / "generic_neutral_mesh.obj");
+  const rig::Rig neutral = rig::read_obj(dir / "generic_neutral_mesh.obj");
   const auto truth_ids = known_landmarks(neutral);
   REQUIRE(truth_ids);  // configs/rigbuild/template_landmarks.json knows the ICT FaceKit
   const LandmarkOptions options = load_landmark_options();
@@ -87,9 +87,9 @@ TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of 
   check_stored_bias(neutral, bias, reference);
   double worst_mean = 0;
   for (const char* name : {"identity003.obj", "identity007.obj"}) {
-    anim::Rig head = neutral;
-    head.positions = anim::read_obj_positions(dir / name);
-    head.normals = anim::vertex_normals(head.positions, head.triangles);
+    rig::Rig head = neutral;
+    head.positions = rig::read_obj_positions(dir / name);
+    head.normals = rig::vertex_normals(head.positions, head.triangles);
     const HeadLandmarks found = detect_landmarks(head, options, &reference, &bias);
     CHECK(found.views_found >= 3);
     const Points truth = landmark_points(head, *truth_ids);
@@ -143,7 +143,7 @@ TEST_CASE("configs/rigbuild/landmarks.json mirrors LandmarkOptions' defaults",
 
 TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbuild][landmarks]") {
   // A closed box: nothing for the face detector.
-  anim::Rig box;
+  rig::Rig box;
   box.positions.resize(8, 3);
   for (int i = 0; i < 8; ++i)
     box.positions.row(i) << (i & 1 ? 1.f : -1.f), (i & 2 ? 1.f : -1.f), (i & 4 ? 1.f : -1.f);
@@ -152,8 +152,8 @@ TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbui
       2, 4, 6, 1, 3, 5, 3, 7, 5;
   box.triangle_material.assign(12, 0);
   box.materials.resize(1);
-  box.normals = anim::vertex_normals(box.positions, box.triangles);
-  anim::Rig tmpl = box;
+  box.normals = rig::vertex_normals(box.positions, box.triangles);
+  rig::Rig tmpl = box;
   tmpl.landmarks.clear();
   for (int k = 0; k < kLandmarkCount; ++k)
     tmpl.landmarks.push_back({"dlib_" + std::string(k < 10 ? "0" : "") + std::to_string(k), 0});
@@ -173,23 +173,23 @@ namespace {
 
 // sum <d_auto, d_hand> / sum |d_hand|^2 over the vertices: 1 when the automatic build moves
 // every vertex as the hand-marker build does.
-double agreement(const anim::Rig& automatic, const anim::Rig& hand, const std::string& shape) {
+double agreement(const rig::Rig& automatic, const rig::Rig& hand, const std::string& shape) {
   const int a = automatic.find_shape(shape), h = hand.find_shape(shape);
   REQUIRE(a >= 0);
   REQUIRE(h >= 0);
-  const anim::Positions da =
+  const rig::Positions da =
       automatic.shapes[static_cast<std::size_t>(a)].dense(automatic.vertex_count());
-  const anim::Positions dh = hand.shapes[static_cast<std::size_t>(h)].dense(hand.vertex_count());
+  const rig::Positions dh = hand.shapes[static_cast<std::size_t>(h)].dense(hand.vertex_count());
   return (da.cast<double>().array() * dh.cast<double>().array()).sum() /
          dh.cast<double>().squaredNorm();
 }
 
 // The gap left between MakeHuman's mid upper and mid lower lid vertices (the hand marker file's
 // eye_*_lid_mid) in `shape`, as a fraction of the neutral gap.
-double mid_lid_gap(const anim::Rig& rig, const std::string& shape, int upper, int lower) {
+double mid_lid_gap(const rig::Rig& rig, const std::string& shape, int upper, int lower) {
   const int s = rig.find_shape(shape);
   REQUIRE(s >= 0);
-  const anim::Positions p =
+  const rig::Positions p =
       rig.positions + rig.shapes[static_cast<std::size_t>(s)].dense(rig.vertex_count());
   return (p.row(upper) - p.row(lower)).norm() /
          (rig.positions.row(upper) - rig.positions.row(lower)).norm();
@@ -207,9 +207,8 @@ TEST_CASE(
   if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh) ||
       !test::require_data(mp))
     return;
-  const anim::Rig tmpl =
-      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
-  const anim::Rig target = anim::read_obj(mh);
+  const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const rig::Rig target = rig::read_obj(mh);
   const BuildOptions defaults = load_build_options();
   const BuildResult automatic = build_rig(tmpl, target, defaults);
   REQUIRE(automatic.landmarks);
@@ -272,7 +271,7 @@ TEST_CASE(
        << automatic.timings.landmarks << " s, correspondence " << automatic.timings.correspondence
        << " s)");
 
-  const anim::Rig mask = anim::read_obj(mp);
+  const rig::Rig mask = rig::read_obj(mp);
   const BuildResult m = build_rig(tmpl, mask, defaults);
   REQUIRE(m.landmarks);
   CHECK(m.rig.shapes.size() == 57);
@@ -284,7 +283,7 @@ TEST_CASE(
 
 TEST_CASE("the default avatar's stored landmarks are where the detector finds them",
           "[rigbuild][landmarks]") {
-  const anim::Rig& avatar = anim::default_avatar();
+  const rig::Rig& avatar = avatar::default_avatar();
   const HeadLandmarks found = detect_landmarks(avatar, load_landmark_options());
   std::ostringstream list;  // configs/rigbuild/template_landmarks.json's entry, to regenerate it
   for (int k = 0; k < kLandmarkCount; ++k)
@@ -322,7 +321,7 @@ TEST_CASE("the default avatar's stored landmarks are where the detector finds th
 TEST_CASE("the shipped template's stored landmark bias is the one computed",
           "[rigbuild][landmarks][template]") {
   if (!test::require_data(test::ict_dir() / "generic_neutral_mesh.obj")) return;  // packed from it
-  const anim::Rig tmpl = load_shipped_template();
+  const rig::Rig tmpl = load_shipped_template();
   const auto ids = known_landmarks(tmpl);
   REQUIRE(ids);  // stored in the file
   const Points reference = landmark_points(tmpl, *ids);

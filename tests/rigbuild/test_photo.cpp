@@ -24,8 +24,7 @@ namespace {
 constexpr double kSigma = 1.0;
 
 // Error of `p` against the truth over the face skin after the best similarity: RMS distance.
-double aligned_error(const PhotoTemplate& t, const anim::Positions& p,
-                     const anim::Positions& truth) {
+double aligned_error(const PhotoTemplate& t, const rig::Positions& p, const rig::Positions& truth) {
   std::vector<int> face;
   for (int v = 0; v < t.rig.vertex_count(); ++v)
     if (t.skin[static_cast<std::size_t>(v)] && t.rig.uvs(v, 0) < 1.0f) face.push_back(v);
@@ -58,11 +57,11 @@ TEST_CASE("camera: a scale-orthographic projection is recovered from its points"
 }
 
 TEST_CASE("RBF calibration moves the centres exactly and carries rigid groups", "[photo]") {
-  anim::Positions p(5, 3);
+  rig::Positions p(5, 3);
   p << 0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 5, 5, 5.2, 5, 5;
   const std::vector<int> rigid{0, 0, 0, 1, 1};
   const std::vector<RbfCentre> c{{0, {0.1, 0, 0}}, {1, {0, 0.2, 0}}, {2, {0, 0, -0.1}}};
-  anim::Positions q = p;
+  rig::Positions q = p;
   rbf_deform(q, c, rigid, 3.0, 1e-6);
   for (const auto& k : c)
     CHECK((q.row(k.vertex).cast<double>() - p.row(k.vertex).cast<double>() - k.move.transpose())
@@ -83,7 +82,7 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   // and on its modes photographed the same way (not on the identities below).
   measure_detector_response(
       tmpl,
-      [&](const anim::Positions& p) {
+      [&](const rig::Positions& p) {
         const test::PhotoShoot s = test::photograph(tmpl, p, 40.0);
         return std::make_pair(s.front, s.side);
       },
@@ -225,7 +224,7 @@ TEST_CASE("photo fit: exact landmarks of ICT identities give back their coeffici
                    .cast<double>();
   for (unsigned seed : {7u, 8u}) {
     const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
-    const anim::Positions d = truth.target.positions - tmpl.rig.positions;
+    const rig::Positions d = truth.target.positions - tmpl.rig.positions;
     const Eigen::VectorXd c = M.colPivHouseholderQr().solve(
         Eigen::Map<const Eigen::VectorXf>(d.data(), d.size()).cast<double>());
     OrthoCamera cam;

@@ -15,8 +15,8 @@ namespace {
 
 // Two unit squares of two triangles each, apart: a "skin" (vertices 0-3, with a ring of two
 // more triangles so it is the larger part) and a "tooth" (vertices 6-9).
-anim::Rig skin_and_tooth() {
-  anim::Rig r;
+rig::Rig skin_and_tooth() {
+  rig::Rig r;
   r.positions.resize(10, 3);
   r.positions << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 0, 0, 2, 1, 0,  //
       0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1;
@@ -24,7 +24,7 @@ anim::Rig skin_and_tooth() {
   r.triangles << 0, 1, 2, 0, 2, 3, 1, 4, 5, 1, 5, 2, 6, 7, 8, 6, 8, 9;
   r.triangle_material.assign(6, 0);
   r.materials.push_back({});
-  r.normals = anim::vertex_normals(r.positions, r.triangles);
+  r.normals = rig::vertex_normals(r.positions, r.triangles);
   return r;
 }
 
@@ -80,7 +80,7 @@ TEST_CASE("the triangle-order matcher pairs equal triangles once each", "[rigbui
   b.row(1) << 1, 2, 0;  // the template's duplicate three times: one too many
   CHECK(!match_triangle_order(a, b).has_value());
 
-  anim::Rig tmpl = skin_and_tooth(), target = tmpl;
+  rig::Rig tmpl = skin_and_tooth(), target = tmpl;
   target.triangles.row(0).swap(target.triangles.row(5));
   target.triangle_material = {5, 1, 2, 3, 4, 0};
   target.triangle_group = {5, 1, 2, 3, 4, 0};
@@ -113,11 +113,11 @@ TEST_CASE("markers parsed from JSON name the value and the pair in errors", "[ri
 
 TEST_CASE("placement: still vertices stay, a part the template moves rigidly is rigid",
           "[rigbuild][stages]") {
-  anim::Rig tmpl = skin_and_tooth();
-  anim::Positions d = anim::Positions::Zero(10, 3);
+  rig::Rig tmpl = skin_and_tooth();
+  rig::Positions d = rig::Positions::Zero(10, 3);
   d(2, 2) = 0.2f;                               // the skin moves at one vertex
   for (int v = 6; v < 10; ++v) d(v, 1) = 0.3f;  // the tooth moves as a whole
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("s", d));
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("s", d));
   const Points rest = tmpl.positions.cast<double>();
   const MeshParts parts(10, tmpl.triangles);
   CHECK(parts.skin == 0);

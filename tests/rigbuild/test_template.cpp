@@ -5,9 +5,9 @@
 #include <catch2/catch.hpp>
 #include <map>
 
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
 #include "facecast/rigbuild/template.hpp"
@@ -24,8 +24,8 @@ int shipped_vertex(int v) {
 }
 
 // The source's #V by 3 dense deltas on the shipped file's vertices.
-anim::Positions on_shipped(const anim::Positions& source, int shipped_count) {
-  anim::Positions out(shipped_count, 3);
+rig::Positions on_shipped(const rig::Positions& source, int shipped_count) {
+  rig::Positions out(shipped_count, 3);
   for (Eigen::Index v = 0; v < source.rows(); ++v)
     if (const int w = shipped_vertex(static_cast<int>(v)); w >= 0) out.row(w) = source.row(v);
   return out;
@@ -37,9 +37,9 @@ TEST_CASE("the shipped template: ARKit names, visemes, landmarks, the FaceKit's 
           "[rigbuild][template][ict]") {
   const auto dir = test::ict_dir();
   if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
-  const anim::Rig shipped = load_shipped_template();
-  const anim::Rig source =
-      anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  const rig::Rig shipped = load_shipped_template();
+  const rig::Rig source =
+      rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   const int nv = shipped.vertex_count();
   REQUIRE(nv == source.vertex_count() - 760);
   CHECK(std::filesystem::file_size(shipped_template_path()) < 3'000'000);
@@ -81,9 +81,9 @@ TEST_CASE("the shipped template: ARKit names, visemes, landmarks, the FaceKit's 
   // half a step: |error| <= step * sqrt(3) per vertex; sums of shapes add the steps).
   const double step = quantization_step(shipped);
   CHECK(step < 2e-3);  // centimetres
-  const anim::Positions neutral = on_shipped(source.positions, nv);
+  const rig::Positions neutral = on_shipped(source.positions, nv);
   CHECK((shipped.positions - neutral).rowwise().norm().maxCoeff() <= 1.8 * step);
-  std::map<std::string, anim::Positions> src;
+  std::map<std::string, rig::Positions> src;
   for (const auto& s : source.shapes) {
     std::string name = s.name;
     for (const auto& [from, to] : {std::pair{"_L", "Left"}, std::pair{"_R", "Right"}})
@@ -98,7 +98,7 @@ TEST_CASE("the shipped template: ARKit names, visemes, landmarks, the FaceKit's 
   src["cheekPuff"] = src["cheekPuff_L"] + src["cheekPuff_R"];
   const auto table = load_json(config_path("anim/visemes_arkit.json"))["visemes"]["oculus"];
   for (const auto& [viseme, row] : table.items()) {
-    anim::Positions d = anim::Positions::Zero(nv, 3);
+    rig::Positions d = rig::Positions::Zero(nv, 3);
     for (const auto& [name, w] : row.items())
       if (src.contains(name)) d += w.get<float>() * src[name];
     src["viseme_" + viseme] = d;
@@ -114,16 +114,16 @@ TEST_CASE("the shipped template: ARKit names, visemes, landmarks, the FaceKit's 
   // The identity modes: outside the shapes (no channel offers them), each within the quantization
   // of the FaceKit's identityNNN.obj - neutral; the photo avatar reads them from the file.
   for (const auto& name : shipped.shape_names()) CHECK_FALSE(name.starts_with("identity"));
-  const std::vector<anim::Positions> modes = read_template_identity(shipped_template_path());
-  const std::vector<anim::Positions> truth = ict_identity_modes(dir);
+  const std::vector<rig::Positions> modes = read_template_identity(shipped_template_path());
+  const std::vector<rig::Positions> truth = ict_identity_modes(dir);
   REQUIRE(modes.size() == 10);
   REQUIRE(truth.size() == 10);
   for (std::size_t k = 0; k < modes.size(); ++k) {
     INFO("identity mode " << k);
     REQUIRE(modes[k].rows() == nv);
-    const anim::Positions mode =
-        on_shipped(anim::read_obj_positions(dir / ("identity00" + std::to_string(k) + ".obj")) -
-                       anim::read_obj_positions(dir / "generic_neutral_mesh.obj"),
+    const rig::Positions mode =
+        on_shipped(rig::read_obj_positions(dir / ("identity00" + std::to_string(k) + ".obj")) -
+                       rig::read_obj_positions(dir / "generic_neutral_mesh.obj"),
                    nv);
     CHECK((truth[k] - mode).cwiseAbs().maxCoeff() == 0.0f);
     CHECK((modes[k] - mode).rowwise().norm().maxCoeff() <= 1.8 * step);

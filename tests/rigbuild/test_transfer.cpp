@@ -2,8 +2,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "facecast/anim/intersections.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/intersections.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
@@ -15,8 +15,8 @@ namespace {
 
 // A closed box-like surface: two parallel n x n grids (a "double layer" like lips) joined at
 // their rims, so the layers are close in space (gap) but far apart along the surface.
-anim::Rig double_layer(int n, float gap) {
-  anim::Rig r;
+rig::Rig double_layer(int n, float gap) {
+  rig::Rig r;
   const int per = n * n;
   r.positions.resize(2 * per, 3);
   for (int layer = 0; layer < 2; ++layer) {
@@ -52,28 +52,28 @@ anim::Rig double_layer(int n, float gap) {
   for (std::size_t i = 0; i < tris.size(); ++i)
     r.triangles.row(static_cast<Eigen::Index>(i)) = tris[i].transpose();
   r.triangle_material.assign(tris.size(), 0);
-  r.materials.push_back(anim::Material::solid("skin", {1, 1, 1, 1}));
-  r.normals = anim::vertex_normals(r.positions, r.triangles);
+  r.materials.push_back(rig::Material::solid("skin", {1, 1, 1, 1}));
+  r.normals = rig::vertex_normals(r.positions, r.triangles);
   return r;
 }
 
 }  // namespace
 
 TEST_CASE("identity deformation gives back the target", "[rigbuild][transfer]") {
-  anim::Rig tmpl = double_layer(8, 0.5f);
+  rig::Rig tmpl = double_layer(8, 0.5f);
   // One shape that moves nothing but a corner slightly, so the build has work; its gradients are
   // the identity almost everywhere.
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   d(63, 2) = 0.3f;
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("corner", d));
-  anim::Rig target = tmpl;
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("corner", d));
+  rig::Rig target = tmpl;
   target.shapes.clear();
   target.positions *= 1.3f;  // another size, same topology
   BuildOptions opt;
   opt.virtual_edges = VirtualEdgeMode::kOff;
   const auto r = build_rig(tmpl, target, opt);
   REQUIRE(r.rig.shapes.size() == 1);
-  const anim::Positions got = r.rig.shapes[0].dense(target.vertex_count());
+  const rig::Positions got = r.rig.shapes[0].dense(target.vertex_count());
   // Vertices the template shape leaves still are exactly still.
   for (int v = 0; v < target.vertex_count(); ++v) {
     if (v != 63) CHECK(got.row(v).norm() < 0.05f);
@@ -82,7 +82,7 @@ TEST_CASE("identity deformation gives back the target", "[rigbuild][transfer]") 
 }
 
 TEST_CASE("a pure translation of a separate part moves it rigidly", "[rigbuild][transfer]") {
-  anim::Rig tmpl = double_layer(6, 0.5f);
+  rig::Rig tmpl = double_layer(6, 0.5f);
   // Add a separate triangle pair (a "tooth") that the template shape lifts by 0.25.
   const int base = tmpl.vertex_count();
   tmpl.positions.conservativeResize(base + 4, 3);
@@ -91,16 +91,16 @@ TEST_CASE("a pure translation of a separate part moves it rigidly", "[rigbuild][
   tmpl.triangles.bottomRows(2) << base, base + 1, base + 2, base, base + 2, base + 3;
   tmpl.triangle_material.push_back(0);
   tmpl.triangle_material.push_back(0);
-  tmpl.normals = anim::vertex_normals(tmpl.positions, tmpl.triangles);
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  tmpl.normals = rig::vertex_normals(tmpl.positions, tmpl.triangles);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   for (int k = 0; k < 4; ++k) d(base + k, 1) = 0.25f;
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("lift", d));
-  anim::Rig target = tmpl;
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("lift", d));
+  rig::Rig target = tmpl;
   target.shapes.clear();
   BuildOptions opt;
   opt.virtual_edges = VirtualEdgeMode::kOff;
   const auto r = build_rig(tmpl, target, opt);
-  const anim::Positions got = r.rig.shapes[0].dense(target.vertex_count());
+  const rig::Positions got = r.rig.shapes[0].dense(target.vertex_count());
   for (int k = 0; k < 4; ++k) CHECK(std::abs(got(base + k, 1) - 0.25f) < 1e-4f);
   CHECK(got.topRows(base).norm() == 0.0f);
   REQUIRE(r.components.size() == 2);
@@ -109,7 +109,7 @@ TEST_CASE("a pure translation of a separate part moves it rigidly", "[rigbuild][
 
 TEST_CASE("virtual edges span the gap of a double layer and nothing else",
           "[rigbuild][virtual_edges]") {
-  const anim::Rig r = double_layer(12, 0.4f);
+  const rig::Rig r = double_layer(12, 0.4f);
   const Points p = r.positions.cast<double>();
   VirtualEdgeOptions opt;
   opt.d = 0.6;
@@ -133,13 +133,13 @@ TEST_CASE("virtual edges span the gap of a double layer and nothing else",
 }
 
 TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild][errors]") {
-  anim::Rig tmpl = double_layer(5, 0.5f);
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  rig::Rig tmpl = double_layer(5, 0.5f);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   d(0, 2) = 0.1f;
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("s", d));
-  anim::Rig target = tmpl;
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("s", d));
+  rig::Rig target = tmpl;
   target.shapes.clear();
-  auto message = [&](const anim::Rig& t, const BuildOptions& o) {
+  auto message = [&](const rig::Rig& t, const BuildOptions& o) {
     try {
       build_rig(tmpl, t, o);
     } catch (const Error& e) {
@@ -148,22 +148,22 @@ TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild]
     return std::string();
   };
   BuildOptions opt;
-  anim::Rig nan_target = target;
+  rig::Rig nan_target = target;
   nan_target.positions(3, 0) = std::nanf("");
   CHECK(message(nan_target, opt) == "target: non-finite vertex coordinate");
 
-  anim::Rig flat = target;
+  rig::Rig flat = target;
   flat.positions.row(flat.triangles(0, 1)) = flat.positions.row(flat.triangles(0, 0));
   CHECK(message(flat, opt).find("has zero area") != std::string::npos);
 
-  anim::Rig other = double_layer(6, 0.5f);
+  rig::Rig other = double_layer(6, 0.5f);
   CHECK(message(other, opt).find("no face found") != std::string::npos);  // automatic landmarks
   CHECK(message(other, opt).find("give --markers") != std::string::npos);
   opt.auto_landmarks = false;
   CHECK(message(other, opt).find("topology differs from the template") != std::string::npos);
   opt.auto_landmarks = true;
 
-  anim::Rig empty = target;
+  rig::Rig empty = target;
   empty.triangles.resize(0, 3);
   empty.triangle_material.clear();
   CHECK(message(empty, opt) == "target: mesh has no triangles");
@@ -218,7 +218,7 @@ TEST_CASE("the build options file mirrors BuildOptions", "[rigbuild][config]") {
 
 TEST_CASE("contacts solved on a patch match a full solve with the same term, and stay local",
           "[rigbuild][transfer][contacts]") {
-  const anim::Rig mesh = double_layer(10, 0.5f);
+  const rig::Rig mesh = double_layer(10, 0.5f);
   TransferSetup setup;
   setup.target_rest = mesh.positions.cast<double>();
   setup.target_faces = mesh.triangles;
@@ -260,24 +260,24 @@ TEST_CASE("contacts solved on a patch match a full solve with the same term, and
 TEST_CASE("contacts hold apart layers that the transfer pushes through each other",
           "[rigbuild][contacts]") {
   // Template: two layers 0.5 apart; the shape dents the top layer 0.3 towards the bottom one.
-  anim::Rig tmpl = double_layer(9, 0.5f);
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  rig::Rig tmpl = double_layer(9, 0.5f);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   for (int y = 1; y < 8; ++y)
     for (int x = 1; x < 8; ++x) {
       const double r = std::hypot(x - 4.0, y - 4.0);
       if (r < 3) d(y * 9 + x, 2) = static_cast<float>(-0.3 * 0.5 * (1 + std::cos(M_PI * r / 3)));
     }
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("dent", d));
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("dent", d));
   // Target: twice as wide and long, as far apart. Deformation transfer keeps the dent's slopes, so
   // it is twice as deep (0.6) and goes through the bottom layer; the template's displacement
   // copied would not (0.3).
-  anim::Rig target = tmpl;
+  rig::Rig target = tmpl;
   target.shapes.clear();
   target.positions.leftCols(2) *= 2.0f;
   BuildOptions opt;
   opt.virtual_edges = VirtualEdgeMode::kOff;
-  const auto crossings = [](const anim::Rig& r) {
-    return anim::find_intersections(r.positions + r.shapes[0].dense(r.vertex_count()), r.triangles)
+  const auto crossings = [](const rig::Rig& r) {
+    return rig::find_intersections(r.positions + r.shapes[0].dense(r.vertex_count()), r.triangles)
         .count;
   };
   opt.contacts.enabled = false;
@@ -301,14 +301,14 @@ TEST_CASE("where the copied motion presses a thinner gap shut, contacts keep the
   // target's layers are 0.2 apart, so the template's motion copied onto the target passes
   // through its bottom layer (fuller lips pressed together as far as the template's).
   const int n = 10;
-  anim::Rig tmpl = double_layer(n, 0.5f);
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  rig::Rig tmpl = double_layer(n, 0.5f);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   for (int v : {5 * n + 5, 5 * n + 6, 6 * n + 5, 6 * n + 6}) d(v, 2) = -0.45f;
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("dent", d));
-  const anim::Rig target = double_layer(n, 0.2f);
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("dent", d));
+  const rig::Rig target = double_layer(n, 0.2f);
   const auto crossings = [](const BuildResult& r) {
-    const anim::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
-    return anim::find_intersections(p, r.rig.triangles).count;
+    const rig::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
+    return rig::find_intersections(p, r.rig.triangles).count;
   };
   BuildOptions opt;
   opt.virtual_edges = VirtualEdgeMode::kOff;  // the contacts alone
@@ -329,21 +329,21 @@ TEST_CASE("a layer pressed onto a part that moves rigidly is kept off it", "[rig
   // apart, so the template's motion copied onto the target passes through the part.
   const int n = 10;
   const auto separate_layers = [&](float gap) {  // without the strip that joins them
-    anim::Rig r = double_layer(n, gap);
+    rig::Rig r = double_layer(n, gap);
     const Eigen::Index kept = 4 * (n - 1) * (n - 1);
     r.triangles.conservativeResize(kept, 3);
     r.triangle_material.resize(static_cast<std::size_t>(kept));
     return r;
   };
-  anim::Rig tmpl = separate_layers(0.5f);
-  anim::Positions d = anim::Positions::Zero(tmpl.vertex_count(), 3);
+  rig::Rig tmpl = separate_layers(0.5f);
+  rig::Positions d = rig::Positions::Zero(tmpl.vertex_count(), 3);
   for (int v = n * n; v < 2 * n * n; ++v) d(v, 2) = 0.05f;
   for (int v : {5 * n + 5, 5 * n + 6, 6 * n + 5, 6 * n + 6}) d(v, 2) = -0.4f;
-  tmpl.shapes.push_back(anim::Blendshape::from_dense("press", d));
-  const anim::Rig target = separate_layers(0.2f);
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("press", d));
+  const rig::Rig target = separate_layers(0.2f);
   const auto crossings = [](const BuildResult& r) {
-    const anim::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
-    return anim::find_intersections(p, r.rig.triangles).count;
+    const rig::Positions p = r.rig.positions + r.rig.shapes[0].dense(r.rig.vertex_count());
+    return rig::find_intersections(p, r.rig.triangles).count;
   };
   BuildOptions opt;
   opt.virtual_edges = VirtualEdgeMode::kOff;
@@ -357,7 +357,7 @@ TEST_CASE("a layer pressed onto a part that moves rigidly is kept off it", "[rig
   CHECK(on.quality[0].part_crossings_left == 0);
   CHECK(crossings(on) == 0);
   // The part moved as the template's did; the dent still comes down towards it.
-  const anim::Positions moved = on.rig.shapes[0].dense(target.vertex_count());
+  const rig::Positions moved = on.rig.shapes[0].dense(target.vertex_count());
   CHECK(moved(n * n + 3, 2) == Approx(0.05f));
   CHECK(moved(5 * n + 5, 2) < -0.02f);
 }

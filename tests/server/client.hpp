@@ -31,6 +31,16 @@ namespace websocket = beast::websocket;
 using tcp = net::ip::tcp;
 using Headers = std::vector<std::pair<std::string, std::string>>;
 
+/// An Authorization header carrying `key`.
+inline Headers bearer(const std::string& key) {
+  return {{"Authorization", "Bearer " + key}};
+}
+/// `h` with one more header.
+inline Headers with(Headers h, const std::string& name, const std::string& value) {
+  h.emplace_back(name, value);
+  return h;
+}
+
 /// Timing tolerances grow under sanitizers (everything runs several times slower).
 double slowdown();
 

@@ -15,10 +15,10 @@
 #include <thread>
 
 #include "client.hpp"
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/server/server.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
@@ -168,10 +168,10 @@ void every_frame_everywhere(WsClient& producer, std::vector<std::unique_ptr<WsCl
 }
 
 std::string rig_body(int variant) {
-  const auto avatar = facecast::anim::make_avatar(facecast::anim::avatar_variant(variant));
+  const auto avatar = facecast::avatar::make_avatar(facecast::avatar::avatar_variant(variant));
   const fs::path obj =
       facecast::test::scratch_dir() / ("cluster" + std::to_string(variant) + ".obj");
-  facecast::anim::write_obj(obj, avatar);
+  facecast::rig::write_obj(obj, avatar);
   return nlohmann::json{{"name", "V" + std::to_string(variant)},
                         {"mesh", {{"format", "obj"}, {"data", facecast::read_file(obj)}}},
                         {"options", {{"virtual_edges", "off"}}}}

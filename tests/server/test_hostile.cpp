@@ -14,7 +14,7 @@
 #include "client.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
-#include "facecast/viseme/wav.hpp"
+#include "facecast/core/wav.hpp"
 #include "raw_client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
@@ -172,7 +172,7 @@ TEST_CASE("hostile: append is bounded by max_text per utterance and max_piece pe
   CHECK((*error)["code"] == "limit");
   CHECK((*error)["message"].get<std::string>().find("the limit is 300") != std::string::npos);
   REQUIRE(pieces.size() >= 3);
-  for (const auto& p : pieces) CHECK(facecast::server::utf8_length(p) <= 60);
+  for (const auto& p : pieces) CHECK(facecast::utf8_length(p) <= 60);
   c.send(json{{"type", "cancel"}, {"id", "u"}});
   json end;
   while (end["type"] != "stream_end") end = c.read_json(10 * slowdown());
@@ -339,7 +339,7 @@ TEST_CASE("hostile: imports, audio decodes and photo landmarks count against max
                                 {{"Content-Type", "application/json"}});
   REQUIRE(job.status == 202);
   // Work done within a request is refused while it runs, naming what and the limit.
-  const std::string wav = facecast::viseme::encode_wav(std::vector<std::int16_t>(16000, 0), 16000);
+  const std::string wav = facecast::encode_wav(std::vector<std::int16_t>(16000, 0), 16000);
   const auto audio =
       http_request(t.port(), http::verb::post, "/api/audio", wav, {{"Content-Type", "audio/wav"}});
   CHECK(audio.status == 429);

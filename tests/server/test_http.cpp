@@ -4,11 +4,11 @@
 #include <thread>
 
 #include "client.hpp"
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "test_data.hpp"
 
@@ -165,15 +165,16 @@ TEST_CASE("rigs are listed and the default avatar downloads as GLB", "[http][rig
     CHECK(rigs.size() == 1);
   }
   CHECK(rigs[0]["builtin"] == true);
-  CHECK(rigs[0]["shapes"].get<std::vector<std::string>>() == facecast::anim::avatar_shape_names());
-  CHECK(rigs[0]["vertices"] == facecast::anim::default_avatar().vertex_count());
+  CHECK(rigs[0]["shapes"].get<std::vector<std::string>>() ==
+        facecast::avatar::avatar_shape_names());
+  CHECK(rigs[0]["vertices"] == facecast::avatar::default_avatar().vertex_count());
 
   r = http_request(s.port(), http::verb::get, "/api/rigs/default.glb");
   REQUIRE(r.status == 200);
   CHECK(r.header("content-type") == "model/gltf-binary");
-  const auto rig = facecast::anim::parse_glb(r.body, "download");
-  CHECK(rig.vertex_count() == facecast::anim::default_avatar().vertex_count());
-  CHECK(rig.shape_names() == facecast::anim::avatar_shape_names());
+  const auto rig = facecast::rig::parse_glb(r.body, "download");
+  CHECK(rig.vertex_count() == facecast::avatar::default_avatar().vertex_count());
+  CHECK(rig.shape_names() == facecast::avatar::avatar_shape_names());
   CHECK(http_request(s.port(), http::verb::get, "/api/rigs/default.glb", {},
                      {{"If-None-Match", r.header("etag")}})
             .status == 304);

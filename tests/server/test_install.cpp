@@ -7,9 +7,9 @@
 #include <cstdlib>
 
 #include "client.hpp"
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
 
@@ -60,13 +60,12 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
   CHECK(
       http_request(serve.port(), http::verb::get, "/vendor/three-vrm/three-vrm.module.js").status ==
       200);
-  // The shipped template the build packed from ../shared/data, installed and offered from P.
-  if (facecast::test::require_data(facecast::test::ict_dir() / "generic_neutral_mesh.obj")) {
-    REQUIRE(fs::exists(share / "ict_facekit.glb"));
-    const auto shipped = http_request(serve.port(), http::verb::get, "/api/rigs/ict-facekit.glb");
-    CHECK(shipped.status == 200);
-    CHECK(shipped.body == facecast::read_file(share / "ict_facekit.glb"));
-  }
+  // The shipped template (data/ of the source tree), installed with its licence and offered from P.
+  REQUIRE(fs::exists(share / "ict_facekit.glb"));
+  CHECK(fs::exists(share / "ict_facekit.LICENSE"));
+  const auto shipped = http_request(serve.port(), http::verb::get, "/api/rigs/ict-facekit.glb");
+  CHECK(shipped.status == 200);
+  CHECK(shipped.body == facecast::read_file(share / "ict_facekit.glb"));
 
   WsClient c(serve.port());
   CHECK(c.read_json(20 * slowdown())["type"] == "hello");
@@ -82,11 +81,11 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
   // Data went to the working folder's data/, not into P.
   CHECK(fs::exists(elsewhere / "data/rigs"));
 
-  // Without the shipped template (a build that had no FaceKit) a build asks for --template in one
-  // line and writes nothing.
+  // An install that lost its shipped template: a build asks for --template in one line and writes
+  // nothing.
   fs::remove(share / "ict_facekit.glb");
   const fs::path head = elsewhere / "head.obj", out = elsewhere / "me.glb";
-  facecast::anim::write_obj(head, facecast::anim::default_avatar());
+  facecast::rig::write_obj(head, facecast::avatar::default_avatar());
   const fs::path log = elsewhere / "build.log";
   const std::string build = "\"" + (prefix / "bin/facecast").string() + "\" rig build --target \"" +
                             head.string() + "\" --out \"" + out.string() + "\" 2> \"" +
@@ -94,7 +93,7 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
   CHECK(std::system(build.c_str()) != 0);
   const std::string said = facecast::read_file(log);
   INFO(said);
-  CHECK(said.find("ict_facekit.glb: the shipped template was not built") != std::string::npos);
+  CHECK(said.find("ict_facekit.glb: the shipped template is missing") != std::string::npos);
   CHECK(said.find("give --template") != std::string::npos);
   CHECK_FALSE(fs::exists(out));
 }

@@ -6,9 +6,9 @@
 #include <thread>
 
 #include "client.hpp"
-#include "facecast/anim/rig_io.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "hostile_glb.hpp"
 #include "test_data.hpp"
 
@@ -159,7 +159,7 @@ TEST_CASE("astronaut.png becomes a listed, textured, speaking rig", "[photo][slo
   CHECK(listed);
   const auto glb = http_request(s.port(), http::verb::get, "/api/rigs/" + id + ".glb");
   REQUIRE(glb.status == 200);
-  const auto rig = facecast::anim::parse_glb(glb.body, "photo rig");
+  const auto rig = facecast::rig::parse_glb(glb.body, "photo rig");
   CHECK(rig.find_shape("jawOpen") >= 0);
   CHECK(rig.find_shape("mouthSmileLeft") >= 0);
   for (const auto& name : rig.shape_names()) CHECK_FALSE(name.starts_with("identity"));

@@ -22,7 +22,7 @@
 
 #include "client.hpp"
 #include "facecast/core/files.hpp"
-#include "facecast/viseme/wav.hpp"
+#include "facecast/core/wav.hpp"
 #include "jobs.hpp"
 #include "metrics.hpp"
 #include "test_data.hpp"
@@ -74,7 +74,7 @@ std::string tone_wav(double seconds) {
   std::vector<std::int16_t> pcm(static_cast<std::size_t>(seconds * rate));
   for (std::size_t i = 0; i < pcm.size(); ++i)
     pcm[i] = static_cast<std::int16_t>(8000 * std::sin(2 * 3.14159265 * 220 * i / rate));
-  return facecast::viseme::encode_wav(pcm, rate);
+  return facecast::encode_wav(pcm, rate);
 }
 
 // Inodes of the TCP sockets whose local port is `port` (the listener and its accepted ones).

@@ -132,7 +132,6 @@ TEST_CASE("text length is limited in characters, not bytes", "[protocol]") {
     CHECK(p.code == Code::kLimit);
     CHECK_THAT(p.message, Catch::Contains("5 characters, the limit is 4"));
   }
-  CHECK(utf8_length("a你b") == 3);
 }
 
 TEST_CASE("describe maps every exception to one protocol error", "[protocol]") {
@@ -290,8 +289,8 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.presence_interval == d.presence_interval);
   CHECK(file.channel_idle == d.channel_idle);
   CHECK(file.drain_timeout == d.drain_timeout);
-  const facecast::anim::DecodeLimits& fd = file.decode;
-  const facecast::anim::DecodeLimits& dd = d.decode;
+  const facecast::rig::DecodeLimits& fd = file.decode;
+  const facecast::rig::DecodeLimits& dd = d.decode;
   CHECK(fd.max_json_depth == dd.max_json_depth);
   CHECK(fd.max_json_values == dd.max_json_values);
   CHECK(fd.max_decoded_bytes == dd.max_decoded_bytes);
@@ -316,7 +315,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
   CHECK(j.size() == 67);            // 66 settings + "_doc"
-  CHECK(j["decode"].size() == 16);  // every field of anim::DecodeLimits
+  CHECK(j["decode"].size() == 16);  // every field of rig::DecodeLimits
 }
 
 TEST_CASE("server config errors name the key", "[protocol][config]") {

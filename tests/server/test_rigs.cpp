@@ -9,11 +9,11 @@
 #include <thread>
 
 #include "client.hpp"
-#include "facecast/anim/avatar.hpp"
-#include "facecast/anim/avatar_document.hpp"
-#include "facecast/anim/avatar_view.hpp"
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/avatar_document.hpp"
+#include "facecast/rig/avatar_view.hpp"
+#include "facecast/rig/rig_io.hpp"
 #include "hostile_glb.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
@@ -23,9 +23,9 @@ using facecast::server::ServerOptions;
 
 namespace {
 
-std::string obj_text(const facecast::anim::Rig& rig, const std::string& name) {
+std::string obj_text(const facecast::rig::Rig& rig, const std::string& name) {
   const auto path = facecast::test::scratch_dir() / (name + ".obj");
-  facecast::anim::write_obj(path, rig);
+  facecast::rig::write_obj(path, rig);
   return facecast::read_file(path);
 }
 
@@ -84,7 +84,7 @@ nlohmann::json post_json(unsigned short port, const std::string& target, const n
 TEST_CASE("rig upload builds a rig that downloads, streams and survives a restart",
           "[rigs][jobs]") {
   TestServer s;
-  const auto variant = facecast::anim::make_avatar(facecast::anim::avatar_variant(7));
+  const auto variant = facecast::avatar::make_avatar(facecast::avatar::avatar_variant(7));
   const auto accepted = post_json(
       s.port(), "/api/rigs",
       {{"name", "Seven"}, {"mesh", {{"format", "obj"}, {"data", obj_text(variant, "variant7")}}}},
@@ -110,11 +110,11 @@ TEST_CASE("rig upload builds a rig that downloads, streams and survives a restar
     CHECK(mine["builtin"] == false);
     CHECK(mine["template"] == "default");
     CHECK(mine["vertices"] == variant.vertex_count());
-    CHECK(mine["shapes"].get<std::vector<std::string>>() == facecast::anim::avatar_shape_names());
+    CHECK(mine["shapes"].get<std::vector<std::string>>() == facecast::avatar::avatar_shape_names());
     const auto glb = http_request(s.port(), http::verb::get, "/api/rigs/" + id + ".glb");
     REQUIRE(glb.status == 200);
     CHECK(glb.header("content-type") == "model/gltf-binary");
-    const auto rig = facecast::anim::parse_glb(glb.body, "built");
+    const auto rig = facecast::rig::parse_glb(glb.body, "built");
     REQUIRE(rig.vertex_count() == variant.vertex_count());
     CHECK((rig.positions - variant.positions).cwiseAbs().maxCoeff() < 1e-4f);
     CHECK(rig.shapes.size() == 52);
@@ -203,10 +203,10 @@ TEST_CASE("a GLB upload of the same topology is accepted and shutdown cancels it
     TestServer s([](ServerOptions& o) { o.shutdown_timeout = 3; });
     data = s.options().data;
     // A GLB groups triangles by material, so their order differs from the template's.
-    const auto variant = facecast::anim::make_avatar(facecast::anim::avatar_variant(3));
+    const auto variant = facecast::avatar::make_avatar(facecast::avatar::avatar_variant(3));
     const auto accepted = post_json(
         s.port(), "/api/rigs",
-        {{"mesh", {{"format", "glb"}, {"data", base64(facecast::anim::glb_bytes(variant))}}}}, 202);
+        {{"mesh", {{"format", "glb"}, {"data", base64(facecast::rig::glb_bytes(variant))}}}}, 202);
     const std::string job = accepted["job"];
     const auto j = http_request(s.port(), http::verb::get, "/api/jobs/" + job).json();
     CHECK((j["state"] == "queued" || j["state"] == "running"));
@@ -226,9 +226,9 @@ TEST_CASE("a rig build for an avatar GLB writes its shapes into that file and ke
   TestServer s;
   // The built-in avatar's file without morph targets: five meshes, their materials and textures.
   // A node and a generator of the user's own that a re-export would not have.
-  facecast::anim::Rig bare = facecast::anim::default_avatar();
+  facecast::rig::Rig bare = facecast::avatar::default_avatar();
   bare.shapes.clear();
-  auto doc = facecast::anim::AvatarDocument::parse(facecast::anim::glb_bytes(bare), "bare.glb");
+  auto doc = facecast::rig::AvatarDocument::parse(facecast::rig::glb_bytes(bare), "bare.glb");
   doc.model().asset.generator = "a user's tool";
   tinygltf::Node extra;
   extra.name = "CameraTarget";
@@ -245,8 +245,8 @@ TEST_CASE("a rig build for an avatar GLB writes its shapes into that file and ke
       http_request(s.port(), http::verb::get, done["result"]["url"].get<std::string>());
   REQUIRE(back.status == 200);
 
-  const auto before = facecast::anim::AvatarDocument::parse(glb, "bare.glb");
-  const auto after = facecast::anim::AvatarDocument::parse(back.body, "built.glb");
+  const auto before = facecast::rig::AvatarDocument::parse(glb, "bare.glb");
+  const auto after = facecast::rig::AvatarDocument::parse(back.body, "built.glb");
   const tinygltf::Model &a = before.model(), &b = after.model();
   REQUIRE(a.meshes.size() == b.meshes.size());
   CHECK(b.asset.generator == "a user's tool");
@@ -266,12 +266,12 @@ TEST_CASE("a rig build for an avatar GLB writes its shapes into that file and ke
     CHECK(a.meshes[i].primitives[0].targets.empty());
   }
   // The new shapes live in the file's own meshes, under the template's names.
-  const auto view = facecast::anim::make_view(after);
+  const auto view = facecast::rig::make_view(after);
   CHECK(view.rig.vertex_count() == bare.vertex_count());
   const int jaw = view.rig.find_shape("jawOpen");
   REQUIRE(jaw >= 0);
   CHECK(view.rig.shapes[static_cast<std::size_t>(jaw)].max_displacement() > 0.1f);
-  CHECK(view.rig.shapes.size() == facecast::anim::avatar_shape_names().size());
+  CHECK(view.rig.shapes.size() == facecast::avatar::avatar_shape_names().size());
 }
 
 TEST_CASE("render jobs produce an MP4 video", "[jobs][render]") {

@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "client.hpp"
+#include "facecast/core/wav.hpp"
 #include "facecast/viseme/analyze.hpp"
-#include "facecast/viseme/wav.hpp"
 
 using namespace fctest;
 
@@ -26,7 +26,7 @@ std::string speech_wav(double lead, int* rate = nullptr, std::size_t* samples = 
   pcm.insert(pcm.end(), u.pcm.begin(), u.pcm.end());
   if (rate) *rate = u.sample_rate;
   if (samples) *samples = pcm.size();
-  return facecast::viseme::encode_wav(pcm, u.sample_rate);
+  return facecast::encode_wav(pcm, u.sample_rate);
 }
 
 std::string upload(const TestServer& s, const std::string& wav) {
@@ -111,7 +111,7 @@ TEST_CASE("bad uploaded audio is a one-line error and the session survives", "[w
   bad("", "empty");
   bad(std::string(5000, 'x') + "this is not audio", "");
   // Longer than align.max_seconds (120 s): refused from the header, 413 like a too-large body.
-  bad(facecast::viseme::encode_wav(std::vector<std::int16_t>(1000 * 150, 0), 1000), "long", 413);
+  bad(facecast::encode_wav(std::vector<std::int16_t>(1000 * 150, 0), 1000), "long", 413);
 
   WsClient c(s.port());
   REQUIRE(c.read_json(10)["type"] == "hello");

@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "client.hpp"
-#include "facecast/anim/avatar.hpp"
+#include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
 #include "test_data.hpp"
@@ -86,7 +86,7 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   CHECK(st["output"] == "weights");
   CHECK(st["fps"] == 60.0);
   CHECK(st["rig"] == "default");
-  CHECK(st["names"].get<std::vector<std::string>>() == facecast::anim::avatar_shape_names());
+  CHECK(st["names"].get<std::vector<std::string>>() == facecast::avatar::avatar_shape_names());
   CHECK(st["extra"] == nlohmann::json({"headYaw", "headPitch", "headRoll"}));
   const int frames = st["frames"];
   const double duration = st["duration"];
@@ -107,7 +107,7 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   CHECK(r.end["cancelled"] == false);
 
   // The mouth opens somewhere.
-  const auto& names = facecast::anim::avatar_shape_names();
+  const auto& names = facecast::avatar::avatar_shape_names();
   const auto jaw =
       static_cast<std::size_t>(std::find(names.begin(), names.end(), "jawOpen") - names.begin());
   const std::size_t values = names.size() + 3;

@@ -6,20 +6,20 @@
 #include <random>
 #include <string>
 
-#include "facecast/anim/rig_io.hpp"
+#include "facecast/rig/rig_io.hpp"
 
 namespace facecast::test {
 
 struct IctTruth {
-  anim::Rig template_rig;  // neutral + 57 expressions
-  anim::Rig target;        // the random identity, no shapes
+  rig::Rig template_rig;  // neutral + 57 expressions
+  rig::Rig target;        // the random identity, no shapes
   // The true shapes of the target are target.positions + template_rig.shapes[k] deltas.
 };
 
 inline IctTruth make_ict_truth(const std::filesystem::path& dir, unsigned seed,
                                double sigma = 1.0) {
   IctTruth t;
-  t.template_rig = anim::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  t.template_rig = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   t.target = t.template_rig;
   t.target.shapes.clear();
   std::mt19937 rng(seed);
@@ -27,10 +27,10 @@ inline IctTruth make_ict_truth(const std::filesystem::path& dir, unsigned seed,
   for (int k = 0; k < 10; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "identity%03d.obj", k);
-    const anim::Positions mode = anim::read_obj_positions(dir / name) - t.template_rig.positions;
+    const rig::Positions mode = rig::read_obj_positions(dir / name) - t.template_rig.positions;
     t.target.positions += static_cast<float>(n(rng)) * mode;
   }
-  t.target.normals = anim::vertex_normals(t.target.positions, t.target.triangles);
+  t.target.normals = rig::vertex_normals(t.target.positions, t.target.triangles);
   return t;
 }
 

@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "facecast/core/wav.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/import.hpp"
-#include "facecast/viseme/wav.hpp"
 
 namespace facecast::test {
 
@@ -180,7 +180,7 @@ inline AlignCase chinese_case(const std::filesystem::path& dir, std::size_t i,
   const std::string base = (dir / ("zh" + std::to_string(i))).string();
   {
     std::ofstream f(base + "_src.wav", std::ios::binary);
-    f << viseme::encode_wav(u.pcm, u.sample_rate);
+    f << facecast::encode_wav(u.pcm, u.sample_rate);
   }
   const double total = u.duration;
   const double cut[4] = {0, total / 3, 2 * total / 3, total};

@@ -17,12 +17,12 @@
 #include <string>
 #include <vector>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "lexicon.hpp"
 #include "pinyin_detail.hpp"
-#include "utf8.hpp"
 
 namespace v = facecast::viseme;
 namespace d = facecast::viseme::detail;
@@ -67,7 +67,7 @@ void score(const Line& l, const std::vector<std::string>& got, Score& s,
            std::vector<std::string>* failures) {
   const std::u32string han = [&] {
     std::u32string h;
-    for (char32_t c : d::to_u32(l.text))
+    for (char32_t c : facecast::to_u32(l.text))
       if (d::is_han(c)) h += c;
     return h;
   }();
@@ -149,7 +149,7 @@ int run(int argc, char** argv) {
     Line l{f[0], f[1], {}};
     for (const auto& syl : split(f[2], ' ')) l.ref.push_back(split(syl, '|'));
     std::size_t han = 0;
-    for (char32_t c : d::to_u32(l.text)) han += d::is_han(c);
+    for (char32_t c : facecast::to_u32(l.text)) han += d::is_han(c);
     if (han == l.ref.size())
       lines.push_back(std::move(l));
     else

@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/viseme.hpp"
 #include "lexicon.hpp"
 #include "pinyin_detail.hpp"
-#include "utf8.hpp"
 
 namespace v = facecast::viseme;
 namespace d = facecast::viseme::detail;
@@ -103,7 +103,7 @@ int eval_zh(const std::string& path) {
     c.toned += expected.size() - std::min(ed_tone, expected.size());
     // Polyphones: Han characters of sentences without digits/Latin line up with the syllables.
     std::u32string han;
-    for (char32_t ch : d::to_u32(text))
+    for (char32_t ch : facecast::to_u32(text))
       if (d::is_han(ch)) han += ch;
     if (han.size() == expected.size() && got.size() == expected.size()) {
       for (std::size_t i = 0; i < han.size(); ++i) {

@@ -6,6 +6,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/viseme.hpp"
 
+using namespace facecast;
 using namespace facecast::viseme;
 
 namespace {

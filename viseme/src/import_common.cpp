@@ -4,13 +4,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "import_detail.hpp"
 #include "pinyin_detail.hpp"
 #include "plan.hpp"
 #include "timeline.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 
@@ -46,10 +46,10 @@ std::string strip_stress(std::string s) {
 std::string strip_ipa(const std::string& s) {
   std::string out;
   for (std::size_t pos = 0; pos < s.size();) {
-    const char32_t c = detail::next_code_point(s, pos, false);
+    const char32_t c = next_code_point(s, pos, false);
     const bool mark =
         (c >= 0x0300 && c <= 0x036F) || (c >= 0x02B0 && c <= 0x02FF) || (c >= '0' && c <= '9');
-    if (!mark) detail::append_utf8(out, c);
+    if (!mark) append_utf8(out, c);
   }
   return out;
 }

@@ -2,11 +2,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "import_detail.hpp"
 #include "plan.hpp"
 #include "timeline.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 
@@ -41,7 +41,7 @@ Utterance import_elevenlabs(std::string_view content, const Options& o, const st
     check_span(l);
     text += l.text;
     for (std::size_t pos = 0; pos < l.text.size();) {
-      detail::next_code_point(l.text, pos);
+      next_code_point(l.text, pos);
       cp_span.push_back({l.start, l.end});
     }
   }

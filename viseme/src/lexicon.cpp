@@ -11,12 +11,12 @@
 #include <map>
 #include <sstream>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/core/install.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "pinyin_detail.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 namespace {

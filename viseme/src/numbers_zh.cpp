@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <vector>
 
+#include "chars.hpp"
 #include "tables.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 namespace {

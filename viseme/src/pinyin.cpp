@@ -7,10 +7,10 @@
 
 #include <algorithm>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "pinyin_detail.hpp"
 #include "tables.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme {
 namespace {
@@ -46,7 +46,7 @@ std::string numbered_pinyin(std::string_view marked) {
   std::string body;
   int tone = 0;
   for (std::size_t pos = 0; pos < marked.size();) {
-    const char32_t c = detail::next_code_point(marked, pos);
+    const char32_t c = next_code_point(marked, pos);
     const auto* m = std::find_if(std::begin(kMarks), std::end(kMarks),
                                  [c](const Marked& k) { return k.cp == c; });
     if (m != std::end(kMarks)) {

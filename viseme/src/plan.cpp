@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "chars.hpp"
 #include "espeak.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/pinyin.hpp"
@@ -11,7 +12,6 @@
 #include "numbers_zh.hpp"
 #include "pinyin_detail.hpp"
 #include "tones_zh.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 namespace {

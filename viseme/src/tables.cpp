@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <sstream>
 
+#include "chars.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 namespace {

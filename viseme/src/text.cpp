@@ -5,9 +5,9 @@
 #include <charconv>
 #include <cmath>
 
+#include "chars.hpp"
 #include "facecast/core/error.hpp"
 #include "tables.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme {
 namespace {
@@ -136,7 +136,7 @@ bool inside_token(const std::u32string& s, std::size_t i) {
     // abbreviation: the word before the dot + "." is in the config list
     std::size_t b = i;
     while (b > 0 && (detail::is_ascii_alpha(s[b - 1]) || s[b - 1] == '.')) --b;
-    const std::string word = detail::to_utf8(std::u32string_view(s).substr(b, i + 1 - b));
+    const std::string word = to_utf8(std::u32string_view(s).substr(b, i + 1 - b));
     const auto& abbr = detail::tables().abbreviations;
     return std::find(abbr.begin(), abbr.end(), word) != abbr.end();
   }
@@ -146,7 +146,7 @@ bool inside_token(const std::u32string& s, std::size_t i) {
 }  // namespace
 
 std::vector<TextPiece> parse_text(std::string_view text) {
-  const std::u32string s = detail::to_u32(text);
+  const std::u32string s = to_u32(text);
   const auto& pauses = detail::tables().pauses;
   std::vector<TextPiece> out;
   const auto text_piece = [&]() -> TextPiece& {
@@ -175,7 +175,7 @@ std::vector<TextPiece> parse_text(std::string_view text) {
     } else if (!inside_token(s, i)) {
       for (std::size_t l = 2; l >= 1 && !len; --l) {
         if (i + l > s.size()) continue;
-        const auto it = pauses.find(detail::to_utf8(std::u32string_view(s).substr(i, l)));
+        const auto it = pauses.find(to_utf8(std::u32string_view(s).substr(i, l)));
         if (it != pauses.end()) {
           len = l;
           pause = it->second;
@@ -187,7 +187,7 @@ std::vector<TextPiece> parse_text(std::string_view text) {
       if (!out.empty() && out.back().kind == TextPiece::Kind::kPause &&
           out.back().offset + out.back().length == i) {
         out.back().pause = std::max(out.back().pause, pause);
-        out.back().text += detail::to_utf8(std::u32string_view(s).substr(i, len));
+        out.back().text += to_utf8(std::u32string_view(s).substr(i, len));
         out.back().length += len;
       } else {
         TextPiece p;
@@ -195,7 +195,7 @@ std::vector<TextPiece> parse_text(std::string_view text) {
         p.offset = i;
         p.length = len;
         p.pause = pause;
-        p.text = detail::to_utf8(std::u32string_view(s).substr(i, len));
+        p.text = to_utf8(std::u32string_view(s).substr(i, len));
         out.push_back(p);
       }
       i += len;
@@ -203,7 +203,7 @@ std::vector<TextPiece> parse_text(std::string_view text) {
     }
     TextPiece& t = text_piece();
     if (t.text.empty()) t.offset = i;
-    detail::append_utf8(t.text, c);
+    append_utf8(t.text, c);
     t.length = i + 1 - t.offset;
     ++i;
   }

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "espeak.hpp"
+#include "facecast/core/utf8.hpp"
 #include "timeline.hpp"
 
 namespace facecast::viseme::detail {
@@ -54,7 +55,7 @@ std::string phrase_text(const Plan& plan, const Phrase& ph, std::vector<int>& po
     const PlanUnit& unit = plan.units[u];
     const std::string& s = unit.lang == Lang::kZh ? unit.spoken : unit.text;
     text += s;
-    for (unsigned char c : s) chars += (c & 0xC0) != 0x80;
+    chars += utf8_length(s);
   }
   return text;
 }

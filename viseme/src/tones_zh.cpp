@@ -4,12 +4,12 @@
 #include <algorithm>
 #include <unordered_map>
 
+#include "chars.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "lexicon.hpp"
 #include "pinyin_detail.hpp"
-#include "utf8.hpp"
 
 namespace facecast::viseme::detail {
 namespace {

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "facecast/anim/animation_steps.hpp"
+#include "facecast/rig/motion.hpp"
 #include "facecast/viseme/utterance.hpp"
 
 namespace facecast::anim {
@@ -58,12 +59,6 @@ struct AnimOptions {
 
 /// Reads configs/anim/animation.json; throws Error naming the field when invalid.
 AnimOptions load_anim_options();
-
-/// Small head rotation of idle life, radians, applied about the neck (yaw about +Y, pitch about
-/// +X, roll about +Z, in that order).
-struct HeadPose {
-  float yaw = 0, pitch = 0, roll = 0;
-};
 
 /// How viseme channels and expressions drive a rig's blendshapes.
 /// for_rig() picks the table by the rig's shape names: Oculus viseme morphs (viseme_aa ...) ->
@@ -120,13 +115,13 @@ class Mapping {
 
 /// One utterance compiled into curves, ready to sample at any time. A value type (it keeps its own
 /// copy of the mapping rows it uses), so a stream can own one.
-class Performance {
+class Performance final : public rig::Motion {
  public:
   Performance(const viseme::Utterance& utterance, const Mapping& mapping,
               const AnimOptions& options = {});
 
   /// Seconds from the start of the audio to when the face is back at rest (utterance + tail).
-  double duration() const { return duration_; }
+  double duration() const override { return duration_; }
   /// Length of the speech itself (the audio length when there is audio).
   double speech_duration() const { return speech_duration_; }
   /// Frames at `fps` covering [0, duration()): ceil(duration * fps).
@@ -135,10 +130,10 @@ class Performance {
   /// Weights at time `t` (seconds from the start of the audio), one per rig shape in the mapping's
   /// order; `weights.size()` must equal the shape count (throws Error otherwise). `head` (optional)
   /// receives the idle head pose. Thread-safe (const).
-  void sample(double t, std::span<float> weights, HeadPose* head = nullptr) const;
+  void sample(double t, std::span<float> weights, rig::HeadPose* head = nullptr) const override;
 
   /// The rig's shape names, in the order sample() writes them.
-  const std::vector<std::string>& shape_names() const { return mapping_.shape_names(); }
+  const std::vector<std::string>& shape_names() const override { return mapping_.shape_names(); }
 
   /// The viseme names of the utterance's set, in channel order ("sil" first).
   const std::vector<std::string>& viseme_names() const { return mapping_.viseme_names(set_); }
@@ -169,8 +164,8 @@ struct WeightTrack {
   std::vector<std::string> shapes;
   double fps = 60;
   int frames = 0;
-  std::vector<float> weights;  // frames * shapes.size()
-  std::vector<HeadPose> head;  // one per frame
+  std::vector<float> weights;       // frames * shapes.size()
+  std::vector<rig::HeadPose> head;  // one per frame
   std::span<const float> frame(int f) const {
     return {weights.data() + static_cast<size_t>(f) * shapes.size(), shapes.size()};
   }

@@ -6,12 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "facecast/rig/motion.hpp"
 #include "facecast/viseme/utterance.hpp"
 
 namespace facecast::anim {
 
 struct AnimOptions;
-struct HeadPose;
 
 /// The cubic Hermite curve on u in [0, 1] from a0 to a1 with start tangent g (per unit of u) and
 /// end tangent 0: (2u^3 - 3u^2 + 1) a0 + (-2u^3 + 3u^2) a1 + (u^3 - 2u^2 + u) g.
@@ -116,7 +116,7 @@ float blink_at(const IdleLife& idle, const AnimOptions& options, double t);
 std::array<float, 2> gaze_at(const IdleLife& idle, double t);
 
 /// Head pose at t: slow sums of sines of amplitude head_motion, faded in and out over 0.5 s.
-HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
+rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
 
 // ---- 5. Mixing (in Performance::sample). ------------------------------------------------------
 

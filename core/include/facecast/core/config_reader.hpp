@@ -10,7 +10,7 @@
 //   configs/rigbuild/build.json: contacts.rounds: expected a whole number in 0..2147483647
 //   configs/server.json: unknown key 'prot'
 //
-//   ConfigReader c = ConfigReader::open(config_path("anim/render.json"));
+//   ConfigReader c = ConfigReader::open(config_path("render/render.json"));
 //   c.read("width", o.width).read("height", o.height);
 //   ConfigReader& video = c.section("video");
 //   video.read("fps", v.fps);

@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/core/progress.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/transfer.hpp"
@@ -130,7 +130,7 @@ struct ShapeQuality {
 };
 
 struct BuildResult {
-  anim::Rig rig;  // the target with the template's shapes (same names and order)
+  rig::Rig rig;  // the target with the template's shapes (same names and order)
   std::vector<VirtualEdge> virtual_edges;  // detected on the target (used unless mode is kOff)
   std::vector<ShapeQuality> quality;
   VirtualEdgeStats ve_stats;
@@ -147,7 +147,7 @@ struct BuildResult {
 BuildOptions load_build_options();
 
 /// Throws facecast::Error for unusable input (vertex counts, markers, zero-area triangles, NaN).
-BuildResult build_rig(const anim::Rig& template_rig, const anim::Rig& target,
+BuildResult build_rig(const rig::Rig& template_rig, const rig::Rig& target,
                       const BuildOptions& options, const ProgressFn& progress = {});
 
 /// The build report (`rig build --report`, the server's rig jobs): virtual edges, timings,
@@ -160,7 +160,7 @@ void write_virtual_edges_json(const std::filesystem::path& path,
                               const std::vector<VirtualEdge>& edges, const VirtualEdgeStats& stats);
 std::vector<VirtualEdge> read_virtual_edges_json(const std::filesystem::path& path,
                                                  int vertex_count);
-void write_virtual_edges_obj(const std::filesystem::path& path, const anim::Positions& positions,
+void write_virtual_edges_obj(const std::filesystem::path& path, const rig::Positions& positions,
                              const std::vector<VirtualEdge>& edges);
 
 }  // namespace facecast::rigbuild

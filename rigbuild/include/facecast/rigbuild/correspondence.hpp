@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/core/progress.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 #include "facecast/rigbuild/transfer.hpp"
 
@@ -101,7 +101,7 @@ std::optional<Correspondence> same_topology_correspondence(int template_vertices
 /// Puts the target's triangles (with their materials and groups) in the template's order when
 /// they are the template's triangles in another order (match_triangle_order); false, and the
 /// target unchanged, when the topologies differ.
-bool reorder_triangles_like(const anim::Rig& tmpl, anim::Rig& target);
+bool reorder_triangles_like(const rig::Rig& tmpl, rig::Rig& target);
 
 /// `template_parts` (per template triangle, may be empty) groups the template into parts that a
 /// target component may correspond to, e.g. materials (all teeth are one part); empty: components.

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 
@@ -80,29 +80,29 @@ struct HeadLandmarks {
 /// target's are checked against; nullptr: no similarity test. `bias` (with a reference): the
 /// template's landmark_bias, added to the fused points in the target's frame; then (with
 /// options.lid_margins) the lid points move onto the target's lid margins seen from the front.
-HeadLandmarks detect_landmarks(const anim::Rig& head, const LandmarkOptions& options,
+HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& options,
                                const Points* reference = nullptr, const Points* bias = nullptr);
 
 /// Where dlib puts a landmark on a render and where the template's own landmark vertex is differ
 /// by a convention (the brows of a bald grey head, the lid margins): per landmark, the
 /// template's `reference` point minus the point detected on the template (zero where dropped),
 /// in the template's frame.
-Points landmark_bias(const anim::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
+Points landmark_bias(const rig::Rig& tmpl, const Points& reference, const LandmarkOptions& options,
                      LandmarkTimings* timings = nullptr);
 
 /// The rig's 68 landmark vertices: landmarks named "dlib_00".."dlib_67" stored with it, else the
 /// entry of configs/rigbuild/template_landmarks.json with its vertex and triangle counts;
 /// nullopt when neither knows the rig.
-std::optional<std::array<int, kLandmarkCount>> known_landmarks(const anim::Rig& rig);
+std::optional<std::array<int, kLandmarkCount>> known_landmarks(const rig::Rig& rig);
 
 /// The template's landmark_bias stored in its entry of configs/rigbuild/template_landmarks.json
 /// ("bias", 68 rows, template units; computed with the default LandmarkOptions), so a build need
 /// not render and detect the template; nullopt when the entry has none.
-std::optional<Points> known_landmark_bias(const anim::Rig& rig);
+std::optional<Points> known_landmark_bias(const rig::Rig& rig);
 
 /// The template's 4 lid-middle vertices (right upper, right lower, left upper, left lower): the
 /// "lid_middles" of its entry in configs/rigbuild/template_landmarks.json; nullopt without one.
-std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig);
+std::optional<std::array<int, 4>> known_lid_middles(const rig::Rig& rig);
 
 /// The automatic landmarks' marker pairs (every name "dlib_NN": found, or found and moved by
 /// hand in the web page) with pairs for the middles of the lids added (docs/algorithms.md
@@ -111,7 +111,7 @@ std::optional<std::array<int, 4>> known_lid_middles(const anim::Rig& rig);
 /// target's lid margin there; a landmark pair on the same target vertex is dropped. Empty when
 /// there is nothing to add: other markers, no lid middles known for the template, an eye's
 /// corners missing.
-std::vector<MarkerPair> with_lid_middles(const anim::Rig& tmpl, const anim::Rig& target,
+std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
                                          const Points& registered,
                                          const std::vector<MarkerPair>& markers);
 
@@ -129,7 +129,7 @@ struct AutoMarkers {
   double seconds = 0;                // the views, detection and fusion
   LandmarkTimings template_timings;  // the template's side (its bias, its landmarks if unknown)
 };
-AutoMarkers auto_markers(const anim::Rig& tmpl, const anim::Rig& target,
+AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                          const LandmarkOptions& options);
 
 /// The marker JSON format of ../shared/data/markers (index_base 0; read_markers reads it).

@@ -18,10 +18,10 @@
 #include <utility>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
 #include "facecast/core/progress.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 
@@ -68,8 +68,8 @@ PhotoOptions load_photo_options();
 /// identity modes (deltas from the neutral, one unit = one standard deviation) and its 68
 /// landmark vertices.
 struct PhotoTemplate {
-  anim::Rig rig;
-  std::vector<anim::Positions> modes;
+  rig::Rig rig;
+  std::vector<rig::Positions> modes;
   std::array<int, kLandmarkCount> landmarks{};
   std::vector<char> skin;  // per vertex: on the face or back-of-head surface (textured)
   std::vector<int> rigid;  // per vertex: rigid group (0: follows the RBF; 1.. eyes, mouth)
@@ -122,13 +122,13 @@ struct OrthoCamera {
 
 /// A renderer camera (narrow field of view, far away) that shows what `camera` projects onto a
 /// width x height photo: for rendering the result as the photo saw it.
-render::Camera render_camera(const OrthoCamera& camera, const anim::Positions& positions, int width,
+render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& positions, int width,
                              int height);
 
 struct PhotoFit {
-  anim::Positions positions;        // the fitted neutral, template topology
-  anim::Positions model_positions;  // the low-dimensional fit only (before the RBF)
-  Eigen::VectorXd coefficients;     // identity-mode weights
+  rig::Positions positions;        // the fitted neutral, template topology
+  rig::Positions model_positions;  // the low-dimensional fit only (before the RBF)
+  Eigen::VectorXd coefficients;    // identity-mode weights
   OrthoCamera front;
   std::optional<OrthoCamera> side;
   std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
@@ -161,7 +161,7 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
 
 /// Photographs a head (template topology) the way the photos are taken: front and side images.
 using PhotoShootFn =
-    std::function<std::pair<render::Image, render::Image>(const anim::Positions& positions)>;
+    std::function<std::pair<render::Image, render::Image>(const rig::Positions& positions)>;
 
 /// The detector's convention and how it changes with the identity, on a kind of photo: the bias
 /// (measure_landmark_bias on the template, front and side photo each alone) and, per identity mode,
@@ -179,7 +179,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                                  const PhotoOptions& options, double* coverage = nullptr);
 
 struct PhotoAvatar {
-  anim::Rig rig;  // textured, with the template's expressions transferred
+  rig::Rig rig;  // textured, with the template's expressions transferred
   PhotoFit fit;
   PhotoLandmarks front, side;
   bool has_side = false;

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/transfer.hpp"
 
 namespace facecast::rigbuild {
@@ -17,15 +17,15 @@ struct PictureOptions {
 };
 
 /// Two views (front, right side) of `positions` with `edges` in red, side by side.
-void write_virtual_edge_picture(const std::filesystem::path& png, const anim::Rig& rig,
-                                const anim::Positions& positions,
+void write_virtual_edge_picture(const std::filesystem::path& png, const rig::Rig& rig,
+                                const rig::Positions& positions,
                                 const std::vector<VirtualEdge>& edges,
                                 const PictureOptions& options = {});
 
 /// Two views of `positions` (a posed shape) with the triangles of `pairs` (e.g. a shape's new
 /// intersecting pairs) in red, and in pale red through the surface where hidden.
-void write_crossing_picture(const std::filesystem::path& png, const anim::Rig& rig,
-                            const anim::Positions& positions,
+void write_crossing_picture(const std::filesystem::path& png, const rig::Rig& rig,
+                            const rig::Positions& positions,
                             const std::vector<std::pair<int, int>>& pairs,
                             const PictureOptions& options = {});
 

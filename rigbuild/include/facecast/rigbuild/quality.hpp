@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
+#include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/transfer.hpp"
 
 namespace facecast::rigbuild {
@@ -20,8 +20,8 @@ struct ShapeError {
 
 /// Per shape of `built`, the error of vertices [first, last) against `truth_neutral` + the truth
 /// rig's delta of the same name (the ICT identity ground truth: the template's deltas).
-std::vector<ShapeError> truth_errors(const anim::Rig& built, const anim::Positions& truth_neutral,
-                                     const anim::Rig& truth_deltas, int first, int last);
+std::vector<ShapeError> truth_errors(const rig::Rig& built, const rig::Positions& truth_neutral,
+                                     const rig::Rig& truth_deltas, int first, int last);
 
 /// Self-intersections a shape brings: intersecting triangle pairs of (neutral + delta) with at
 /// least one triangle the shape moves (pairs of still triangles are the neutral's own, counted once
@@ -62,7 +62,7 @@ struct IntersectionCheck {
 /// exactly the same triangles). Keeps references to its arguments.
 class ReferenceCrossings {
  public:
-  ReferenceCrossings(const anim::Rig& reference, const TriangleMap& map, int rings);
+  ReferenceCrossings(const rig::Rig& reference, const TriangleMap& map, int rings);
   /// Intersecting pairs of the reference's shape `name` with a triangle the shape moves (none when
   /// the reference has no such shape).
   std::vector<std::pair<int, int>> pairs(const std::string& name,
@@ -75,7 +75,7 @@ class ReferenceCrossings {
 
  private:
   std::vector<int> around(int built_triangle) const;
-  const anim::Rig& reference_;
+  const rig::Rig& reference_;
   const TriangleMap& map_;
   int rings_;
   std::vector<std::vector<int>> adjacency_;
@@ -85,12 +85,12 @@ class ReferenceCrossings {
 /// `reference` may be null (no split: every pair counts as fresh). `map` gives, per built
 /// triangle, the reference triangles (TriangleMap::identity for the same topology). Shapes run in
 /// parallel; each tests only its moved triangles against their surroundings.
-IntersectionSummary shape_intersections(const anim::Rig& built, const anim::Rig* reference,
+IntersectionSummary shape_intersections(const rig::Rig& built, const rig::Rig* reference,
                                         const TriangleMap& map,
                                         const IntersectionCheck& check = {});
 
 /// Per shape, the error against a folder of ground-truth OBJs named like the shapes.
-std::vector<ShapeError> truth_errors(const anim::Rig& built,
-                                     const std::vector<anim::Positions>& truth);
+std::vector<ShapeError> truth_errors(const rig::Rig& built,
+                                     const std::vector<rig::Positions>& truth);
 
 }  // namespace facecast::rigbuild

@@ -1,9 +1,9 @@
 #pragma once
 // The realistic template shipped with Facecast: the ICT FaceKit (MIT, USC Institute for Creative
-// Technologies; configs/rigbuild/ict_facekit.LICENSE) as a compact GLB, ict_facekit.glb, packed by
-// the build from ../shared/data (docs/algorithms.md#shipped-template). It holds the FaceKit's
-// neutral without its transparent eye layers (lacrimal fluid, eye blend, eye occlusion), its
-// expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum of the
+// Technologies; data/ict_facekit.LICENSE) as a compact GLB, data/ict_facekit.glb, packed from the
+// FaceKit by `facecast rig pack-template` (docs/algorithms.md#shipped-template). It holds the
+// FaceKit's neutral without its transparent eye layers (lacrimal fluid, eye blend, eye occlusion),
+// its expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum of the
 // FaceKit's halves, which are kept as browInnerUp_L ... with its other extras cheekRaiser_L/R and
 // PupilDilate_L/R), the 15 Oculus visemes (viseme_sil ... viseme_U) baked from
 // configs/anim/visemes_arkit.json, its 68 landmarks ("dlib_00".."dlib_67", mesh extras) and
@@ -18,24 +18,23 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/rig.hpp"
+#include "facecast/rig/rig.hpp"
 
 namespace facecast::rigbuild {
 
 /// The server's rig id of the shipped template.
 inline constexpr const char* kShippedTemplateId = "ict-facekit";
 
-/// ict_facekit.glb, made at build time from the ICT FaceKit in ../shared/data (`facecast rig
-/// pack-template`): <prefix>/share/facecast/ when installed, else this build's rigbuild/. Throws
-/// Error(kNotFound) saying how it is made when it is missing.
+/// ict_facekit.glb: <prefix>/share/facecast/ when installed, else data/ of the source tree.
+/// Throws Error(kNotFound) naming it when it is missing.
 std::filesystem::path shipped_template_path();
 
 /// The shipped template as a rig (the file's vertex order; its landmarks and shapes). Throws
 /// facecast::Error naming the file when it is missing or unreadable.
-anim::Rig load_shipped_template();
+rig::Rig load_shipped_template();
 
 /// What a listing needs without building the rig: its shape names and vertex count (read from
-/// the file's glTF document, anim::AvatarDocument). Throws Error naming the file.
+/// the file's glTF document, rig::AvatarDocument). Throws Error naming the file.
 struct TemplateSummary {
   std::vector<std::string> shapes;
   int vertices = 0;
@@ -45,11 +44,11 @@ TemplateSummary shipped_template_summary();
 /// The ICT FaceKit's FaceXModel folder (generic_neutral_mesh.obj, the expression OBJs,
 /// vertex_indices.json) as the shipped template's rig: parts, names, visemes, landmarks and
 /// materials as above. Throws Error naming the file that is missing or malformed.
-anim::Rig ict_template_rig(const std::filesystem::path& facexmodel_dir);
+rig::Rig ict_template_rig(const std::filesystem::path& facexmodel_dir);
 
 /// The FaceKit's identity modes (identity000.obj .. in name order) as deltas from its neutral on
 /// the template's vertices (ict_template_rig's order). Throws Error naming a malformed file.
-std::vector<anim::Positions> ict_identity_modes(const std::filesystem::path& facexmodel_dir);
+std::vector<rig::Positions> ict_identity_modes(const std::filesystem::path& facexmodel_dir);
 
 /// The compact GLB of a rig (one mesh, one primitive per material): positions and morph deltas
 /// as normalized int16 with one node scale and translation (14 bits over the head's box), normals
@@ -60,13 +59,13 @@ std::vector<anim::Positions> ict_identity_modes(const std::filesystem::path& fac
 /// quantized like the morph deltas), stored as accessors outside the primitives and listed in
 /// mesh.extras.facecast.identity ({name: "identity000", accessor}). Throws Error when a mode is
 /// outside the quantization's range or has the wrong size.
-std::string compact_glb_bytes(const anim::Rig& rig,
-                              const std::vector<anim::Positions>& identity = {});
+std::string compact_glb_bytes(const rig::Rig& rig,
+                              const std::vector<rig::Positions>& identity = {});
 /// The largest error of a quantized coordinate: half the int16 step of the rig's box.
-double quantization_step(const anim::Rig& rig);
+double quantization_step(const rig::Rig& rig);
 
 /// The identity modes a compact GLB holds (compact_glb_bytes), in order; empty when it has none.
 /// Throws Error naming the file when they are malformed.
-std::vector<anim::Positions> read_template_identity(const std::filesystem::path& glb);
+std::vector<rig::Positions> read_template_identity(const std::filesystem::path& glb);
 
 }  // namespace facecast::rigbuild

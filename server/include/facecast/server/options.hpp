@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "facecast/anim/decode_limits.hpp"
+#include "facecast/rig/decode_limits.hpp"
 
 namespace facecast::server {
 
@@ -71,9 +71,9 @@ struct ServerOptions {
   double max_audio_seconds = 120;    // longest POST /api/audio, decoded (413 beyond)
   double audio_decode_timeout = 10;  // seconds ffmpeg may decode an upload; then killed (413)
   // What an uploaded avatar, rig mesh or photo may make the server decode (configs: "decode";
-  // the fields and defaults of anim::DecodeLimits): checked before parsing, decoding or
+  // the fields and defaults of rig::DecodeLimits): checked before parsing, decoding or
   // allocating, answered 413 with the file and field.
-  anim::DecodeLimits decode;
+  rig::DecodeLimits decode;
 
   // Streaming (the rules are in docs/algorithms.md#stream-pacing).
   double lead = 0.1;          // frames are sent this many seconds before their presentation time

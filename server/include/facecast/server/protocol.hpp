@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/utf8.hpp"
 #include "facecast/server/options.hpp"
 #include "facecast/viseme/import.hpp"
 #include "facecast/viseme/options.hpp"
@@ -150,9 +151,6 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const n
                                                 std::string id, const ProtocolLimits& limits);
 /// A channel name: 1-64 of A-Z a-z 0-9 _ - . (throws Error naming `field`).
 std::string check_channel_name(const nlohmann::json& v, std::string_view field);
-
-/// Number of Unicode code points of UTF-8 text (invalid bytes count one each).
-std::size_t utf8_length(std::string_view text) noexcept;
 
 // ---- server -> client -------------------------------------------------------------------------
 // Every JSON message the server sends is built here (docs/protocol.md, "Server -> client").

@@ -1,5 +1,6 @@
 #pragma once
 // facecast::viseme — text and timestamps to timed visemes and expressions. One include for all.
+#include "facecast/core/wav.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/audio.hpp"
@@ -9,4 +10,3 @@
 #include "facecast/viseme/pinyin.hpp"
 #include "facecast/viseme/text.hpp"
 #include "facecast/viseme/utterance.hpp"
-#include "facecast/viseme/wav.hpp"

@@ -1,0 +1,109 @@
+// facecast animate --text T | --timestamps FILE --rig rig.glb [--fps 60] --out weights.json|.bin
+#include <iostream>
+
+#include "facecast/app/commands.hpp"
+#include "facecast/app/timeline_plot.hpp"
+#include "facecast/avatar/avatar.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/rig/rig_io.hpp"
+#include "facecast/viseme/viseme.hpp"
+#include "speech_input.hpp"
+
+namespace facecast::cli {
+
+void add_speech_options(CLI::App* cmd, SpeechArgs& a) {
+  cmd->add_option("--text", a.text, "Text to speak (Chinese/English, expression tags allowed)");
+  cmd->add_option("--timestamps", a.timestamps,
+                  "Phoneme/viseme timestamps (Azure, Polly, MFA, Rhubarb, ElevenLabs or JSON)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--timestamps-format", a.timestamps_format,
+                  "auto (from the content), json, azure, polly, mfa, rhubarb or elevenlabs")
+      ->capture_default_str();
+  cmd->add_option("--lang", a.lang, "Language runs: auto, zh or en")
+      ->check(CLI::IsMember({"auto", "zh", "en"}))
+      ->capture_default_str();
+  cmd->add_option("--timing", a.timing, "model or tts (default: tts when there is audio)")
+      ->check(CLI::IsMember({"model", "tts"}));
+  cmd->add_option("--rate", a.rate, "Duration-model speech rate, syllables per second")
+      ->check(CLI::Range(0.5, 20.0));
+  cmd->add_option("--voice", a.voice, "espeak-ng voice for English (default en-us)");
+  cmd->add_option("--idle", a.idle, "Blinks and small head/eye motion: on or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+}
+
+viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::string& audio) {
+  if (a.text.empty() == a.timestamps.empty())
+    throw Error("give exactly one of --text or --timestamps");
+  viseme::Options o = viseme::load_options();
+  o.lang = viseme::parse_lang_mode(a.lang);
+  if (a.rate > 0) o.rate = a.rate;
+  if (!a.voice.empty()) o.en_voice = a.voice;
+  if (!a.timestamps.empty()) {
+    const std::string content = read_file(a.timestamps);
+    const auto format = a.timestamps_format == "auto"
+                            ? viseme::detect_timestamp_format(content, a.timestamps)
+                            : viseme::parse_timestamp_format(a.timestamps_format);
+    return viseme::import_timestamps(format, content, o, viseme::PhoneSet::kAuto, a.timestamps);
+  }
+  if (!audio.empty())
+    return viseme::align(a.text, viseme::read_audio(audio, viseme::load_audio_options()), o,
+                         viseme::load_align_options());
+  o.timing = !a.timing.empty() ? viseme::parse_timing(a.timing)
+             : tts             ? viseme::Timing::kTts
+                               : viseme::Timing::kModel;
+  return viseme::analyze(a.text, o);
+}
+
+anim::AnimOptions speech_anim_options(const SpeechArgs& a) {
+  anim::AnimOptions o = anim::load_anim_options();
+  o.idle = a.idle == "on";
+  return o;
+}
+
+namespace {
+
+struct AnimateArgs {
+  SpeechArgs speech;
+  std::string rig, out, plot;
+  double fps = 60;
+};
+
+}  // namespace
+
+void add_animate_commands(CLI::App& app) {
+  auto a = std::make_shared<AnimateArgs>();
+  auto* cmd = app.add_subcommand(
+      "animate", "Text or timestamps -> blendshape weights per frame (JSON or binary)");
+  add_speech_options(cmd, a->speech);
+  cmd->add_option("--rig", a->rig, "Rig (GLB or OBJ folder); default: the built-in avatar")
+      ->check(CLI::ExistingPath);
+  cmd->add_option("--fps", a->fps, "Frames per second")
+      ->check(CLI::Range(1.0, 240.0))
+      ->capture_default_str();
+  cmd->add_option("--out", a->out,
+                  "weights.json ({fps, frames, shapes, weights, head}) or weights.bin (FCWT: see "
+                  "anim/animation.hpp)")
+      ->required();
+  cmd->add_option("--plot", a->plot,
+                  "Also draw the timeline (viseme events and curves, expressions, jaw, blink) "
+                  "as a PNG");
+  cmd->callback([a] {
+    const bool binary = a->out.ends_with(".bin");
+    if (!binary && !a->out.ends_with(".json"))
+      throw Error("--out: '" + a->out + "' must end in .json or .bin");
+    const rig::Rig rig = a->rig.empty() ? avatar::default_avatar() : rig::load_rig(a->rig);
+    const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
+    const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
+    const anim::Performance p(u, mapping, speech_anim_options(a->speech));
+    const anim::WeightTrack track = anim::bake(p, a->fps);
+    write_file_atomic(a->out, binary ? anim::to_binary(track) : anim::to_json(track) + "\n");
+    if (!a->plot.empty()) render::write_image(a->plot, plot_timeline(u, p));
+    std::cerr << "wrote " << a->out << ": " << track.frames << " frames x " << track.shapes.size()
+              << " shapes at " << a->fps << " fps (" << p.duration() << " s, " << mapping.table()
+              << " mapping)\n";
+  });
+}
+
+}  // namespace facecast::cli

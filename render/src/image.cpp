@@ -1,0 +1,231 @@
+// Images through OpenImageIO, encoded in memory (IOVecOutput) so that files are written atomically
+// and JPEG frames can be streamed.
+#include "facecast/render/image.hpp"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+
+namespace facecast::render {
+namespace {
+
+namespace OIIO = OIIO_NAMESPACE;
+
+std::string one_line(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  return s;
+}
+
+void check_image(const Image& image, std::string_view what) {
+  if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
+      image.pixels.size() != static_cast<std::size_t>(image.width) * image.height * image.channels)
+    throw Error(std::string(what) + ": image has inconsistent size");
+}
+
+// Encodes with the OpenImageIO writer for `format_name` (a file name whose extension selects it).
+std::string encode(const Image& image, const std::string& format_name, int quality,
+                   bool linear_half) {
+  check_image(image, format_name);
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create(format_name);
+  if (!out)
+    throw Error("no image writer for " + format_name + ": " + OIIO::geterror(),
+                ErrorCode::kUnsupported);
+  if (!out->supports("ioproxy"))
+    throw Error("the " + std::string(out->format_name()) + " writer cannot write to memory",
+                ErrorCode::kUnsupported);
+  OIIO::ImageSpec spec(image.width, image.height, image.channels,
+                       linear_half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
+  if (quality > 0)
+    spec.attribute("Compression", "jpeg:" + std::to_string(std::clamp(quality, 1, 100)));
+  if (!out->set_ioproxy(&proxy) || !out->open(format_name, spec))
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  bool ok = false;
+  if (linear_half) {
+    std::vector<float> lin(image.pixels.size());
+    for (std::size_t i = 0; i < lin.size(); ++i) {
+      const float c = image.pixels[i] / 255.0f;
+      lin[i] = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+    }
+    ok = out->write_image(OIIO::TypeDesc::FLOAT, lin.data());
+  } else {
+    ok = out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data());
+  }
+  if (!ok || !out->close())
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+std::string lower_extension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+}  // namespace
+
+std::string encode_jpeg(const Image& image, int quality) {
+  if (image.channels == 4) {  // JPEG has no alpha
+    Image rgb{image.width, image.height, 3, {}};
+    rgb.pixels.reserve(static_cast<std::size_t>(image.width) * image.height * 3);
+    for (std::size_t i = 0; i < image.pixels.size(); i += 4)
+      rgb.pixels.insert(rgb.pixels.end(), image.pixels.begin() + static_cast<std::ptrdiff_t>(i),
+                        image.pixels.begin() + static_cast<std::ptrdiff_t>(i + 3));
+    return encode(rgb, "frame.jpg", quality, false);
+  }
+  return encode(image, "frame.jpg", quality, false);
+}
+
+std::string encode_png(const Image& image) {
+  return encode(image, "frame.png", 0, false);
+}
+
+void write_image(const std::filesystem::path& path, const Image& image, int jpeg_quality) {
+  const std::string ext = lower_extension(path);
+  std::string bytes;
+  if (ext == ".png") {
+    bytes = encode_png(image);
+  } else if (ext == ".jpg" || ext == ".jpeg") {
+    bytes = encode_jpeg(image, jpeg_quality);
+  } else if (ext == ".exr") {
+    bytes = encode(image, "frame.exr", 0, true);
+  } else {
+    throw Error(
+        path.string() + ": unsupported image extension '" + ext + "' (use .png, .jpg or .exr)",
+        ErrorCode::kUnsupported);
+  }
+  write_file_atomic(path, bytes);
+}
+
+Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
+  const std::string name(what);
+  const int max_side = limits.max_image_side;
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  // The format from the signature: the name an avatar gives an image need not have an extension.
+  const bool png =
+      bytes.size() >= 8 && bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8);
+  const bool jpeg = bytes.size() >= 3 && bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3);
+  if (!png && !jpeg) throw Error(name + ": not a PNG or JPEG image", ErrorCode::kUnsupported);
+  (void)rig::check_image(bytes, what, limits);  // the header's size, before any decoder runs
+  OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
+  OIIO::ImageSpec config;
+  const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_pointer);
+  const std::string file = png ? "image.png" : "image.jpg";
+  auto in = OIIO::ImageInput::create(file, false, &config, &proxy);
+  if (!in)
+    throw Error(name + ": no image reader: " + one_line(OIIO::geterror()), ErrorCode::kInternal);
+  OIIO::ImageSpec spec;
+  if (!in->open(file, spec, config))
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
+  if (spec.width < 1 || spec.height < 1 || spec.width > max_side || spec.height > max_side ||
+      spec.nchannels < 1 || spec.nchannels > 4)
+    throw Error(name + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is out of range (at most " + std::to_string(max_side) + " a side)",
+                ErrorCode::kUnsupported);
+  Image img{spec.width, spec.height, 4, {}};
+  img.pixels.assign(static_cast<std::size_t>(spec.width) * spec.height * 4, 255);
+  // Read the file's channels into the first ones of RGBA; grey is expanded below. On the calling
+  // thread: renderers are made on worker threads already (and OIIO's own pool hides its writes
+  // into our buffer from ThreadSanitizer).
+  in->threads(1);
+  const OIIO::stride_t pixel = 4;
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
+  if (spec.nchannels <= 2) {
+    for (std::size_t i = 0; i < img.pixels.size(); i += 4) {
+      const std::uint8_t g = img.pixels[i], a = spec.nchannels == 2 ? img.pixels[i + 1] : 255;
+      img.pixels[i + 1] = img.pixels[i + 2] = g;
+      img.pixels[i + 3] = a;
+    }
+  }
+  return img;
+}
+
+Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
+  // PNG, JPEG and WebP headers are read by us before OpenImageIO opens the file (some of its
+  // readers allocate per image on open); other formats' sizes from the header OpenImageIO read.
+  {
+    std::string head;
+    try {
+      head = read_file(path);
+    } catch (const Error&) {
+    }
+    (void)rig::check_image(head, path.string(), limits);
+  }
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in)
+    throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
+  const OIIO::ImageSpec& spec = in->spec();
+  const auto side = static_cast<long long>(limits.max_image_side);
+  if (spec.width < 1 || spec.height < 1 || spec.width > side || spec.height > side ||
+      spec.nchannels < 1 || spec.nchannels > 64 ||
+      static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+              static_cast<std::size_t>(std::max(spec.nchannels, 4)) >
+          limits.max_image_bytes)
+    throw Error(path.string() + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is over the image limits (max_image_side " +
+                    std::to_string(limits.max_image_side) + ", max_image_bytes " +
+                    std::to_string(limits.max_image_bytes) + ")",
+                ErrorCode::kLimit);
+  const std::size_t count = static_cast<std::size_t>(spec.width) * spec.height;
+  std::vector<std::uint8_t> raw(count * spec.nchannels);
+  if (spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+      spec.format.basetype == OIIO::TypeDesc::HALF) {
+    // Linear floats (EXR): encode to sRGB.
+    std::vector<float> lin(raw.size());
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, lin.data()))
+      throw Error(path.string() + ": " + in->geterror());
+    for (std::size_t i = 0; i < lin.size(); ++i) {
+      const float c = std::clamp(lin[i], 0.0f, 1.0f);
+      const float e = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+      raw[i] = static_cast<std::uint8_t>(std::lround(e * 255.0f));
+    }
+  } else if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data())) {
+    throw Error(path.string() + ": " + in->geterror());
+  }
+  Image img{spec.width, spec.height, 3, {}};
+  img.pixels.resize(count * 3);
+  for (std::size_t p = 0; p < count; ++p)
+    for (int c = 0; c < 3; ++c)
+      img.pixels[p * 3 + c] = raw[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
+  return img;
+}
+
+ImageDifference compare_images(const Image& a, const Image& b, int threshold) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+    throw Error("compare_images: sizes differ (" + std::to_string(a.width) + "x" +
+                std::to_string(a.height) + " vs " + std::to_string(b.width) + "x" +
+                std::to_string(b.height) + ")");
+  ImageDifference d;
+  std::size_t over = 0;
+  double sum = 0;
+  const std::size_t n = static_cast<std::size_t>(a.width) * a.height;
+  for (std::size_t p = 0; p < n; ++p) {
+    int worst = 0;
+    for (int c = 0; c < a.channels; ++c) {
+      const int diff =
+          std::abs(int(a.pixels[p * a.channels + c]) - int(b.pixels[p * a.channels + c]));
+      sum += diff;
+      worst = std::max(worst, diff);
+    }
+    d.max_abs = std::max(d.max_abs, worst);
+    if (worst > threshold) ++over;
+  }
+  d.mean_abs = sum / static_cast<double>(n * a.channels);
+  d.fraction_over = static_cast<double>(over) / static_cast<double>(n);
+  return d;
+}
+
+}  // namespace facecast::render

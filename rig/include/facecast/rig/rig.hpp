@@ -1,0 +1,161 @@
+#pragma once
+// The Rig: a neutral mesh plus named blendshapes stored as sparse vertex deltas.
+//
+// Units are those of the source mesh (ICT FaceKit: centimetres); +Y up, the face looks along +Z.
+// Vertex order is the order of the source file and is never changed by Facecast: expressions of the
+// ICT FaceKit and marker files refer to vertices by index.
+#include <Eigen/Core>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace facecast::rig {
+
+/// #V by 3 positions (or normals, or deltas), row-major so the rows are packed xyz triples.
+using Positions = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
+/// #V by 2 texture coordinates.
+using UVs = Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>;
+/// #F by 3 vertex indices, counter-clockwise seen from outside.
+using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+/// An image a material samples, as stored in the file: encoded PNG or JPEG bytes (the renderer
+/// decodes them), with its sampler's wrap and filter modes.
+struct Texture {
+  std::string name;
+  std::string mime_type;                  // "image/png" or "image/jpeg"
+  std::string bytes;                      // the encoded image
+  bool repeat_s = true, repeat_t = true;  // REPEAT (or MIRRORED_REPEAT) vs CLAMP_TO_EDGE
+  bool nearest = false;                   // NEAREST magnification instead of LINEAR
+};
+
+/// A material's use of a texture (glTF textureInfo with KHR_texture_transform folded in): the
+/// UV set is transformed as uv' = offset + R(rotation) * (scale .* uv) before sampling.
+struct TextureRef {
+  int texture = -1;  // index into Rig::textures; -1: no texture
+  Eigen::Vector2f offset{0.0f, 0.0f};
+  Eigen::Vector2f scale{1.0f, 1.0f};
+  float rotation = 0.0f;  // radians
+  float strength = 1.0f;  // normalTexture.scale or occlusionTexture.strength; 1 otherwise
+};
+
+enum class AlphaMode { kOpaque, kMask, kBlend };
+
+/// A glTF metallic-roughness material. Colours are linear; textures hold sRGB base colour and
+/// emissive, linear metallic (B) / roughness (G), tangent-space normals and occlusion (R).
+struct Material {
+  std::string name;
+  Eigen::Vector4f base_color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
+  float metallic = 0.0f;
+  float roughness = 0.6f;
+  Eigen::Vector3f emissive{0.0f, 0.0f, 0.0f};
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float alpha_cutoff = 0.5f;  // for kMask
+  bool double_sided = false;
+  TextureRef base_color_texture, metallic_roughness_texture, normal_texture, occlusion_texture,
+      emissive_texture;
+
+  /// A plain coloured material without textures.
+  static Material solid(std::string name,
+                        const Eigen::Vector4f& color = Eigen::Vector4f(0.8f, 0.8f, 0.8f, 1.0f)) {
+    Material m;
+    m.name = std::move(name);
+    m.base_color = color;
+    return m;
+  }
+};
+
+/// The skeleton of a skinned avatar, in the rig's (bind pose) coordinates. The rig's vertices are
+/// already skinned to the rest pose; the renderer moves only the joints the head pose turns.
+struct Skeleton {
+  std::vector<std::string> joint_names;
+  std::vector<int> parent;                   // -1 for a root
+  std::vector<Eigen::Vector3f> rest_origin;  // each joint's origin in the bind pose
+  int head = -1;                             // the head joint, or -1
+  int neck = -1;                             // the neck joint, or -1
+};
+
+/// A blendshape: the vertices it moves (ascending, unique) and their deltas from the neutral.
+struct Blendshape {
+  std::string name;
+  std::vector<int> vertices;
+  Positions deltas;  // vertices.size() by 3
+
+  /// Builds the sparse form from #V by 3 deltas, keeping rows whose largest |component| >
+  /// tolerance.
+  static Blendshape from_dense(std::string name, const Positions& dense, float tolerance = 0.0f);
+  /// #V by 3 deltas with zeros where the shape does not move.
+  Positions dense(int vertex_count) const;
+  /// Largest vertex displacement (Euclidean length of a delta).
+  float max_displacement() const;
+};
+
+/// A named vertex: a landmark or a marker.
+struct Landmark {
+  std::string name;
+  int vertex = 0;
+};
+
+/// One glTF mesh of a rig written as several (the head, teeth, eyes ... as real avatars have them):
+/// a consecutive range of vertices, and the triangles on them.
+struct MeshRange {
+  std::string name;
+  int first_vertex = 0, vertex_count = 0;
+};
+
+struct Rig {
+  Positions positions;                 // #V by 3, the neutral face
+  Positions normals;                   // #V by 3, unit length
+  UVs uvs;                             // #V by 2, or 0 rows when the mesh has none
+  Triangles triangles;                 // #F by 3
+  std::vector<int> triangle_material;  // #F, index into materials
+  std::vector<Material> materials;     // at least one
+  std::vector<int> triangle_group;     // #F, index into groups (OBJ "g"); may be empty
+  std::vector<std::string> groups;
+  std::vector<Blendshape> shapes;
+  std::vector<Landmark> landmarks;
+  std::vector<Texture> textures;  // images the materials sample (through uvs)
+  /// The meshes the rig is written as, covering every vertex in order; empty: one mesh.
+  std::vector<MeshRange> meshes;
+  Skeleton skeleton;  // empty when the avatar is not skinned
+  /// #V by 4 joint indices into skeleton and their weights (summing to 1), or 0 rows when the
+  /// avatar is not skinned.
+  Eigen::Matrix<int, Eigen::Dynamic, 4, Eigen::RowMajor> joints;
+  Eigen::Matrix<float, Eigen::Dynamic, 4, Eigen::RowMajor> joint_weights;
+
+  int vertex_count() const { return static_cast<int>(positions.rows()); }
+  int triangle_count() const { return static_cast<int>(triangles.rows()); }
+  /// Index of the shape named `name`, or -1.
+  int find_shape(std::string_view name) const;
+  std::vector<std::string> shape_names() const;
+  /// Index into `meshes` of the range holding `vertex` (-1 without meshes).
+  int mesh_of(int vertex) const;
+  /// Checks sizes, index ranges and finiteness; throws facecast::Error naming `what` and the
+  /// problem.
+  void validate(std::string_view what = "rig") const;
+};
+
+/// Connected components of the mesh (vertices joined by triangle edges). The largest is the skin
+/// of a head (the face); the others are its parts: teeth, eyeballs, lashes, a tongue. This is the
+/// one place that decides it.
+struct Components {
+  std::vector<int> label;  // #V, component of each vertex; -1 for a vertex in no triangle
+  int count = 0;
+  int largest = -1;  // the component with the most vertices (the first of equal ones); -1: none
+};
+Components connected_components(int vertex_count, const Triangles& triangles);
+
+/// Area-weighted unit vertex normals; a vertex in no (or only degenerate) triangles gets +Z.
+Positions vertex_normals(const Positions& positions, const Triangles& triangles);
+/// The same, written into `normals` (resized) so a per-frame caller can reuse the memory.
+void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals);
+/// The same in double precision (the rig builder's geometry).
+using PositionsD = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles);
+
+/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5);
+/// returns barycentric weights of a, b, c.
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+
+}  // namespace facecast::rig

@@ -1,0 +1,42 @@
+#pragma once
+// Shared between the view's files: node world transforms and the pieces of the view that are not
+// geometry (materials, textures, skeleton, VRM expressions).
+#include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "facecast/rig/avatar_view.hpp"
+
+namespace facecast::rig::detail {
+
+/// World transforms of every node (identity for nodes in no scene) and each node's parent (-1).
+struct NodeGraph {
+  std::vector<Eigen::Matrix4f> world;
+  std::vector<int> parent;
+  std::vector<int> order;  // nodes of the scene, depth first
+};
+NodeGraph node_graph(const tinygltf::Model& m, const std::string& what);
+
+/// Materials and textures of the document into the rig (indices kept).
+void read_materials(const tinygltf::Model& m, Rig& rig);
+
+/// The skeleton over `joint_nodes` (node indices, in order), with head and neck found.
+Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
+                       const std::vector<int>& joint_nodes);
+
+/// A VRM expression: its name (VRM 1.0 preset naming) and (mesh, target index, weight) binds.
+struct Expression {
+  std::string name;
+  struct Bind {
+    int mesh, target;
+    float weight;
+  };
+  std::vector<Bind> binds;
+};
+/// VRM 0.x blendShapeGroups or VRM 1.0 expressions; empty for other files.
+std::vector<Expression> vrm_expressions(const tinygltf::Model& m);
+
+}  // namespace facecast::rig::detail

@@ -1,0 +1,308 @@
+// The view's non-geometry parts: node transforms, materials and textures, the skeleton, VRM
+// expressions.
+#include <algorithm>
+#include <cctype>
+
+#include "avatar_view_detail.hpp"
+#include "facecast/core/error.hpp"
+
+namespace facecast::rig {
+namespace detail {
+namespace {
+
+Eigen::Matrix4f local_matrix(const tinygltf::Node& n) {
+  Eigen::Matrix4f out = Eigen::Matrix4f::Identity();
+  if (n.matrix.size() == 16) {
+    for (int i = 0; i < 16; ++i) out(i % 4, i / 4) = static_cast<float>(n.matrix[i]);
+    return out;
+  }
+  Eigen::Affine3f t = Eigen::Affine3f::Identity();
+  if (n.translation.size() == 3)
+    t.translate(
+        Eigen::Vector3f(n.translation[0], n.translation[1], n.translation[2]).cast<float>());
+  if (n.rotation.size() == 4)
+    t.rotate(
+        Eigen::Quaternionf(static_cast<float>(n.rotation[3]), static_cast<float>(n.rotation[0]),
+                           static_cast<float>(n.rotation[1]), static_cast<float>(n.rotation[2]))
+            .normalized());
+  if (n.scale.size() == 3)
+    t.scale(Eigen::Vector3f(n.scale[0], n.scale[1], n.scale[2]).cast<float>());
+  return t.matrix();
+}
+
+TextureRef texture_ref(int index, const tinygltf::ExtensionMap& ext, double strength) {
+  TextureRef r;
+  r.texture = index;
+  r.strength = static_cast<float>(strength);
+  const auto it = ext.find("KHR_texture_transform");
+  if (index < 0 || it == ext.end() || !it->second.IsObject()) return r;
+  const auto& t = it->second;
+  const auto pair = [&](const char* key, Eigen::Vector2f& out) {
+    if (!t.Has(key) || !t.Get(key).IsArray() || t.Get(key).ArrayLen() != 2) return;
+    for (int c = 0; c < 2; ++c)
+      if (t.Get(key).Get(c).IsNumber())
+        out[c] = static_cast<float>(t.Get(key).Get(c).GetNumberAsDouble());
+  };
+  pair("offset", r.offset);
+  pair("scale", r.scale);
+  if (t.Has("rotation") && t.Get("rotation").IsNumber())
+    r.rotation = static_cast<float>(t.Get("rotation").GetNumberAsDouble());
+  return r;
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// A humanoid bone's node from VRM 0.x (extensions.VRM.humanoid.humanBones[]) or VRM 1.0
+// (extensions.VRMC_vrm.humanoid.humanBones.<bone>.node); -1 when absent.
+int vrm_bone(const tinygltf::Model& m, const char* bone) {
+  if (const auto it = m.extensions.find("VRMC_vrm"); it != m.extensions.end()) {
+    const auto& hb = it->second.Get("humanoid").Get("humanBones").Get(bone);
+    if (hb.IsObject() && hb.Get("node").IsInt()) return hb.Get("node").GetNumberAsInt();
+  }
+  if (const auto it = m.extensions.find("VRM"); it != m.extensions.end()) {
+    const auto& bones = it->second.Get("humanoid").Get("humanBones");
+    for (std::size_t i = 0; bones.IsArray() && i < bones.ArrayLen(); ++i) {
+      const auto& b = bones.Get(static_cast<int>(i));
+      if (b.Get("bone").IsString() && b.Get("bone").Get<std::string>() == bone &&
+          b.Get("node").IsInt())
+        return b.Get("node").GetNumberAsInt();
+    }
+  }
+  return -1;
+}
+
+}  // namespace
+
+NodeGraph node_graph(const tinygltf::Model& m, const std::string& what) {
+  const std::size_t n = m.nodes.size();
+  NodeGraph g;
+  g.world.assign(n, Eigen::Matrix4f::Identity());
+  g.parent.assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (const int c : m.nodes[i].children) {
+      if (c < 0 || static_cast<std::size_t>(c) >= n || g.parent[static_cast<std::size_t>(c)] >= 0 ||
+          static_cast<std::size_t>(c) == i)
+        throw Error(what + ": nodes[" + std::to_string(i) + "] has a bad child " +
+                    std::to_string(c));
+      g.parent[static_cast<std::size_t>(c)] = static_cast<int>(i);
+    }
+  }
+  std::vector<int> roots;
+  if (!m.scenes.empty()) {
+    const auto& s =
+        m.scenes[m.defaultScene >= 0 && static_cast<std::size_t>(m.defaultScene) < m.scenes.size()
+                     ? static_cast<std::size_t>(m.defaultScene)
+                     : 0];
+    roots = s.nodes;
+  } else {
+    for (std::size_t i = 0; i < n; ++i)
+      if (g.parent[i] < 0) roots.push_back(static_cast<int>(i));
+  }
+  std::vector<char> seen(n, 0);
+  std::vector<std::pair<int, Eigen::Matrix4f>> stack;
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
+    if (*it < 0 || static_cast<std::size_t>(*it) >= n ||
+        g.parent[static_cast<std::size_t>(*it)] >= 0)
+      throw Error(what + ": scene root " + std::to_string(*it) + " is not a root node");
+    stack.emplace_back(*it, Eigen::Matrix4f::Identity());
+  }
+  while (!stack.empty()) {
+    const auto [i, parent_world] = stack.back();
+    stack.pop_back();
+    const auto ui = static_cast<std::size_t>(i);
+    if (seen[ui])
+      throw Error(what + ": node graph has a cycle at nodes[" + std::to_string(i) + "]");
+    seen[ui] = 1;
+    g.world[ui] = parent_world * local_matrix(m.nodes[ui]);
+    g.order.push_back(i);
+    const auto& ch = m.nodes[ui].children;
+    for (auto c = ch.rbegin(); c != ch.rend(); ++c) stack.emplace_back(*c, g.world[ui]);
+  }
+  // Nodes under a root that no scene lists are still placed (skins may name them).
+  for (std::size_t i = 0; i < n; ++i) {
+    if (seen[i] || g.parent[i] >= 0) continue;
+    std::vector<std::pair<int, Eigen::Matrix4f>> rest{
+        {static_cast<int>(i), Eigen::Matrix4f::Identity()}};
+    while (!rest.empty()) {
+      const auto [k, pw] = rest.back();
+      rest.pop_back();
+      const auto uk = static_cast<std::size_t>(k);
+      if (seen[uk])
+        throw Error(what + ": node graph has a cycle at nodes[" + std::to_string(k) + "]");
+      seen[uk] = 1;
+      g.world[uk] = pw * local_matrix(m.nodes[uk]);
+      for (const int c : m.nodes[uk].children) rest.emplace_back(c, g.world[uk]);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (!seen[i])
+      throw Error(what + ": node graph has a cycle at nodes[" + std::to_string(i) + "]");
+  return g;
+}
+
+void read_materials(const tinygltf::Model& m, Rig& rig) {
+  for (const auto& t : m.textures) {
+    Texture tex;
+    tex.name = t.name;
+    if (t.source >= 0 && static_cast<std::size_t>(t.source) < m.images.size()) {
+      const auto& im = m.images[static_cast<std::size_t>(t.source)];
+      tex.mime_type = im.mimeType;
+      if (im.bufferView >= 0 && static_cast<std::size_t>(im.bufferView) < m.bufferViews.size()) {
+        const auto& v = m.bufferViews[static_cast<std::size_t>(im.bufferView)];
+        if (v.buffer >= 0 && static_cast<std::size_t>(v.buffer) < m.buffers.size()) {
+          const auto& b = m.buffers[static_cast<std::size_t>(v.buffer)].data;
+          if (v.byteOffset <= b.size() && v.byteLength <= b.size() - v.byteOffset)
+            tex.bytes.assign(reinterpret_cast<const char*>(b.data() + v.byteOffset), v.byteLength);
+        }
+      }
+    }
+    if (t.sampler >= 0 && static_cast<std::size_t>(t.sampler) < m.samplers.size()) {
+      const auto& s = m.samplers[static_cast<std::size_t>(t.sampler)];
+      tex.repeat_s = s.wrapS != TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+      tex.repeat_t = s.wrapT != TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+      tex.nearest = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    }
+    rig.textures.push_back(std::move(tex));
+  }
+  const int nt = static_cast<int>(rig.textures.size());
+  const auto index = [&](int i) { return i >= 0 && i < nt ? i : -1; };
+  for (const auto& gm : m.materials) {
+    Material mat = Material::solid(gm.name);
+    const auto& pbr = gm.pbrMetallicRoughness;
+    for (std::size_t c = 0; c < 4 && c < pbr.baseColorFactor.size(); ++c)
+      mat.base_color[static_cast<Eigen::Index>(c)] = static_cast<float>(pbr.baseColorFactor[c]);
+    mat.metallic = static_cast<float>(pbr.metallicFactor);
+    mat.roughness = static_cast<float>(pbr.roughnessFactor);
+    for (std::size_t c = 0; c < 3 && c < gm.emissiveFactor.size(); ++c)
+      mat.emissive[static_cast<Eigen::Index>(c)] = static_cast<float>(gm.emissiveFactor[c]);
+    mat.alpha_mode = gm.alphaMode == "MASK"    ? AlphaMode::kMask
+                     : gm.alphaMode == "BLEND" ? AlphaMode::kBlend
+                                               : AlphaMode::kOpaque;
+    mat.alpha_cutoff = static_cast<float>(gm.alphaCutoff);
+    mat.double_sided = gm.doubleSided;
+    mat.base_color_texture =
+        texture_ref(index(pbr.baseColorTexture.index), pbr.baseColorTexture.extensions, 1.0);
+    mat.metallic_roughness_texture = texture_ref(index(pbr.metallicRoughnessTexture.index),
+                                                 pbr.metallicRoughnessTexture.extensions, 1.0);
+    mat.normal_texture = texture_ref(index(gm.normalTexture.index), gm.normalTexture.extensions,
+                                     gm.normalTexture.scale);
+    mat.occlusion_texture =
+        texture_ref(index(gm.occlusionTexture.index), gm.occlusionTexture.extensions,
+                    gm.occlusionTexture.strength);
+    mat.emissive_texture =
+        texture_ref(index(gm.emissiveTexture.index), gm.emissiveTexture.extensions, 1.0);
+    rig.materials.push_back(std::move(mat));
+  }
+}
+
+Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
+                       const std::vector<int>& joint_nodes) {
+  Skeleton s;
+  std::map<int, int> index_of;
+  for (const int node : joint_nodes) {
+    index_of[node] = static_cast<int>(s.joint_names.size());
+    const auto& nm = m.nodes[static_cast<std::size_t>(node)].name;
+    s.joint_names.push_back(nm.empty() ? "joint" + std::to_string(node) : nm);
+    s.rest_origin.push_back(g.world[static_cast<std::size_t>(node)].block<3, 1>(0, 3));
+  }
+  for (const int node : joint_nodes) {
+    int p = g.parent[static_cast<std::size_t>(node)];
+    while (p >= 0 && !index_of.count(p)) p = g.parent[static_cast<std::size_t>(p)];
+    s.parent.push_back(p >= 0 ? index_of[p] : -1);
+  }
+  const auto by_vrm = [&](const char* bone) {
+    const auto it = index_of.find(vrm_bone(m, bone));
+    return it == index_of.end() ? -1 : it->second;
+  };
+  s.head = by_vrm("head");
+  s.neck = by_vrm("neck");
+  if (s.head < 0) s.head = find_joint(s.joint_names, "head");
+  if (s.neck < 0) s.neck = find_joint(s.joint_names, "neck");
+  return s;
+}
+
+std::vector<Expression> vrm_expressions(const tinygltf::Model& m) {
+  std::vector<Expression> out;
+  if (const auto it = m.extensions.find("VRMC_vrm"); it != m.extensions.end()) {
+    const auto& preset = it->second.Get("expressions").Get("preset");
+    if (!preset.IsObject()) return out;
+    for (const auto& key : preset.Keys()) {
+      Expression e{key, {}};
+      const auto& binds = preset.Get(key).Get("morphTargetBinds");
+      for (std::size_t i = 0; binds.IsArray() && i < binds.ArrayLen(); ++i) {
+        const auto& b = binds.Get(static_cast<int>(i));
+        const int node = b.Get("node").IsInt() ? b.Get("node").GetNumberAsInt() : -1;
+        if (node < 0 || static_cast<std::size_t>(node) >= m.nodes.size() || !b.Get("index").IsInt())
+          continue;
+        e.binds.push_back(
+            {m.nodes[static_cast<std::size_t>(node)].mesh, b.Get("index").GetNumberAsInt(),
+             static_cast<float>(b.Get("weight").IsNumber() ? b.Get("weight").GetNumberAsDouble()
+                                                           : 1.0)});
+      }
+      out.push_back(std::move(e));
+    }
+    return out;
+  }
+  const auto it = m.extensions.find("VRM");
+  if (it == m.extensions.end()) return out;
+  // VRM 0.x preset names in VRM 1.0 naming, so one table (configs/anim/visemes_vrm.json) serves
+  // both.
+  static const std::map<std::string, std::string> rename = {{"a", "aa"},
+                                                            {"i", "ih"},
+                                                            {"u", "ou"},
+                                                            {"e", "ee"},
+                                                            {"o", "oh"},
+                                                            {"joy", "happy"},
+                                                            {"sorrow", "sad"},
+                                                            {"fun", "relaxed"},
+                                                            {"blink_l", "blinkLeft"},
+                                                            {"blink_r", "blinkRight"},
+                                                            {"lookup", "lookUp"},
+                                                            {"lookdown", "lookDown"},
+                                                            {"lookleft", "lookLeft"},
+                                                            {"lookright", "lookRight"}};
+  const auto& groups = it->second.Get("blendShapeMaster").Get("blendShapeGroups");
+  for (std::size_t g = 0; groups.IsArray() && g < groups.ArrayLen(); ++g) {
+    const auto& grp = groups.Get(static_cast<int>(g));
+    std::string name =
+        grp.Get("presetName").IsString() ? lower(grp.Get("presetName").Get<std::string>()) : "";
+    if (name.empty() || name == "unknown")
+      name = grp.Get("name").IsString() ? grp.Get("name").Get<std::string>() : "";
+    if (const auto r = rename.find(name); r != rename.end()) name = r->second;
+    if (name.empty()) continue;
+    Expression e{name, {}};
+    const auto& binds = grp.Get("binds");
+    for (std::size_t i = 0; binds.IsArray() && i < binds.ArrayLen(); ++i) {
+      const auto& b = binds.Get(static_cast<int>(i));
+      if (!b.Get("mesh").IsInt() || !b.Get("index").IsInt()) continue;
+      e.binds.push_back(
+          {b.Get("mesh").GetNumberAsInt(), b.Get("index").GetNumberAsInt(),
+           static_cast<float>(
+               (b.Get("weight").IsNumber() ? b.Get("weight").GetNumberAsDouble() : 100.0) /
+               100.0)});
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+}  // namespace detail
+
+int find_joint(const std::vector<std::string>& names, const char* role) {
+  const std::string r = detail::lower(role);
+  const std::vector<std::string> wanted = {
+      r, "j_bip_c_" + r, "mixamorig" + r, "bip01_" + r, "bip01 " + r, "def-" + r};
+  for (const auto& w : wanted) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      std::string n = detail::lower(names[i]);
+      if (const auto colon = n.rfind(':'); colon != std::string::npos) n = n.substr(colon + 1);
+      if (n == w) return static_cast<int>(i);
+    }
+  }
+  return -1;
+}
+
+}  // namespace facecast::rig

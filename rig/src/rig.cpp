@@ -1,0 +1,253 @@
+#include "facecast/rig/rig.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Geometry>
+
+#include "facecast/core/error.hpp"
+#include "facecast/core/utf8.hpp"
+
+namespace facecast::rig {
+
+Blendshape Blendshape::from_dense(std::string name, const Positions& dense, float tolerance) {
+  Blendshape s;
+  s.name = std::move(name);
+  for (Eigen::Index v = 0; v < dense.rows(); ++v) {
+    if (dense.row(v).cwiseAbs().maxCoeff() > tolerance) s.vertices.push_back(static_cast<int>(v));
+  }
+  s.deltas.resize(static_cast<Eigen::Index>(s.vertices.size()), 3);
+  for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+    s.deltas.row(static_cast<Eigen::Index>(k)) = dense.row(s.vertices[k]);
+  }
+  return s;
+}
+
+Positions Blendshape::dense(int vertex_count) const {
+  Positions d = Positions::Zero(vertex_count, 3);
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    d.row(vertices[k]) = deltas.row(static_cast<Eigen::Index>(k));
+  }
+  return d;
+}
+
+float Blendshape::max_displacement() const {
+  return deltas.rows() ? deltas.rowwise().norm().maxCoeff() : 0.0f;
+}
+
+int Rig::find_shape(std::string_view name) const {
+  for (std::size_t i = 0; i < shapes.size(); ++i) {
+    if (shapes[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::vector<std::string> Rig::shape_names() const {
+  std::vector<std::string> names;
+  names.reserve(shapes.size());
+  for (const auto& s : shapes) names.push_back(s.name);
+  return names;
+}
+
+int Rig::mesh_of(int vertex) const {
+  const auto it = std::upper_bound(meshes.begin(), meshes.end(), vertex,
+                                   [](int v, const MeshRange& m) { return v < m.first_vertex; });
+  return it == meshes.begin() ? -1 : static_cast<int>(it - meshes.begin()) - 1;
+}
+
+void Rig::validate(std::string_view what) const {
+  const std::string w(what);
+  const int nv = vertex_count();
+  if (nv == 0) throw Error(w + ": mesh has no vertices");
+  if (triangle_count() == 0) throw Error(w + ": mesh has no triangles");
+  if (!positions.allFinite()) throw Error(w + ": non-finite vertex coordinate");
+  if (normals.rows() != nv) throw Error(w + ": normal count differs from vertex count");
+  if (uvs.rows() != 0 && uvs.rows() != nv) throw Error(w + ": UV count differs from vertex count");
+  if (triangles.minCoeff() < 0 || triangles.maxCoeff() >= nv) {
+    throw Error(w + ": triangle index out of range");
+  }
+  if (static_cast<int>(triangle_material.size()) != triangle_count()) {
+    throw Error(w + ": per-triangle material count differs from triangle count");
+  }
+  if (materials.empty()) throw Error(w + ": no materials");
+  for (int m : triangle_material) {
+    if (m < 0 || m >= static_cast<int>(materials.size()))
+      throw Error(w + ": material out of range");
+  }
+  for (const auto& s : shapes) {
+    if (static_cast<Eigen::Index>(s.vertices.size()) != s.deltas.rows()) {
+      throw Error(w + ": shape '" + s.name + "' has mismatched delta rows");
+    }
+    for (std::size_t k = 0; k < s.vertices.size(); ++k) {
+      if (s.vertices[k] < 0 || s.vertices[k] >= nv || (k && s.vertices[k] <= s.vertices[k - 1])) {
+        throw Error(w + ": shape '" + s.name + "' vertex list out of range or unsorted");
+      }
+    }
+    if (!s.deltas.allFinite()) throw Error(w + ": shape '" + s.name + "' has a non-finite delta");
+  }
+  const auto check_name = [&](const std::string& kind, const std::string& name) {
+    if (!is_valid_utf8(name)) throw Error(w + ": " + kind + " name is not valid UTF-8");
+  };
+  if (!meshes.empty()) {
+    int next = 0;
+    for (const auto& m : meshes) {
+      check_name("mesh", m.name);
+      if (m.first_vertex != next || m.vertex_count <= 0)
+        throw Error(w + ": mesh '" + m.name + "' does not start where the previous one ends");
+      next += m.vertex_count;
+    }
+    if (next != nv)
+      throw Error(w + ": the meshes cover " + std::to_string(next) + " of " + std::to_string(nv) +
+                  " vertices");
+    for (int f = 0; f < triangle_count(); ++f) {
+      const auto in = [&](int v) { return mesh_of(v); };
+      if (in(triangles(f, 1)) != in(triangles(f, 0)) || in(triangles(f, 2)) != in(triangles(f, 0)))
+        throw Error(w + ": triangle " + std::to_string(f) + " joins two meshes");
+    }
+  }
+  for (const auto& m : materials) check_name("material", m.name);
+  for (const auto& g : groups) check_name("group", g);
+  for (const auto& s : shapes) check_name("shape", s.name);
+  for (const auto& l : landmarks) {
+    check_name("landmark", l.name);
+    if (l.vertex < 0 || l.vertex >= nv) {
+      throw Error(w + ": landmark '" + l.name + "' vertex " + std::to_string(l.vertex) +
+                  " out of range");
+    }
+  }
+  const int nt = static_cast<int>(textures.size());
+  for (const auto& m : materials) {
+    for (const TextureRef* t : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.normal_texture, &m.occlusion_texture, &m.emissive_texture}) {
+      if (t->texture < -1 || t->texture >= nt)
+        throw Error(w + ": material '" + m.name + "' texture out of range");
+    }
+  }
+  const int nj = static_cast<int>(skeleton.joint_names.size());
+  if (skeleton.parent.size() != skeleton.joint_names.size() ||
+      skeleton.rest_origin.size() != skeleton.joint_names.size())
+    throw Error(w + ": skeleton joint arrays differ in length");
+  for (int j = 0; j < nj; ++j) {
+    if (skeleton.parent[j] < -1 || skeleton.parent[j] >= nj || skeleton.parent[j] == j)
+      throw Error(w + ": skeleton joint " + std::to_string(j) + " has a bad parent");
+  }
+  if (skeleton.head < -1 || skeleton.head >= nj || skeleton.neck < -1 || skeleton.neck >= nj)
+    throw Error(w + ": skeleton head or neck joint out of range");
+  if (joints.rows() != joint_weights.rows() || (joints.rows() != 0 && joints.rows() != nv))
+    throw Error(w + ": joint count differs from vertex count");
+  if (joints.rows() && (joints.minCoeff() < 0 || joints.maxCoeff() >= nj))
+    throw Error(w + ": vertex joint index out of range");
+  if (!joint_weights.allFinite()) throw Error(w + ": non-finite joint weight");
+}
+
+Components connected_components(int vertex_count, const Triangles& triangles) {
+  std::vector<int> parent(static_cast<std::size_t>(vertex_count));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::vector<char> used(static_cast<std::size_t>(vertex_count), 0);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const int a = find(triangles(f, 0));
+    used[triangles(f, 0)] = used[triangles(f, 1)] = used[triangles(f, 2)] = 1;
+    for (int c = 1; c < 3; ++c) {
+      const int b = find(triangles(f, c));
+      if (a != b) parent[b] = a;
+    }
+  }
+  Components out;
+  out.label.assign(static_cast<std::size_t>(vertex_count), -1);
+  std::vector<int> root_label(static_cast<std::size_t>(vertex_count), -1);
+  std::vector<int> size;
+  for (int v = 0; v < vertex_count; ++v) {
+    if (!used[v]) continue;
+    int& l = root_label[find(v)];
+    if (l < 0) {
+      l = out.count++;
+      size.push_back(0);
+    }
+    out.label[v] = l;
+    ++size[static_cast<std::size_t>(l)];
+  }
+  if (out.count > 0)
+    out.largest = static_cast<int>(std::max_element(size.begin(), size.end()) - size.begin());
+  return out;
+}
+
+namespace {
+
+// Area-weighted unit vertex normals in the precision of `Matrix` (#V by 3, row-major).
+template <class Matrix>
+void area_weighted_normals(const Matrix& positions, const Triangles& triangles, Matrix& normals) {
+  using Scalar = typename Matrix::Scalar;
+  normals.setZero(positions.rows(), 3);
+  for (Eigen::Index f = 0; f < triangles.rows(); ++f) {
+    const int a = triangles(f, 0), b = triangles(f, 1), c = triangles(f, 2);
+    const Eigen::Matrix<Scalar, 3, 1> n =
+        (positions.row(b) - positions.row(a)).cross(positions.row(c) - positions.row(a));
+    normals.row(a) += n;  // |n| = 2 * area: area weighting for free
+    normals.row(b) += n;
+    normals.row(c) += n;
+  }
+  for (Eigen::Index v = 0; v < normals.rows(); ++v) {
+    const Scalar len = normals.row(v).norm();
+    if (len > static_cast<Scalar>(1e-20) && std::isfinite(len)) {
+      normals.row(v) /= len;
+    } else {
+      normals.row(v) = Eigen::Matrix<Scalar, 1, 3>(0, 0, 1);
+    }
+  }
+}
+
+}  // namespace
+
+void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals) {
+  area_weighted_normals(positions, triangles, normals);
+}
+
+Positions vertex_normals(const Positions& positions, const Triangles& triangles) {
+  Positions n;
+  vertex_normals(positions, triangles, n);
+  return n;
+}
+
+PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles) {
+  PositionsD n;
+  area_weighted_normals(positions, triangles, n);
+  return n;
+}
+
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double v = d1 / (d1 - d3);
+    return {1 - v, v, 0};
+  }
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double w = d2 / (d2 - d6);
+    return {1 - w, 0, w};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0, 1 - w, w};
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return {1 - v - w, v, w};
+}
+
+}  // namespace facecast::rig
