@@ -1,6 +1,8 @@
-// facecast animate --text T | --timestamps FILE --rig rig.glb [--fps 60] --out weights.json|.bin
+// facecast animate --text T | --timestamps FILE --rig rig.glb [--fps 60] --out
+// weights.json|.bin|take.csv
 #include <iostream>
 
+#include "facecast/anim/live_link.hpp"
 #include "facecast/app/commands.hpp"
 #include "facecast/app/timeline_plot.hpp"
 #include "facecast/avatar/avatar.hpp"
@@ -75,7 +77,8 @@ struct AnimateArgs {
 void add_animate_commands(CLI::App& app) {
   auto a = std::make_shared<AnimateArgs>();
   auto* cmd = app.add_subcommand(
-      "animate", "Text or timestamps -> blendshape weights per frame (JSON or binary)");
+      "animate",
+      "Text or timestamps -> blendshape weights per frame (JSON, binary or a Live Link Face take)");
   add_speech_options(cmd, a->speech);
   cmd->add_option("--rig", a->rig, "Rig (GLB or OBJ folder); default: the built-in avatar")
       ->check(CLI::ExistingPath);
@@ -83,22 +86,33 @@ void add_animate_commands(CLI::App& app) {
       ->check(CLI::Range(1.0, 240.0))
       ->capture_default_str();
   cmd->add_option("--out", a->out,
-                  "weights.json ({fps, frames, shapes, weights, head}) or weights.bin (FCWT: see "
-                  "anim/animation.hpp)")
+                  "weights.json ({fps, frames, shapes, weights, head}), weights.bin (FCWT: see "
+                  "anim/animation.hpp) or take.csv (a Live Link Face take: the 52 ARKit shapes "
+                  "and the head, for Unreal and Blender; anim/live_link.hpp)")
       ->required();
   cmd->add_option("--plot", a->plot,
                   "Also draw the timeline (viseme events and curves, expressions, jaw, blink) "
                   "as a PNG");
   cmd->callback([a] {
-    const bool binary = a->out.ends_with(".bin");
-    if (!binary && !a->out.ends_with(".json"))
-      throw Error("--out: '" + a->out + "' must end in .json or .bin");
-    const rig::Rig rig = a->rig.empty() ? avatar::default_avatar() : rig::load_rig(a->rig);
+    const bool binary = a->out.ends_with(".bin"), take = a->out.ends_with(".csv");
+    if (!binary && !take && !a->out.ends_with(".json"))
+      throw Error("--out: '" + a->out + "' must end in .json, .bin or .csv");
+    if (take && !a->rig.empty())
+      throw Error(
+          "--rig: a Live Link Face take (.csv) holds the 52 ARKit shapes of any face; "
+          "leave --rig out");
+    // A take drives an ARKit face whatever the rig; otherwise the rig's own shapes.
+    const std::vector<std::string> shapes = take ? anim::arkit_shape_names()
+                                            : a->rig.empty()
+                                                ? avatar::default_avatar().shape_names()
+                                                : rig::load_rig(a->rig).shape_names();
     const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
-    const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
+    const anim::Mapping mapping = anim::Mapping::for_rig(shapes);
     const anim::Performance p(u, mapping, speech_anim_options(a->speech));
     const anim::WeightTrack track = anim::bake(p, a->fps);
-    write_file_atomic(a->out, binary ? anim::to_binary(track) : anim::to_json(track) + "\n");
+    write_file_atomic(a->out, take     ? anim::to_live_link_csv(track)
+                              : binary ? anim::to_binary(track)
+                                       : anim::to_json(track) + "\n");
     if (!a->plot.empty()) render::write_image(a->plot, plot_timeline(u, p));
     std::cerr << "wrote " << a->out << ": " << track.frames << " frames x " << track.shapes.size()
               << " shapes at " << a->fps << " fps (" << p.duration() << " s, " << mapping.table()

@@ -1,6 +1,7 @@
 #include "facecast/server/keys.hpp"
 
 #include <fcntl.h>
+#include <openssl/crypto.h>
 #include <openssl/evp.h>
 #include <openssl/rand.h>
 #include <sqlite3.h>
@@ -53,13 +54,6 @@ bool is_hex(std::string_view s) {
   for (const char c : s)
     if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
   return true;
-}
-
-bool equal_constant_time(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  unsigned char diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
-  return diff == 0;
 }
 
 constexpr const char* kColumns = "id, tenant, scopes, created, last_used, revoked";
@@ -124,6 +118,10 @@ void check_tenant_name(std::string_view tenant, std::string_view field) {
 fs::path key_store_path(const ServerOptions& o) {
   if (o.keys != "auto" && o.keys != "required") return o.keys;
   return o.data / "keys.sqlite3";
+}
+
+bool constant_time_equal(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
 }
 
 std::string sha256_hex(std::string_view bytes) {
@@ -273,7 +271,7 @@ std::optional<KeyInfo> KeyStore::verify(std::string_view key) {
     }
   }
   // The hash is compared even for an unknown id, so timing does not tell ids apart.
-  const bool match = equal_constant_time(hash, info ? stored : std::string(hash.size(), 'x'));
+  const bool match = constant_time_equal(hash, info ? stored : std::string(hash.size(), 'x'));
   if (!info || !match || info->revoked != 0) return std::nullopt;
   const double now = unix_now();
   if (now - info->last_used > 60) {

@@ -71,13 +71,6 @@ std::optional<std::time_t> parse_http_date(std::string_view s) {
 
 }  // namespace
 
-bool constant_time_equal(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  unsigned char diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
-  return diff == 0;
-}
-
 namespace {
 
 void count_status(State& state, unsigned status) {

@@ -17,8 +17,6 @@ Target parse_target(std::string_view target);
 /// The value of `key` in a query string, percent-decoded.
 std::optional<std::string> query_value(std::string_view query, std::string_view key);
 
-/// Compares secrets in time independent of where they differ.
-bool constant_time_equal(std::string_view a, std::string_view b);
 /// /api/channels/{c} and /api/channels/{c}/speak (channel.cpp).
 http::message_generator channel_api(State& state, const Request& req, const Target& target);
 /// A request target for the logs: ?token= values replaced by REDACTED.

@@ -27,6 +27,29 @@ if (j.weights[j.frames - 1].some(v => v > 0.02)) throw "not at rest at the end";
 [[ $(head -c 4 "$tmp/timeline.png" | tail -c 3) == PNG ]] || fail "timeline PNG"
 (( $(stat -c %s "$tmp/timeline.png") > 10000 )) || fail "timeline PNG too small to hold the lanes"
 mkdir -p "$artifacts/anim" && cp "$tmp/timeline.png" "$artifacts/anim/speech_timeline.png"
+# A Live Link Face take, read back with Python's csv module: the app's 63 columns, one row per frame.
+"$facecast" animate --text "Hello, papa. Open wide." --fps 30 --idle off --out "$tmp/take.csv" 2>/dev/null
+python3 - "$tmp/take.csv" <<'PY'
+import csv, sys
+rows = list(csv.reader(open(sys.argv[1])))
+want = ("Timecode,BlendShapeCount,EyeBlinkLeft,EyeLookDownLeft,EyeLookInLeft,EyeLookOutLeft,"
+        "EyeLookUpLeft,EyeSquintLeft,EyeWideLeft,EyeBlinkRight,EyeLookDownRight,EyeLookInRight,"
+        "EyeLookOutRight,EyeLookUpRight,EyeSquintRight,EyeWideRight,JawForward,JawRight,JawLeft,"
+        "JawOpen,MouthClose,MouthFunnel,MouthPucker,MouthRight,MouthLeft,MouthSmileLeft,"
+        "MouthSmileRight,MouthFrownLeft,MouthFrownRight,MouthDimpleLeft,MouthDimpleRight,"
+        "MouthStretchLeft,MouthStretchRight,MouthRollLower,MouthRollUpper,MouthShrugLower,"
+        "MouthShrugUpper,MouthPressLeft,MouthPressRight,MouthLowerDownLeft,MouthLowerDownRight,"
+        "MouthUpperUpLeft,MouthUpperUpRight,BrowDownLeft,BrowDownRight,BrowInnerUp,BrowOuterUpLeft,"
+        "BrowOuterUpRight,CheekPuff,CheekSquintLeft,CheekSquintRight,NoseSneerLeft,NoseSneerRight,"
+        "TongueOut,HeadYaw,HeadPitch,HeadRoll,LeftEyeYaw,LeftEyePitch,LeftEyeRoll,RightEyeYaw,"
+        "RightEyePitch,RightEyeRoll").split(",")
+assert rows[0] == want, rows[0]
+assert len(rows) > 30 and all(len(r) == 63 and r[1] == "61" for r in rows[1:]), "row shape"
+assert rows[1][0] == "00:00:00:00.000" and rows[31][0] == "00:00:01:00.000", (rows[1][0], rows[31][0])
+jaw = [float(r[want.index("JawOpen")]) for r in rows[1:]]
+assert max(jaw) > 0.2 and jaw[-1] < 0.02, (max(jaw), jaw[-1])
+PY
+expect_error "leave --rig out" "$facecast" animate --text hi --rig "$src/configs" --out "$tmp/t.csv"
 "$facecast" animate --timestamps "$src/tests/viseme/fixtures/rhubarb.tsv" --out "$tmp/w.bin"
 [[ $(head -c 4 "$tmp/w.bin") == FCWT ]] || fail "binary magic"
 "$facecast" animate --timestamps "$src/tests/viseme/fixtures/azure_visemes.json" --out "$tmp/a.json"

@@ -125,6 +125,25 @@ void add_image(Doc& d, const std::string& bytes, const char* mime) {
   d.doc["images"].push_back({{"bufferView", d.doc["bufferViews"].size() - 1}, {"mimeType", mime}});
 }
 
+Doc meshopt_2gib(const char* ext) {
+  Doc d = triangle(2 << 20);
+  d.doc["buffers"].push_back(
+      {{"byteLength", 1ull << 31}, {"extensions", {{ext, {{"fallback", true}}}}}});
+  d.doc["bufferViews"].push_back({{"buffer", 1},
+                                  {"byteLength", 1ull << 31},
+                                  {"byteStride", 16},
+                                  {"extensions",
+                                   {{ext,
+                                     {{"buffer", 0},
+                                      {"byteOffset", 84},
+                                      {"byteLength", 1024},
+                                      {"byteStride", 16},
+                                      {"count", (1ull << 31) / 16},
+                                      {"mode", "ATTRIBUTES"}}}}}});
+  d.doc["extensionsUsed"] = {ext};
+  return d;
+}
+
 std::vector<File> glb_attacks() {
   std::vector<File> out;
   {
@@ -132,26 +151,8 @@ std::vector<File> glb_attacks() {
     out.push_back({"deep_json", make_glb(with_member(d, "\"extras\":" + nested(200000)), d.bin),
                    ": JSON nests deeper than 64 levels at byte "});
   }
-  {
-    Doc d = triangle(2 << 20);
-    const char* ext = "EXT_meshopt_compression";
-    d.doc["buffers"].push_back(
-        {{"byteLength", 1ull << 31}, {"extensions", {{ext, {{"fallback", true}}}}}});
-    d.doc["bufferViews"].push_back({{"buffer", 1},
-                                    {"byteLength", 1ull << 31},
-                                    {"byteStride", 16},
-                                    {"extensions",
-                                     {{ext,
-                                       {{"buffer", 0},
-                                        {"byteOffset", 84},
-                                        {"byteLength", 1024},
-                                        {"byteStride", 16},
-                                        {"count", (1ull << 31) / 16},
-                                        {"mode", "ATTRIBUTES"}}}}}});
-    d.doc["extensionsUsed"] = {ext};
-    out.push_back({"meshopt_2gib", d.glb(),
-                   " bufferViews[3]: meshopt decode of 2147483648 bytes is over the budget of "});
-  }
+  out.push_back({"meshopt_2gib", meshopt_2gib("EXT_meshopt_compression").glb(),
+                 " bufferViews[3]: meshopt decode of 2147483648 bytes is over the budget of "});
   {
     Doc d = triangle();
     const std::string draco = draco_header(true, 1000000000, 1000000000);

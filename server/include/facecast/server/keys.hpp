@@ -67,6 +67,9 @@ struct CreatedKey {
 
 /// SHA-256 of `bytes` as 64 lowercase hex digits (OpenSSL).
 std::string sha256_hex(std::string_view bytes);
+/// Whether two secrets (or their hashes) are equal, in a time that does not depend on where they
+/// differ (OpenSSL CRYPTO_memcmp); unequal lengths are unequal at once.
+bool constant_time_equal(std::string_view a, std::string_view b);
 /// `n` bytes from the system's CSPRNG (OpenSSL RAND_bytes) as 2n hex digits.
 std::string random_secret_hex(int n);
 
