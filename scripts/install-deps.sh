@@ -16,6 +16,7 @@ packages=(
   libhiredis-dev redis-server
   clang libclang-rt-14-dev
   libjwt-dev libssl-dev
+  liblo-dev
 )
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)

@@ -1,6 +1,8 @@
 // facecast animate --text T | --timestamps FILE --rig rig.glb [--fps 60] --out
 // weights.json|.bin|take.csv
+#include <chrono>
 #include <iostream>
+#include <thread>
 
 #include "facecast/anim/live_link.hpp"
 #include "facecast/app/commands.hpp"
@@ -9,6 +11,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/rig_io.hpp"
+#include "facecast/server/vmc.hpp"
 #include "facecast/viseme/viseme.hpp"
 #include "speech_input.hpp"
 
@@ -68,9 +71,30 @@ namespace {
 
 struct AnimateArgs {
   SpeechArgs speech;
-  std::string rig, out, plot;
+  std::string rig, out, plot, vmc, vmc_names = "perfect-sync";
   double fps = 60;
 };
+
+// Plays `p` to a VMC receiver in real time: frame f leaves at start + f / fps.
+void play_vmc(const anim::Performance& p, const server::VmcTarget& target, server::VmcNames names,
+              double fps) {
+  server::VmcSender sender(target, names);
+  const auto& shapes = p.shape_names();
+  std::vector<float> w(shapes.size());
+  rig::HeadPose head;
+  const int frames = p.frame_count(fps);
+  const auto start = std::chrono::steady_clock::now();
+  for (int f = 0; f < frames; ++f) {
+    const double t = f / fps;
+    std::this_thread::sleep_until(start +
+                                  std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(t)));
+    p.sample(t, w, &head);
+    sender.send(shapes, w, head, t);
+  }
+  std::cerr << "sent " << frames << " frames to " << target.host << ":" << target.port << " ("
+            << p.duration() << " s)\n";
+}
 
 }  // namespace
 
@@ -85,18 +109,38 @@ void add_animate_commands(CLI::App& app) {
   cmd->add_option("--fps", a->fps, "Frames per second")
       ->check(CLI::Range(1.0, 240.0))
       ->capture_default_str();
+  cmd->add_option("--vmc", a->vmc,
+                  "Play to a VMC receiver (VSeeFace, Warudo, VNyan...) in real time: HOST:PORT "
+                  "(its port is usually 39539)");
+  cmd->add_option("--vmc-names", a->vmc_names,
+                  "The receiver's shape names: perfect-sync (the 52 ARKit names), vrm0 "
+                  "(A I U E O, Blink, Joy...) or vrm1 (aa ih ou ee oh, blink, happy...)")
+      ->check(CLI::IsMember({"perfect-sync", "vrm0", "vrm1"}))
+      ->capture_default_str();
   cmd->add_option("--out", a->out,
                   "weights.json ({fps, frames, shapes, weights, head}), weights.bin (FCWT: see "
                   "anim/animation.hpp) or take.csv (a Live Link Face take: the 52 ARKit shapes "
-                  "and the head, for Unreal and Blender; anim/live_link.hpp)")
-      ->required();
+                  "and the head, for Unreal and Blender; anim/live_link.hpp); needed unless "
+                  "--vmc is given");
   cmd->add_option("--plot", a->plot,
                   "Also draw the timeline (viseme events and curves, expressions, jaw, blink) "
                   "as a PNG");
   cmd->callback([a] {
+    if (a->out.empty() && a->vmc.empty()) throw Error("give --out FILE or --vmc HOST:PORT");
     const bool binary = a->out.ends_with(".bin"), take = a->out.ends_with(".csv");
-    if (!binary && !take && !a->out.ends_with(".json"))
+    if (!a->out.empty() && !binary && !take && !a->out.ends_with(".json"))
       throw Error("--out: '" + a->out + "' must end in .json, .bin or .csv");
+    if (!a->vmc.empty()) {
+      if (!a->out.empty() || !a->rig.empty())
+        throw Error("--vmc: plays to the receiver's own avatar; leave --out and --rig out");
+      const auto target = server::parse_vmc_target(a->vmc, "--vmc");
+      const auto names = server::parse_vmc_names(a->vmc_names, "--vmc-names");
+      const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
+      const anim::Mapping mapping = anim::Mapping::for_rig(server::vmc_shape_names(names));
+      play_vmc(anim::Performance(u, mapping, speech_anim_options(a->speech)), target, names,
+               a->fps);
+      return;
+    }
     if (take && !a->rig.empty())
       throw Error(
           "--rig: a Live Link Face take (.csv) holds the 52 ARKit shapes of any face; "

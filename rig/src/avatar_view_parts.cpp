@@ -5,6 +5,7 @@
 
 #include "avatar_view_detail.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/vrm_names.hpp"
 
 namespace facecast::rig {
 namespace detail {
@@ -250,20 +251,6 @@ std::vector<Expression> vrm_expressions(const tinygltf::Model& m) {
   if (it == m.extensions.end()) return out;
   // VRM 0.x preset names in VRM 1.0 naming, so one table (configs/anim/visemes_vrm.json) serves
   // both.
-  static const std::map<std::string, std::string> rename = {{"a", "aa"},
-                                                            {"i", "ih"},
-                                                            {"u", "ou"},
-                                                            {"e", "ee"},
-                                                            {"o", "oh"},
-                                                            {"joy", "happy"},
-                                                            {"sorrow", "sad"},
-                                                            {"fun", "relaxed"},
-                                                            {"blink_l", "blinkLeft"},
-                                                            {"blink_r", "blinkRight"},
-                                                            {"lookup", "lookUp"},
-                                                            {"lookdown", "lookDown"},
-                                                            {"lookleft", "lookLeft"},
-                                                            {"lookright", "lookRight"}};
   const auto& groups = it->second.Get("blendShapeMaster").Get("blendShapeGroups");
   for (std::size_t g = 0; groups.IsArray() && g < groups.ArrayLen(); ++g) {
     const auto& grp = groups.Get(static_cast<int>(g));
@@ -271,7 +258,7 @@ std::vector<Expression> vrm_expressions(const tinygltf::Model& m) {
         grp.Get("presetName").IsString() ? lower(grp.Get("presetName").Get<std::string>()) : "";
     if (name.empty() || name == "unknown")
       name = grp.Get("name").IsString() ? grp.Get("name").Get<std::string>() : "";
-    if (const auto r = rename.find(name); r != rename.end()) name = r->second;
+    name = vrm1_name(name);
     if (name.empty()) continue;
     Expression e{name, {}};
     const auto& binds = grp.Get("binds");
