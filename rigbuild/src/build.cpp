@@ -15,6 +15,14 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // Reports the stage to `progress`, runs it and adds its time to `seconds`.
+// Seconds that `work` takes.
+template <typename Work>
+double seconds_of(Work&& work) {
+  const auto t0 = Clock::now();
+  work();
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
 template <typename Stage>
 auto timed(const ProgressFn& progress, const char* name, double& seconds, Stage&& stage) {
   report(progress, name, 0.0);
@@ -89,6 +97,27 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const Bu
   return c;
 }
 
+// The correspondence (into r, with the landmarks when they were found) and, on another thread
+// meanwhile, the template's shapes and gradients, which need none (the landmarks and the
+// registration's factorizations leave a core idle much of the time).
+TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig& target,
+                                            const BuildOptions& options, const ProgressFn& progress,
+                                            BuildResult& r) {
+  auto& time = r.timings;
+  auto gradients = std::async(std::launch::async, [&] {
+    TemplateShapes shapes;
+    time.gradients = seconds_of([&] { shapes = template_shapes(tmpl); });
+    return shapes;
+  });
+  r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
+    return correspond(tmpl, target, options, r.landmarks, progress);
+  });
+  time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
+  time.registration = r.correspondence.registration_seconds;
+  report(progress, "gradients", 0.0);
+  return gradients.get();
+}
+
 BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
                       const ProgressFn& progress) {
   const auto t_start = Clock::now();
@@ -98,22 +127,8 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   const Points rest = target.positions.cast<double>();
   const Faces& faces = target.triangles;
   const MeshParts parts(target.vertex_count(), faces);
-  // The template's shapes and gradients need no correspondence: made on another thread meanwhile
-  // (the landmarks and the registration's factorizations leave a core idle much of the time).
-  auto gradients = std::async(std::launch::async, [&] {
-    const auto t0 = Clock::now();
-    TemplateShapes shapes = template_shapes(tmpl);
-    time.gradients = std::chrono::duration<double>(Clock::now() - t0).count();
-    return shapes;
-  });
-  r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
-    return correspond(tmpl, target, options, r.landmarks, progress);
-  });
-  time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
-  time.registration = r.correspondence.registration_seconds;
+  const TemplateShapes source = correspond_and_differentiate(tmpl, target, options, progress, r);
   const bool same_topology = options.markers.empty() && !r.landmarks;
-  report(progress, "gradients", 0.0);
-  const TemplateShapes source = gradients.get();
   const Moved moved = classify_motion(r.correspondence, source, options.still_tolerance);
   const Placement placement = place_components(tmpl, rest, faces, parts, r.correspondence, source,
                                                moved, options, same_topology);
@@ -146,17 +161,11 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
     return solve_shapes(transfer, rest, source.gradients, copied, edge_targets, placement, moved,
                         options.closing_rounds, progress);
   });
-  if (contacts) {
-    const auto t0 = Clock::now();
-    contacts->hold(transfer, reference, moved, solved, r.quality);
-    time.contacts += std::chrono::duration<double>(Clock::now() - t0).count();
-  }
+  if (contacts)
+    time.contacts +=
+        seconds_of([&] { contacts->hold(transfer, reference, moved, solved, r.quality); });
   carry_attached(placement, parts, rest, solved);  // after the contacts have placed the skin
-  if (contacts) {
-    const auto t0 = Clock::now();
-    contacts->lift_attached(solved, r.quality);
-    time.contacts += std::chrono::duration<double>(Clock::now() - t0).count();
-  }
+  if (contacts) time.contacts += seconds_of([&] { contacts->lift_attached(solved, r.quality); });
   r.rig = with_shapes(tmpl, target, rest, solved);
   measure_gaps(r.rig, rest, solved, r.virtual_edges, edge_targets, r.quality);
   time.total = std::chrono::duration<double>(Clock::now() - t_start).count();
