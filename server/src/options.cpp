@@ -7,6 +7,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/server/keys.hpp"
 #include "facecast/server/protocol.hpp"
+#include "facecast/server/vmc.hpp"
 
 namespace facecast::server {
 
@@ -105,10 +106,16 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   if (!channels.is_object()) c.fail("channels", "expected an object {name: {producer_token}}");
   for (const auto& [name, v] : channels.items()) {
     ConfigReader ch(v, path.string() + ": channels." + name);
-    ServerOptions::Channel channel{name, {}};
+    ServerOptions::Channel channel;
+    channel.name = name;
     ch.require("producer_token", channel.producer_token);
     ch.read("tenant", channel.tenant);
     if (ch.has("rtmp")) read_rtmp(ch, o.rtmp[name]);
+    if (ch.has("vmc")) {
+      ConfigReader& vmc = ch.section("vmc");
+      channel.vmc.emplace();
+      vmc.require("targets", channel.vmc->targets).read("names", channel.vmc->names);
+    }
     ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
   }
@@ -227,6 +234,13 @@ void validate(const ServerOptions& o) {
     need(ch.producer_token.size() >= 8,
          "channels." + ch.name + ".producer_token: must be at least 8 characters");
     check_tenant_name(ch.tenant, "channels." + ch.name + ".tenant");
+    if (ch.vmc) {
+      const std::string at = "channels." + ch.name + ".vmc.";
+      need(!ch.vmc->targets.empty() && ch.vmc->targets.size() <= 16,
+           at + "targets: 1 to 16 HOST:PORT entries");
+      for (const auto& t : ch.vmc->targets) (void)parse_vmc_target(t, at + "targets");
+      (void)parse_vmc_names(ch.vmc->names, at + "names");
+    }
   }
   for (const auto& [name, r] : o.rtmp) {
     const std::string at = "channels." + name + ".rtmp.";

@@ -17,6 +17,7 @@
 #include "rtmp_out.hpp"
 #include "speech.hpp"
 #include "state.hpp"
+#include "vmc_out.hpp"
 
 namespace facecast::server {
 namespace {
@@ -37,6 +38,7 @@ struct Server::Impl {
   // The channels hold the State: drop them (no thread runs any more) so that it can go.
   ~Impl() {
     rtmp.clear();  // each stops (idempotent) and lets go of its channel
+    vmc.clear();
     if (state && state->redis) state->redis->stop();
     if (state) state->channels.reset();
   }
@@ -58,6 +60,7 @@ struct Server::Impl {
   std::vector<std::thread> threads;
   std::thread jobs_stopper;  // cancels jobs and ends the RTMP outputs during shutdown
   std::vector<std::shared_ptr<RtmpOutput>> rtmp;  // channels published as live video
+  std::vector<std::shared_ptr<VmcMirror>> vmc;    // channels mirrored to VMC receivers
   bool shutting_down = false;                     // on the io_context
   bool draining = false;
   std::chrono::steady_clock::time_point drain_deadline;
@@ -78,6 +81,7 @@ Server::Impl::Impl(ServerOptions options)
   state = std::make_shared<State>(std::move(options));
   state->channels = std::make_shared<ChannelRegistry>(state, ioc);
   rtmp = start_rtmp_outputs(state);
+  vmc = start_vmc_mirrors(state);
   if (state->redis) {
     State* s = state.get();  // the bus and the jobs stop before the State goes
     state->redis->start(state->channels,
@@ -158,8 +162,9 @@ void Server::Impl::begin_shutdown() {
   state->shut_down_sessions();
   state->channels->close_all();
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
-  jobs_stopper = std::thread([s = state, rtmp = rtmp] {
+  jobs_stopper = std::thread([s = state, rtmp = rtmp, vmc = vmc] {
     for (const auto& r : rtmp) r->stop();
+    for (const auto& v : vmc) v->stop();
     s->jobs.shutdown();  // with Redis: running jobs go back to the queue
     if (s->redis) s->redis->stop();
   });

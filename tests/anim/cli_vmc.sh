@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# facecast animate --vmc: an independent OSC receiver (tests/anim/vmc_receive.mjs, npm `osc`) gets
+# facecast animate --vmc: an independent OSC receiver (tests/support/vmc_receive.mjs, npm `osc`) gets
 # one bundle per frame in real time with Perfect Sync and VRM 0.x names; bad targets are one-line
 # errors.
 # Usage: cli_vmc.sh FACECAST SOURCE_DIR
@@ -14,8 +14,10 @@ expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one line nam
   [[ $(wc -l <"$tmp/err") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
 }
 cd "$src"
-node tests/anim/vmc_receive.mjs "$facecast" perfect-sync jawOpen
-node tests/anim/vmc_receive.mjs "$facecast" vrm0 A
+for names in perfect-sync:jawOpen vrm0:A; do
+  node tests/support/vmc_receive.mjs "${names%%:*}" "${names#*:}" -- "$facecast" animate \
+    --text "Hello, papa. Open wide." --idle off --fps 30 --vmc "127.0.0.1:{port}" --vmc-names "${names%%:*}"
+done
 expect_error "is not HOST:PORT" "$facecast" animate --text hi --vmc 127.0.0.1
 expect_error "no port between 1 and 65535" "$facecast" animate --text hi --vmc 127.0.0.1:70000
 expect_error "leave --out and --rig out" "$facecast" animate --text hi --vmc 127.0.0.1:39539 --out "$tmp/w.json"

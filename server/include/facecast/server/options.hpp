@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -126,6 +127,12 @@ struct ServerOptions {
     std::string name;
     std::string producer_token;
     std::string tenant = "default";  // whose channel: keys of other tenants cannot use it
+    // channels.<name>.vmc: the show mirrored to VMC receivers (server/src/vmc_out.hpp).
+    struct Vmc {
+      std::vector<std::string> targets;    // "HOST:PORT" each
+      std::string names = "perfect-sync";  // perfect-sync | vrm0 | vrm1
+    };
+    std::optional<Vmc> vmc{};
   };
   std::vector<Channel> channels;
   std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)

@@ -1,0 +1,130 @@
+#include "vmc_out.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "facecast/server/protocol.hpp"
+#include "log.hpp"
+#include "state.hpp"
+
+namespace facecast::server {
+
+std::shared_ptr<VmcMirror> VmcMirror::start(std::shared_ptr<State> state,
+                                            std::shared_ptr<Channel> channel,
+                                            const ServerOptions::Channel::Vmc& settings) {
+  auto out = std::make_shared<VmcMirror>(std::move(state), std::move(channel), settings);
+  out->channel_->subscribe(out->member_id_, out->weak_from_this());
+  out->thread_ = std::thread([self = out.get()] { self->run(); });
+  log::info(
+      "vmc_start",
+      {{"channel", out->channel_->name()}, {"targets", out->label_}, {"names", settings.names}});
+  return out;
+}
+
+VmcMirror::VmcMirror(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
+                     const ServerOptions::Channel::Vmc& settings)
+    : state_(std::move(state)),
+      channel_(std::move(channel)),
+      member_id_(state_->next_connection.fetch_add(1)) {
+  const VmcNames names = parse_vmc_names(settings.names);
+  for (const auto& t : settings.targets) {
+    senders_.push_back(std::make_unique<VmcSender>(parse_vmc_target(t), names));
+    label_ += (label_.empty() ? "" : " ") + t;
+  }
+}
+
+VmcMirror::~VmcMirror() {
+  stop();
+}
+
+void VmcMirror::stop() {
+  if (stopping_.exchange(true)) return;
+  channel_->unsubscribe(member_id_);
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void VmcMirror::deliver(OutBatch batch) {
+  for (const OutMessage& message : *batch) {
+    if (stopping_) return;
+    try {
+      take(message);
+    } catch (const std::exception& e) {  // a message this mirror cannot read: skip it
+      log::warn("vmc_message_skipped", {{"channel", channel_->name()}, {"error", e.what()}});
+    }
+  }
+}
+
+void VmcMirror::take(const OutMessage& message) {
+  std::lock_guard lock(mutex_);
+  if (message.kind == OutKind::kControl) {
+    if (message.boundary != Boundary::kStart) return;
+    const auto j = nlohmann::json::parse(*message.data, nullptr, false);
+    if (!j.is_object() || j.value("type", "") != "stream_start" ||
+        j.value("output", "") != "weights")
+      return;
+    const auto id = j["stream"].get<std::uint32_t>();
+    if (id == stream_) return;  // a late join's repeat of what is on air
+    stream_ = id;
+    names_ = std::make_shared<const std::vector<std::string>>(
+        j["names"].get<std::vector<std::string>>());
+    lead_ = j.value("lead", 0.0);
+    fps_ = j.value("fps", 30.0);
+    placed_ = false;
+    return;
+  }
+  const MediaHeader h = read_header(*message.data);
+  if (h.kind != MediaKind::kWeights || h.stream != stream_ || !names_) return;
+  const auto now = Clock::now();
+  if (!placed_) {
+    // pts p arrives about `lead` before its time: the stream's zero is then now + lead - p.
+    zero_ = now + std::chrono::duration_cast<Clock::duration>(
+                      std::chrono::duration<double>(lead_ - h.pts));
+    placed_ = true;
+  }
+  const std::vector<float> v = read_floats(std::string_view(*message.data).substr(kHeaderSize));
+  const std::size_t per = names_->size() + 3;
+  for (std::uint32_t i = 0; i < h.count && (i + 1) * per <= v.size(); ++i) {
+    Frame f;
+    f.names = names_;
+    f.values.assign(v.begin() + i * per, v.begin() + (i + 1) * per);
+    f.t = h.pts + i / fps_;
+    f.due = zero_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(f.t));
+    frames_.push_back(std::move(f));
+  }
+  wake_.notify_one();
+}
+
+void VmcMirror::run() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    if (frames_.empty()) {
+      wake_.wait(lock);
+      continue;
+    }
+    if (wake_.wait_until(lock, frames_.front().due, [&] { return stopping_.load(); })) break;
+    Frame f = std::move(frames_.front());
+    frames_.pop_front();
+    lock.unlock();
+    const std::size_t n = f.names->size();
+    const rig::HeadPose head{f.values[n], f.values[n + 1], f.values[n + 2]};
+    for (const auto& s : senders_) {
+      try {
+        s->send(*f.names, std::span<const float>(f.values.data(), n), head, f.t);
+      } catch (const std::exception& e) {  // the receiver is not there (yet): UDP goes on
+        log::debug("vmc_send_failed", {{"channel", channel_->name()}, {"error", e.what()}});
+      }
+    }
+    lock.lock();
+  }
+}
+
+std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(const std::shared_ptr<State>& state) {
+  std::vector<std::shared_ptr<VmcMirror>> out;
+  for (const auto& ch : state->options.channels)
+    if (ch.vmc && !ch.vmc->targets.empty())
+      if (const auto channel = state->channels->find(ch.name))
+        out.push_back(VmcMirror::start(state, channel, *ch.vmc));
+  return out;
+}
+
+}  // namespace facecast::server
