@@ -4,14 +4,7 @@
 # Usage: cli_animate.sh FACECAST SOURCE_DIR ARTIFACTS_DIR
 set -euo pipefail
 facecast=$1 src=$2 artifacts=$3
-tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
-expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one line naming PATTERN
-  local pattern=$1; shift
-  if "$@" 2>"$tmp/err"; then fail "succeeded: $*"; fi
-  grep -q -- "$pattern" "$tmp/err" || fail "message lacks '$pattern': $(cat "$tmp/err")"
-  [[ $(wc -l <"$tmp/err") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
-}
+source "$(dirname "$0")/../support/cli.sh"
 
 "$facecast" animate --text "(joy, 40, 0.5)你好，Facecast! Hello." --fps 30 --idle off --out "$tmp/w.json"
 node -e '

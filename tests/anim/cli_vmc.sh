@@ -5,14 +5,7 @@
 # Usage: cli_vmc.sh FACECAST SOURCE_DIR
 set -euo pipefail
 facecast=$1 src=$2
-tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
-expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one line naming PATTERN
-  local pattern=$1; shift
-  if "$@" 2>"$tmp/err"; then fail "succeeded: $*"; fi
-  grep -q -- "$pattern" "$tmp/err" || fail "message lacks '$pattern': $(cat "$tmp/err")"
-  [[ $(wc -l <"$tmp/err") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
-}
+source "$(dirname "$0")/../support/cli.sh"
 cd "$src"
 for names in perfect-sync:jawOpen vrm0:A; do
   node tests/support/vmc_receive.mjs "${names%%:*}" "${names#*:}" -- "$facecast" animate \

@@ -5,15 +5,7 @@
 # Usage: cli_rig_build.sh FACECAST
 set -euo pipefail
 facecast=$1
-tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
-expect_error() {  # expect_error PATTERN COMMAND...: non-zero exit, one error line naming PATTERN
-  local pattern=$1; shift
-  if "$@" 2>"$tmp/err"; then fail "succeeded: $*"; fi
-  grep "^facecast: " "$tmp/err" >"$tmp/error" || true  # progress lines may come first
-  grep -q -- "$pattern" "$tmp/error" || fail "message lacks '$pattern': $(cat "$tmp/err")"
-  [[ $(wc -l <"$tmp/error") -eq 1 ]] || fail "more than one line: $(cat "$tmp/err")"
-}
+source "$(dirname "$0")/../support/cli.sh"
 
 "$facecast" avatar default --out "$tmp/default.glb" 2>/dev/null
 "$facecast" avatar variant --seed 7 --out "$tmp/user.glb" 2>/dev/null
@@ -49,10 +41,10 @@ if (JSON.stringify(fs.readdirSync(process.argv[2]).sort()) !== JSON.stringify(wi
 "$facecast" rig check "$tmp/me.glb" --template "$tmp/default.glb" >/dev/null
 
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/triangle.obj"
-expect_error "give --markers" "$facecast" rig build --template "$tmp/default.glb" \
+expect_error_line "give --markers" "$facecast" rig build --template "$tmp/default.glb" \
   --target "$tmp/triangle.obj" --out "$tmp/x.glb"
 # Another topology without --markers: automatic landmarks, and a triangle has no face.
-expect_error "no face found" "$facecast" rig build --template "$tmp/default.glb" \
+expect_error_line "no face found" "$facecast" rig build --template "$tmp/default.glb" \
   --target "$tmp/triangle.obj" --out "$tmp/x.glb" --markers-out "$tmp/m.json"
 test ! -e "$tmp/m.json" || fail "a failed build left its markers"
 test ! -e "$tmp/x.glb" || fail "a failed build left its output"
