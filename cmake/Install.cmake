@@ -6,7 +6,7 @@
 #   P/share/facecast/node_modules/three/   (build/ and examples/jsm/: the client's import map)
 #   P/share/facecast/node_modules/@pixiv/three-vrm/lib/
 #   P/share/facecast/zh_lexicon.txt        (the Chinese lexicon compiled at build time)
-#   P/share/facecast/ict_facekit.glb       (the shipped template, data/ of the source tree)
+#   P/share/facecast/ict_facekit.glb       (the shipped template, rigbuild/data/ in the source tree)
 #   P/share/facecast/deploy/               (systemd unit, nginx configs)
 include(GNUInstallDirs)
 set(FACECAST_SHARE ${CMAKE_INSTALL_DATADIR}/facecast)
@@ -24,7 +24,7 @@ install(DIRECTORY ${FACECAST_NODE}/@pixiv/three-vrm/lib
 install(FILES ${FACECAST_NODE}/@pixiv/three-vrm/LICENSE
         DESTINATION ${FACECAST_SHARE}/node_modules/@pixiv/three-vrm)
 install(FILES ${CMAKE_BINARY_DIR}/viseme/zh_lexicon.txt DESTINATION ${FACECAST_SHARE})
-install(FILES ${FACECAST_SHIPPED_TEMPLATE} data/ict_facekit.LICENSE DESTINATION ${FACECAST_SHARE})
+install(FILES ${FACECAST_SHIPPED_TEMPLATE} rigbuild/data/ict_facekit.LICENSE DESTINATION ${FACECAST_SHARE})
 install(FILES deploy/facecast.service deploy/nginx.conf deploy/nginx-rtmp.conf deploy/server.json
         DESTINATION ${FACECAST_SHARE}/deploy)
 

@@ -254,10 +254,11 @@ std::filesystem::path shipped_template_path() {
   const std::filesystem::path path =
       share.empty() ? std::filesystem::path(FACECAST_SHIPPED_TEMPLATE) : share / "ict_facekit.glb";
   if (!std::filesystem::exists(path))
-    throw Error(path.string() +
-                    ": the shipped template is missing (data/ict_facekit.glb of the source tree, "
-                    "installed into share/facecast); give --template",
-                ErrorCode::kNotFound);
+    throw Error(
+        path.string() +
+            ": the shipped template is missing (rigbuild/data/ict_facekit.glb of the source tree, "
+            "installed into share/facecast); give --template",
+        ErrorCode::kNotFound);
   return path;
 }
 

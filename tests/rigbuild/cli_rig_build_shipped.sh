@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A clone without ../shared/data builds a rig from a head of its own topology on the shipped
-# template (data/ict_facekit.glb): `facecast rig build --target head.obj --out me.glb`.
+# template (rigbuild/data/ict_facekit.glb): `facecast rig build --target head.obj --out me.glb`.
 # Usage: cli_rig_build_shipped.sh FACECAST
 set -euo pipefail
 facecast=$1

@@ -60,7 +60,8 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
   CHECK(
       http_request(serve.port(), http::verb::get, "/vendor/three-vrm/three-vrm.module.js").status ==
       200);
-  // The shipped template (data/ of the source tree), installed with its licence and offered from P.
+  // The shipped template (rigbuild/data/ in the source tree), installed with its licence and
+  // offered from P.
   REQUIRE(fs::exists(share / "ict_facekit.glb"));
   CHECK(fs::exists(share / "ict_facekit.LICENSE"));
   const auto shipped = http_request(serve.port(), http::verb::get, "/api/rigs/ict-facekit.glb");

@@ -1,11 +1,11 @@
 #pragma once
 // The realistic template shipped with Facecast: the ICT FaceKit (MIT, USC Institute for Creative
-// Technologies; data/ict_facekit.LICENSE) as a compact GLB, data/ict_facekit.glb, packed from the
-// FaceKit by `facecast rig pack-template` (docs/algorithms.md#shipped-template). It holds the
-// FaceKit's neutral without its transparent eye layers (lacrimal fluid, eye blend, eye occlusion),
-// its expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum of the
-// FaceKit's halves, which are kept as browInnerUp_L ... with its other extras cheekRaiser_L/R and
-// PupilDilate_L/R), the 15 Oculus visemes (viseme_sil ... viseme_U) baked from
+// Technologies; rigbuild/data/ict_facekit.LICENSE) as a compact GLB, rigbuild/data/ict_facekit.glb,
+// packed from the FaceKit by `facecast rig pack-template` (docs/algorithms.md#shipped-template). It
+// holds the FaceKit's neutral without its transparent eye layers (lacrimal fluid, eye blend, eye
+// occlusion), its expressions under ARKit names (eyeBlinkLeft; browInnerUp and cheekPuff as the sum
+// of the FaceKit's halves, which are kept as browInnerUp_L ... with its other extras
+// cheekRaiser_L/R and PupilDilate_L/R), the 15 Oculus visemes (viseme_sil ... viseme_U) baked from
 // configs/anim/visemes_arkit.json, its 68 landmarks ("dlib_00".."dlib_67", mesh extras) and
 // materials for its skin, eyes, teeth, gums and lashes. Positions and morph deltas are 16-bit
 // (KHR_mesh_quantization, one scale for all: 21 um steps), every buffer view meshopt-compressed
@@ -25,8 +25,8 @@ namespace facecast::rigbuild {
 /// The server's rig id of the shipped template.
 inline constexpr const char* kShippedTemplateId = "ict-facekit";
 
-/// ict_facekit.glb: <prefix>/share/facecast/ when installed, else data/ of the source tree.
-/// Throws Error(kNotFound) naming it when it is missing.
+/// ict_facekit.glb: <prefix>/share/facecast/ when installed, else rigbuild/data/ in the source
+/// tree. Throws Error(kNotFound) naming it when it is missing.
 std::filesystem::path shipped_template_path();
 
 /// The shipped template as a rig (the file's vertex order; its landmarks and shapes). Throws
