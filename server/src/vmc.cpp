@@ -54,8 +54,7 @@ VmcSender::VmcSender(const VmcTarget& target, VmcNames names) : impl_(std::make_
   impl_->names = names;
   const std::string port = std::to_string(target.port);
   impl_->address = lo_address_new_with_proto(LO_UDP, target.host.c_str(), port.c_str());
-  if (!impl_->address)
-    throw Error("vmc: cannot resolve '" + target.host + "'");
+  if (!impl_->address) throw Error("vmc: cannot resolve '" + target.host + "'");
 }
 
 VmcSender::~VmcSender() {

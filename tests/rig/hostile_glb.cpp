@@ -125,6 +125,17 @@ void add_image(Doc& d, const std::string& bytes, const char* mime) {
   d.doc["images"].push_back({{"bufferView", d.doc["bufferViews"].size() - 1}, {"mimeType", mime}});
 }
 
+Doc with_draco(const std::string& draco) {
+  Doc d = triangle();
+  const std::size_t at = d.bin.size();
+  d.bin += draco;
+  d.doc["buffers"][0]["byteLength"] = d.bin.size();
+  d.doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", draco.size()}});
+  d.doc["meshes"][0]["primitives"][0]["extensions"] = {
+      {"KHR_draco_mesh_compression", {{"bufferView", 3}, {"attributes", {{"POSITION", 0}}}}}};
+  return d;
+}
+
 Doc meshopt_2gib(const char* ext) {
   Doc d = triangle(2 << 20);
   d.doc["buffers"].push_back(
@@ -154,15 +165,7 @@ std::vector<File> glb_attacks() {
   out.push_back({"meshopt_2gib", meshopt_2gib("EXT_meshopt_compression").glb(),
                  " bufferViews[3]: meshopt decode of 2147483648 bytes is over the budget of "});
   {
-    Doc d = triangle();
-    const std::string draco = draco_header(true, 1000000000, 1000000000);
-    const std::size_t at = d.bin.size();
-    d.bin += draco;
-    d.doc["buffers"][0]["byteLength"] = d.bin.size();
-    d.doc["bufferViews"].push_back(
-        {{"buffer", 0}, {"byteOffset", at}, {"byteLength", draco.size()}});
-    d.doc["meshes"][0]["primitives"][0]["extensions"] = {
-        {"KHR_draco_mesh_compression", {{"bufferView", 3}, {"attributes", {{"POSITION", 0}}}}}};
+    Doc d = with_draco(draco_header(true, 1000000000, 1000000000));
     d.doc["accessors"][2]["count"] = 3000000000u;
     d.doc["accessors"][0]["count"] = 1000000000u;
     out.push_back({"draco_counts", d.glb(),

@@ -32,6 +32,8 @@ std::string varint(std::uint64_t v);
 std::string draco_header(bool edgebreaker, std::uint64_t faces, std::uint64_t points);
 /// A PNG signature and IHDR chunk declaring `w` x `h` RGBA, and nothing else.
 std::string png_header(std::uint32_t w, std::uint32_t h);
+/// The triangle whose primitive is the Draco stream `draco` (in buffer view 3).
+Doc with_draco(const std::string& draco);
 /// The triangle in a 2 MiB file whose meshopt view `ext` (EXT_ or KHR_meshopt_compression), and
 /// the fallback buffer it fills, claim 2 GiB.
 Doc meshopt_2gib(const char* ext);
