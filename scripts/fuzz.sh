@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(fuzz_protocol fuzz_import fuzz_text fuzz_glb fuzz_gltf fuzz_obj)
+((${#targets[@]})) || targets=(fuzz_protocol fuzz_import fuzz_text fuzz_glb fuzz_gltf fuzz_obj fuzz_fap)
 
 build_args=()
 for t in "${targets[@]}"; do build_args+=(--target="$t"); done

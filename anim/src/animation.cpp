@@ -139,16 +139,16 @@ void Performance::sample(double t, std::span<float> weights, rig::HeadPose* head
 
 // ---------------------------------------------------------------------------------------------
 
-WeightTrack bake(const Performance& performance, double fps, double until) {
+WeightTrack bake(const rig::Motion& motion, double fps, double until) {
+  if (!(fps > 0)) throw Error("fps must be positive");
   WeightTrack track;
-  track.shapes = performance.shape_names();
+  track.shapes = motion.shape_names();
   track.fps = fps;
-  track.frames =
-      until > 0 ? static_cast<int>(std::ceil(until * fps - 1e-9)) : performance.frame_count(fps);
+  track.frames = static_cast<int>(std::ceil((until > 0 ? until : motion.duration()) * fps - 1e-9));
   track.weights.resize(static_cast<size_t>(track.frames) * track.shapes.size());
   track.head.resize(track.frames);
   for (int f = 0; f < track.frames; ++f)
-    performance.sample(
+    motion.sample(
         f / fps,
         {track.weights.data() + static_cast<size_t>(f) * track.shapes.size(), track.shapes.size()},
         &track.head[f]);

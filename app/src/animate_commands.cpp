@@ -1,6 +1,8 @@
-// facecast animate --text T | --timestamps FILE --rig rig.glb [--fps 60] --out
-// weights.json|.bin|take.csv
+// facecast animate --text T | --timestamps FILE | --fap FILE [--rig rig.glb] [--fps 60]
+//   --out weights.json|.bin|take.csv|anim.fap, or --vmc HOST:PORT
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <thread>
 
@@ -16,6 +18,8 @@
 #include "speech_input.hpp"
 
 namespace facecast::cli {
+
+namespace fs = std::filesystem;
 
 void add_speech_options(CLI::App* cmd, SpeechArgs& a) {
   cmd->add_option("--text", a.text, "Text to speak (Chinese/English, expression tags allowed)");
@@ -36,6 +40,10 @@ void add_speech_options(CLI::App* cmd, SpeechArgs& a) {
   cmd->add_option("--idle", a.idle, "Blinks and small head/eye motion: on or off")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  cmd->add_option("--fap", a.fap,
+                  "An MPEG-4 FAP file (FBA ASCII) to play instead of speech: FAPs 1-68 drive the "
+                  "rig through its feature points (anim/fap.hpp)")
+      ->check(CLI::ExistingFile);
 }
 
 viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::string& audio) {
@@ -127,12 +135,15 @@ void add_animate_commands(CLI::App& app) {
                   "as a PNG");
   cmd->callback([a] {
     if (a->out.empty() && a->vmc.empty()) throw Error("give --out FILE or --vmc HOST:PORT");
-    const bool binary = a->out.ends_with(".bin"), take = a->out.ends_with(".csv");
-    if (!a->out.empty() && !binary && !take && !a->out.ends_with(".json"))
-      throw Error("--out: '" + a->out + "' must end in .json, .bin or .csv");
+    const bool binary = a->out.ends_with(".bin"), take = a->out.ends_with(".csv"),
+               fap = a->out.ends_with(".fap");
+    if (!a->out.empty() && !binary && !take && !fap && !a->out.ends_with(".json"))
+      throw Error("--out: '" + a->out + "' must end in .json, .bin, .csv or .fap");
     if (!a->vmc.empty()) {
-      if (!a->out.empty() || !a->rig.empty())
-        throw Error("--vmc: plays to the receiver's own avatar; leave --out and --rig out");
+      if (!a->out.empty() || !a->rig.empty() || !a->speech.fap.empty())
+        throw Error(
+            "--vmc: plays speech to the receiver's own avatar; leave --out, --rig and "
+            "--fap out");
       const auto target = server::parse_vmc_target(a->vmc, "--vmc");
       const auto names = server::parse_vmc_names(a->vmc_names, "--vmc-names");
       const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
@@ -141,26 +152,57 @@ void add_animate_commands(CLI::App& app) {
                a->fps);
       return;
     }
-    if (take && !a->rig.empty())
+    if (take && !a->rig.empty() && a->speech.fap.empty())
       throw Error(
           "--rig: a Live Link Face take (.csv) holds the 52 ARKit shapes of any face; "
           "leave --rig out");
-    // A take drives an ARKit face whatever the rig; otherwise the rig's own shapes.
-    const std::vector<std::string> shapes = take ? anim::arkit_shape_names()
+    if (!a->speech.fap.empty() && a->speech.given())
+      throw Error("--fap plays a FAP file; leave --text and --timestamps out");
+    // FAPs (in or out) live on a rig's geometry; a take drives an ARKit face whatever the rig;
+    // otherwise the rig's own shapes.
+    std::optional<rig::Rig> rig;
+    if (fap || !a->speech.fap.empty())
+      rig = a->rig.empty() ? avatar::default_avatar() : rig::load_rig(a->rig);
+    const std::vector<std::string> shapes = rig    ? rig->shape_names()
+                                            : take ? anim::arkit_shape_names()
                                             : a->rig.empty()
                                                 ? avatar::default_avatar().shape_names()
                                                 : rig::load_rig(a->rig).shape_names();
-    const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
-    const anim::Mapping mapping = anim::Mapping::for_rig(shapes);
-    const anim::Performance p(u, mapping, speech_anim_options(a->speech));
-    const anim::WeightTrack track = anim::bake(p, a->fps);
-    write_file_atomic(a->out, take     ? anim::to_live_link_csv(track)
-                              : binary ? anim::to_binary(track)
-                                       : anim::to_json(track) + "\n");
-    if (!a->plot.empty()) render::write_image(a->plot, plot_timeline(u, p));
-    std::cerr << "wrote " << a->out << ": " << track.frames << " frames x " << track.shapes.size()
-              << " shapes at " << a->fps << " fps (" << p.duration() << " s, " << mapping.table()
-              << " mapping)\n";
+    std::optional<anim::FapRig> fap_measured;
+    if (rig) fap_measured.emplace(fap_rig(*rig));
+    std::unique_ptr<rig::Motion> motion;
+    std::optional<viseme::Utterance> u;
+    std::string source = "an MPEG-4 FAP file";
+    if (!a->speech.fap.empty()) {
+      motion = std::make_unique<anim::FapMotion>(read_fap_motion(a->speech.fap, *fap_measured));
+    } else {
+      u = speech_utterance(a->speech, a->speech.timing == "tts");
+      const anim::Mapping mapping = anim::Mapping::for_rig(shapes);
+      source = mapping.table() + " mapping";
+      motion = std::make_unique<anim::Performance>(*u, mapping, speech_anim_options(a->speech));
+    }
+    const auto* performance = dynamic_cast<const anim::Performance*>(motion.get());
+    std::string bytes;
+    if (fap) {
+      const std::string name = fs::path(a->out).stem().string();
+      bytes =
+          anim::to_fap_text(performance ? anim::to_fap(*performance, *fap_measured, a->fps, name)
+                                        : anim::to_fap(*motion, *fap_measured, a->fps, name));
+    } else {
+      const anim::WeightTrack track = anim::bake(*motion, a->fps);
+      bytes = take     ? anim::to_live_link_csv(track)
+              : binary ? anim::to_binary(track)
+                       : anim::to_json(track) + "\n";
+    }
+    write_file_atomic(a->out, bytes);
+    if (!a->plot.empty()) {
+      if (!performance) throw Error("--plot draws speech; a FAP file has no visemes to draw");
+      render::write_image(a->plot, plot_timeline(*u, *performance));
+    }
+    const int frames = static_cast<int>(std::ceil(motion->duration() * a->fps - 1e-9));
+    std::cerr << "wrote " << a->out << ": " << frames << " frames x " << shapes.size()
+              << " shapes at " << a->fps << " fps (" << motion->duration() << " s, " << source
+              << ")\n";
   });
 }
 

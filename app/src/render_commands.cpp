@@ -1,4 +1,5 @@
-// facecast render --text T | --timestamps FILE [--rig rig.glb] --out out.mp4 | frames/%05d.png
+// facecast render --text T | --timestamps FILE | --fap FILE [--rig rig.glb] --out out.mp4 |
+//   frames/%05d.png
 // facecast render --rig rig.glb --weights name=value,... --out face.png   (one pose)
 #include <cstdio>
 #include <iostream>
@@ -57,6 +58,20 @@ std::pair<int, int> parse_size(const std::string& size) {
   return {std::stoi(m[1]), std::stoi(m[2])};
 }
 
+// Any motion of the rig -> MP4 (ffmpeg) or a frame sequence + WAV.
+void write_motion(const RenderArgs& a, const rig::Rig& rig, render::RenderOptions opt,
+                  const rig::Motion& motion, const std::vector<int16_t>& pcm, int rate) {
+  render::VideoOptions vo = render::load_video_options();
+  if (a.fps > 0) vo.fps = a.fps;
+  opt.contexts = 2;
+  render::Renderer renderer(rig, opt);
+  const auto result =
+      render::write_video(renderer, motion, pcm, rate, a.out, vo, terminal_progress());
+  std::cerr << "wrote " << a.out << ": " << result.frames << " frames at " << vo.fps << " fps ("
+            << result.duration << " s" << (pcm.empty() ? "" : ", with audio") << ") in "
+            << result.render_seconds << " s, " << renderer.backend() << "\n";
+}
+
 // Text or timestamps -> MP4 (ffmpeg) or a frame sequence + WAV.
 void render_speech(const RenderArgs& a, const rig::Rig& rig, render::RenderOptions opt) {
   const std::string audio = !a.audio.empty() ? a.audio : !a.speech.text.empty() ? "tts" : "none";
@@ -78,16 +93,22 @@ void render_speech(const RenderArgs& a, const rig::Rig& rig, render::RenderOptio
     rate = in.sample_rate;
   }
   const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
-  const anim::Performance performance(u, mapping, speech_anim_options(a.speech));
-  render::VideoOptions vo = render::load_video_options();
-  if (a.fps > 0) vo.fps = a.fps;
-  opt.contexts = 2;
-  render::Renderer renderer(rig, opt);
-  const auto result =
-      render::write_video(renderer, performance, pcm, rate, a.out, vo, terminal_progress());
-  std::cerr << "wrote " << a.out << ": " << result.frames << " frames at " << vo.fps << " fps ("
-            << result.duration << " s" << (pcm.empty() ? "" : ", with audio") << ") in "
-            << result.render_seconds << " s, " << renderer.backend() << "\n";
+  write_motion(a, rig, opt, anim::Performance(u, mapping, speech_anim_options(a.speech)), pcm,
+               rate);
+}
+
+// An MPEG-4 FAP file -> video, with the sound of --audio FILE when given.
+void render_fap(const RenderArgs& a, const rig::Rig& rig, const render::RenderOptions& opt) {
+  if (a.speech.given()) throw Error("--fap plays a FAP file; leave --text and --timestamps out");
+  std::vector<int16_t> pcm;
+  int rate = 0;
+  if (!a.audio.empty() && a.audio != "none") {
+    if (a.audio == "tts") throw Error("--audio tts needs --text; give an audio file or none");
+    const auto in = viseme::read_audio(a.audio, viseme::load_audio_options());
+    pcm = viseme::to_pcm16(in.samples);
+    rate = in.sample_rate;
+  }
+  write_motion(a, rig, opt, read_fap_motion(a.speech.fap, fap_rig(rig)), pcm, rate);
 }
 
 }  // namespace
@@ -96,7 +117,8 @@ void add_render_commands(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
   auto* r = app.add_subcommand(
       "render",
-      "Render speech (--text/--timestamps) to a video or frames, or one pose to an image");
+      "Render speech (--text/--timestamps) or an MPEG-4 FAP file (--fap) to a video or frames, "
+      "or one pose to an image");
   add_speech_options(r, a->speech);
   r->add_option("--audio", a->audio,
                 "Speech audio for the video: tts (espeak-ng; default with --text), none (default "
@@ -128,9 +150,9 @@ void add_render_commands(CLI::App& app) {
   r->callback([a] {
     render::RenderOptions opt = render::load_render_options();
     // An audio file alone: audio-only lip-sync (docs/algorithms.md#audio-lipsync).
-    const bool audio_only =
-        !a->speech.given() && !a->audio.empty() && a->audio != "tts" && a->audio != "none";
-    const bool speech = a->speech.given() || audio_only;
+    const bool audio_only = !a->speech.given() && a->speech.fap.empty() && !a->audio.empty() &&
+                            a->audio != "tts" && a->audio != "none";
+    const bool speech = a->speech.given() || audio_only || !a->speech.fap.empty();
     std::tie(opt.width, opt.height) = parse_size(!a->size.empty() ? a->size
                                                  : speech         ? "1280x720"
                                                                   : "640x480");
@@ -145,7 +167,7 @@ void add_render_commands(CLI::App& app) {
     if (speech) {
       if (!a->weights.empty() || !a->expression.empty())
         throw Error("--weights/--expression render one pose; they do not combine with --text");
-      return render_speech(*a, rig, opt);
+      return a->speech.fap.empty() ? render_speech(*a, rig, opt) : render_fap(*a, rig, opt);
     }
     if (!a->audio.empty() || a->fps > 0)
       throw Error("--audio and --fps need --text or --timestamps");

@@ -1,17 +1,18 @@
 #pragma once
 // The speech input shared by `facecast animate` and `facecast render`: --text or --timestamps
-// with the viseme options, and the animation options (--idle).
+// with the viseme options, the animation options (--idle), or an MPEG-4 FAP file (--fap).
 #include <CLI/CLI.hpp>
 #include <string>
 
 #include "facecast/anim/animation.hpp"
+#include "facecast/anim/fap.hpp"
 #include "facecast/viseme/utterance.hpp"
 
 namespace facecast::cli {
 
 struct SpeechArgs {
   std::string text, timestamps, timestamps_format = "auto", lang = "auto", timing, voice,
-                                idle = "on";
+                                idle = "on", fap;
   double rate = 0;
   bool given() const { return !text.empty() || !timestamps.empty(); }
 };
@@ -24,5 +25,11 @@ viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::str
 
 /// configs/anim/animation.json with --idle applied.
 anim::AnimOptions speech_anim_options(const SpeechArgs& a);
+
+/// The rig measured for FAPs at its 68 landmarks: stored with it or known to the rig builder,
+/// else detected on renders of it (seconds).
+anim::FapRig fap_rig(const rig::Rig& rig);
+/// The FAP file at `path` driving the rig `fap` was measured on.
+anim::FapMotion read_fap_motion(const std::string& path, const anim::FapRig& fap);
 
 }  // namespace facecast::cli

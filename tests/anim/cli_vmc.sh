@@ -13,5 +13,5 @@ for names in perfect-sync:jawOpen vrm0:A; do
 done
 expect_error "is not HOST:PORT" "$facecast" animate --text hi --vmc 127.0.0.1
 expect_error "no port between 1 and 65535" "$facecast" animate --text hi --vmc 127.0.0.1:70000
-expect_error "leave --out and --rig out" "$facecast" animate --text hi --vmc 127.0.0.1:39539 --out "$tmp/w.json"
+expect_error "leave --out, --rig and --fap out" "$facecast" animate --text hi --vmc 127.0.0.1:39539 --out "$tmp/w.json"
 expect_error "give --out FILE or --vmc" "$facecast" animate --text hi

@@ -172,8 +172,8 @@ struct WeightTrack {
 };
 
 /// `until` > 0 bakes ceil(until * fps) frames (a video covering just the audio: speech_duration());
-/// otherwise frame_count(fps).
-WeightTrack bake(const Performance& performance, double fps, double until = 0);
+/// otherwise ceil(duration() * fps) (a Performance's frame_count(fps)).
+WeightTrack bake(const rig::Motion& motion, double fps, double until = 0);
 
 /// A smooth return to rest from `from` (e.g. the weights when a stream is cancelled): hermite()
 /// with zero tangents, `t` seconds into a `duration`-long fade. Writes `out`.
