@@ -79,12 +79,18 @@ void RedisBus::start(std::shared_ptr<ChannelRegistry> channels,
   beat();  // registered before the first job or subscriber arrives
   heartbeat_ = std::thread([this] { heartbeat(); });
   publisher_ = std::thread([this] { publisher(); });
-  if (!channels_->all().empty()) subscriber_ = std::thread([this] { subscriber(); });
+  if (channels_->all().empty()) return;
+  subscriber_ = std::thread([this] { subscriber(); });
+  std::unique_lock lock(mutex_);
+  if (!cv_.wait_for(lock, std::chrono::seconds(5), [&] { return subscribed_; }))
+    log::warn("redis_subscribe_slow", {{"redis", url_.where()}, {"waited_s", "5"}});
 }
 
 void RedisBus::stop() {
   if (stopping_.exchange(true)) return;
+  { std::lock_guard lock(mutex_); }  // a waiter between its check and its sleep sees the flag
   cv_.notify_all();
+  outbox_ready_.notify_all();
   for (auto* t : {&subscriber_, &publisher_, &heartbeat_})
     if (t->joinable()) t->join();
   try {  // a clean stop: the others need not wait for the heartbeat to expire
@@ -107,7 +113,7 @@ void RedisBus::publish(const std::string& channel, const OutMessage& message) {
     if (outbox_.size() >= kOutboxLimit) return;  // Redis is gone or far behind: drop, not grow
     outbox_.emplace_back(key("ch:" + channel), std::move(bytes));
   }
-  cv_.notify_one();
+  outbox_ready_.notify_one();
 }
 
 void RedisBus::publisher() {
@@ -115,7 +121,7 @@ void RedisBus::publisher() {
     std::vector<std::vector<std::string>> batch;
     {
       std::unique_lock lock(mutex_);
-      cv_.wait(lock, [&] { return stopping_ || !outbox_.empty(); });
+      outbox_ready_.wait(lock, [&] { return stopping_ || !outbox_.empty(); });
       if (stopping_) return;
       while (!outbox_.empty()) {
         batch.push_back(
@@ -154,8 +160,20 @@ void RedisBus::subscriber() {
           continue;
         }
         auto* r = static_cast<redisReply*>(raw);
-        if (r->type == REDIS_REPLY_ARRAY && r->elements == 4 &&
-            std::string_view(r->element[0]->str, r->element[0]->len) == "pmessage") {
+        const auto kind = [&] {
+          return r->type == REDIS_REPLY_ARRAY && r->elements >= 1 &&
+                         r->element[0]->type == REDIS_REPLY_STRING
+                     ? std::string_view(r->element[0]->str, r->element[0]->len)
+                     : std::string_view();
+        };
+        if (kind() == "psubscribe") {
+          log::info("redis_subscribed", {{"redis", url_.where()}, {"pattern", pattern}});
+          {
+            std::lock_guard lock(mutex_);
+            subscribed_ = true;
+          }
+          cv_.notify_all();
+        } else if (r->elements == 4 && kind() == "pmessage") {
           healthy_ = true;
           const std::string channel(r->element[2]->str, r->element[2]->len);
           receive(channel.substr(skip), std::string(r->element[3]->str, r->element[3]->len));

@@ -45,7 +45,9 @@ class RedisBus {
   RedisClient& client() { return client_; }
 
   /// `dead`: called on the heartbeat thread with each instance whose heartbeat expired (its
-  /// in-flight jobs must be requeued), before the instance is forgotten.
+  /// in-flight jobs must be requeued), before the instance is forgotten. With channels, returns
+  /// once Redis has confirmed the subscription to their messages (or after 5 s, logged), so that
+  /// no subscriber this instance accepts misses a stream another instance starts.
   void start(std::shared_ptr<ChannelRegistry> channels,
              std::function<void(const std::string&)> dead);
   void stop();
@@ -68,8 +70,13 @@ class RedisBus {
   std::shared_ptr<ChannelRegistry> channels_;
   std::function<void(const std::string&)> dead_;
   std::atomic<bool> stopping_{false}, healthy_{true};
+  bool subscribed_ = false;  // under mutex_: Redis confirmed the PSUBSCRIBE
   std::mutex mutex_;
-  std::condition_variable cv_;
+  // Two conditions on mutex_: the outbox has messages (the publisher alone waits for it), and
+  // anything else (stop, the subscription confirmed). One shared condition lost wake-ups: a
+  // publish's notify_one could wake the heartbeat instead of the publisher, and a stream's last
+  // message (its stream_end) then waited for the next publish -- forever, when nothing followed.
+  std::condition_variable outbox_ready_, cv_;
   std::deque<std::pair<std::string, std::string>> outbox_;  // (pub/sub channel, bytes)
   std::thread subscriber_, publisher_, heartbeat_;
 };

@@ -146,15 +146,31 @@ nlohmann::json poll(unsigned short port, const std::string& target,
   }
 }
 
+// The last lines of each instance's log, for a failure's message.
+std::string log_tails(const fs::path& dir) {
+  std::string out;
+  for (const char* name : {"a.log", "b.log"}) {
+    const std::string log = facecast::read_file(dir / name);
+    out += std::string("--- ") + name + " ---\n" +
+           log.substr(log.size() > 4000 ? log.size() - 4000 : 0);
+  }
+  return out;
+}
+
 // Speaks utterance `id` on A and checks that every subscriber gets every frame, once, in order.
 void every_frame_everywhere(WsClient& producer, std::vector<std::unique_ptr<WsClient>>& subs,
-                            const std::string& id) {
+                            const std::string& id, const fs::path& dir) {
   producer.send(nlohmann::json{{"type", "speak"},
                                {"id", id},
                                {"channel", "show"},
                                {"text", "Good evening from every instance. The show goes on."}});
-  for (auto& c : subs) {
-    const StreamResult r = collect_stream(*c, id, 60 * slowdown());
+  for (std::size_t i = 0; i < subs.size(); ++i) {
+    StreamResult r;
+    try {
+      r = collect_stream(*subs[i], id, 60 * slowdown());
+    } catch (const std::exception& e) {
+      FAIL("subscriber " << i << ": " << e.what() << "\n" << log_tails(dir));
+    }
     REQUIRE_FALSE(r.error);
     std::uint32_t next = 0;
     for (const auto& w : r.weights) {
@@ -234,7 +250,7 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
   REQUIRE(producer->read_json(10)["type"] == "hello");
   producer->send(nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kToken}});
   CHECK(wait_for(*producer, "producing")["channel"] == "show");
-  every_frame_everywhere(*producer, subs, "u1");
+  every_frame_everywhere(*producer, subs, "u1", dir);
 
   // A rig job posted to A finishes and is read from B, and B serves the rig (shared folder).
   const std::string j0 = post_rig(a->port(), 3);
@@ -275,7 +291,7 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
     subs[i] = subscriber(front);
   }
   CHECK(local_subscribers(a->port()) == 4);
-  every_frame_everywhere(*producer, subs, "u2");
+  every_frame_everywhere(*producer, subs, "u2", dir);
 }
 
 TEST_CASE("a server whose Redis does not answer stops with one line naming it", "[cluster]") {
