@@ -72,6 +72,9 @@ void Channel::request(ClientMessage message, std::weak_ptr<ChannelMember> produc
       if (self->closed_)
         throw RequestError(Code::kUnavailable, "channel '" + self->name_ + "' is closed");
       if (auto* speak = std::get_if<SpeakRequest>(&message)) {
+        if (!speak->vmc.empty())
+          throw Error("vmc: a channel's VMC receivers are in its configuration (channels." +
+                      self->name_ + ".vmc)");
         if (!producer.expired()) self->producer_ = producer;
         self->queue_->speak(std::move(*speak));
         // Idle life gives way: it fades to rest, then the utterance starts.
@@ -144,6 +147,11 @@ void Channel::remote(OutMessage message) {
   net::post(strand_, [self = shared_from_this(), message = std::move(message)] {
     if (self->closed_) return;
     self->remote_last_ = std::chrono::steady_clock::now();
+    if (message.boundary != Boundary::kNone)
+      log::info(message.boundary == Boundary::kStart ? "remote_stream_start" : "remote_stream_end",
+                {{"channel", self->name_},
+                 {"stream", std::to_string(message.stream)},
+                 {"subscribers", std::to_string(self->members_.size())}});
     if (message.boundary == Boundary::kStart) {
       self->remote_on_air_ = message;
       // This instance's idle life gives way to the other instance's utterance.

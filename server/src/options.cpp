@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <boost/asio/ip/address.hpp>
+#include <cctype>
 
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
@@ -118,6 +119,16 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
     }
     ch.reject_unknown();  // also the rtmp section
     o.channels.push_back(std::move(channel));
+  }
+  nlohmann::json vmc_targets = nlohmann::json::object();
+  c.read("vmc_targets", vmc_targets);
+  if (!vmc_targets.is_object())
+    c.fail("vmc_targets", "expected an object {name: {targets, names}}");
+  for (const auto& [name, v] : vmc_targets.items()) {
+    ConfigReader t(v, path.string() + ": vmc_targets." + name);
+    auto& vmc = o.vmc_targets[name];
+    t.require("targets", vmc.targets).read("names", vmc.names);
+    t.reject_unknown();
   }
   if (c.has("decode")) {
     ConfigReader& d = c.section("decode");
@@ -241,6 +252,21 @@ void validate(const ServerOptions& o) {
       for (const auto& t : ch.vmc->targets) (void)parse_vmc_target(t, at + "targets");
       (void)parse_vmc_names(ch.vmc->names, at + "names");
     }
+  }
+  need(o.vmc_targets.size() <= 64, "vmc_targets: at most 64 names");
+  for (const auto& [name, vmc] : o.vmc_targets) {
+    const std::string at = "vmc_targets." + name + ".";
+    need(!name.empty() && name.size() <= 64 &&
+             std::all_of(name.begin(), name.end(),
+                         [](char ch) {
+                           return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' ||
+                                  ch == '-' || ch == '.';
+                         }),
+         "vmc_targets: '" + name + "' is not a name (letters, digits, _ - .)");
+    need(!vmc.targets.empty() && vmc.targets.size() <= 16,
+         at + "targets: 1 to 16 HOST:PORT entries");
+    for (const auto& t : vmc.targets) (void)parse_vmc_target(t, at + "targets");
+    (void)parse_vmc_names(vmc.names, at + "names");
   }
   for (const auto& [name, r] : o.rtmp) {
     const std::string at = "channels." + name + ".rtmp.";

@@ -183,10 +183,14 @@ SpeakRequest parse_speak(const json& j, const ProtocolLimits& limits) {
       r.more = get_bool(v, "more");
     } else if (key == "audio_id") {
       r.audio_id = get_name(v, "audio_id", "");
+    } else if (key == "vmc") {
+      r.vmc = get_name(v, "vmc", "_-.");
     } else {
       throw Error("speak: unknown field '" + key + "'");
     }
   }
+  if (!r.vmc.empty() && r.output == Output::kFrames)
+    throw Error("vmc: a VMC receiver takes weights; not with output frames");
   if (!r.audio_id.empty()) {  // the uploaded audio gives the times: text is optional
     if (r.timestamps || r.more || timing)
       throw Error("audio_id: not with timestamps, more or timing (the audio gives the times)");

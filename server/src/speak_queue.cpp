@@ -5,6 +5,7 @@
 
 #include "log.hpp"
 #include "text_pieces.hpp"
+#include "vmc_out.hpp"
 
 namespace facecast::server {
 
@@ -65,6 +66,8 @@ void SpeakQueue::speak(SpeakRequest&& request) {
       std::any_of(pending_.begin(), pending_.end(), same_id))
     throw Error("id: '" + request.id + "' is already playing or queued");
   const std::string rig = state_->existing_rig(request.rig).id;
+  if (!request.vmc.empty() && !state_->options.vmc_targets.contains(request.vmc))
+    throw Error("vmc: '" + request.vmc + "' is not one of the server's vmc_targets");
   tokens_ -= 1.0;
 
   auto item = std::make_shared<Item>();
@@ -188,9 +191,15 @@ void SpeakQueue::start_next() {
   const auto asked_at = std::max(item->received, *item->front_at);
   const bool open = item->request.more;
   active_item_ = item;
+  // Mirrored to a VMC receiver: the tee lives as long as the pacer (its end callback holds it)
+  // and its own timer.
+  std::shared_ptr<VmcTee> tee;
+  if (!item->request.vmc.empty())
+    tee = std::make_shared<VmcTee>(strand_, sink_,
+                                   state_->options.vmc_targets.at(item->request.vmc), conn_);
   active_ = std::make_shared<StreamPacer>(
-      state_, strand_, sink_, conn_, item->request, std::move(item->prepared), asked_at,
-      [this] { on_stream_end(); }, open);
+      state_, strand_, tee ? static_cast<StreamSink&>(*tee) : sink_, conn_, item->request,
+      std::move(item->prepared), asked_at, [this, tee] { on_stream_end(); }, open);
   active_->start();
   if (!open || active_item_ != item) return;
   for (auto& piece : item->ready) active_->append(std::move(piece));

@@ -20,17 +20,36 @@ std::shared_ptr<VmcMirror> VmcMirror::start(std::shared_ptr<State> state,
   return out;
 }
 
+std::vector<std::unique_ptr<VmcSender>> vmc_senders(const ServerOptions::Channel::Vmc& settings,
+                                                    std::string& label) {
+  const VmcNames names = parse_vmc_names(settings.names);
+  std::vector<std::unique_ptr<VmcSender>> out;
+  for (const auto& t : settings.targets) {
+    out.push_back(std::make_unique<VmcSender>(parse_vmc_target(t), names));
+    label += (label.empty() ? "" : " ") + t;
+  }
+  return out;
+}
+
+void send_vmc_frame(const std::vector<std::unique_ptr<VmcSender>>& senders,
+                    const VmcTimeline::Frame& f, const std::string& where) {
+  const std::size_t n = f.names->size();
+  const rig::HeadPose head{f.values[n], f.values[n + 1], f.values[n + 2]};
+  for (const auto& s : senders) {
+    try {
+      s->send(*f.names, std::span<const float>(f.values.data(), n), head, f.t);
+    } catch (const std::exception& e) {  // the receiver is not there (yet): UDP goes on
+      log::debug("vmc_send_failed", {{"to", where}, {"error", e.what()}});
+    }
+  }
+}
+
 VmcMirror::VmcMirror(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
                      const ServerOptions::Channel::Vmc& settings)
     : state_(std::move(state)),
       channel_(std::move(channel)),
-      member_id_(state_->next_connection.fetch_add(1)) {
-  const VmcNames names = parse_vmc_names(settings.names);
-  for (const auto& t : settings.targets) {
-    senders_.push_back(std::make_unique<VmcSender>(parse_vmc_target(t), names));
-    label_ += (label_.empty() ? "" : " ") + t;
-  }
-}
+      member_id_(state_->next_connection.fetch_add(1)),
+      senders_(vmc_senders(settings, label_)) {}
 
 VmcMirror::~VmcMirror() {
   stop();
@@ -39,6 +58,7 @@ VmcMirror::~VmcMirror() {
 void VmcMirror::stop() {
   if (stopping_.exchange(true)) return;
   channel_->unsubscribe(member_id_);
+  { std::lock_guard lock(mutex_); }  // run() between its check and its wait sees the flag
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
@@ -47,15 +67,16 @@ void VmcMirror::deliver(OutBatch batch) {
   for (const OutMessage& message : *batch) {
     if (stopping_) return;
     try {
-      take(message);
+      std::lock_guard lock(mutex_);
+      timeline_.take(message, frames_);
+      wake_.notify_one();
     } catch (const std::exception& e) {  // a message this mirror cannot read: skip it
       log::warn("vmc_message_skipped", {{"channel", channel_->name()}, {"error", e.what()}});
     }
   }
 }
 
-void VmcMirror::take(const OutMessage& message) {
-  std::lock_guard lock(mutex_);
+void VmcTimeline::take(const OutMessage& message, std::deque<Frame>& out) {
   if (message.kind == OutKind::kControl) {
     if (message.boundary != Boundary::kStart) return;
     const auto j = nlohmann::json::parse(*message.data, nullptr, false);
@@ -89,9 +110,8 @@ void VmcMirror::take(const OutMessage& message) {
     f.values.assign(v.begin() + i * per, v.begin() + (i + 1) * per);
     f.t = h.pts + i / fps_;
     f.due = zero_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(f.t));
-    frames_.push_back(std::move(f));
+    out.push_back(std::move(f));
   }
-  wake_.notify_one();
 }
 
 void VmcMirror::run() {
@@ -102,20 +122,46 @@ void VmcMirror::run() {
       continue;
     }
     if (wake_.wait_until(lock, frames_.front().due, [&] { return stopping_.load(); })) break;
-    Frame f = std::move(frames_.front());
+    const VmcTimeline::Frame f = std::move(frames_.front());
     frames_.pop_front();
     lock.unlock();
-    const std::size_t n = f.names->size();
-    const rig::HeadPose head{f.values[n], f.values[n + 1], f.values[n + 2]};
-    for (const auto& s : senders_) {
-      try {
-        s->send(*f.names, std::span<const float>(f.values.data(), n), head, f.t);
-      } catch (const std::exception& e) {  // the receiver is not there (yet): UDP goes on
-        log::debug("vmc_send_failed", {{"channel", channel_->name()}, {"error", e.what()}});
-      }
-    }
+    send_vmc_frame(senders_, f, channel_->name());
     lock.lock();
   }
+}
+
+VmcTee::VmcTee(net::any_io_executor strand, StreamSink& inner,
+               const ServerOptions::Channel::Vmc& target, std::string conn)
+    : inner_(inner), timer_(std::move(strand)), conn_(std::move(conn)) {
+  std::string label;
+  senders_ = vmc_senders(target, label);
+  log::info("vmc_speak", {{"conn", conn_}, {"targets", label}, {"names", target.names}});
+}
+
+std::uint32_t VmcTee::send(OutMessage message) {
+  try {
+    timeline_.take(message, frames_);
+  } catch (const std::exception& e) {  // a message this mirror cannot read: skip it
+    log::warn("vmc_message_skipped", {{"conn", conn_}, {"error", e.what()}});
+  }
+  arm();
+  return inner_.send(std::move(message));
+}
+
+// Sends what is due, then waits for the next frame (on the strand: no thread, no lock).
+void VmcTee::arm() {
+  if (armed_ || frames_.empty()) return;
+  armed_ = true;
+  timer_.expires_at(frames_.front().due);
+  timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+    self->armed_ = false;
+    if (ec) return;
+    while (!self->frames_.empty() && self->frames_.front().due <= VmcTimeline::Clock::now()) {
+      send_vmc_frame(self->senders_, self->frames_.front(), self->conn_);
+      self->frames_.pop_front();
+    }
+    self->arm();
+  });
 }
 
 std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(const std::shared_ptr<State>& state) {

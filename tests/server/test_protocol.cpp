@@ -314,7 +314,8 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.token_max_ttl == d.token_max_ttl);
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
-  CHECK(j.size() == 67);            // 66 settings + "_doc"
+  CHECK(file.vmc_targets.empty());
+  CHECK(j.size() == 68);            // 67 settings + "_doc"
   CHECK(j["decode"].size() == 16);  // every field of rig::DecodeLimits
 }
 

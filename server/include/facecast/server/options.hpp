@@ -135,6 +135,9 @@ struct ServerOptions {
     std::optional<Vmc> vmc{};
   };
   std::vector<Channel> channels;
+  // vmc_targets: VMC receivers a private speak may name ("vmc": "<name>"); clients never give an
+  // address, so the server's UDP goes only where this allow-list says.
+  std::map<std::string, Channel::Vmc> vmc_targets;
   std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)
   double presence_interval = 1.0;    // seconds between two `presence` messages of a channel
   double channel_idle = 10;          // idle-life streams of this length between utterances (0: off)

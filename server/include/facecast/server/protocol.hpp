@@ -94,6 +94,8 @@ struct SpeakRequest {
   bool more = false;    // `append` messages add text until `end` (incremental text)
   // An upload (POST /api/audio): `text` is aligned to it, or without text it is lip-synced.
   std::string audio_id;
+  // A VMC receiver of the server's vmc_targets allow-list the stream is mirrored to.
+  std::string vmc;
 };
 
 struct CancelRequest {
