@@ -17,6 +17,7 @@ packages=(
   clang libclang-rt-14-dev
   libjwt-dev libssl-dev
   liblo-dev
+  python3-websockets
 )
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)
