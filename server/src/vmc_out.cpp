@@ -48,8 +48,9 @@ VmcMirror::VmcMirror(std::shared_ptr<State> state, std::shared_ptr<Channel> chan
                      const ServerOptions::Channel::Vmc& settings)
     : state_(std::move(state)),
       channel_(std::move(channel)),
-      member_id_(state_->next_connection.fetch_add(1)),
-      senders_(vmc_senders(settings, label_)) {}
+      member_id_(state_->next_connection.fetch_add(1)) {
+  senders_ = vmc_senders(settings, label_);  // label_ is declared after senders_
+}
 
 VmcMirror::~VmcMirror() {
   stop();
