@@ -13,6 +13,7 @@
 #include "log.hpp"
 #include "operations_api.hpp"
 #include "photo_api.hpp"
+#include "route_table.hpp"
 
 namespace facecast::server {
 namespace {
@@ -444,6 +445,16 @@ http::message_generator handle_request(State& state, Request&& req) {
     if (path == "/ws") {
       throw RequestError(Code::kInvalidInput,
                          "/ws is a WebSocket endpoint (subprotocol facecast.v1)", 426);
+    }
+    if (path == "/api/openapi.json") {  // public: it describes the API, it holds nothing
+      require_method(req, {http::verb::get, http::verb::head});
+      http::response<http::string_body> res{http::status::ok, req.version()};
+      res.set(http::field::content_type, "application/json");
+      res.set(http::field::cache_control, "no-cache");
+      res.keep_alive(req.keep_alive());
+      add_cors(state.options, req, res);
+      if (req.method() != http::verb::head) res.body() = openapi_document();
+      return finish(state, std::move(res));
     }
     if (path.starts_with("/api/channels/")) return channel_api(state, req, t);
     if (path == "/api" || path.starts_with("/api/")) return api(state, req, t);
