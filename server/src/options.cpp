@@ -63,7 +63,7 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   c.read("token_max_ttl", o.token_max_ttl);
   c.read("allowed_hosts", o.allowed_hosts).read("cors_origins", o.cors_origins);
   c.read("web_root", o.web_root).read("three_root", o.three_root);
-  c.read("three_vrm_root", o.three_vrm_root);
+  c.read("three_vrm_root", o.three_vrm_root).read("client_root", o.client_root);
   c.read("default_rig", o.default_rig);
   c.read("io_threads", o.io_threads).read("workers", o.workers).read("job_workers", o.job_workers);
   c.read("max_connections", o.max_connections);

@@ -462,6 +462,9 @@ http::message_generator handle_request(State& state, Request&& req) {
     if (path.starts_with("/vendor/three/"))
       return serve_file(state, req, state.three_root,
                         path.substr(std::string_view("/vendor/three/").size()));
+    if (path.starts_with("/vendor/facecast/"))
+      return serve_file(state, req, state.client_root,
+                        path.substr(std::string_view("/vendor/facecast/").size()));
     if (path.starts_with("/vendor/three-vrm/"))
       return serve_file(state, req, state.three_vrm_root,
                         path.substr(std::string_view("/vendor/three-vrm/").size()));

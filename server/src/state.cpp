@@ -32,6 +32,7 @@ State::State(ServerOptions opts)
       web_root(project_path(options.web_root)),
       three_root(project_path(options.three_root)),
       three_vrm_root(project_path(options.three_vrm_root)),
+      client_root(project_path(options.client_root)),
       rigs(options.shared_dir.empty() ? options.data : options.shared_dir, options.default_rig,
            options.decode),
       viseme_options(viseme::load_options()),

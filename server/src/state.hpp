@@ -46,7 +46,7 @@ struct State {
 
   ServerOptions options;
   Auth auth;  // keys, the old token and viewer tokens: who is calling (auth.hpp)
-  std::filesystem::path web_root, three_root, three_vrm_root;  // resolved
+  std::filesystem::path web_root, three_root, three_vrm_root, client_root;  // resolved
   Metrics metrics;
   RigRegistry rigs;
   viseme::Options viseme_options;

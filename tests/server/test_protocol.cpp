@@ -233,6 +233,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.web_root == d.web_root);
   CHECK(file.three_root == d.three_root);
   CHECK(file.three_vrm_root == d.three_vrm_root);
+  CHECK(file.client_root == d.client_root);
   CHECK(file.default_rig == d.default_rig);
   CHECK(file.io_threads == d.io_threads);
   CHECK(file.workers == d.workers);
@@ -315,7 +316,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
   CHECK(file.vmc_targets.empty());
-  CHECK(j.size() == 68);            // 67 settings + "_doc"
+  CHECK(j.size() == 69);            // 68 settings + "_doc"
   CHECK(j["decode"].size() == 16);  // every field of rig::DecodeLimits
 }
 

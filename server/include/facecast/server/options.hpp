@@ -34,6 +34,7 @@ struct ServerOptions {
   std::filesystem::path web_root = "web";
   std::filesystem::path three_root = "node_modules/three";
   std::filesystem::path three_vrm_root = "node_modules/@pixiv/three-vrm/lib";  // VRM avatars
+  std::filesystem::path client_root = "clients/js";  // the JS client the web page imports
   // The rig a `speak` without "rig" uses: "default" is the built-in avatar.
   std::string default_rig = "default";
 
