@@ -13,6 +13,7 @@
 #include "log.hpp"
 #include "photo_api.hpp"
 #include "routes.hpp"
+#include "storage.hpp"
 #include "video.hpp"
 
 #include "facecast/core/json_limits.hpp"
@@ -180,6 +181,7 @@ http::message_generator import_rig(State& state, const Request& req, const Targe
   const std::string& bytes = req.body();
   if (bytes.empty()) throw Error("body: empty (expected a GLB or VRM file)");
   const auto job = state.jobs.hold("rig import");
+  check_disk_quota(state, who.tenant, bytes.size());
   const std::string id =
       state.rigs.import(name, bytes, "upload", RigOwner{who.tenant, public_query(t)});
   const auto info = state.rigs.find(id);
@@ -254,11 +256,13 @@ static Jobs::Work rig_work(State& state, const json& body, const std::string& te
         rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
     const json report = rigbuild::build_report_json(r, opt);
     ctx.progress("storing", 1.0);
-    const std::string id = state.rigs.add(
-        name, tmpl->id, r.rig, shared_target->glb_bytes(r.rig), report,
-        opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff ? r.virtual_edges
-                                                             : std::vector<rigbuild::VirtualEdge>{},
-        r.ve_stats, owner);
+    const std::string glb = shared_target->glb_bytes(r.rig);
+    check_disk_quota(state, owner.tenant, glb.size());
+    const std::string id = state.rigs.add(name, tmpl->id, r.rig, glb, report,
+                                          opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
+                                              ? r.virtual_edges
+                                              : std::vector<rigbuild::VirtualEdge>{},
+                                          r.ve_stats, owner);
     state.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
@@ -272,6 +276,7 @@ http::message_generator post_rig(State& state, const Request& req, const Target&
       type.starts_with("application/octet-stream"))
     return import_rig(state, req, t, who);
   json body = parse_body(req, state.limits.max_json_depth);
+  check_disk_quota(state, who.tenant);
   if (body.is_object()) {
     if (const auto it = body.find("template"); it != body.end() && it->is_string())
       (void)usable_rig(state, who, it->get<std::string>());
@@ -342,6 +347,7 @@ http::message_generator post_render(State& state, const Request& req, const Prin
     const auto it = body.find("rig");
     (void)usable_rig(state, who, it != body.end() && it->is_string() ? it->get<std::string>() : "");
   }
+  check_disk_quota(state, who.tenant);
   const std::string job = state.jobs.submit("render", render_work(state, body), body, who.tenant);
   log::info("render_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,

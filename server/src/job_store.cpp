@@ -169,6 +169,10 @@ bool JobStore::remove(const std::string& id) {
   return sqlite3_changes(db_) > 0;
 }
 
+std::vector<JobRecord> JobStore::of_tenant(const std::string& tenant) const {
+  return query("tenant = ?1", tenant, 0);
+}
+
 std::vector<JobRecord> JobStore::take_ended_before(double before) {
   auto rows = query("finished > 0 AND finished < ?1", {}, before);
   for (const auto& r : rows) remove(r.id);

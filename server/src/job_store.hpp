@@ -51,6 +51,8 @@ class JobStore {
   bool remove(const std::string& id);
   /// Removes and returns the records that ended before `before` (Unix seconds).
   std::vector<JobRecord> take_ended_before(double before);
+  /// The records of `tenant`'s jobs (for its disk quota).
+  std::vector<JobRecord> of_tenant(const std::string& tenant) const;
 
  private:
   std::vector<JobRecord> query(const char* sql, const std::string& arg, double number) const;

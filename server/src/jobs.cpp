@@ -180,6 +180,23 @@ std::optional<JobRecord> Jobs::record(const std::string& id) const {
   }
 }
 
+std::vector<std::filesystem::path> Jobs::tenant_files(const std::string& tenant) const {
+  std::vector<JobRecord> records;
+  if (redis_) {
+    records = redis_->ended_of_tenant(tenant);
+  } else if (store_) {
+    records = store_->of_tenant(tenant);
+  } else {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, job] : jobs_)
+      if (job->record.tenant == tenant) records.push_back(job->record);
+  }
+  std::vector<std::filesystem::path> out;
+  for (const auto& r : records)
+    for (const auto& [name, path] : r.files) out.push_back(path);
+  return out;
+}
+
 std::optional<nlohmann::json> Jobs::get(const std::string& id) const {
   const auto r = record(id);
   if (!r) return std::nullopt;

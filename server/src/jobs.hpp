@@ -92,6 +92,8 @@ class Jobs {
   /// Kind and tenant of job `id`, or nullopt when there is none.
   std::optional<std::pair<std::string, std::string>> kind_and_tenant(const std::string& id) const;
   std::optional<std::filesystem::path> file(const std::string& id, const std::string& name) const;
+  /// The files (videos) of `tenant`'s jobs, for its disk quota.
+  std::vector<std::filesystem::path> tenant_files(const std::string& tenant) const;
   /// DELETE /api/jobs/{id}: forgets the job and removes its files; a queued job never runs, a
   /// running one is cancelled at its next progress report. False when there is no such job.
   bool remove(const std::string& id);

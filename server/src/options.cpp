@@ -75,6 +75,7 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   c.read("max_fps", o.max_fps).read("max_frame_side", o.max_frame_side);
   c.read("max_jobs", o.max_jobs).read("max_render_seconds", o.max_render_seconds);
   c.read("job_retention", o.job_retention);
+  c.read("tenant_disk_quota", o.tenant_disk_quota).read("rig_retention", o.rig_retention);
   c.read("max_json_depth", o.max_json_depth).read("max_utterance_seconds", o.max_utterance_seconds);
   c.read("max_piece", o.max_piece);
   c.read("messages_per_second", o.messages_per_second).read("message_burst", o.message_burst);
@@ -174,6 +175,7 @@ void validate(const ServerOptions& o) {
   need(o.max_jobs >= 1, "max_jobs: must be at least 1");
   need(o.max_render_seconds > 0, "max_render_seconds: must be positive");
   need(o.job_retention >= 0, "job_retention: must not be negative (0 keeps jobs forever)");
+  need(o.rig_retention >= 0, "rig_retention: must not be negative (0 keeps rigs forever)");
   need(o.max_json_depth >= 4 && o.max_json_depth <= 256, "max_json_depth: must be in 4..256");
   need(o.max_utterance_seconds >= 1 && o.max_utterance_seconds <= 86400,
        "max_utterance_seconds: must be in 1..86400");

@@ -14,6 +14,7 @@
 #include "facecast/rigbuild/template.hpp"
 #include "log.hpp"
 #include "routes.hpp"
+#include "storage.hpp"
 
 #include "facecast/core/json_limits.hpp"
 
@@ -117,8 +118,10 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
     const rigbuild::PhotoAvatar avatar = rigbuild::avatar_from_photos(
         *tmpl, (*photos)[0], photos->size() > 1 ? &(*photos)[1] : nullptr, opt, ctx.progress_fn());
     ctx.progress("storing", 1.0);
-    const std::string id = state.rigs.add(name, template_id, avatar.rig, rig::glb_bytes(avatar.rig),
-                                          avatar.report, {}, {}, owner);
+    const std::string glb = rig::glb_bytes(avatar.rig);
+    check_disk_quota(state, owner.tenant, glb.size());
+    const std::string id =
+        state.rigs.add(name, template_id, avatar.rig, glb, avatar.report, {}, {}, owner);
     state.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id},
@@ -130,6 +133,7 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
 
 http::message_generator post_photo(State& state, const Request& req, const std::string& tenant) {
   const json body = parse_object(req, state.limits.max_json_depth);
+  check_disk_quota(state, tenant);
   const std::string job = state.jobs.submit("photo", photo_work(state, body, tenant), body, tenant);
   log::info("photo_job", {{"job", job}});
   return json_response(state, req, http::status::accepted,

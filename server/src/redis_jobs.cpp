@@ -84,6 +84,13 @@ std::optional<JobRecord> RedisJobQueue::get(const std::string& id) {
   return record_from_storage(json::parse(v.str));
 }
 
+std::vector<JobRecord> RedisJobQueue::ended_of_tenant(const std::string& tenant) {
+  std::vector<JobRecord> out;
+  for (const auto& id : client_.command({"ZRANGE", key("jobs:ended"), "0", "-1"}).elements)
+    if (auto r = get(id.str); r && r->tenant == tenant) out.push_back(std::move(*r));
+  return out;
+}
+
 std::optional<json> RedisJobQueue::payload(const std::string& id) {
   const auto v = client_.command({"GET", key("job:" + id + ":payload")});
   if (v.nil()) return std::nullopt;

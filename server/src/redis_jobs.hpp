@@ -35,6 +35,8 @@ class RedisJobQueue {
   /// into this instance's processing list.
   std::optional<std::string> take(RedisClient& client, double wait);
   std::optional<JobRecord> get(const std::string& id);
+  /// The ended jobs of `tenant` (their files count against its disk quota).
+  std::vector<JobRecord> ended_of_tenant(const std::string& tenant);
   std::optional<nlohmann::json> payload(const std::string& id);
   /// Progress of a running job; false when its record is gone (deleted: cancel the job).
   bool update(const JobRecord& record);

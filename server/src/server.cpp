@@ -17,6 +17,7 @@
 #include "rtmp_out.hpp"
 #include "speech.hpp"
 #include "state.hpp"
+#include "storage.hpp"
 #include "vmc_out.hpp"
 
 namespace facecast::server {
@@ -56,6 +57,8 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   net::signal_set signals;
   net::steady_timer shutdown_timer;
+  net::steady_timer maintenance_timer;  // rig retention (storage.hpp), every 10 minutes
+  void maintain();
   std::chrono::steady_clock::time_point shutdown_deadline;
   std::vector<std::thread> threads;
   std::thread jobs_stopper;  // cancels jobs and ends the RTMP outputs during shutdown
@@ -73,7 +76,8 @@ Server::Impl::Impl(ServerOptions options)
       work(net::make_work_guard(ioc)),
       acceptor(net::make_strand(ioc)),
       signals(ioc),
-      shutdown_timer(ioc) {
+      shutdown_timer(ioc),
+      maintenance_timer(ioc) {
   validate(options);
   log::set_level(options.log_level);
   raise_file_limit();
@@ -108,6 +112,16 @@ Server::Impl::Impl(ServerOptions options)
     throw Error("cannot listen on " + o.host + ":" + std::to_string(o.port) + ": " + ec.message(),
                 ErrorCode::kInternal);
   }
+  maintain();
+}
+
+// Folder scans run on the worker pool, never on the I/O threads.
+void Server::Impl::maintain() {
+  net::post(state->workers, [s = state] { expire_rigs(*s); });
+  maintenance_timer.expires_after(std::chrono::minutes(10));
+  maintenance_timer.async_wait([this](beast::error_code ec) {
+    if (!ec && !shutting_down && !draining) maintain();
+  });
 }
 
 void Server::Impl::do_accept() {

@@ -316,7 +316,9 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.allowed_hosts == d.allowed_hosts);
   CHECK(file.cors_origins == d.cors_origins);
   CHECK(file.vmc_targets.empty());
-  CHECK(j.size() == 69);            // 68 settings + "_doc"
+  CHECK(file.tenant_disk_quota == d.tenant_disk_quota);
+  CHECK(file.rig_retention == d.rig_retention);
+  CHECK(j.size() == 71);            // 70 settings + "_doc"
   CHECK(j["decode"].size() == 16);  // every field of rig::DecodeLimits
 }
 

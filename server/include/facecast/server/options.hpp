@@ -139,6 +139,10 @@ struct ServerOptions {
   // vmc_targets: VMC receivers a private speak may name ("vmc": "<name>"); clients never give an
   // address, so the server's UDP goes only where this allow-list says.
   std::map<std::string, Channel::Vmc> vmc_targets;
+  // What a tenant may keep on disk: its stored rigs and its jobs' files (0: no limit), and how
+  // long a stored rig is kept (seconds from when it was stored; 0: forever). storage.hpp.
+  std::uint64_t tenant_disk_quota = 4'000'000'000;
+  double rig_retention = 0;
   std::map<std::string, Rtmp> rtmp;  // by channel name (configs: channels.<name>.rtmp)
   double presence_interval = 1.0;    // seconds between two `presence` messages of a channel
   double channel_idle = 10;          // idle-life streams of this length between utterances (0: off)

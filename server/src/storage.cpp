@@ -1,0 +1,74 @@
+#include "storage.hpp"
+
+#include <cstdio>
+
+#include "log.hpp"
+
+namespace facecast::server {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::uint64_t size_of(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec)) return fs::file_size(path, ec);
+  std::uint64_t total = 0;
+  for (fs::recursive_directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec))
+    if (it->is_regular_file(ec)) total += it->file_size(ec);
+  return total;
+}
+
+std::string megabytes(std::uint64_t bytes) {
+  char out[32];
+  std::snprintf(out, sizeof out, "%.1f MB", static_cast<double>(bytes) / 1e6);
+  return out;
+}
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+std::uint64_t tenant_disk_usage(State& state, const std::string& tenant) {
+  std::uint64_t total = 0;
+  for (const RigInfo& r : state.rigs.list())
+    if (!r.builtin && r.tenant == tenant) total += size_of(state.rigs.glb_path(r.id).parent_path());
+  for (const fs::path& f : state.jobs.tenant_files(tenant)) total += size_of(f);
+  return total;
+}
+
+void check_disk_quota(State& state, const std::string& tenant, std::uint64_t adding) {
+  const std::uint64_t quota = state.options.tenant_disk_quota;
+  if (quota == 0) return;
+  const std::uint64_t used = tenant_disk_usage(state, tenant);
+  if (used + adding <= quota && (adding > 0 || used < quota)) return;
+  throw RequestError(Code::kLimit,
+                     "tenant '" + tenant + "' stores " + megabytes(used) +
+                         (adding ? " and would add " + megabytes(adding) : "") + " of its " +
+                         megabytes(quota) + " (tenant_disk_quota): delete rigs or jobs first",
+                     413);
+}
+
+int expire_rigs(State& state) {
+  const double retention = state.options.rig_retention;
+  if (retention <= 0) return 0;
+  const double before = unix_now() - retention;
+  int removed = 0;
+  for (const RigInfo& r : state.rigs.list()) {
+    if (r.builtin || r.id == state.options.default_rig || r.created <= 0 || r.created >= before)
+      continue;
+    try {
+      if (state.rigs.remove(r.id)) {
+        ++removed;
+        log::info("rig_expired", {{"rig", r.id}, {"tenant", r.tenant}});
+      }
+    } catch (const std::exception& e) {
+      log::warn("rig_expire_failed", {{"rig", r.id}, {"error", e.what()}});
+    }
+  }
+  return removed;
+}
+
+}  // namespace facecast::server
