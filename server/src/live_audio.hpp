@@ -11,6 +11,9 @@
 #include <string_view>
 #include <vector>
 
+#include <optional>
+
+#include "beast.hpp"
 #include "facecast/anim/animation.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/lipsync.hpp"
@@ -73,12 +76,22 @@ class LiveLipsync {
 };
 
 /// A connection's open live audio stream.
+/// A connection's open live audio stream. The analysis runs on `strand`, a strand of the worker
+/// pool, never on the I/O threads: `engine` is made and used only there (in order: the strand
+/// runs one task at a time, first in first out), and what it makes is posted back to the
+/// connection. The connection's side keeps what it checks the next chunk against.
 struct LiveAudio {
-  LiveLipsync engine;
+  struct Engine {
+    std::optional<LiveLipsync> lipsync;  // empty until made (or when making it failed)
+  };
+  std::shared_ptr<Engine> engine = std::make_shared<Engine>();
+  net::any_io_executor strand;
   std::uint32_t stream = 0;
-  std::string id;  // "audio-<stream>", the stream_start / stream_end id
-  // When the stream opened: audio may run at most live_audio_ahead seconds ahead of real time
-  // (the analysis runs on the connection's I/O thread; a client must not make it run unbounded).
+  std::string id;              // "audio-<stream>", the stream_start / stream_end id
+  int rate = 0;                // the stream's sample rate
+  std::uint64_t received = 0;  // samples taken so far: the next chunk's first sample
+  // When the stream opened: audio may run at most live_audio_ahead seconds ahead of real time, so
+  // a client cannot make the analysis run unbounded.
   std::chrono::steady_clock::time_point opened = std::chrono::steady_clock::now();
 };
 

@@ -34,31 +34,14 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
       if (c.first != 0)
         throw Error("audio chunk: first sample " + std::to_string(c.first) +
                     " but no audio stream is open (a stream starts at sample 0)");
-      const std::uint32_t stream = state_->next_stream.fetch_add(1);
-      audio_ = std::make_unique<LiveAudio>(
-          LiveAudio{LiveLipsync(state_->rigs.load(""), state_->anim_options, lipsync_options(),
-                                state_->viseme_options.set.value_or(viseme::VisemeSet::kOculus),
-                                c.sample_rate, kLiveFps),
-                    stream, "audio-" + std::to_string(stream)});
-      StreamStart s;
-      s.id = audio_->id;
-      s.stream = stream;
-      s.fps = kLiveFps;
-      s.rig = audio_->engine.rig().id;
-      viseme::Utterance empty;
-      empty.set = state_->viseme_options.set.value_or(viseme::VisemeSet::kOculus);
-      send(OutMessage::control(open_stream_start(stream_start_message(
-          s, audio_->engine.rig().mapping.shape_names(), viseme::to_json(empty)))));
-      log::info("audio_start", {{"conn", conn_}, {"stream", stream}, {"rate", c.sample_rate}});
-    } else if (c.sample_rate != audio_->engine.input_rate() ||
-               c.first != audio_->engine.samples()) {
+      open_audio(c.sample_rate);
+    } else if (c.sample_rate != audio_->rate || c.first != audio_->received) {
       throw Error("audio chunk: sample_rate " + std::to_string(c.sample_rate) + ", first " +
-                  std::to_string(c.first) + "; the stream expects " +
-                  std::to_string(audio_->engine.input_rate()) + " Hz from sample " +
-                  std::to_string(audio_->engine.samples()) + " (chunks follow on)");
+                  std::to_string(c.first) + "; the stream expects " + std::to_string(audio_->rate) +
+                  " Hz from sample " + std::to_string(audio_->received) + " (chunks follow on)");
     }
     const double audio_end =
-        static_cast<double>(audio_->engine.samples() + c.samples.size()) / c.sample_rate;
+        static_cast<double>(audio_->received + c.samples.size()) / c.sample_rate;
     const double elapsed = seconds(Clock::now() - audio_->opened);
     if (audio_end > elapsed + state_->options.live_audio_ahead) {
       char buf[200];
@@ -68,37 +51,102 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
                     audio_end, elapsed, state_->options.live_audio_ahead);
       throw RequestError(Code::kRateLimited, buf);
     }
-    std::vector<float> values;
-    const int first = audio_->engine.frames();
-    const int n = audio_->engine.push(c.samples.data(), c.samples.size(), values);
-    send_audio_weights(first, n, values);
+    audio_->received += c.samples.size();
+    net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine,
+                               stream = audio_->stream, samples = std::move(c.samples)] {
+      if (!engine->lipsync) return;  // making it failed: the error was sent
+      std::vector<float> values;
+      const int first = engine->lipsync->frames();
+      const int n = engine->lipsync->push(samples.data(), samples.size(), values);
+      self->post_audio_weights(stream, first, n, engine->lipsync->fps(), std::move(values));
+    });
     if (c.last) end_audio();
   } catch (...) {
     send_error(std::nullopt, describe(std::current_exception()));
   }
 }
 
-void WebSocketSession::send_audio_weights(int first, int count, const std::vector<float>& values) {
+// The stream's engine is made on its strand (loading the rig may take a while); its stream_start
+// comes back to the connection before any of its weights.
+void WebSocketSession::open_audio(int rate) {
+  const std::uint32_t stream = state_->next_stream.fetch_add(1);
+  audio_ = std::make_unique<LiveAudio>();
+  audio_->strand = net::make_strand(state_->workers);
+  audio_->stream = stream;
+  audio_->id = "audio-" + std::to_string(stream);
+  audio_->rate = rate;
+  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, stream, rate,
+                             id = audio_->id] {
+    const viseme::VisemeSet set =
+        self->state_->viseme_options.set.value_or(viseme::VisemeSet::kOculus);
+    try {
+      engine->lipsync.emplace(self->state_->rigs.load(""), self->state_->anim_options,
+                              lipsync_options(), set, rate, kLiveFps);
+    } catch (...) {
+      const Problem problem = describe(std::current_exception());
+      net::post(self->ws_.get_executor(), [self, id, problem] { self->send_error(id, problem); });
+      return;
+    }
+    StreamStart s;
+    s.id = id;
+    s.stream = stream;
+    s.fps = kLiveFps;
+    s.rig = engine->lipsync->rig().id;
+    viseme::Utterance empty;
+    empty.set = set;
+    auto start = OutMessage::control(open_stream_start(stream_start_message(
+        s, engine->lipsync->rig().mapping.shape_names(), viseme::to_json(empty))));
+    net::post(self->ws_.get_executor(), [self, start = std::move(start), stream, rate] {
+      self->send(start);
+      log::info("audio_start", {{"conn", self->conn_}, {"stream", stream}, {"rate", rate}});
+    });
+  });
+}
+
+void WebSocketSession::post_audio_weights(std::uint32_t stream, int first, int count, double fps,
+                                          std::vector<float> values) {
   if (count <= 0) return;
   auto msg = std::make_shared<const std::string>(
-      weights_message(audio_->stream, static_cast<std::uint32_t>(first), audio_->engine.fps(),
+      weights_message(stream, static_cast<std::uint32_t>(first), fps,
                       static_cast<std::uint32_t>(count), values.data(), values.size()));
-  send(OutMessage{std::move(msg), OutKind::kWeights, audio_->stream,
-                  static_cast<std::uint32_t>(count)});
+  net::post(ws_.get_executor(), [self = shared_from_this(), msg = std::move(msg), stream, count] {
+    self->send(OutMessage{msg, OutKind::kWeights, stream, static_cast<std::uint32_t>(count)});
+  });
 }
 
 void WebSocketSession::end_audio() {
   if (!audio_) return;
-  std::vector<float> values;
-  const int first = audio_->engine.frames();
-  send_audio_weights(first, audio_->engine.finish(values), values);
-  StreamEnd e;
-  e.id = audio_->id;
-  e.stream = audio_->stream;
-  e.frames = audio_->engine.frames();
-  send(OutMessage::control(stream_end_message(e)));
-  log::info("audio_end", {{"conn", conn_}, {"stream", audio_->stream}, {"frames", e.frames}});
+  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine,
+                             stream = audio_->stream, id = audio_->id] {
+    if (!engine->lipsync) return;
+    std::vector<float> values;
+    const int first = engine->lipsync->frames();
+    const int n = engine->lipsync->finish(values);
+    self->post_audio_weights(stream, first, n, engine->lipsync->fps(), std::move(values));
+    StreamEnd e;
+    e.id = id;
+    e.stream = stream;
+    e.frames = engine->lipsync->frames();
+    net::post(self->ws_.get_executor(), [self, e] {
+      self->send(OutMessage::control(stream_end_message(e)));
+      log::info("audio_end", {{"conn", self->conn_}, {"stream", *e.stream}, {"frames", e.frames}});
+    });
+  });
   audio_.reset();
+}
+
+void WebSocketSession::live_expressions(const std::string& tags) {
+  if (!audio_) throw Error("expression: no live audio stream is open on this connection");
+  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, tags] {
+    if (!engine->lipsync) return;
+    try {
+      engine->lipsync->add_expressions(tags);
+    } catch (...) {
+      const Problem problem = describe(std::current_exception());
+      net::post(self->ws_.get_executor(),
+                [self, problem] { self->send_error(std::nullopt, problem); });
+    }
+  });
 }
 
 }  // namespace facecast::server

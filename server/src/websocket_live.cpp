@@ -66,8 +66,7 @@ bool WebSocketSession::route_live(ClientMessage& m) {
       return true;
     }
     if (const auto* x = std::get_if<ExpressionRequest>(&m)) {
-      if (!audio_) throw Error("expression: no live audio stream is open on this connection");
-      audio_->engine.add_expressions(x->tags);
+      live_expressions(x->tags);
       return true;
     }
     return false;  // this connection's own speak / cancel / ping

@@ -60,7 +60,7 @@ TEST_CASE("a tenant's disk quota bounds what it stores, and old rigs expire", "[
     CHECK(second.status == 413);
     CHECK_THAT(second.body,
                Catch::Contains("tenant 'acme' stores") && Catch::Contains("(tenant_disk_quota)"));
-    // Jobs that would store more are refused too, before they run.
+    // A render is taken while the tenant is under its quota (it is checked before the job runs).
     const auto render =
         http_request(port, http::verb::post, "/api/render", R"({"text": "Hi."})", bearer(a));
     CHECK(render.status == 202);  // under the quota: one avatar stored
