@@ -6,12 +6,16 @@
 #include <iostream>
 #include <thread>
 
+#include <unistd.h>
+
 #include "facecast/anim/live_link.hpp"
 #include "facecast/app/commands.hpp"
 #include "facecast/app/timeline_plot.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/subprocess.hpp"
+#include "facecast/core/wav.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/server/vmc.hpp"
 #include "facecast/viseme/viseme.hpp"
@@ -69,6 +73,24 @@ viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::str
   return viseme::analyze(a.text, o);
 }
 
+Speech speech_with_audio(const SpeechArgs& a, const std::string& audio) {
+  const bool file = !audio.empty() && audio != "tts" && audio != "none";
+  Speech s;
+  s.utterance = file && !a.given()
+                    ? viseme::lipsync(viseme::read_audio(audio, viseme::load_audio_options()),
+                                      viseme::load_options(), viseme::load_lipsync_options())
+                    : speech_utterance(a, audio == "tts", file && !a.text.empty() ? audio : "");
+  if (file && a.text.empty()) {
+    const auto in = viseme::read_audio(audio, viseme::load_audio_options());
+    s.pcm = viseme::to_pcm16(in.samples);
+    s.sample_rate = in.sample_rate;
+  } else if (audio != "none" && !audio.empty()) {
+    s.pcm = s.utterance.pcm;
+    s.sample_rate = s.utterance.sample_rate;
+  }
+  return s;
+}
+
 anim::AnimOptions speech_anim_options(const SpeechArgs& a) {
   anim::AnimOptions o = anim::load_anim_options();
   o.idle = a.idle == "on";
@@ -79,18 +101,29 @@ namespace {
 
 struct AnimateArgs {
   SpeechArgs speech;
-  std::string rig, out, plot, vmc, vmc_names = "perfect-sync";
+  std::string rig, out, plot, vmc, vmc_names = "perfect-sync", audio, wav;
   double fps = 60;
+  bool play = false;
 };
 
-// Plays `p` to a VMC receiver in real time: frame f leaves at start + f / fps.
+// Plays `wav` on this machine's sound output through ffplay (SDL picks the device).
+std::unique_ptr<Child> play_sound(const std::string& wav) {
+  return std::make_unique<Child>(
+      std::vector<std::string>{"ffplay", "-nodisp", "-autoexit", "-loglevel", "error", wav},
+      std::vector<ChildFd>{
+          {0, ChildFd::Kind::kNull}, {1, ChildFd::Kind::kNull}, {2, ChildFd::Kind::kRead}});
+}
+
+// Plays `p` to a VMC receiver in real time: frame f leaves at start + f / fps. With `sound`, the
+// speech starts playing locally at the first frame.
 void play_vmc(const anim::Performance& p, const server::VmcTarget& target, server::VmcNames names,
-              double fps) {
+              double fps, const std::string& sound) {
   server::VmcSender sender(target, names);
   const auto& shapes = p.shape_names();
   std::vector<float> w(shapes.size());
   rig::HeadPose head;
   const int frames = p.frame_count(fps);
+  const auto player = sound.empty() ? nullptr : play_sound(sound);
   const auto start = std::chrono::steady_clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f / fps;
@@ -102,6 +135,35 @@ void play_vmc(const anim::Performance& p, const server::VmcTarget& target, serve
   }
   std::cerr << "sent " << frames << " frames to " << target.host << ":" << target.port << " ("
             << p.duration() << " s)\n";
+  if (player) {
+    const ExitStatus st = player->finish(p.duration() + 5);
+    if (!st.ok())
+      std::cerr << "facecast: warning: ffplay could not play the sound: "
+                << player->output(2).substr(0, 200) << "\n";
+  }
+}
+
+// The speech's sound: the --audio file, espeak-ng's when it is wanted (--wav, --play, --timing
+// tts), else none.
+std::string audio_mode(const AnimateArgs& a) {
+  if (!a.audio.empty()) return a.audio;
+  return a.speech.timing == "tts" || (!a.speech.text.empty() && (!a.wav.empty() || a.play))
+             ? "tts"
+             : "none";
+}
+
+// The speech as a WAV for --wav, or for --play alone a temporary one; "" when neither is asked.
+std::string write_sound(const AnimateArgs& a, const Speech& s) {
+  if (a.wav.empty() && !a.play) return "";
+  if (s.pcm.empty())
+    throw Error(std::string(a.play ? "--play" : "--wav") +
+                ": there is no speech audio (give --text, or --audio FILE)");
+  std::string path = a.wav;
+  if (path.empty())
+    path = (fs::temp_directory_path() / ("facecast-play-" + std::to_string(::getpid()) + ".wav"))
+               .string();
+  write_file_atomic(path, encode_wav(s.pcm, s.sample_rate));
+  return path;
 }
 
 }  // namespace
@@ -125,6 +187,16 @@ void add_animate_commands(CLI::App& app) {
                   "(A I U E O, Blink, Joy...) or vrm1 (aa ih ou ee oh, blink, happy...)")
       ->check(CLI::IsMember({"perfect-sync", "vrm0", "vrm1"}))
       ->capture_default_str();
+  cmd->add_option("--audio", a->audio,
+                  "Speech audio: --text is aligned to it; alone, audio-only lip-sync (any format "
+                  "ffmpeg/libsndfile reads)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--wav", a->wav,
+                  "Also write the speech (espeak-ng's for --text, or the --audio file's) as a WAV "
+                  "that starts at frame 0, to play beside the weights");
+  cmd->add_flag("--play", a->play,
+                "With --vmc: play the speech on this machine's sound output (ffplay) as the "
+                "bundles go");
   cmd->add_option("--out", a->out,
                   "weights.json ({fps, frames, shapes, weights, head}), weights.bin (FCWT: see "
                   "anim/animation.hpp) or take.csv (a Live Link Face take: the 52 ARKit shapes "
@@ -146,12 +218,15 @@ void add_animate_commands(CLI::App& app) {
             "--fap out");
       const auto target = server::parse_vmc_target(a->vmc, "--vmc");
       const auto names = server::parse_vmc_names(a->vmc_names, "--vmc-names");
-      const auto u = speech_utterance(a->speech, a->speech.timing == "tts");
+      const Speech s = speech_with_audio(a->speech, audio_mode(*a));
+      const std::string sound = write_sound(*a, s);
       const anim::Mapping mapping = anim::Mapping::for_rig(server::vmc_shape_names(names));
-      play_vmc(anim::Performance(u, mapping, speech_anim_options(a->speech)), target, names,
-               a->fps);
+      play_vmc(anim::Performance(s.utterance, mapping, speech_anim_options(a->speech)), target,
+               names, a->fps, a->play ? sound : "");
+      if (a->wav.empty() && !sound.empty()) fs::remove(sound);
       return;
     }
+    if (a->play) throw Error("--play plays beside --vmc; give --wav to keep the sound");
     if (take && !a->rig.empty() && a->speech.fap.empty())
       throw Error(
           "--rig: a Live Link Face take (.csv) holds the 52 ARKit shapes of any face; "
@@ -176,7 +251,9 @@ void add_animate_commands(CLI::App& app) {
     if (!a->speech.fap.empty()) {
       motion = std::make_unique<anim::FapMotion>(read_fap_motion(a->speech.fap, *fap_measured));
     } else {
-      u = speech_utterance(a->speech, a->speech.timing == "tts");
+      const Speech s = speech_with_audio(a->speech, audio_mode(*a));
+      (void)write_sound(*a, s);
+      u = s.utterance;
       const anim::Mapping mapping = anim::Mapping::for_rig(shapes);
       source = mapping.table() + " mapping";
       motion = std::make_unique<anim::Performance>(*u, mapping, speech_anim_options(a->speech));

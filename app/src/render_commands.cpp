@@ -74,27 +74,13 @@ void write_motion(const RenderArgs& a, const rig::Rig& rig, render::RenderOption
 
 // Text or timestamps -> MP4 (ffmpeg) or a frame sequence + WAV.
 void render_speech(const RenderArgs& a, const rig::Rig& rig, render::RenderOptions opt) {
-  const std::string audio = !a.audio.empty() ? a.audio : !a.speech.text.empty() ? "tts" : "none";
-  const bool file = audio != "tts" && audio != "none";
   // Text with an audio file: the text is aligned to that speech (and the video carries it).
-  const auto u =
-      file && !a.speech.given()
-          ? viseme::lipsync(viseme::read_audio(audio, viseme::load_audio_options()),
-                            viseme::load_options(), viseme::load_lipsync_options())
-          : speech_utterance(a.speech, audio == "tts", file && !a.speech.text.empty() ? audio : "");
-  std::vector<int16_t> pcm = u.pcm;
-  int rate = u.sample_rate;
-  if (audio == "none") {
-    pcm.clear();
-    rate = 0;
-  } else if (file && a.speech.text.empty()) {
-    const auto in = viseme::read_audio(audio, viseme::load_audio_options());
-    pcm = viseme::to_pcm16(in.samples);
-    rate = in.sample_rate;
-  }
+  const Speech s = speech_with_audio(a.speech, !a.audio.empty()         ? a.audio
+                                               : !a.speech.text.empty() ? "tts"
+                                                                        : "none");
   const anim::Mapping mapping = anim::Mapping::for_rig(rig.shape_names());
-  write_motion(a, rig, opt, anim::Performance(u, mapping, speech_anim_options(a.speech)), pcm,
-               rate);
+  write_motion(a, rig, opt, anim::Performance(s.utterance, mapping, speech_anim_options(a.speech)),
+               s.pcm, s.sample_rate);
 }
 
 // An MPEG-4 FAP file -> video, with the sound of --audio FILE when given.
