@@ -3,6 +3,7 @@
 #   P/bin/facecast
 #   P/share/facecast/configs/              (every config; the server's defaults in server.json)
 #   P/share/facecast/web/                  (the web client)
+#   P/share/facecast/clients/js/           (the JS client, served at /vendor/facecast/ for the web client)
 #   P/share/facecast/node_modules/three/   (build/ and examples/jsm/: the client's import map)
 #   P/share/facecast/node_modules/@pixiv/three-vrm/lib/
 #   P/share/facecast/zh_lexicon.txt        (the Chinese lexicon compiled at build time)
@@ -15,6 +16,7 @@ set(FACECAST_NODE ${CMAKE_CURRENT_SOURCE_DIR}/node_modules)
 install(TARGETS facecast RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(DIRECTORY configs/ DESTINATION ${FACECAST_SHARE}/configs)
 install(DIRECTORY web/ DESTINATION ${FACECAST_SHARE}/web)
+install(DIRECTORY clients/js/ DESTINATION ${FACECAST_SHARE}/clients/js PATTERN "node_modules" EXCLUDE PATTERN "tests" EXCLUDE)
 install(DIRECTORY ${FACECAST_NODE}/three/build ${FACECAST_NODE}/three/examples
         DESTINATION ${FACECAST_SHARE}/node_modules/three PATTERN "*.d.ts" EXCLUDE)
 install(FILES ${FACECAST_NODE}/three/LICENSE ${FACECAST_NODE}/three/package.json

@@ -4,7 +4,7 @@
 // settings.js, queue.js (utterances, speak/stop), connection.js (server messages), rigs.js,
 // render_loop.js, debug.js (window.__facecast, the page's state for the browser tests).
 
-import { keepTokenInLinks } from './protocol.js';
+import { keepTokenInLinks } from './api.js';
 import './speak/debug.js';
 import { client, els, player, state, timeline } from './speak/page.js';
 import { listen } from './speak/connection.js';
@@ -56,7 +56,7 @@ function init() {
   keepTokenInLinks();
   listen();
   timeline.draw();
-  client.connect();
+  client.open();
   requestAnimationFrame(tick);
 }
 

@@ -1,22 +1,17 @@
 // Weights by name on every mesh of an avatar. A user's avatar spreads its morph targets over several
 // meshes (head, teeth, eyes, tongue), each with its own target order; a VRM also has expressions
 // (aa, ih, ou, ee, oh, blink, happy, ...) bound to morph targets of its meshes. A name in the stream
-// drives every mesh's target of that name, or the VRM expression of that name.
+// drives every mesh's target of that name, or the VRM expression of that name (a VRM 0.x preset
+// name, A or Joy, under its VRM 1.0 name: the JS client's table).
 //
 // Software WebGL (SwiftShader, llvmpipe) spends most of a frame looping over every morph target per
 // vertex; there the morphs are blended on the CPU (sparse deltas, only the targets in use) into each
 // geometry's position buffer and the shaders draw plain meshes. `?morph=cpu|gpu` forces a path.
 
 import * as THREE from 'three';
+import { morphMeshes, vrm1Name } from 'facecast-client';
 
-/** Every mesh under root that has morph targets (one per glTF primitive). */
-export function morphMeshes(root) {
-  const meshes = [];
-  root.traverse((o) => {
-    if (o.isMesh && o.morphTargetInfluences && o.morphTargetDictionary) meshes.push(o);
-  });
-  return meshes;
-}
+export { morphMeshes };
 
 /** The morph target names of all meshes of a loaded glTF, each once, in first-seen order. */
 export function targetNames(root) {
@@ -92,7 +87,7 @@ export class MorphBinding {
   setWeights(names, values) {
     if (this._names !== names) {
       this._names = names;
-      this._map = names.map((n) => (this.index.has(n) ? this.index.get(n) : -1));
+      this._map = names.map((n) => this.index.get(n) ?? this.index.get(vrm1Name(n)) ?? -1);
     }
     for (let i = 0; i < this._map.length && i < values.length; i++) {
       const k = this._map[i];

@@ -6,7 +6,7 @@
 
 import { loadGlb, morphMeshes, targetNames } from './avatar.js';
 import { showAlert } from './alerts.js';
-import { authHeaders, fetchJson, keepTokenInLinks } from './protocol.js';
+import { authHeaders, fetchJson, keepTokenInLinks } from './api.js';
 import { fetchJob, postJson, resetSliders, shapeSliders, wireDropZone } from './rig/controls.js';
 import { MeshView } from './rig/mesh_view.js';
 

@@ -5,7 +5,7 @@
 // The pieces live in rig/: page.js (state, views, window.__rig for the browser tests), obj.js,
 // mesh_view.js, server.js, meshes.js (template and upload), landmarks.js, markers.js, build.js, result.js.
 
-import { keepTokenInLinks } from './protocol.js';
+import { keepTokenInLinks } from './api.js';
 import { build } from './rig/build.js';
 import { resetSliders, wireDropZone } from './rig/controls.js';
 import { findLandmarks } from './rig/landmarks.js';

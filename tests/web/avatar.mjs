@@ -2,7 +2,8 @@
 // multi-mesh skinned GLB (a textured head and teeth that share morph targets by name in different
 // orders, a body without any, a Hips/Spine/Neck/Head skeleton) and the same as a VRM 1.0 (humanoid
 // bones, expressions aa and blink bound to the head's targets), loaded through three-vrm. Checks:
-// weights by name reach every mesh, VRM expressions drive their bound targets, the camera frames the
+// weights by name reach every mesh, VRM expressions drive their bound targets (also under a VRM 0.x
+// preset name), the JS client's applyWeights / applyExpressions do the same, the camera frames the
 // face (not the body), the head pose turns the head bone, and the page logs no errors. Both are
 // imported through the server (POST /api/rigs) and loaded from what it serves back.
 
@@ -185,10 +186,18 @@ await run('avatar', async () => {
         const byName = view.influences('jawOpen');
         view.setWeights(['jawOpen', 'eyeBlinkLeft', 'aa'], [0, 0, 1]);
         const byExpression = view.influences('jawOpen');
+        view.setWeights(['jawOpen', 'eyeBlinkLeft', 'A'], [0, 0, 1]); // a VRM 0.x preset name
+        const byVrm0Name = view.influences('jawOpen');
+        // The JS client's helpers on the same three.js and three-vrm objects.
+        const fc = await import('facecast-client');
+        const meshes = fc.morphMeshes(view.model);
+        fc.applyWeights(meshes, ['eyeBlinkLeft', 'jawOpen'], [0, 0.75]);
+        const helper = meshes.map((m) => m.morphTargetInfluences[m.morphTargetDictionary.jawOpen] ?? null);
+        const helperExpression = view.vrm && fc.applyExpressions(view.vrm, ['A'], [0.5]) === 1 ? view.vrm.expressionManager.getValue('aa') : null;
         view.setHead(0.3, 0, 0);
         view.render(true);
         const headTurned = view.bones ? view.bones.head.quaternion.angleTo(view.rest.head) : null;
-        return { names: view.names, byName, byExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
+        return { names: view.names, byName, byExpression, byVrm0Name, helper, helperExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
       },
       { url: urls[file] },
     );
@@ -197,10 +206,13 @@ await run('avatar', async () => {
     check(`${tag}: jawOpen by name reaches the head and the teeth (different target orders)`, result.byName.filter((v) => v === 0.5).length === 2, JSON.stringify(result.byName));
     check(`${tag}: the camera frames the face (y 1.5-1.7), not the body`, result.targetY > 1.5 && result.targetY < 1.7, result.targetY.toFixed(3));
     check(`${tag}: the head pose turns the head bone`, result.headTurned > 0.1, String(result.headTurned));
+    check(`${tag}: facecast-client's applyWeights sets jawOpen on every mesh`, result.helper.filter((v) => v === 0.75).length === 2, JSON.stringify(result.helper));
     if (isVrm) {
       check('VRM: three-vrm loaded it', result.vrm);
       check('VRM: the expression names are weight names', result.names.includes('aa') && result.names.includes('blink'), result.names.join(','));
       check('VRM: expression aa drives its bound target on the head', result.byExpression[0] === 1, JSON.stringify(result.byExpression));
+      check('VRM: the VRM 0.x name A drives expression aa', result.byVrm0Name[0] === 1, JSON.stringify(result.byVrm0Name));
+      check("VRM: facecast-client's applyExpressions sets aa for A", result.helperExpression === 0.5, String(result.helperExpression));
     }
     await screenshot(page, `avatar-${isVrm ? 'vrm' : 'glb'}`);
   }

@@ -1,10 +1,10 @@
 // Unit tests of the web client's pure parts, in node (no browser, no server): the facecast.v1 binary
 // header, the timeline's expression curve, and the player's frame scheduling on the performance
-// clock (a stream without audio).
+// clock (a stream without audio). The header and the player are the JS client's (clients/js, whose
+// own tests are clients/js/tests/).
 
-import { parseHeader, HEADER_BYTES, KIND } from '../../web/protocol.js';
+import { parseHeader, parseMedia, HEADER_BYTES, KIND, StreamPlayer } from '../../clients/js/facecast.js';
 import { expressionSegments } from '../../web/timeline.js';
-import { StreamPlayer } from '../../web/player.js';
 
 let passed = 0;
 let failed = 0;
@@ -76,6 +76,10 @@ function message(kind, stream, first, count, pts, payload) {
 }
 
 // ---- Player: frames without audio run on performance.now(), interpolated, in order.
+// A binary message through the client's parser to the player (streams: the player's stream_starts).
+function feed(p, buf) {
+  for (const item of parseMedia(buf, p.streams)) p.media(item);
+}
 {
   let now = 1000; // ms
   const realNow = performance.now.bind(performance);
@@ -84,7 +88,7 @@ function message(kind, stream, first, count, pts, payload) {
     const p = new StreamPlayer();
     const s = p.start({ id: 'u1', stream: 3, fps: 10, names: ['jawOpen', 'mouthClose'], extra: ['headYaw'], audio: null, duration: 0.5 });
     const frames = new Float32Array([0, 0, 0, 0.5, 0.1, 0.01, 1, 0.2, 0.02]); // 3 frames x 3 channels
-    p.media(parseHeader(message(KIND.WEIGHTS, 3, 0, 3, 0, frames)), message(KIND.WEIGHTS, 3, 0, 3, 0, frames).slice(HEADER_BYTES));
+    feed(p, message(KIND.WEIGHTS, 3, 0, 3, 0, frames));
     let r = p.update();
     check('before the lead nothing is shown', r.t < 0 && r.weights === null, `t=${r.t}`);
     now += 200 + 50; // past the lead, half-way between frame 0 (t=0) and frame 1 (t=0.1)
@@ -96,9 +100,9 @@ function message(kind, stream, first, count, pts, payload) {
     check('later frames follow', Math.abs(r.weights[0] - 0.75) < 1e-6, String(r.weights[0]));
     // A frame that arrives out of order is placed by its time.
     const late = new Float32Array([0.9, 0, 0]);
-    p.media(parseHeader(message(KIND.WEIGHTS, 3, 4, 1, 0.4, late)), message(KIND.WEIGHTS, 3, 4, 1, 0.4, late).slice(HEADER_BYTES));
+    feed(p, message(KIND.WEIGHTS, 3, 4, 1, 0.4, late));
     const mid = new Float32Array([0.3, 0, 0]);
-    p.media(parseHeader(message(KIND.WEIGHTS, 3, 3, 1, 0.3, mid)), message(KIND.WEIGHTS, 3, 3, 1, 0.3, mid).slice(HEADER_BYTES));
+    feed(p, message(KIND.WEIGHTS, 3, 3, 1, 0.3, mid));
     check('frames are kept in pts order', s.frames.map((f) => f.t).join(',') === '0,0.1,0.2,0.3,0.4', s.frames.map((f) => f.t).join(','));
     p.end({ id: 'u1', stream: 3, frames: 5, dropped: 0, cancelled: false });
     check('an ended stream is not done before its last frame', !p.done(s));
@@ -109,7 +113,7 @@ function message(kind, stream, first, count, pts, payload) {
     // A second stream queues behind the first and starts on its own clock.
     p.start({ id: 'u2', stream: 4, fps: 10, names: ['jawOpen'], extra: [], audio: null, duration: 0.2 });
     const one = new Float32Array([0.6]);
-    p.media(parseHeader(message(KIND.WEIGHTS, 4, 0, 1, 0, one)), message(KIND.WEIGHTS, 4, 0, 1, 0, one).slice(HEADER_BYTES));
+    feed(p, message(KIND.WEIGHTS, 4, 0, 1, 0, one));
     now += 250;
     r = p.update();
     check('the next stream follows the finished one', r.stream.id === 'u2' && r.weights && Math.abs(r.weights[0] - 0.6) < 1e-6, `${r.stream.id} ${r.weights?.[0]}`);

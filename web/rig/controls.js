@@ -1,7 +1,7 @@
 // Controls the rig builder and the photo page share: a file drop zone, a slider per shape, and
 // following a job (GET /api/jobs/{id}) to its end.
 
-import { fetchJson } from '../protocol.js';
+import { fetchJson } from '../api.js';
 
 /** Calls `onFile(file)` for a file chosen in `input` or dropped on `drop` (Enter/Space open it). */
 export function wireDropZone(drop, input, onFile) {

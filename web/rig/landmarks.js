@@ -2,7 +2,7 @@
 // rendered views of it (the server's dlib), paired with the template's: they become the marker
 // pairs (shown on both meshes; drag one on the head to fix it) and the views picture is shown.
 
-import { fetchJson } from '../protocol.js';
+import { fetchJson } from '../api.js';
 import { renderPairs } from './markers.js';
 import { $, error, sameTopology, state } from './page.js';
 

@@ -2,7 +2,7 @@
 // side by side, with a note on whether their topologies match.
 
 import { loadGlb, targetNames, morphMeshes, colorizePlainMaterials } from '../avatar.js';
-import { authHeaders } from '../protocol.js';
+import { authHeaders } from '../api.js';
 import { updateBuild } from './build.js';
 import { findLandmarks } from './landmarks.js';
 import { redrawMarkers } from './markers.js';

@@ -3,7 +3,7 @@
 
 import * as THREE from 'three';
 import { loadGlb, targetNames, morphMeshes, colorizePlainMaterials } from '../avatar.js';
-import { fetchJson, authHeaders, keepTokenInLinks } from '../protocol.js';
+import { fetchJson, authHeaders, keepTokenInLinks } from '../api.js';
 import { shapeSliders } from './controls.js';
 import { $, error, state, views } from './page.js';
 import { loadRigList } from './server.js';

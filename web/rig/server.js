@@ -1,7 +1,7 @@
 // The server as the rig builder sees it: its health in the top bar and the list of rigs (the
 // template menu).
 
-import { fetchJson } from '../protocol.js';
+import { fetchJson } from '../api.js';
 import { $, error, state } from './page.js';
 
 export async function checkServer() {

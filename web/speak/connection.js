@@ -1,9 +1,9 @@
 // The connection: its state in the top bar and alerts (with a probe for a missing token), and
 // the server's messages: hello, stream_start / stream_end (the utterance list) and errors.
 
-import { fetchJson } from '../protocol.js';
+import { fetchJson } from '../api.js';
 import { dismissAlert, showAlert } from '../alerts.js';
-import { client, els, player, state, view } from './page.js';
+import { client, els, state, view } from './page.js';
 import { setUtteranceState, updateButtons } from './queue.js';
 import { refreshRigs } from './rigs.js';
 import { showTextError, updateCount } from './text_box.js';
@@ -72,11 +72,10 @@ async function probeAuth() {
 }
 
 function onClosed() {
-  // Whatever was playing is gone with the connection: stop it and let the face settle.
+  // Whatever was playing is gone with the connection (the player stops it): let the face settle.
   for (const u of state.utterances.values()) {
     if (u.state === 'sent' || u.state === 'playing') setUtteranceState(u, 'error', 'lost');
   }
-  player.stopAll();
   state.restDecay = true;
 }
 
@@ -88,7 +87,6 @@ function onHello(e) {
 
 function onStreamStart(e) {
   const m = e.detail;
-  player.start(m);
   const u = state.utterances.get(m.id);
   if (u) {
     u.stream = m.stream;
@@ -100,7 +98,6 @@ function onStreamStart(e) {
 
 function onStreamEnd(e) {
   const m = e.detail;
-  player.end(m);
   const u = state.utterances.get(m.id);
   if (u) {
     u.dropped = m.dropped || 0;
@@ -137,15 +134,12 @@ function onError(e) {
   showAlert({ level: 'error', code: m.code || 'error', message: m.message || 'the server reported an error' });
 }
 
-client.addEventListener('media', (e) => player.media(e.detail.header, e.detail.payload));
-
 /** Registers the handlers of the connection's events (before it connects). */
 export function listen() {
   client.addEventListener('state', onState);
-  client.addEventListener('closed', onClosed);
+  client.addEventListener('close', onClosed);
   client.addEventListener('hello', onHello);
   client.addEventListener('stream_start', onStreamStart);
   client.addEventListener('stream_end', onStreamEnd);
   client.addEventListener('error', onError);
-  client.addEventListener('media', (e) => player.media(e.detail.header, e.detail.payload));
 }

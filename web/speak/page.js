@@ -1,8 +1,9 @@
-// The speak page's shared pieces: its elements, the connection, the stream player, the 3D view, the
-// timeline and the page state. The other modules of web/speak/ work on these.
+// The speak page's shared pieces: its elements, the connection and the stream player (the JS
+// client's, clients/js), the 3D view, the timeline and the page state. The other modules of
+// web/speak/ work on these.
 
-import { FacecastClient } from '../protocol.js';
-import { StreamPlayer } from '../player.js';
+import { FacecastClient, StreamPlayer } from 'facecast-client';
+import { currentKey, defaultUrl } from '../api.js';
 import { AvatarView } from '../avatar.js';
 import { Timeline } from '../timeline.js';
 
@@ -40,8 +41,10 @@ export const els = {
   tlInfo: $('tl-info'),
 };
 
-export const client = new FacecastClient();
+// The key is read at every connection (the page may ask for one after a 401).
+export const client = new FacecastClient(defaultUrl(), { key: currentKey, reconnect: true });
 export const player = new StreamPlayer();
+player.attach(client); // streams and media go to the player before the page's own handlers
 export const view = new AvatarView(els.view3d);
 export const timeline = new Timeline(els.timeline);
 

@@ -32,7 +32,7 @@ function pendingIds() {
 
 export function updateButtons() {
   // Frames mode needs no model here: the server renders.
-  els.speak.disabled = !client.open || (!view.model && output() === 'weights');
+  els.speak.disabled = !client.connected || (!view.model && output() === 'weights');
   els.stop.disabled = !pendingIds().length && !player.current;
 }
 
@@ -48,7 +48,7 @@ export function speak() {
     showTextError(`The text has ${[...text].length} characters; the server accepts at most ${max}.`);
     return;
   }
-  if (!client.open) {
+  if (!client.connected) {
     showAlert({ level: 'error', code: 'offline', message: 'Not connected to the server; the page reconnects by itself.' });
     return;
   }
@@ -58,10 +58,7 @@ export function speak() {
   }
   const id = `u${state.nextId++}`;
   const out = output();
-  const msg = {
-    type: 'speak',
-    id,
-    text,
+  const fields = {
     lang: els.lang.value,
     rig: state.rigId || 'default',
     output: out,
@@ -71,11 +68,15 @@ export function speak() {
     idle: els.idle.checked,
     fps: out === 'frames' ? 30 : 60,
   };
-  if (out === 'frames') msg.size = framesSize();
+  if (out === 'frames') fields.size = framesSize();
   const u = addUtterance(id, text);
   u.sentText = text;
-  if (!client.send(msg)) setUtteranceState(u, 'error', 'not sent');
-  state.log.push({ t: performance.now(), sent: msg });
+  try {
+    client.speak(text, { id, ...fields });
+  } catch {
+    setUtteranceState(u, 'error', 'not sent');
+  }
+  state.log.push({ t: performance.now(), sent: { type: 'speak', id, text, ...fields } });
 }
 
 function framesSize() {
@@ -92,7 +93,7 @@ function framesSize() {
 
 export function stop() {
   for (const id of pendingIds()) {
-    client.send({ type: 'cancel', id });
+    if (client.connected) client.cancel(id);
     player.silence(id);
   }
   updateButtons();

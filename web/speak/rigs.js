@@ -1,6 +1,6 @@
 // Rigs: the list in the Rig menu (from the server) and loading the chosen rig's GLB into the view.
 
-import { fetchJson, authHeaders } from '../protocol.js';
+import { fetchJson, authHeaders } from '../api.js';
 import { loadGlb } from '../avatar.js';
 import { showAlert } from '../alerts.js';
 import { client, els, state, view } from './page.js';
