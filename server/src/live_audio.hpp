@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include <boost/asio/strand.hpp>
+#include <boost/asio/thread_pool.hpp>
 #include <optional>
 
 #include "beast.hpp"
@@ -81,11 +83,14 @@ class LiveLipsync {
 /// runs one task at a time, first in first out), and what it makes is posted back to the
 /// connection. The connection's side keeps what it checks the next chunk against.
 struct LiveAudio {
+  explicit LiveAudio(net::strand<net::thread_pool::executor_type> on) : strand(std::move(on)) {}
   struct Engine {
     std::optional<LiveLipsync> lipsync;  // empty until made (or when making it failed)
   };
   std::shared_ptr<Engine> engine = std::make_shared<Engine>();
-  net::any_io_executor strand;
+  // Its concrete type, not any_io_executor: a pool's strand does not fit in its small buffer, and
+  // the shared target that would hold it counts references with fences (-Wtsan).
+  net::strand<net::thread_pool::executor_type> strand;
   std::uint32_t stream = 0;
   std::string id;              // "audio-<stream>", the stream_start / stream_end id
   int rate = 0;                // the stream's sample rate

@@ -70,8 +70,7 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
 // comes back to the connection before any of its weights.
 void WebSocketSession::open_audio(int rate) {
   const std::uint32_t stream = state_->next_stream.fetch_add(1);
-  audio_ = std::make_unique<LiveAudio>();
-  audio_->strand = net::make_strand(state_->workers);
+  audio_ = std::make_unique<LiveAudio>(net::make_strand(state_->workers));
   audio_->stream = stream;
   audio_->id = "audio-" + std::to_string(stream);
   audio_->rate = rate;
