@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -98,62 +99,87 @@ TEST_CASE("ICT template -> random ICT identity: skin error within bounds, parts 
        << found << " crossings found in " << on.timings.contacts << " s");
 }
 
-TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlink moves the lids",
-          "[rigbuild][makehuman][slow]") {
-  const auto dir = test::ict_dir();
-  const auto mh = test::shared_data() / "makehuman/head.obj";
-  const auto markers = test::shared_data() / "markers/makehuman_head_to_ict.json";
-  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh)) return;
-  const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
-  const rig::Rig target = rig::read_obj(mh);
-  BuildOptions opt;
-  opt.markers = read_markers(markers, tmpl.vertex_count(), target.vertex_count());
-  const auto r = build_rig(tmpl, target, opt);
-  // Times are figures, not checks (the machine is shared): bench/bench_landmarks prints them.
-  WARN("MakeHuman with markers: correspondence " << r.timings.correspondence << " s");
-  REQUIRE(r.rig.shapes.size() == 57);
-  // The correspondence saved and loaded again is reused (here for a build without contacts).
-  const auto saved = test::scratch_dir() / "mh.correspondence";
-  save_correspondence(saved, r.correspondence);
-  opt.correspondence = load_correspondence(saved, tmpl.vertex_count(), tmpl.triangle_count(),
-                                           target.vertex_count(), target.triangle_count());
-  opt.contacts.enabled = false;
-  const auto again = build_rig(tmpl, target, opt);
-  CHECK(again.timings.correspondence < 0.5);
-  // Crossings that the template does not have, as the report counts them, among the skin, the
-  // teeth and the eyes (the lips, the lids, the lips on the teeth, the lids on the eyes): the
-  // transfer alone brings over a thousand -- fuller lips and lids than the template's, closed as
-  // far as the template closes its own, and lips that lie on the teeth -- the contacts leave
-  // a handful (the lid margins in eyeBlink, beyond the watched margin, and a lid on an eye).
-  IntersectionCheck check;
-  const auto group_of = [&](int t) {
+namespace {
+
+// The MakeHuman head built from its marker file, with contacts (`with`) and without (`without`,
+// reusing the saved correspondence), and what the checks below measure on them.
+struct MakeHumanBuild {
+  rig::Rig tmpl, target;
+  BuildResult with, without;
+
+  const std::string& group_of(int t) const {
     return target
         .groups[static_cast<std::size_t>(target.triangle_group[static_cast<std::size_t>(t)])];
-  };
-  for (int t = 0; t < target.triangle_count(); ++t) {
-    const std::string& g = group_of(t);
-    check.region.push_back(g == "body" || g.ends_with("-teeth") || g.ends_with("-eye"));
   }
-  const auto new_pairs = [&](const BuildResult& b) {
+
+  // New crossing pairs (where the template has none) among the parts whose group `region`
+  // accepts, by the names of the two parts, summed over the shapes; and the shapes with any of
+  // those whose names contain `part`.
+  std::pair<std::map<std::string, std::size_t>, std::size_t> crossings(
+      const BuildResult& b, const std::function<bool(const std::string&)>& region,
+      const std::string& part = "") const {
+    IntersectionCheck only;
+    for (int t = 0; t < target.triangle_count(); ++t) only.region.push_back(region(group_of(t)));
     std::map<std::string, std::size_t> by_parts;
-    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, check).shapes)
-      for (const auto& [parts, n] : x.fresh_by_parts) by_parts[parts] += n;
-    return by_parts;
+    std::size_t shapes = 0;
+    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, only).shapes) {
+      std::size_t n = 0;
+      for (const auto& [parts, k] : x.fresh_by_parts) {
+        by_parts[parts] += k;
+        if (parts.find(part) != std::string::npos) n += k;
+      }
+      shapes += n > 0;
+    }
+    return {by_parts, shapes};
+  }
+
+  // The largest displacement of `shape` among the triangles of `group`.
+  float moved_in(const char* shape, const char* group) const {
+    const rig::Positions d =
+        with.rig.shapes[static_cast<std::size_t>(with.rig.find_shape(shape))].dense(
+            with.rig.vertex_count());
+    float most = 0;
+    for (int t = 0; t < target.triangle_count(); ++t)
+      if (group_of(t) == group) most = std::max(most, d.row(target.triangles(t, 0)).norm());
+    return most;
+  }
+
+  // The gap left between two lid vertices in `shape`, as a fraction of the neutral gap.
+  float gap(const char* shape, int upper, int lower) const {
+    const rig::Rig& r = with.rig;
+    const rig::Positions p =
+        r.positions +
+        r.shapes[static_cast<std::size_t>(r.find_shape(shape))].dense(r.vertex_count());
+    return (p.row(upper) - p.row(lower)).norm() /
+           (r.positions.row(upper) - r.positions.row(lower)).norm();
+  }
+};
+
+std::size_t sum(const std::map<std::string, std::size_t>& m, const std::string& part) {
+  std::size_t n = 0;
+  for (const auto& [parts, k] : m)
+    if (part.empty() || parts.find(part) != std::string::npos) n += k;
+  return n;
+}
+
+// Crossings that the template does not have, as the report counts them, among the skin, the
+// teeth and the eyes (the lips, the lids, the lips on the teeth, the lids on the eyes): the
+// transfer alone brings over a thousand -- fuller lips and lids than the template's, closed as
+// far as the template closes its own, and lips that lie on the teeth -- the contacts leave a
+// handful (the lid margins in eyeBlink, beyond the watched margin, and a lid on an eye).
+void check_skin_teeth_eyes(const MakeHumanBuild& b) {
+  const auto region = [](const std::string& g) {
+    return g == "body" || g.ends_with("-teeth") || g.ends_with("-eye");
   };
-  const auto sum = [](const std::map<std::string, std::size_t>& m, const std::string& part) {
-    std::size_t n = 0;
-    for (const auto& [parts, k] : m)
-      if (part.empty() || parts.find(part) != std::string::npos) n += k;
-    return n;
-  };
-  const auto with = new_pairs(r), without = new_pairs(again);
+  const auto with = b.crossings(b.with, region).first;
+  const auto without = b.crossings(b.without, region).first;
   CHECK(sum(without, "") > 500);
   CHECK(sum(with, "") * 10 < sum(without, ""));
   CHECK(sum(with, "") <= 8);
   CHECK(sum(without, "teeth") > 400);
   CHECK(sum(with, "teeth") * 10 < sum(without, "teeth"));
   int copy_found = 0, part_found = 0, found = 0, left = 0;
-  for (const auto& q : r.quality) {
+  for (const auto& q : b.with.quality) {
     copy_found += q.copy_crossings;
     part_found += q.part_crossings;
     found += q.crossings;
@@ -168,94 +194,79 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
        << sum(without, "body|body") << " skin, " << sum(without, "teeth")
        << " on the teeth); the copy crossed itself at " << copy_found << " pairs and the parts at "
        << part_found << "; contacts found " << found << ", left " << left);
-  // The tongue is a separate part that the transfer moves (floating): the contacts watch it
-  // against the teeth and the inner lips and palate. Tongue pairs (with the skin or the teeth)
-  // that cross in a shape where the template does not, over all shapes, and the shapes with any.
-  // New crossing pairs of the parts in `region` whose names contain `part`, over all shapes,
-  // and the shapes with any.
-  const auto crossings = [&](const BuildResult& b, auto&& region, const char* part) {
-    IntersectionCheck only;
-    for (int t = 0; t < target.triangle_count(); ++t) only.region.push_back(region(group_of(t)));
-    std::size_t pairs = 0, shapes = 0;
-    for (const auto& x : shape_intersections(b.rig, &tmpl, b.correspondence.map, only).shapes) {
-      std::size_t n = 0;
-      for (const auto& [parts, k] : x.fresh_by_parts)
-        if (parts.find(part) != std::string::npos) n += k;
-      pairs += n;
-      shapes += n > 0;
-    }
-    return std::pair{pairs, shapes};
-  };
+}
+
+// The tongue is a separate part that the transfer moves (floating): the contacts watch it against
+// the teeth and the inner lips and palate. The lashes ride on the lids (attached parts, carried
+// after the contacts by the skin triangle nearest each vertex, then lifted off the skin triangles
+// they cross).
+void check_tongue_and_lashes(const MakeHumanBuild& b) {
   const auto mouth = [](const std::string& g) {
     return g == "body" || g.ends_with("-teeth") || g == "helper-tongue";
   };
-  const auto tongue_crossings = [&](const BuildResult& b) { return crossings(b, mouth, "tongue"); };
-  const auto [tongue_with, tongue_shapes_with] = tongue_crossings(r);
-  const auto [tongue_without, tongue_shapes_without] = tongue_crossings(again);
-  WARN("MakeHuman tongue: " << tongue_with << " new crossing pairs with the teeth and the mouth "
-                            << "in " << tongue_shapes_with << " shapes with contacts, "
-                            << tongue_without << " in " << tongue_shapes_without << " without");
-  CHECK(tongue_without > 0);
+  const auto [tongue_with, tongue_shapes_with] = b.crossings(b.with, mouth, "tongue");
+  const auto [tongue_without, tongue_shapes_without] = b.crossings(b.without, mouth, "tongue");
+  const std::size_t tw = sum(tongue_with, "tongue"), two = sum(tongue_without, "tongue");
+  WARN("MakeHuman tongue: " << tw << " new crossing pairs with the teeth and the mouth in "
+                            << tongue_shapes_with << " shapes with contacts, " << two << " in "
+                            << tongue_shapes_without << " without");
+  CHECK(two > 0);
   // Measured: 143 pairs in 27 shapes without contacts, 2 in 1 with (mouthPucker: where the
   // tongue's underside lies 0.03 median edges from the floor of the mouth in the neutral,
   // interlocked with it).
-  CHECK(tongue_with * 20 < tongue_without);
-  CHECK(tongue_with <= 4);
+  CHECK(tw * 20 < two);
+  CHECK(tw <= 4);
   CHECK(tongue_shapes_with <= 2);
-  // The lashes ride on the lids (attached parts, carried after the contacts by the skin triangle
-  // nearest each vertex, then lifted off the skin triangles they cross): lash pairs with the skin
-  // or the other lashes crossing where the template does not, over all shapes.
   const auto lids = [](const std::string& g) {
     return g == "body" || g.find("eyelashes") != std::string::npos;
   };
-  const auto [lash_with, lash_shapes_with] = crossings(r, lids, "eyelashes");
-  const auto [lash_without, lash_shapes_without] = crossings(again, lids, "eyelashes");
-  WARN("MakeHuman lashes: " << lash_with << " new crossing pairs with the lids in "
-                            << lash_shapes_with << " shapes with contacts, " << lash_without
-                            << " in " << lash_shapes_without << " without");
+  const auto [lash_with, lash_shapes_with] = b.crossings(b.with, lids, "eyelashes");
+  const auto [lash_without, lash_shapes_without] = b.crossings(b.without, lids, "eyelashes");
+  const std::size_t lw = sum(lash_with, "eyelashes"), lwo = sum(lash_without, "eyelashes");
+  WARN("MakeHuman lashes: " << lw << " new crossing pairs with the lids in " << lash_shapes_with
+                            << " shapes with contacts, " << lwo << " in " << lash_shapes_without
+                            << " without");
   // Measured: 186 in 23 shapes without contacts; 144 in 23 with the contacts before the lift;
   // 64 in 14 with it; with the closing lid edges enforced (docs/algorithms.md#closing-gaps) 175
   // and 84 in 15 (the lids come lower in eyeLookDown and eyeLookUp; fewer in the blinks). Most
   // of the rest are lash roots that lie in the lid in the neutral (cheekSquint, eyeLookDown,
   // noseSneer): lifting them by the triangle they cross does not take them out.
-  CHECK(lash_with * 2 < lash_without);
-  // The teeth and eyes move rigidly with the template's teeth rows and eyeballs (the points they
-  // map to lie partly on the template's gums and lips, which do not): the upper teeth stay, the
-  // lower ones drop with the jaw; the eyes are rigid parts that turn about their own centres.
+  CHECK(lw * 2 < lwo);
+}
+
+// The teeth and eyes move rigidly with the template's teeth rows and eyeballs (the points they
+// map to lie partly on the template's gums and lips, which do not): the upper teeth stay, the
+// lower ones drop with the jaw; the eyes are rigid parts that turn about their own centres. The
+// lashes lie on the lids and are carried by them: through eyeBlink each lash vertex moves as the
+// skin vertex nearest to it does, give or take the turn of the lid.
+void check_parts(const MakeHumanBuild& b) {
+  const rig::Rig& target = b.target;
+  const BuildResult& r = b.with;
   const rig::Components comps = rig::connected_components(target.vertex_count(), target.triangles);
-  for (int t = 0; t < target.triangle_count(); ++t) {
-    const std::string& g = group_of(t);
-    if (g.ends_with("-teeth") || g.ends_with("-eye"))
-      CHECK(r.components[static_cast<std::size_t>(
-                             comps.label[static_cast<std::size_t>(target.triangles(t, 0))])]
-                .placement == (g.ends_with("-eye") ? "eye" : "rigid"));
-  }
-  const auto moved_in = [&](const char* shape, const char* group) {
-    const rig::Positions d =
-        r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(shape))].dense(r.rig.vertex_count());
-    float most = 0;
-    for (int t = 0; t < target.triangle_count(); ++t)
-      if (group_of(t) == group) most = std::max(most, d.row(target.triangles(t, 0)).norm());
-    return most;
+  const auto component_of = [&](int t) {
+    return comps.label[static_cast<std::size_t>(target.triangles(t, 0))];
   };
-  CHECK(moved_in("jawOpen", "helper-upper-teeth") == 0.0f);
-  CHECK(moved_in("jawOpen", "helper-lower-teeth") > 0.2f);
-  // The lashes lie on the lids and are carried by them: through eyeBlink each lash vertex moves
-  // as the skin vertex nearest to it does, give or take the turn of the lid.
+  for (int t = 0; t < target.triangle_count(); ++t) {
+    const std::string& g = b.group_of(t);
+    if (g.ends_with("-teeth") || g.ends_with("-eye"))
+      CHECK(r.components[static_cast<std::size_t>(component_of(t))].placement ==
+            (g.ends_with("-eye") ? "eye" : "rigid"));
+  }
+  CHECK(b.moved_in("jawOpen", "helper-upper-teeth") == 0.0f);
+  CHECK(b.moved_in("jawOpen", "helper-lower-teeth") > 0.2f);
   const rig::Positions blink =
       r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape("eyeBlink_L"))].dense(
           r.rig.vertex_count());
   int body = -1;
   for (int t = 0; t < target.triangle_count() && body < 0; ++t)
-    if (group_of(t) == "body") body = comps.label[static_cast<std::size_t>(target.triangles(t, 0))];
+    if (b.group_of(t) == "body") body = component_of(t);
   double apart = 0, lid = 0;
   int lashes = 0;
   for (int v = 0; v < target.vertex_count(); ++v) {
     const int c = comps.label[static_cast<std::size_t>(v)];
     bool lash = false;
     for (int t = 0; t < target.triangle_count() && !lash; ++t)
-      lash = comps.label[static_cast<std::size_t>(target.triangles(t, 0))] == c &&
-             group_of(t).starts_with("helper-l-eyelashes");
+      lash = component_of(t) == c && b.group_of(t).starts_with("helper-l-eyelashes");
     if (!lash) continue;
     CHECK(r.components[static_cast<std::size_t>(c)].placement == "attached");
     int nearest = -1;
@@ -272,8 +283,39 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   REQUIRE(lashes > 0);
   WARN("eyeBlink_L: lash vertices move "
        << apart / lashes << " apart from their nearest skin vertex; the lid moves up to " << lid);
-  auto max_move = [&](const char* name) {
-    return r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(name))].max_displacement();
+}
+
+}  // namespace
+
+TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlink moves the lids",
+          "[rigbuild][makehuman][slow]") {
+  const auto dir = test::ict_dir();
+  const auto mh = test::shared_data() / "makehuman/head.obj";
+  const auto markers = test::shared_data() / "markers/makehuman_head_to_ict.json";
+  if (!test::require_data(dir / "generic_neutral_mesh.obj") || !test::require_data(mh)) return;
+  MakeHumanBuild b;
+  b.tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
+  b.target = rig::read_obj(mh);
+  BuildOptions opt;
+  opt.markers = read_markers(markers, b.tmpl.vertex_count(), b.target.vertex_count());
+  b.with = build_rig(b.tmpl, b.target, opt);
+  // Times are figures, not checks (the machine is shared): bench/bench_landmarks prints them.
+  WARN("MakeHuman with markers: correspondence " << b.with.timings.correspondence << " s");
+  REQUIRE(b.with.rig.shapes.size() == 57);
+  // The correspondence saved and loaded again is reused (here for a build without contacts).
+  const auto saved = test::scratch_dir() / "mh.correspondence";
+  save_correspondence(saved, b.with.correspondence);
+  opt.correspondence = load_correspondence(saved, b.tmpl.vertex_count(), b.tmpl.triangle_count(),
+                                           b.target.vertex_count(), b.target.triangle_count());
+  opt.contacts.enabled = false;
+  b.without = build_rig(b.tmpl, b.target, opt);
+  CHECK(b.without.timings.correspondence < 0.5);
+  check_skin_teeth_eyes(b);
+  check_tongue_and_lashes(b);
+  check_parts(b);
+  const auto max_move = [&](const char* name) {
+    return b.with.rig.shapes[static_cast<std::size_t>(b.with.rig.find_shape(name))]
+        .max_displacement();
   };
   CHECK(max_move("jawOpen") > 0.3f);  // decimetres: the chin drops
   // The lids close over most of the eye opening: the gap left between the mid upper and mid
@@ -284,14 +326,7 @@ TEST_CASE("MakeHuman head builds from its marker file: jawOpen opens and eyeBlin
   // apart from the eyeball's and the lashes') and the closing gap's change taken relative to the
   // gap (docs/algorithms.md#gap-scaling) it left 0.22 on both sides; with the closing edges
   // enforced (#closing-gaps) 0.162 and 0.168.
-  const auto gap = [&](const char* shape, int upper, int lower) {
-    const rig::Positions p =
-        r.rig.positions +
-        r.rig.shapes[static_cast<std::size_t>(r.rig.find_shape(shape))].dense(r.rig.vertex_count());
-    return (p.row(upper) - p.row(lower)).norm() /
-           (r.rig.positions.row(upper) - r.rig.positions.row(lower)).norm();
-  };
-  const float lid_l = gap("eyeBlink_L", 3190, 3203), lid_r = gap("eyeBlink_R", 1068, 1081);
+  const float lid_l = b.gap("eyeBlink_L", 3190, 3203), lid_r = b.gap("eyeBlink_R", 1068, 1081);
   WARN("eyeBlink closes the mid lid gap to " << lid_l << " (left) and " << lid_r
                                              << " (right) of the neutral gap (template: 0.164)");
   CHECK(lid_l < 0.18f);
