@@ -76,15 +76,19 @@ viseme::Utterance speech_utterance(const SpeechArgs& a, bool tts, const std::str
 Speech speech_with_audio(const SpeechArgs& a, const std::string& audio) {
   const bool file = !audio.empty() && audio != "tts" && audio != "none";
   Speech s;
-  s.utterance = file && !a.given()
-                    ? viseme::lipsync(viseme::read_audio(audio, viseme::load_audio_options()),
-                                      viseme::load_options(), viseme::load_lipsync_options())
-                    : speech_utterance(a, audio == "tts", file && !a.text.empty() ? audio : "");
   if (file && a.text.empty()) {
+    // The recording is the sound, decoded once: lip-synced alone, or beside --timestamps.
     const auto in = viseme::read_audio(audio, viseme::load_audio_options());
+    s.utterance = a.given()
+                      ? speech_utterance(a, false)
+                      : viseme::lipsync(in, viseme::load_options(), viseme::load_lipsync_options());
     s.pcm = viseme::to_pcm16(in.samples);
     s.sample_rate = in.sample_rate;
-  } else if (audio != "none" && !audio.empty()) {
+    return s;
+  }
+  // --text aligned to the recording (its speech comes back in the utterance), espeak-ng, or none.
+  s.utterance = speech_utterance(a, audio == "tts", file ? audio : "");
+  if (audio != "none" && !audio.empty()) {
     s.pcm = s.utterance.pcm;
     s.sample_rate = s.utterance.sample_rate;
   }

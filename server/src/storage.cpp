@@ -43,7 +43,8 @@ void check_disk_quota(State& state, const std::string& tenant, std::uint64_t add
   const std::uint64_t quota = state.options.tenant_disk_quota;
   if (quota == 0) return;
   const std::uint64_t used = tenant_disk_usage(state, tenant);
-  if (used + adding <= quota && (adding > 0 || used < quota)) return;
+  // Something to add must fit; a job asked for (nothing known yet) needs room left.
+  if (adding > 0 ? used + adding <= quota : used < quota) return;
   throw RequestError(Code::kLimit,
                      "tenant '" + tenant + "' stores " + megabytes(used) +
                          (adding ? " and would add " + megabytes(adding) : "") + " of its " +
