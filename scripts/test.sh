@@ -28,6 +28,8 @@ if ((sanitize)); then
   # ThreadSanitizer on the multi-threaded part: the server and its tests only.
   scripts/build.sh build-tsan --target=test_server -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF
+  # test_server runs outside ctest here: the shared data comes through the same fixture first.
+  (cd build-tsan && ctest -R '^extract_shared_data$' --output-on-failure >/dev/null)
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
     build-tsan/tests/server/test_server "~[slow]"
   scripts/fuzz.sh "${FACECAST_FUZZ_SECONDS:-30}"
