@@ -18,3 +18,8 @@ add_library(facecast::cholmod ALIAS facecast_cholmod)
 # libjwt (viewer tokens, JWT HS256): Debian 12 ships only a pkg-config file. Target: facecast::jwt.
 pkg_check_modules(FACECAST_JWT REQUIRED IMPORTED_TARGET libjwt)
 add_library(facecast::jwt ALIAS PkgConfig::FACECAST_JWT)
+
+# libwebp (EXT_texture_webp textures; OpenImageIO 2.4's WebP reader takes only files): Debian 12
+# ships only a pkg-config file. Target: facecast::webp.
+pkg_check_modules(FACECAST_WEBP REQUIRED IMPORTED_TARGET libwebp)
+add_library(facecast::webp ALIAS PkgConfig::FACECAST_WEBP)

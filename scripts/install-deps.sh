@@ -8,7 +8,7 @@ packages=(
   libboost1.81-dev libeigen3-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev libsuitesparse-dev catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev
-  libopenimageio-dev libpng-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  libopenimageio-dev libpng-dev libwebp-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   nodejs chromium fonts-wqy-microhei fonts-dejavu-core
   libmeshoptimizer-dev libdraco-dev libdlib-dev libdlib-data
   libfftw3-dev libsndfile1-dev festival festvox-kallpc16k flite sox

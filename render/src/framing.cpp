@@ -102,7 +102,8 @@ Camera frame_avatar(const rig::Rig& rig, float aspect, const RenderOptions& opti
   c.target = centre;
   c.eye = Eigen::Vector3f(centre.x(), centre.y(), framed.hi.z() + dist);
   c.near_plane = std::max(0.01f, 0.2f * dist);
-  c.far_plane = framed.hi.z() + dist - whole.lo.z() + whole.size().z();
+  // Past the farthest vertex with room to spare (a flat mesh's lies exactly at eye - dist).
+  c.far_plane = framed.hi.z() + dist - whole.lo.z() + whole.size().z() + 0.05f * dist;
   return c;
 }
 

@@ -97,6 +97,7 @@ void pack_materials(const Rig& rig, PackedRig& p) {
     pm.alpha_mode = m.alpha_mode;
     pm.alpha_cutoff = m.alpha_cutoff;
     pm.double_sided = m.double_sided;
+    pm.unlit = m.unlit;
     pm.normal_scale = m.normal_texture.strength;
     pm.occlusion_strength = m.occlusion_texture.strength;
     const rig::TextureRef* refs[kSlotCount] = {&m.base_color_texture, &m.metallic_roughness_texture,

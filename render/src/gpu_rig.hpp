@@ -54,6 +54,7 @@ struct PackedMaterial {
   float metallic = 0, roughness = 1, alpha_cutoff = 0.5f, normal_scale = 1, occlusion_strength = 1;
   rig::AlphaMode alpha_mode = rig::AlphaMode::kOpaque;
   bool double_sided = false;  // else back faces are culled (glTF: counter-clockwise is front)
+  bool unlit = false;         // KHR_materials_unlit: the base colour, no lighting
   int texture[kSlotCount] = {-1, -1, -1, -1, -1};  // into PackedRig::textures, -1: none
   OcclusionSource occlusion = kOwnOcclusion;  // not kOwnOcclusion: texture[kOcclusionSlot] is -1
   Eigen::Matrix3f uv_transform[kSlotCount];

@@ -5,6 +5,7 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
+#include <webp/decode.h>
 
 #include <algorithm>
 #include <cmath>
@@ -71,6 +72,27 @@ std::string lower_extension(const std::filesystem::path& path) {
   return ext;
 }
 
+// WebP through libwebp, into RGBA. Animated WebP (an avatar texture never is) is refused.
+Image decode_webp(std::string_view bytes, const std::string& name, int max_side) {
+  const auto* data = reinterpret_cast<const std::uint8_t*>(bytes.data());
+  WebPBitstreamFeatures features;
+  if (WebPGetFeatures(data, bytes.size(), &features) != VP8_STATUS_OK)
+    throw Error(name + ": cannot decode: malformed WebP");
+  if (features.width < 1 || features.height < 1 || features.width > max_side ||
+      features.height > max_side)
+    throw Error(name + ": WebP image of " + std::to_string(features.width) + "x" +
+                    std::to_string(features.height) + " is out of range (at most " +
+                    std::to_string(max_side) + " a side)",
+                ErrorCode::kLimit);
+  if (features.has_animation)
+    throw Error(name + ": animated WebP is not a texture", ErrorCode::kUnsupported);
+  Image img{features.width, features.height, 4, {}};
+  img.pixels.resize(static_cast<std::size_t>(img.width) * img.height * 4);
+  if (!WebPDecodeRGBAInto(data, bytes.size(), img.pixels.data(), img.pixels.size(), img.width * 4))
+    throw Error(name + ": cannot decode: corrupt WebP data");
+  return img;
+}
+
 }  // namespace
 
 std::string encode_jpeg(const Image& image, int quality) {
@@ -114,8 +136,14 @@ Image decode_image(std::string_view bytes, std::string_view what, const rig::Dec
   const bool png =
       bytes.size() >= 8 && bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8);
   const bool jpeg = bytes.size() >= 3 && bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3);
-  if (!png && !jpeg) throw Error(name + ": not a PNG or JPEG image", ErrorCode::kUnsupported);
+  const bool webp =
+      bytes.size() >= 12 && bytes.substr(0, 4) == "RIFF" && bytes.substr(8, 4) == "WEBP";
+  if (bytes.size() >= 12 && bytes.substr(0, 12) == std::string_view("\xabKTX 20\xbb\r\n\x1a\n", 12))
+    throw Error(name + ": " + std::string(rig::kNoKtx2Decoder), ErrorCode::kUnsupported);
+  if (!png && !jpeg && !webp)
+    throw Error(name + ": not a PNG, JPEG or WebP image", ErrorCode::kUnsupported);
   (void)rig::check_image(bytes, what, limits);  // the header's size, before any decoder runs
+  if (webp) return decode_webp(bytes, name, max_side);
   OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
   OIIO::ImageSpec config;
   const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value

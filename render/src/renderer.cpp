@@ -73,7 +73,7 @@ struct Slot {
     GLuint id = 0;
     GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
           metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, blend = -1,
-          alpha_cutoff = -1, uv = -1;
+          alpha_cutoff = -1, uv = -1, unlit = -1;
   };
   std::vector<Program> programs;
   std::vector<std::size_t> program_of;  // per material, into `programs`
@@ -171,7 +171,8 @@ struct Slot {
          at("u_occlusion_strength"),
          at("u_blend"),
          at("u_alpha_cutoff"),
-         at("u_uv")};
+         at("u_uv"),
+         at("u_unlit")};
     glUseProgram(g.id);
     GLint units[detail::kSlotCount];
     for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
@@ -283,6 +284,7 @@ struct Slot {
     glUniform1f(u.occlusion_strength, m.occlusion_strength);
     glUniform1i(u.blend, m.alpha_mode == rig::AlphaMode::kBlend);
     glUniform1f(u.alpha_cutoff, m.alpha_cutoff);
+    glUniform1i(u.unlit, m.unlit);
     for (int slot = 0; slot < detail::kSlotCount; ++slot) {
       glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(detail::kFirstMaterialUnit + slot));
       glBindTexture(GL_TEXTURE_2D, m.texture[slot] >= 0

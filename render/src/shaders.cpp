@@ -54,6 +54,7 @@ uniform float u_normal_scale;
 uniform float u_occlusion_strength;
 uniform bool u_blend;  // alpha BLEND: keep the alpha; otherwise opaque
 uniform float u_alpha_cutoff;
+uniform bool u_unlit;  // KHR_materials_unlit
 uniform mat3 u_uv[SLOT_COUNT];
 uniform sampler2D u_textures[SLOT_COUNT];
 uniform vec3 u_eye;
@@ -102,6 +103,10 @@ void main() {
 #if ALPHA_MASK
   if (base.a < u_alpha_cutoff) discard;
 #endif
+  if (u_unlit) {
+    frag = vec4(to_srgb(base.rgb), u_blend ? base.a : 1.0);
+    return;
+  }
   SAMPLE(mr, METALLIC_ROUGHNESS_SLOT, vec4(1.0));
   float metal = clamp(u_metallic_roughness.x * mr.b, 0.0, 1.0);
   float rough = clamp(u_metallic_roughness.y * mr.g, 0.04, 1.0);

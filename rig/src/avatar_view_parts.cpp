@@ -144,12 +144,29 @@ NodeGraph node_graph(const tinygltf::Model& m, const std::string& what) {
   return g;
 }
 
+// The image a texture samples: EXT_texture_webp's source first (WebP is decoded), then the core
+// source (PNG/JPEG, the fallback of WebP and KTX2 textures), then KHR_texture_basisu's (a KTX2
+// image, which the renderer refuses with the conversion to run); -1 when none.
+int texture_source(const tinygltf::Texture& t) {
+  const auto of = [&](const char* name) {
+    const auto it = t.extensions.find(name);
+    if (it == t.extensions.end() || !it->second.IsObject() || !it->second.Has("source") ||
+        !it->second.Get("source").IsNumber())
+      return -1;
+    return it->second.Get("source").GetNumberAsInt();
+  };
+  if (const int webp = of("EXT_texture_webp"); webp >= 0) return webp;
+  if (t.source >= 0) return t.source;
+  return of("KHR_texture_basisu");
+}
+
 void read_materials(const tinygltf::Model& m, Rig& rig) {
   for (const auto& t : m.textures) {
     Texture tex;
     tex.name = t.name;
-    if (t.source >= 0 && static_cast<std::size_t>(t.source) < m.images.size()) {
-      const auto& im = m.images[static_cast<std::size_t>(t.source)];
+    if (const int source = texture_source(t);
+        source >= 0 && static_cast<std::size_t>(source) < m.images.size()) {
+      const auto& im = m.images[static_cast<std::size_t>(source)];
       tex.mime_type = im.mimeType;
       if (im.bufferView >= 0 && static_cast<std::size_t>(im.bufferView) < m.bufferViews.size()) {
         const auto& v = m.bufferViews[static_cast<std::size_t>(im.bufferView)];
@@ -179,6 +196,12 @@ void read_materials(const tinygltf::Model& m, Rig& rig) {
     mat.roughness = static_cast<float>(pbr.roughnessFactor);
     for (std::size_t c = 0; c < 3 && c < gm.emissiveFactor.size(); ++c)
       mat.emissive[static_cast<Eigen::Index>(c)] = static_cast<float>(gm.emissiveFactor[c]);
+    if (const auto it = gm.extensions.find("KHR_materials_emissive_strength");
+        it != gm.extensions.end() && it->second.IsObject() && it->second.Has("emissiveStrength") &&
+        it->second.Get("emissiveStrength").IsNumber())
+      mat.emissive *= static_cast<float>(
+          std::clamp(it->second.Get("emissiveStrength").GetNumberAsDouble(), 0.0, 1e4));
+    mat.unlit = gm.extensions.count("KHR_materials_unlit") > 0;
     mat.alpha_mode = gm.alphaMode == "MASK"    ? AlphaMode::kMask
                      : gm.alphaMode == "BLEND" ? AlphaMode::kBlend
                                                : AlphaMode::kOpaque;

@@ -163,6 +163,7 @@ void set_texture(Info& info, const TextureRef& ref, bool& transformed) {
 // Images (bytes as they are), samplers, textures and PBR materials.
 void add_materials(GlbWriter& w, const Rig& rig) {
   tinygltf::Model& m = w.model;
+  bool webp = false;
   for (const auto& t : rig.textures) {
     tinygltf::Image im;
     im.name = t.name;
@@ -176,10 +177,18 @@ void add_materials(GlbWriter& w, const Rig& rig) {
     m.samplers.push_back(s);
     tinygltf::Texture tex;
     tex.name = t.name;
-    tex.source = tex.sampler = static_cast<int>(m.images.size()) - 1;
+    tex.sampler = static_cast<int>(m.images.size()) - 1;
+    if (im.mimeType == "image/webp") {  // no fallback image: the extension is required
+      tinygltf::Value::Object source;
+      source["source"] = tinygltf::Value(tex.sampler);
+      tex.extensions["EXT_texture_webp"] = tinygltf::Value(std::move(source));
+      webp = true;
+    } else {
+      tex.source = tex.sampler;
+    }
     m.textures.push_back(tex);
   }
-  bool transformed = false;
+  bool transformed = false, unlit = false, strength = false;
   for (const auto& mat : rig.materials) {
     tinygltf::Material gm;
     gm.name = mat.name;
@@ -188,7 +197,20 @@ void add_materials(GlbWriter& w, const Rig& rig) {
                            mat.base_color[3]};
     pbr.metallicFactor = mat.metallic;
     pbr.roughnessFactor = mat.roughness;
-    gm.emissiveFactor = {mat.emissive[0], mat.emissive[1], mat.emissive[2]};
+    // Emissive over 1 keeps its strength in KHR_materials_emissive_strength.
+    const float brightest = mat.emissive.maxCoeff();
+    const float scale = brightest > 1.0f ? brightest : 1.0f;
+    gm.emissiveFactor = {mat.emissive[0] / scale, mat.emissive[1] / scale, mat.emissive[2] / scale};
+    if (scale > 1.0f) {
+      tinygltf::Value::Object e;
+      e["emissiveStrength"] = tinygltf::Value(double(scale));
+      gm.extensions["KHR_materials_emissive_strength"] = tinygltf::Value(std::move(e));
+      strength = true;
+    }
+    if (mat.unlit) {
+      gm.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
+      unlit = true;
+    }
     gm.alphaMode = mat.alpha_mode == AlphaMode::kMask    ? "MASK"
                    : mat.alpha_mode == AlphaMode::kBlend ? "BLEND"
                    : mat.base_color[3] < 1.0f            ? "BLEND"
@@ -205,6 +227,12 @@ void add_materials(GlbWriter& w, const Rig& rig) {
     m.materials.push_back(gm);
   }
   if (transformed) m.extensionsUsed.push_back("KHR_texture_transform");
+  if (unlit) m.extensionsUsed.push_back("KHR_materials_unlit");
+  if (strength) m.extensionsUsed.push_back("KHR_materials_emissive_strength");
+  if (webp) {
+    m.extensionsUsed.push_back("EXT_texture_webp");
+    m.extensionsRequired.push_back("EXT_texture_webp");
+  }
 }
 
 // The skeleton as joint nodes (each at its rest origin relative to its parent) and a skin whose

@@ -27,7 +27,7 @@ using nlohmann::json;
 constexpr std::array kSupportedRequired = {
     "KHR_mesh_quantization",           "KHR_texture_transform",      "EXT_meshopt_compression",
     "KHR_meshopt_compression",         "KHR_draco_mesh_compression", "KHR_materials_unlit",
-    "KHR_materials_emissive_strength",
+    "KHR_materials_emissive_strength", "EXT_texture_webp",
 };
 // The two names of meshopt compression: the vendor extension and its ratified successor (same
 // fields; a stream in a newer codec version than the library's fails to decode, with an error).
@@ -148,6 +148,10 @@ class Packer {
   void check_required() {
     for (const auto& e : array_of(c_.doc, "extensionsRequired", what_)) {
       if (!e.is_string()) throw Error(what_ + ": extensionsRequired holds a non-string");
+      if (e.get<std::string>() == "KHR_texture_basisu")
+        throw Error(
+            what_ + ": required extension KHR_texture_basisu: " + std::string(kNoKtx2Decoder),
+            ErrorCode::kUnsupported);
       if (!is_supported_required_extension(e.get<std::string>()))
         throw Error(what_ + ": required extension " + e.get<std::string>() + " is not supported",
                     ErrorCode::kUnsupported);

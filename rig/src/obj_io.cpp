@@ -119,8 +119,8 @@ std::string trim(std::string_view s) {
 }
 
 // The image a map_Kd line names (its last token: options may come first), relative to the .mtl.
-// PNG and JPEG are read; a missing or other image only loses the texture, as a missing material
-// library loses the colours in every OBJ viewer.
+// PNG, JPEG and WebP are read; a missing or other image only loses the texture, as a missing
+// material library loses the colours in every OBJ viewer.
 int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view rest,
                  const DecodeLimits& limits) {
   std::string file = trim(rest);
@@ -133,13 +133,19 @@ int read_texture(Rig& rig, const std::filesystem::path& mtl, std::string_view re
     return -1;
   }
   const bool png = bytes.rfind("\x89PNG", 0) == 0, jpeg = bytes.rfind("\xff\xd8\xff", 0) == 0;
-  if (!png && !jpeg) return -1;
+  const bool webp =
+      bytes.size() >= 12 && bytes.rfind("RIFF", 0) == 0 && bytes.substr(8, 4) == "WEBP";
+  if (!png && !jpeg && !webp) return -1;
   try {  // over the image limits: an error, before any decoder; unreadable: as any bad texture
     (void)check_image(bytes, (mtl.parent_path() / file).string(), limits);
   } catch (const Error& e) {
     if (e.code() == ErrorCode::kLimit) throw;
   }
-  rig.textures.push_back({file, png ? "image/png" : "image/jpeg", std::move(bytes)});
+  rig.textures.push_back({file,
+                          png    ? "image/png"
+                          : jpeg ? "image/jpeg"
+                                 : "image/webp",
+                          std::move(bytes)});
   return static_cast<int>(rig.textures.size()) - 1;
 }
 
@@ -339,10 +345,10 @@ ParsedObj parse(std::string_view text, std::string_view name, const DecodeLimits
     rig.triangles.row(static_cast<Eigen::Index>(f)) = tris[f].transpose();
   }
 
-  if (!tex.empty()) {
+  if (!tex.empty()) {  // OBJ's v is 0 at the image's bottom, a rig's (glTF's) at its top
     rig.uvs = UVs::Zero(nv, 2);
     for (int v = 0; v < nv; ++v) {
-      if (vt_of[v] >= 0) rig.uvs.row(v) = tex[vt_of[v]];
+      if (vt_of[v] >= 0) rig.uvs.row(v) << tex[vt_of[v]][0], 1.0f - tex[vt_of[v]][1];
     }
   }
   vertex_normals(rig.positions, rig.triangles, rig.normals);
@@ -470,7 +476,8 @@ void write_obj(const std::filesystem::path& path, const Rig& rig, const Position
   };
   for (Eigen::Index v = 0; v < positions.rows(); ++v) vec("v", positions.row(v));
   if (uv) {
-    for (Eigen::Index v = 0; v < positions.rows(); ++v) vec("vt", rig.uvs.row(v));
+    for (Eigen::Index v = 0; v < positions.rows(); ++v)
+      vec("vt", Eigen::RowVector2f(rig.uvs(v, 0), 1.0f - rig.uvs(v, 1)));
   }
   for (Eigen::Index v = 0; v < positions.rows(); ++v) vec("vn", normals.row(v));
   // Faces keep their order; "usemtl"/"g" are written when they change.

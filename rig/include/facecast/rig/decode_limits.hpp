@@ -57,6 +57,11 @@ struct ImageHeader {
   int channels = 0;  // as stored (a palette counts 3, a JPEG its components)
 };
 
+/// Why a KTX2 (Basis Universal) image is refused, and what to run instead.
+inline constexpr std::string_view kNoKtx2Decoder =
+    "KTX2 (Basis Universal) textures cannot be decoded here (Debian ships no decoder); convert "
+    "them first: gltf-transform png IN OUT (or gltf-transform webp IN OUT)";
+
 /// Reads the header only (no decoding); a recognized format whose header is truncated or
 /// malformed is an Error naming `what`.
 ImageHeader read_image_header(std::string_view bytes, std::string_view what);

@@ -19,11 +19,11 @@ using UVs = Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>;
 /// #F by 3 vertex indices, counter-clockwise seen from outside.
 using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
-/// An image a material samples, as stored in the file: encoded PNG or JPEG bytes (the renderer
-/// decodes them), with its sampler's wrap and filter modes.
+/// An image a material samples, as stored in the file: encoded PNG, JPEG or WebP bytes (the
+/// renderer decodes them; KTX2 it refuses), with its sampler's wrap and filter modes.
 struct Texture {
   std::string name;
-  std::string mime_type;                  // "image/png" or "image/jpeg"
+  std::string mime_type;                  // "image/png", "image/jpeg" or "image/webp"
   std::string bytes;                      // the encoded image
   bool repeat_s = true, repeat_t = true;  // REPEAT (or MIRRORED_REPEAT) vs CLAMP_TO_EDGE
   bool nearest = false;                   // NEAREST magnification instead of LINEAR
@@ -48,7 +48,8 @@ struct Material {
   Eigen::Vector4f base_color{0.8f, 0.8f, 0.8f, 1.0f};  // linear RGBA
   float metallic = 0.0f;
   float roughness = 0.6f;
-  Eigen::Vector3f emissive{0.0f, 0.0f, 0.0f};
+  Eigen::Vector3f emissive{0.0f, 0.0f, 0.0f};  // KHR_materials_emissive_strength folded in
+  bool unlit = false;                          // KHR_materials_unlit: the base colour as it is
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // for kMask
   bool double_sided = false;

@@ -1,0 +1,209 @@
+// Textures and materials as the web ships them: WebP (EXT_texture_webp, written by gltf-transform)
+// renders like the PNG original; KTX2 (KHR_texture_basisu) falls back to the core image when it is
+// optional and is refused in one line naming the conversion when required or alone; unlit and
+// emissive-strength materials; OBJ texture coordinates with v = 0 at the image's bottom.
+#include <tiny_gltf.h>
+
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+
+#include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/render/image.hpp"
+#include "facecast/render/renderer.hpp"
+#include "facecast/rig/avatar_document.hpp"
+#include "facecast/rig/decode_limits.hpp"
+#include "facecast/rig/rig_io.hpp"
+#include "test_avatar_file.hpp"
+#include "test_data.hpp"
+
+using namespace facecast;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path work_dir() {
+  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-textures";
+  fs::create_directories(dir);
+  return dir;
+}
+
+render::Image front(const rig::Rig& rig) {
+  render::RenderOptions o;
+  o.width = o.height = 128;
+  o.framing = render::Framing::kFace;
+  o.contexts = 1;
+  const std::vector<float> neutral(rig.shapes.size(), 0.0f);
+  return render::Renderer(rig, o).render(neutral);
+}
+
+// The test avatar with its document edited by `edit`, written and read back as a file would be.
+rig::Rig edited(const std::string& name, void (*edit)(tinygltf::Model&)) {
+  rig::AvatarDocument doc = rig::AvatarDocument::parse(test::test_avatar_glb(), name);
+  edit(doc.model());
+  const fs::path path = work_dir() / name;
+  doc.write_glb(path);
+  return rig::load_rig(path);
+}
+
+// A KTX2 file's header (identifier, vkFormat, type size, 64 x 64 pixels): enough for the loader,
+// which reads only the header; no decoder here takes the payload.
+std::string ktx2_bytes() {
+  std::string b("\xabKTX 20\xbb\r\n\x1a\n", 12);
+  b.resize(80, '\0');
+  b[20] = 64;  // pixelWidth
+  b[24] = 64;  // pixelHeight
+  return b;
+}
+
+// Adds the KTX2 image as KHR_texture_basisu's source of texture 0; `keep_fallback` keeps the PNG
+// as the core source.
+void add_basisu(tinygltf::Model& m, bool keep_fallback) {
+  const std::string bytes = ktx2_bytes();
+  tinygltf::Buffer& buffer = m.buffers[0];
+  while (buffer.data.size() % 4) buffer.data.push_back(0);
+  tinygltf::BufferView view;
+  view.buffer = 0;
+  view.byteOffset = buffer.data.size();
+  view.byteLength = bytes.size();
+  buffer.data.insert(buffer.data.end(), bytes.begin(), bytes.end());
+  m.bufferViews.push_back(view);
+  tinygltf::Image image;
+  image.mimeType = "image/ktx2";
+  image.bufferView = static_cast<int>(m.bufferViews.size()) - 1;
+  m.images.push_back(image);
+  tinygltf::Value::Object source;
+  source["source"] = tinygltf::Value(static_cast<int>(m.images.size()) - 1);
+  m.textures[0].extensions["KHR_texture_basisu"] = tinygltf::Value(source);
+  if (!keep_fallback) m.textures[0].source = -1;
+  m.extensionsUsed.push_back("KHR_texture_basisu");
+}
+
+}  // namespace
+
+TEST_CASE("a WebP-textured avatar renders like its PNG-textured original", "[rig][gltf][texture]") {
+  const fs::path dir = work_dir();
+  write_file_atomic(dir / "base.glb", test::test_avatar_glb());
+  const fs::path webp = dir / "webp.glb";
+  const std::string cmd = std::string(FACECAST_SOURCE_DIR) +
+                          "/node_modules/.bin/gltf-transform webp '" + (dir / "base.glb").string() +
+                          "' '" + webp.string() + "' > '" + webp.string() + ".log' 2>&1";
+  INFO(cmd);
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const std::string bytes = read_file(webp);
+  CHECK_THAT(bytes, Catch::Contains("EXT_texture_webp"));
+
+  const rig::Rig png = rig::load_rig(dir / "base.glb"), web = rig::load_rig(webp);
+  REQUIRE(web.textures.size() == png.textures.size());
+  for (const auto& t : web.textures) CHECK(t.bytes.substr(8, 4) == "WEBP");
+  const render::Image a = front(png), b = front(web);
+  const render::ImageDifference d = render::compare_images(a, b, 24);
+  INFO("mean " << d.mean_abs << ", max " << d.max_abs << ", over 24: " << d.fraction_over);
+  CHECK(d.mean_abs < 3.0);
+  CHECK(d.fraction_over < 0.01);
+
+  // Written back as a rig, the WebP texture keeps its extension (required: there is no fallback).
+  const std::string written = rig::glb_bytes(web);
+  CHECK_THAT(written, Catch::Contains("\"extensionsRequired\":[\"EXT_texture_webp\"]"));
+  const render::Image c = front(rig::parse_glb(written, "written.glb"));
+  CHECK(render::compare_images(b, c, 0).max_abs == 0);
+
+  // A corrupt WebP payload is one clear line at render time.
+  rig::Rig broken = web;
+  broken.textures[0].bytes.resize(broken.textures[0].bytes.size() / 2);
+  CHECK_THROWS_WITH(front(broken), Catch::Contains("texture 0") && Catch::Contains("WebP"));
+}
+
+TEST_CASE("KTX2 textures: the fallback when optional, one line naming the conversion otherwise",
+          "[rig][gltf][texture]") {
+  const rig::Rig base = rig::load_rig([] {
+    const fs::path p = work_dir() / "base.glb";
+    write_file_atomic(p, test::test_avatar_glb());
+    return p;
+  }());
+  SECTION("optional with a PNG fallback: the fallback is used") {
+    const rig::Rig r =
+        edited("basisu_optional.glb", [](tinygltf::Model& m) { add_basisu(m, true); });
+    CHECK(r.textures[0].bytes == base.textures[0].bytes);
+    CHECK(render::compare_images(front(base), front(r), 0).max_abs == 0);
+  }
+  SECTION("required: refused when the file is read") {
+    CHECK_THROWS_WITH(edited("basisu_required.glb",
+                             [](tinygltf::Model& m) {
+                               add_basisu(m, false);
+                               m.extensionsRequired.push_back("KHR_texture_basisu");
+                             }),
+                      Catch::Contains("basisu_required.glb") &&
+                          Catch::Contains("KHR_texture_basisu") &&
+                          Catch::Contains("gltf-transform png"));
+  }
+  SECTION("optional without a fallback: refused when the texture is decoded") {
+    const rig::Rig r = edited("basisu_alone.glb", [](tinygltf::Model& m) { add_basisu(m, false); });
+    CHECK(r.textures[0].bytes == ktx2_bytes());
+    CHECK_THROWS_WITH(front(r), Catch::Contains("texture 0") && Catch::Contains("KTX2") &&
+                                    Catch::Contains("gltf-transform png"));
+  }
+}
+
+TEST_CASE("unlit and emissive-strength materials", "[rig][gltf][texture]") {
+  const rig::Rig r = edited("materials.glb", [](tinygltf::Model& m) {
+    for (auto& mat : m.materials) {
+      mat.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object{});
+      mat.pbrMetallicRoughness.baseColorTexture.index = -1;
+      mat.pbrMetallicRoughness.baseColorFactor = {0.5, 0.2, 0.1, 1.0};
+    }
+    m.materials[0].emissiveFactor = {1.0, 0.5, 0.0};
+    tinygltf::Value::Object strength;
+    strength["emissiveStrength"] = tinygltf::Value(3.0);
+    m.materials[0].extensions["KHR_materials_emissive_strength"] = tinygltf::Value(strength);
+    m.extensionsUsed.push_back("KHR_materials_unlit");
+    m.extensionsUsed.push_back("KHR_materials_emissive_strength");
+  });
+  REQUIRE(r.materials.size() == 4);
+  CHECK(r.materials[0].unlit);
+  CHECK(r.materials[0].emissive.isApprox(Eigen::Vector3f(3.0f, 1.5f, 0.0f)));
+  // Unlit: every covered pixel is the base colour in sRGB (0.5, 0.2, 0.1 -> 188, 124, 89),
+  // whatever the light and the normal map say.
+  const render::Image img = front(r);
+  int covered = 0, exact = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const Eigen::Vector3i p(img.at(x, y, 0), img.at(x, y, 1), img.at(x, y, 2));
+      if ((p - Eigen::Vector3i(188, 124, 89)).cwiseAbs().maxCoeff() <= 2) ++exact;
+      if (std::abs(p.x() - p.z()) > 40) ++covered;  // the background is grey
+    }
+  INFO(exact << " of " << covered << " covered pixels");
+  CHECK(covered > 1000);
+  CHECK(exact > 0.97 * covered);
+  // Written back, both extensions stay.
+  const rig::Rig back = rig::parse_glb(rig::glb_bytes(r), "back.glb");
+  CHECK(back.materials[0].unlit);
+  CHECK(back.materials[0].emissive.isApprox(r.materials[0].emissive));
+}
+
+TEST_CASE("OBJ texture coordinates have v = 0 at the image's bottom", "[rig][obj][texture]") {
+  // A quad facing +Z textured with an image red on top, blue below; its top vertices at v = 1.
+  const fs::path dir = work_dir() / "obj";
+  fs::create_directories(dir);
+  render::Image tex{8, 8, 4, {}};
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (const int c : {y < 4 ? 230 : 30, 30, y < 4 ? 30 : 230, 255})
+        tex.pixels.push_back(static_cast<std::uint8_t>(c));
+  write_file_atomic(dir / "quad.png", render::encode_png(tex));
+  write_file_atomic(dir / "quad.mtl", "newmtl paint\nKd 1 1 1\nmap_Kd quad.png\n");
+  write_file_atomic(dir / "quad.obj",
+                    "mtllib quad.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl paint\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  const rig::Rig quad = rig::read_obj(dir / "quad.obj");
+  CHECK(quad.uvs(2, 1) == 0.0f);  // glTF's convention inside: v = 0 at the top
+  const render::Image img = front(quad);
+  const auto red = [&](int y) { return img.at(img.width / 2, y, 0) - img.at(img.width / 2, y, 2); };
+  CHECK(red(img.height / 2 - 10) > 100);   // the quad's top half: red
+  CHECK(red(img.height / 2 + 10) < -100);  // its bottom half: blue
+  // Written as OBJ again, the coordinates are the file's.
+  rig::write_obj(dir / "again.obj", quad);
+  const std::string again = read_file(dir / "again.obj");
+  CHECK_THAT(again, Catch::Contains("vt 1 1\n") && Catch::Contains("vt 0 0\n"));
+}
