@@ -94,7 +94,10 @@ void render_fap(const RenderArgs& a, const rig::Rig& rig, const render::RenderOp
     pcm = viseme::to_pcm16(in.samples);
     rate = in.sample_rate;
   }
-  write_motion(a, rig, opt, read_fap_motion(a.speech.fap, fap_rig(rig)), pcm, rate);
+  // FAPs are measured on the face view (its landmarks index its vertices); the scene drawn has
+  // the same shapes.
+  const rig::Rig face = a.rig.empty() ? rig : rig::load_rig(a.rig);
+  write_motion(a, rig, opt, read_fap_motion(a.speech.fap, fap_rig(face)), pcm, rate);
 }
 
 }  // namespace
@@ -149,7 +152,7 @@ void add_render_commands(CLI::App& app) {
                     : a->framing == "full" ? render::Framing::kFull
                                            : render::Framing::kFace;
     if (!a->background_image.empty()) opt.background_image = a->background_image;
-    const rig::Rig rig = a->rig.empty() ? avatar::default_avatar() : rig::load_rig(a->rig);
+    const rig::Rig rig = a->rig.empty() ? avatar::default_avatar() : rig::load_scene(a->rig);
     if (speech) {
       if (!a->weights.empty() || !a->expression.empty())
         throw Error("--weights/--expression render one pose; they do not combine with --text");

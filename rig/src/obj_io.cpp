@@ -19,6 +19,7 @@
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 
 namespace facecast::rig {
@@ -526,6 +527,13 @@ Rig load_rig(const std::filesystem::path& path) {
   if (ext == ".obj") return read_obj(path);
   throw Error(path.string() + ": unknown rig format (expected .glb, .gltf, .vrm or .obj)",
               ErrorCode::kUnsupported);
+}
+
+Rig load_scene(const std::filesystem::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext == ".glb" || ext == ".gltf" || ext == ".vrm")
+    return make_view(AvatarDocument::read(path), {.all_meshes = true}).rig;
+  return load_rig(path);
 }
 
 }  // namespace facecast::rig

@@ -207,3 +207,58 @@ TEST_CASE("OBJ texture coordinates have v = 0 at the image's bottom", "[rig][obj
   const std::string again = read_file(dir / "again.obj");
   CHECK_THAT(again, Catch::Contains("vt 1 1\n") && Catch::Contains("vt 0 0\n"));
 }
+
+TEST_CASE("the CLI's render draws every mesh of the avatar, framed face, bust or full",
+          "[rig][gltf][render]") {
+  const fs::path dir = work_dir() / "scene";
+  fs::create_directories(dir);
+  write_file_atomic(dir / "avatar.glb", test::test_avatar_glb());
+  const auto render_cli = [&](const std::string& framing) {
+    const fs::path out = dir / (framing + ".png");
+    const std::string cmd = std::string(FACECAST_CLI) + " render --rig '" +
+                            (dir / "avatar.glb").string() + "' --framing " + framing +
+                            " --size 160x160 --out '" + out.string() + "' > '" + out.string() +
+                            ".log' 2>&1";
+    INFO(cmd);
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    return render::read_image(out);
+  };
+  // The covered pixels' bounding box (the background is the corner's colour).
+  struct Extent {
+    int x0 = 1 << 20, y0 = 1 << 20, x1 = -1, y1 = -1;
+    int width() const { return x1 - x0 + 1; }
+    int height() const { return y1 - y0 + 1; }
+  };
+  const auto extent = [](const render::Image& img) {
+    Extent e;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) {
+        int d = 0;
+        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(img.at(x, y, c) - img.at(0, 0, c)));
+        if (d <= 6) continue;
+        e = {std::min(e.x0, x), std::min(e.y0, y), std::max(e.x1, x), std::max(e.y1, y)};
+      }
+    return e;
+  };
+  // Full: hair (top, 2.15 m) to body (bottom, 0.9 m) over the head's 0.6 m width: a tall figure.
+  const Extent full = extent(render_cli("full"));
+  INFO("full: " << full.width() << "x" << full.height());
+  CHECK(full.height() > 1.6 * full.width());
+  // Bust: the body shows below the head, into the frame's bottom quarter (the head alone ends
+  // above its middle).
+  const render::Image bust = render_cli("bust");
+  CHECK(extent(bust).y1 > 0.75 * bust.height);
+  // Face: the hair card in front of the head's top is drawn (the face view alone has no hair).
+  const render::Image face = render_cli("face");
+  render::RenderOptions o;
+  o.width = o.height = 160;
+  o.msaa = 4;  // as the CLI renders a pose
+  o.contexts = 1;
+  const rig::Rig head = rig::load_rig(dir / "avatar.glb");
+  const render::Image bald =
+      render::Renderer(head, o).render(std::vector<float>(head.shapes.size(), 0.0f));
+  const double hair = render::compare_images(face, bald, 24).fraction_over;
+  INFO("pixels that differ from the bald face view: " << hair);
+  CHECK(hair > 0.05);
+  CHECK(rig::load_scene(dir / "avatar.glb").shape_names() == head.shape_names());
+}

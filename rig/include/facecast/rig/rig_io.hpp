@@ -53,5 +53,8 @@ Rig read_glb(const std::filesystem::path& path, const DecodeLimits& limits = {})
 
 /// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);
+/// The whole avatar, for drawing: every mesh of a .glb/.gltf/.vrm (hair, body, glasses, outfit
+/// with the face; the same shapes as load_rig), an .obj as it is. What every render path draws.
+Rig load_scene(const std::filesystem::path& path);
 
 }  // namespace facecast::rig
