@@ -23,7 +23,7 @@ namespace {
 struct RenderArgs {
   SpeechArgs speech;
   std::string rig, weights, expression, out, size, audio;
-  std::string look_at, framing, background_image, head;
+  std::string look_at, framing, background_image, head, pose = "rest";
   float zoom = 1.0f;
   int msaa = -1;
   int quality = 90;
@@ -131,6 +131,9 @@ void add_render_commands(CLI::App& app) {
   r->add_option("--look-at", a->look_at,
                 "Aim the camera at x,y,z (rig units) instead of the face centre");
   r->add_option("--zoom", a->zoom, "Move the camera closer by this factor")->capture_default_str();
+  r->add_option("--pose", a->pose,
+                "rest (default: an avatar saved in T- or A-pose stands with its arms down) or "
+                "bind (as the file holds it)");
   r->add_option("--framing", a->framing, "face, bust or full (default from render.json)")
       ->check(CLI::IsMember({"face", "bust", "full"}));
   r->add_option("--background-image", a->background_image, "An image behind the avatar")
@@ -152,7 +155,9 @@ void add_render_commands(CLI::App& app) {
                     : a->framing == "full" ? render::Framing::kFull
                                            : render::Framing::kFace;
     if (!a->background_image.empty()) opt.background_image = a->background_image;
-    const rig::Rig rig = a->rig.empty() ? avatar::default_avatar() : rig::load_scene(a->rig);
+    const rig::Rig rig = a->rig.empty()
+                             ? avatar::default_avatar()
+                             : rig::load_scene(a->rig, rig::parse_pose(a->pose, "--pose"));
     if (speech) {
       if (!a->weights.empty() || !a->expression.empty())
         throw Error("--weights/--expression render one pose; they do not combine with --text");

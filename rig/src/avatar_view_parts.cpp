@@ -243,6 +243,8 @@ Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
   };
   s.head = by_vrm("head");
   s.neck = by_vrm("neck");
+  s.left_upper_arm = by_vrm("leftUpperArm");
+  s.right_upper_arm = by_vrm("rightUpperArm");
   if (s.head < 0) s.head = find_joint(s.joint_names, "head");
   if (s.neck < 0) s.neck = find_joint(s.joint_names, "neck");
   return s;

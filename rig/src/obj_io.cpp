@@ -20,6 +20,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/avatar_view.hpp"
+#include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig_io.hpp"
 
 namespace facecast::rig {
@@ -529,11 +530,13 @@ Rig load_rig(const std::filesystem::path& path) {
               ErrorCode::kUnsupported);
 }
 
-Rig load_scene(const std::filesystem::path& path) {
+Rig load_scene(const std::filesystem::path& path, Pose pose) {
   const std::string ext = path.extension().string();
-  if (ext == ".glb" || ext == ".gltf" || ext == ".vrm")
-    return make_view(AvatarDocument::read(path), {.all_meshes = true}).rig;
-  return load_rig(path);
+  Rig rig = ext == ".glb" || ext == ".gltf" || ext == ".vrm"
+                ? make_view(AvatarDocument::read(path), {.all_meshes = true}).rig
+                : load_rig(path);
+  if (pose == Pose::kRest) (void)apply_rest_pose(rig);
+  return rig;
 }
 
 }  // namespace facecast::rig

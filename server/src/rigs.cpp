@@ -209,10 +209,14 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
       rig::AvatarDocument doc = id == kBuiltin
                                     ? rig::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
                                     : rig::AvatarDocument::read(glb_path(id), limits_);
-      loaded->rig = std::make_shared<const rig::Rig>(rig::make_view(doc, {.all_meshes = true}).rig);
+      // Standing in the rest pose: an avatar saved in T-pose puts its arms down.
+      rig::Rig scene = rig::make_view(doc, {.all_meshes = true}).rig;
+      const rig::RestPoseReport rest = rig::apply_rest_pose(scene);
+      loaded->rig = std::make_shared<const rig::Rig>(std::move(scene));
       log::info(
           "rig_loaded",
           {{"rig", id},
+           {"arms_lowered", rest.turned.size()},
            {"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                       .count()}});
     }

@@ -74,6 +74,7 @@ struct Skeleton {
   std::vector<Eigen::Vector3f> rest_origin;  // each joint's origin in the bind pose
   int head = -1;                             // the head joint, or -1
   int neck = -1;                             // the neck joint, or -1
+  int left_upper_arm = -1, right_upper_arm = -1;  // VRM humanoid bones, or -1 (see rest_pose.hpp)
 };
 
 /// A blendshape: the vertices it moves (ascending, unique) and their deltas from the neutral.

@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "facecast/rig/decode_limits.hpp"
+#include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig.hpp"
 
 namespace facecast::rig {
@@ -54,7 +55,8 @@ Rig read_glb(const std::filesystem::path& path, const DecodeLimits& limits = {})
 /// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);
 /// The whole avatar, for drawing: every mesh of a .glb/.gltf/.vrm (hair, body, glasses, outfit
-/// with the face; the same shapes as load_rig), an .obj as it is. What every render path draws.
-Rig load_scene(const std::filesystem::path& path);
+/// with the face; the same shapes as load_rig), an .obj as it is; standing in the rest pose
+/// (rest_pose.hpp) unless `pose` is kBind. What every render path draws.
+Rig load_scene(const std::filesystem::path& path, Pose pose = Pose::kRest);
 
 }  // namespace facecast::rig

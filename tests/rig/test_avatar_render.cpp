@@ -1,7 +1,9 @@
-// Textures and materials as the web ships them: WebP (EXT_texture_webp, written by gltf-transform)
-// renders like the PNG original; KTX2 (KHR_texture_basisu) falls back to the core image when it is
-// optional and is refused in one line naming the conversion when required or alone; unlit and
-// emissive-strength materials; OBJ texture coordinates with v = 0 at the image's bottom.
+// Avatars as every render path draws them. Textures and materials as the web ships them: WebP
+// (EXT_texture_webp, written by gltf-transform) renders like the PNG original; KTX2
+// (KHR_texture_basisu) falls back to the core image when it is optional and is refused in one line
+// naming the conversion when required or alone; unlit and emissive-strength materials; OBJ texture
+// coordinates with v = 0 at the image's bottom. The CLI's render draws every mesh, framed face,
+// bust or full, standing in the rest pose.
 #include <tiny_gltf.h>
 
 #include <catch2/catch.hpp>
@@ -15,6 +17,7 @@
 #include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/decode_limits.hpp"
 #include "facecast/rig/rig_io.hpp"
+#include "humanoid.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
 
@@ -24,7 +27,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path work_dir() {
-  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-textures";
+  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-render";
   fs::create_directories(dir);
   return dir;
 }
@@ -78,6 +81,35 @@ void add_basisu(tinygltf::Model& m, bool keep_fallback) {
   m.textures[0].extensions["KHR_texture_basisu"] = tinygltf::Value(source);
   if (!keep_fallback) m.textures[0].source = -1;
   m.extensionsUsed.push_back("KHR_texture_basisu");
+}
+
+// The covered pixels' bounding box (the background is the corner's colour).
+struct Extent {
+  int x0 = 1 << 20, y0 = 1 << 20, x1 = -1, y1 = -1;
+  int width() const { return x1 - x0 + 1; }
+  int height() const { return y1 - y0 + 1; }
+};
+Extent covered(const render::Image& img) {
+  Extent e;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      int d = 0;
+      for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(img.at(x, y, c) - img.at(0, 0, c)));
+      if (d <= 6) continue;
+      e = {std::min(e.x0, x), std::min(e.y0, y), std::max(e.x1, x), std::max(e.y1, y)};
+    }
+  return e;
+}
+
+// `facecast render --rig <path> <args> --size 160x160 --out <name>.png`, read back.
+render::Image render_cli(const fs::path& rig, const std::string& name, const std::string& args) {
+  const fs::path out = rig.parent_path() / (name + ".png");
+  const std::string cmd = std::string(FACECAST_CLI) + " render --rig '" + rig.string() + "' " +
+                          args + " --size 160x160 --out '" + out.string() + "' > '" + out.string() +
+                          ".log' 2>&1";
+  INFO(cmd);
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  return render::read_image(out);
 }
 
 }  // namespace
@@ -213,43 +245,19 @@ TEST_CASE("the CLI's render draws every mesh of the avatar, framed face, bust or
   const fs::path dir = work_dir() / "scene";
   fs::create_directories(dir);
   write_file_atomic(dir / "avatar.glb", test::test_avatar_glb());
-  const auto render_cli = [&](const std::string& framing) {
-    const fs::path out = dir / (framing + ".png");
-    const std::string cmd = std::string(FACECAST_CLI) + " render --rig '" +
-                            (dir / "avatar.glb").string() + "' --framing " + framing +
-                            " --size 160x160 --out '" + out.string() + "' > '" + out.string() +
-                            ".log' 2>&1";
-    INFO(cmd);
-    REQUIRE(std::system(cmd.c_str()) == 0);
-    return render::read_image(out);
-  };
-  // The covered pixels' bounding box (the background is the corner's colour).
-  struct Extent {
-    int x0 = 1 << 20, y0 = 1 << 20, x1 = -1, y1 = -1;
-    int width() const { return x1 - x0 + 1; }
-    int height() const { return y1 - y0 + 1; }
-  };
-  const auto extent = [](const render::Image& img) {
-    Extent e;
-    for (int y = 0; y < img.height; ++y)
-      for (int x = 0; x < img.width; ++x) {
-        int d = 0;
-        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(img.at(x, y, c) - img.at(0, 0, c)));
-        if (d <= 6) continue;
-        e = {std::min(e.x0, x), std::min(e.y0, y), std::max(e.x1, x), std::max(e.y1, y)};
-      }
-    return e;
+  const auto render_framed = [&](const std::string& framing) {
+    return render_cli(dir / "avatar.glb", framing, "--framing " + framing);
   };
   // Full: hair (top, 2.15 m) to body (bottom, 0.9 m) over the head's 0.6 m width: a tall figure.
-  const Extent full = extent(render_cli("full"));
+  const Extent full = covered(render_framed("full"));
   INFO("full: " << full.width() << "x" << full.height());
   CHECK(full.height() > 1.6 * full.width());
   // Bust: the body shows below the head, into the frame's bottom quarter (the head alone ends
   // above its middle).
-  const render::Image bust = render_cli("bust");
-  CHECK(extent(bust).y1 > 0.75 * bust.height);
+  const render::Image bust = render_framed("bust");
+  CHECK(covered(bust).y1 > 0.75 * bust.height);
   // Face: the hair card in front of the head's top is drawn (the face view alone has no hair).
-  const render::Image face = render_cli("face");
+  const render::Image face = render_framed("face");
   render::RenderOptions o;
   o.width = o.height = 160;
   o.msaa = 4;  // as the CLI renders a pose
@@ -261,4 +269,19 @@ TEST_CASE("the CLI's render draws every mesh of the avatar, framed face, bust or
   INFO("pixels that differ from the bald face view: " << hair);
   CHECK(hair > 0.05);
   CHECK(rig::load_scene(dir / "avatar.glb").shape_names() == head.shape_names());
+}
+
+TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig][gltf][render]") {
+  const fs::path dir = work_dir() / "pose";
+  fs::create_directories(dir);
+  rig::write_glb(dir / "tpose.glb", test::humanoid(0));
+  const Extent rest = covered(render_cli(dir / "tpose.glb", "rest", "--framing full"));
+  const Extent bind = covered(render_cli(dir / "tpose.glb", "bind", "--framing full --pose bind"));
+  INFO("rest " << rest.width() << "x" << rest.height() << ", bind " << bind.width() << "x"
+               << bind.height());
+  CHECK(bind.width() > bind.height());
+  CHECK(rest.width() < 0.7 * rest.height());
+  CHECK(std::system((std::string(FACECAST_CLI) + " render --rig '" + (dir / "tpose.glb").string() +
+                     "' --pose sit --out x.png 2>/dev/null")
+                        .c_str()) != 0);
 }

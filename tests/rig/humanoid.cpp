@@ -1,0 +1,96 @@
+// A humanoid made in code (see humanoid.hpp).
+#include "humanoid.hpp"
+
+#include <cmath>
+#include <tuple>
+
+namespace facecast::test {
+
+using namespace facecast::rig;
+
+namespace {
+
+constexpr float kDeg = 3.14159265f / 180.0f;
+
+// Appends a box from lo to hi, each vertex skinned by `skin(position)` -> (joint a, joint b, t):
+// weight 1 - t on a, t on b.
+template <class Skin>
+void add_box(Rig& rig, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, Skin skin) {
+  const auto base = static_cast<int>(rig.positions.rows());
+  rig.positions.conservativeResize(base + 8, 3);
+  rig.joints.conservativeResize(base + 8, 4);
+  rig.joint_weights.conservativeResize(base + 8, 4);
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3f p((i & 1 ? hi : lo).x(), (i & 2 ? hi : lo).y(), (i & 4 ? hi : lo).z());
+    rig.positions.row(base + i) = p.transpose();
+    const auto [a, b, t] = skin(p);
+    rig.joints.row(base + i) << a, b, 0, 0;
+    rig.joint_weights.row(base + i) << 1 - t, t, 0, 0;
+  }
+  const auto tri = static_cast<int>(rig.triangles.rows());
+  rig.triangles.conservativeResize(tri + 12, 3);
+  const int t[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (int f = 0; f < 12; ++f)
+    for (int c = 0; c < 3; ++c) rig.triangles(tri + f, c) = base + t[f][c];
+}
+
+}  // namespace
+
+Rig humanoid(float droop, const char* left, const char* right) {
+  Rig rig;
+  rig.positions.resize(0, 3);
+  rig.triangles.resize(0, 3);
+  rig.joints.resize(0, 4);
+  rig.joint_weights.resize(0, 4);
+  Skeleton& s = rig.skeleton;
+  s.joint_names = {"mixamorig:Hips",
+                   left,
+                   "mixamorig:LeftForeArm",
+                   "mixamorig:LeftHand",
+                   right,
+                   "mixamorig:RightForeArm",
+                   "mixamorig:RightHand",
+                   "mixamorig:Neck",
+                   "mixamorig:Head"};
+  s.parent = {-1, 0, 1, 2, 0, 4, 5, 0, 7};
+  const float c = std::cos(droop * kDeg), sn = std::sin(droop * kDeg);
+  const auto along = [&](float side, float d) {
+    return Eigen::Vector3f(side * (0.2f + d * c), 1.45f - d * sn, 0.0f);
+  };
+  s.rest_origin = {{0, 1, 0},       along(1, 0),      along(1, 0.3f), along(1, 0.55f), along(-1, 0),
+                   along(-1, 0.3f), along(-1, 0.55f), {0, 1.5f, 0},   {0, 1.6f, 0}};
+  s.neck = 7;
+  s.head = 8;
+  add_box(rig, {-0.2f, 0.5f, -0.1f}, {0.2f, 1.5f, 0.1f}, [](const Eigen::Vector3f&) {
+    return std::tuple{0, 0, 0.0f};
+  });
+  add_box(rig, {-0.1f, 1.55f, -0.1f}, {0.1f, 1.75f, 0.1f}, [](const Eigen::Vector3f&) {
+    return std::tuple{8, 8, 0.0f};
+  });
+  for (const float side : {1.0f, -1.0f}) {
+    const int arm = side > 0 ? 1 : 4;
+    // The arm as a box in T-pose, bent down by the droop about the shoulder.
+    const Eigen::Vector3f shoulder = along(side, 0);
+    const auto first = static_cast<int>(rig.positions.rows());
+    add_box(rig, {0.0f, -0.04f, -0.04f}, {0.6f, 0.04f, 0.04f}, [&](const Eigen::Vector3f& p) {
+      return p.x() < 0.3f ? std::tuple{arm, arm, 0.0f} : std::tuple{arm + 1, arm + 1, 0.0f};
+    });
+    for (int v = first; v < first + 8; ++v) {
+      const Eigen::Vector3f p = rig.positions.row(v).transpose();
+      rig.positions.row(v) = (shoulder + Eigen::Vector3f(side * (p.x() * c + p.y() * sn),
+                                                         p.y() * c - p.x() * sn, p.z()))
+                                 .transpose();
+    }
+  }
+  rig.normals = vertex_normals(rig.positions, rig.triangles);
+  rig.materials = {Material::solid("skin")};
+  rig.triangle_material.assign(static_cast<std::size_t>(rig.triangles.rows()), 0);
+  Positions jaw = Positions::Zero(rig.positions.rows(), 3);
+  for (int v = 8; v < 16; ++v) jaw(v, 1) = -0.02f;
+  rig.shapes.push_back(Blendshape::from_dense("jawOpen", jaw));
+  rig.validate("humanoid");
+  return rig;
+}
+
+}  // namespace facecast::test
