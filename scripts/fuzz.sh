@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(fuzz_protocol fuzz_import fuzz_text fuzz_glb fuzz_gltf fuzz_obj fuzz_fap)
+((${#targets[@]})) || targets=(fuzz_protocol fuzz_import fuzz_text fuzz_glb fuzz_gltf fuzz_obj fuzz_fap
+  fuzz_image)
 
 build_args=()
 for t in "${targets[@]}"; do build_args+=(--target="$t"); done

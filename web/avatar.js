@@ -1,8 +1,9 @@
 // The 3D avatar: a rig's or a user's GLB/VRM in three.js (every mesh, its materials and skin; VRM
 // through three-vrm with its MToon materials), weights set by name on every mesh (morphs.js), the
-// face framed, the head turned through the neck and head bones (or about a pivot below the head),
-// in a Viewport (viewport.js: orbit camera, studio lighting); glTF loading and the helpers the rig
-// builder shares (rest box, part colours, morph meshes).
+// face framed, standing in the rest pose (pose.js: arms down), the head turned through the neck and
+// head bones (or about a pivot below the head), in a Viewport (viewport.js: orbit camera, studio
+// lighting); glTF loading and the helpers the rig builder shares (rest box, part colours, morph
+// meshes).
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -10,6 +11,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
 import { MorphBinding, morphMeshes, targetNames } from './morphs.js';
+import { restPose } from './pose.js';
 
 export { morphMeshes, targetNames };
 
@@ -183,6 +185,7 @@ export class AvatarView extends Viewport {
     this.pivot.position.copy(neck);
     this.pivot.rotation.set(0, 0, 0);
     this.pivot.add(model);
+    this.restTurned = restPose(model, vrm); // arms down, as the server draws it (pose.js)
     colorizePlainMaterials(model);
     for (const m of morphMeshes(model)) {
       for (const mat of [].concat(m.material)) {

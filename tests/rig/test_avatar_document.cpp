@@ -207,14 +207,14 @@ TEST_CASE("shapes written back land in their primitives and survive a save", "[r
 TEST_CASE("a required extension Facecast does not read is a one-line error naming it",
           "[rig][gltf][errors]") {
   AvatarDocument doc = AvatarDocument::parse(test::test_avatar_glb(), "base.glb");
-  doc.model().extensionsRequired = {"KHR_texture_basisu"};
-  doc.model().extensionsUsed.push_back("KHR_texture_basisu");
+  doc.model().extensionsRequired = {"KHR_materials_pbrSpecularGlossiness"};
+  doc.model().extensionsUsed.push_back("KHR_materials_pbrSpecularGlossiness");
   try {
     (void)AvatarDocument::parse(doc.glb_bytes(), "upload.glb");
     FAIL("no error");
   } catch (const Error& e) {
     CHECK(std::string(e.what()) ==
-          "upload.glb: required extension KHR_texture_basisu is not supported");
+          "upload.glb: required extension KHR_materials_pbrSpecularGlossiness is not supported");
     CHECK(e.code() == ErrorCode::kUnsupported);
   }
 }

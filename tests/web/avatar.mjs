@@ -4,7 +4,8 @@
 // bones, expressions aa and blink bound to the head's targets), loaded through three-vrm. Checks:
 // weights by name reach every mesh, VRM expressions drive their bound targets (also under a VRM 0.x
 // preset name), the JS client's applyWeights / applyExpressions do the same, the camera frames the
-// face (not the body), the head pose turns the head bone, and the page logs no errors. Both are
+// face (not the body), the T-posed arms hang down (web/pose.js, mirroring configs/rig/humanoid.json),
+// the head pose turns the head bone, and the page logs no errors. Both are
 // imported through the server (POST /api/rigs) and loaded from what it serves back.
 
 import { readFileSync, writeFileSync } from 'node:fs';
@@ -63,17 +64,21 @@ function sphere(c, r, nu = 32, nv = 16) {
   return { pos, nrm, uv, idx };
 }
 
-// The avatar: node layout Hips > Spine > Neck > Head, meshes Head (sphere at y 1.6), Teeth (small
-// sphere in front of the head's lower half), Body (a tall sphere), all skinned.
+// The avatar: node layout Hips > Spine > Neck > Head and Spine > LeftArm > LeftForeArm (and the
+// right), saved in T-pose; meshes Head (sphere at y 1.6), Teeth (small sphere in front of the head's
+// lower half), Body (a tall sphere), arms (long ellipsoids), all skinned.
 function makeAvatar() {
   const doc = new Document();
   const buffer = doc.createBuffer();
   const acc = (type, array) => doc.createAccessor().setType(type).setArray(array).setBuffer(buffer);
-  const joints = ['Hips', 'Spine', 'Neck', 'Head'].map((n) => doc.createNode(n));
-  const origins = [[0, 1.0, 0], [0, 1.2, 0], [0, 1.42, 0], [0, 1.5, 0]];
-  joints.forEach((j, i) => j.setTranslation(i ? origins[i].map((v, k) => v - origins[i - 1][k]) : origins[0]));
-  for (let i = 1; i < 4; i++) joints[i - 1].addChild(joints[i]);
-  const ibm = new Float32Array(16 * 4);
+  // Saved in T-pose: the arms straight out from the shoulders.
+  const names = ['Hips', 'Spine', 'Neck', 'Head', 'LeftArm', 'LeftForeArm', 'RightArm', 'RightForeArm'];
+  const parents = [-1, 0, 1, 2, 1, 4, 1, 6];
+  const origins = [[0, 1.0, 0], [0, 1.2, 0], [0, 1.42, 0], [0, 1.5, 0], [0.2, 1.38, 0], [0.45, 1.38, 0], [-0.2, 1.38, 0], [-0.45, 1.38, 0]];
+  const joints = names.map((n) => doc.createNode(n));
+  joints.forEach((j, i) => j.setTranslation(parents[i] >= 0 ? origins[i].map((v, k) => v - origins[parents[i]][k]) : origins[0]));
+  joints.forEach((j, i) => parents[i] >= 0 && joints[parents[i]].addChild(j));
+  const ibm = new Float32Array(16 * names.length);
   origins.forEach((o, i) => ibm.set([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -o[0], -o[1], -o[2], 1], 16 * i));
   const skin = doc.createSkin().setInverseBindMatrices(acc('MAT4', ibm)).setSkeleton(joints[0]);
   joints.forEach((j) => skin.addJoint(j));
@@ -106,6 +111,10 @@ function makeAvatar() {
   const skinMat = doc.createMaterial('skin').setBaseColorTexture(texture).setRoughnessFactor(0.6).setMetallicFactor(0);
   part('Head', sphere([0, 1.6, 0], 0.1), 3, [['eyeBlinkLeft', blink], ['jawOpen', jaw]], skinMat);
   part('Teeth', sphere([0, 1.55, 0.06], 0.02, 12, 6), 3, [['jawOpen', jaw]], doc.createMaterial('teeth').setBaseColorFactor([0.95, 0.93, 0.88, 1]));
+  const arm = (x) => ({ ...sphere([0, 0, 0], 1, 12, 6), pos: sphere([0, 0, 0], 1, 12, 6).pos.map((v, i) => (i % 3 === 0 ? x + 0.25 * v : i % 3 === 1 ? 1.38 + 0.04 * v : 0.04 * v)) });
+  const sleeve = doc.createMaterial('sleeve').setBaseColorFactor([0.2, 0.3, 0.5, 1]);
+  part('LeftArm', arm(0.45), 4, [], sleeve);
+  part('RightArm', arm(-0.45), 6, [], sleeve);
   part('Body', { ...sphere([0, 1.0, 0], 0.3), pos: sphere([0, 0, 0], 1).pos.map((v, i) => (i % 3 === 1 ? 1.0 + 0.45 * v : 0.25 * v)) }, 1, [], doc.createMaterial('cloth').setBaseColorFactor([0.2, 0.3, 0.5, 1]));
   return doc;
 }
@@ -122,10 +131,11 @@ async function glb({ vrm }) {
   const node = (name) => json.nodes.findIndex((n) => n.name === name);
   const humanBones = { hips: 'Hips', spine: 'Spine', neck: 'Neck', head: 'Head' };
   const bones = Object.fromEntries(Object.entries(humanBones).map(([b, n]) => [b, { node: node(n) }]));
-  // VRM requires the limbs too: empty nodes under the hips stand in for them.
-  for (const limb of ['leftUpperLeg', 'leftLowerLeg', 'leftFoot', 'rightUpperLeg', 'rightLowerLeg', 'rightFoot', 'leftUpperArm', 'leftLowerArm', 'leftHand', 'rightUpperArm', 'rightLowerArm', 'rightHand']) {
-    json.nodes.push({ name: limb });
-    json.nodes[node('Spine')].children = [...(json.nodes[node('Spine')].children || []), json.nodes.length - 1];
+  Object.assign(bones, { leftUpperArm: { node: node('LeftArm') }, leftLowerArm: { node: node('LeftForeArm') }, rightUpperArm: { node: node('RightArm') }, rightLowerArm: { node: node('RightForeArm') } });
+  // VRM requires the legs and hands too: empty nodes stand in for them.
+  for (const [limb, parent] of [['leftUpperLeg', 'Spine'], ['leftLowerLeg', 'Spine'], ['leftFoot', 'Spine'], ['rightUpperLeg', 'Spine'], ['rightLowerLeg', 'Spine'], ['rightFoot', 'Spine'], ['leftHand', 'LeftForeArm'], ['rightHand', 'RightForeArm']]) {
+    json.nodes.push({ name: limb, translation: limb.endsWith('Hand') ? [limb.startsWith('left') ? 0.25 : -0.25, 0, 0] : [0, 0, 0] });
+    json.nodes[node(parent)].children = [...(json.nodes[node(parent)].children || []), json.nodes.length - 1];
     bones[limb] = { node: json.nodes.length - 1 };
   }
   const bind = (target) => ({ morphTargetBinds: [{ node: node('Head_mesh'), index: json.meshes[json.nodes[node('Head_mesh')].mesh].extras.targetNames.indexOf(target), weight: 1 }] });
@@ -194,10 +204,20 @@ await run('avatar', async () => {
         fc.applyWeights(meshes, ['eyeBlinkLeft', 'jawOpen'], [0, 0.75]);
         const helper = meshes.map((m) => m.morphTargetInfluences[m.morphTargetDictionary.jawOpen] ?? null);
         const helperExpression = view.vrm && fc.applyExpressions(view.vrm, ['A'], [0.5]) === 1 ? view.vrm.expressionManager.getValue('aa') : null;
+        // The rest pose: each upper arm's line to its forearm points down, 10 degrees outward.
+        const THREE = await import('three');
+        view.vrm?.update(0);
+        view.model.updateMatrixWorld(true);
+        const at = (name) => view.model.getObjectByName(name).getWorldPosition(new THREE.Vector3());
+        const armAngles = ['Left', 'Right'].map((side) => {
+          const d = at(`${side}ForeArm`).sub(at(`${side}Arm`)).normalize();
+          return THREE.MathUtils.radToDeg(Math.atan2(Math.abs(d.x), -d.y));
+        });
+        const { HUMANOID } = await import('/pose.js');
         view.setHead(0.3, 0, 0);
         view.render(true);
         const headTurned = view.bones ? view.bones.head.quaternion.angleTo(view.rest.head) : null;
-        return { names: view.names, byName, byExpression, byVrm0Name, helper, helperExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
+        return { armAngles, turned: view.restTurned.length, humanoid: HUMANOID, names: view.names, byName, byExpression, byVrm0Name, helper, helperExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
       },
       { url: urls[file] },
     );
@@ -205,6 +225,12 @@ await run('avatar', async () => {
     must(`${tag}: loads`, result.names.includes('jawOpen'), result.names.join(','));
     check(`${tag}: jawOpen by name reaches the head and the teeth (different target orders)`, result.byName.filter((v) => v === 0.5).length === 2, JSON.stringify(result.byName));
     check(`${tag}: the camera frames the face (y 1.5-1.7), not the body`, result.targetY > 1.5 && result.targetY < 1.7, result.targetY.toFixed(3));
+    check(`${tag}: the T-posed arms hang down, 10 degrees outward (the rest pose)`, result.turned === 2 && result.armAngles.every((a) => Math.abs(a - 10) < 1), `${result.turned} turned, ${JSON.stringify(result.armAngles)}`);
+    if (!isVrm) {
+      const table = JSON.parse(readFileSync(join(sourceDir, 'configs/rig/humanoid.json'), 'utf8'));
+      const mirrored = { prefixes: table.prefixes, leftUpperArm: table.left_upper_arm, rightUpperArm: table.right_upper_arm, armAngleDeg: table.arm_angle_deg, minTurnDeg: table.min_turn_deg };
+      check('web/pose.js mirrors configs/rig/humanoid.json', JSON.stringify(result.humanoid) === JSON.stringify(mirrored), JSON.stringify(result.humanoid));
+    }
     check(`${tag}: the head pose turns the head bone`, result.headTurned > 0.1, String(result.headTurned));
     check(`${tag}: facecast-client's applyWeights sets jawOpen on every mesh`, result.helper.filter((v) => v === 0.75).length === 2, JSON.stringify(result.helper));
     if (isVrm) {

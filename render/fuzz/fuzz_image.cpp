@@ -1,0 +1,25 @@
+// libFuzzer target: the image decoder that photo uploads and avatar textures reach (PNG and JPEG
+// through OpenImageIO, WebP through libwebp, KTX2 refused), after the header check it starts with.
+// Anything but facecast::Error is a bug; a decoded image must have the size its header promised.
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+
+#include "facecast/core/error.hpp"
+#include "facecast/render/image.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  facecast::rig::DecodeLimits limits;
+  limits.max_image_side = 1024;  // the fuzzer's memory limit; the bound itself is what is tested
+  limits.max_image_bytes = std::size_t{1024} * 1024 * 4;
+  const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+  try {
+    const facecast::render::Image img = facecast::render::decode_image(bytes, "fuzz", limits);
+    if (img.width < 1 || img.height < 1 || img.width > limits.max_image_side ||
+        img.height > limits.max_image_side ||
+        img.pixels.size() != static_cast<std::size_t>(img.width) * img.height * img.channels)
+      __builtin_trap();
+  } catch (const facecast::Error&) {
+  }
+  return 0;
+}
