@@ -98,6 +98,13 @@ void pack_materials(const Rig& rig, PackedRig& p) {
     pm.alpha_cutoff = m.alpha_cutoff;
     pm.double_sided = m.double_sided;
     pm.unlit = m.unlit;
+    if (m.toon) {
+      pm.toon = true;
+      pm.shade_color = m.toon->shade_color;
+      pm.rim_color = m.toon->rim_color;
+      pm.toon_params << m.toon->shading_shift, m.toon->shading_toony, m.toon->rim_fresnel_power,
+          m.toon->rim_lift;
+    }
     pm.normal_scale = m.normal_texture.strength;
     pm.occlusion_strength = m.occlusion_texture.strength;
     const rig::TextureRef* refs[kSlotCount] = {&m.base_color_texture, &m.metallic_roughness_texture,

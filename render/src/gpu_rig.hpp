@@ -55,6 +55,9 @@ struct PackedMaterial {
   rig::AlphaMode alpha_mode = rig::AlphaMode::kOpaque;
   bool double_sided = false;  // else back faces are culled (glTF: counter-clockwise is front)
   bool unlit = false;         // KHR_materials_unlit: the base colour, no lighting
+  bool toon = false;          // MToon (rig::Toon): the fields below
+  Eigen::Vector3f shade_color{0, 0, 0}, rim_color{0, 0, 0};
+  Eigen::Vector4f toon_params{0, 0.9f, 5, 0};      // shift, toony, rim fresnel power, rim lift
   int texture[kSlotCount] = {-1, -1, -1, -1, -1};  // into PackedRig::textures, -1: none
   OcclusionSource occlusion = kOwnOcclusion;  // not kOwnOcclusion: texture[kOcclusionSlot] is -1
   Eigen::Matrix3f uv_transform[kSlotCount];

@@ -5,6 +5,7 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
+#include <png.h>
 #include <webp/decode.h>
 
 #include <algorithm>
@@ -70,6 +71,33 @@ std::string lower_extension(const std::filesystem::path& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return std::tolower(c); });
   return ext;
+}
+
+// PNG through libpng's simplified API, into RGBA (8-bit sRGB whatever the file's depth, palette or
+// gamma). Not through OpenImageIO: its PNG reader leaks its error message on every truncated image
+// (libpng's longjmp skips the string's destructor), which an upload could repeat without end.
+Image decode_png(std::string_view bytes, const std::string& name, int max_side) {
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_memory(&png, bytes.data(), bytes.size()))
+    throw Error(name + ": cannot decode: " + one_line(png.message));
+  if (png.width < 1 || png.height < 1 || png.width > static_cast<png_uint_32>(max_side) ||
+      png.height > static_cast<png_uint_32>(max_side)) {
+    png_image_free(&png);
+    throw Error(name + ": PNG image of " + std::to_string(png.width) + "x" +
+                    std::to_string(png.height) + " is out of range (at most " +
+                    std::to_string(max_side) + " a side)",
+                ErrorCode::kLimit);
+  }
+  png.format = PNG_FORMAT_RGBA;
+  Image img{static_cast<int>(png.width), static_cast<int>(png.height), 4, {}};
+  img.pixels.resize(PNG_IMAGE_SIZE(png));
+  if (!png_image_finish_read(&png, nullptr, img.pixels.data(), 0, nullptr)) {
+    const std::string why = png.message;
+    png_image_free(&png);
+    throw Error(name + ": cannot decode: " + one_line(why));
+  }
+  return img;
 }
 
 // WebP through libwebp, into RGBA. Animated WebP (an avatar texture never is) is refused.
@@ -144,11 +172,12 @@ Image decode_image(std::string_view bytes, std::string_view what, const rig::Dec
     throw Error(name + ": not a PNG, JPEG or WebP image", ErrorCode::kUnsupported);
   (void)rig::check_image(bytes, what, limits);  // the header's size, before any decoder runs
   if (webp) return decode_webp(bytes, name, max_side);
+  if (png) return decode_png(bytes, name, max_side);
   OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
   OIIO::ImageSpec config;
   const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value
   config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_pointer);
-  const std::string file = png ? "image.png" : "image.jpg";
+  const std::string file = "image.jpg";
   auto in = OIIO::ImageInput::create(file, false, &config, &proxy);
   if (!in)
     throw Error(name + ": no image reader: " + one_line(OIIO::geterror()), ErrorCode::kInternal);

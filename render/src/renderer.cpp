@@ -73,7 +73,7 @@ struct Slot {
     GLuint id = 0;
     GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
           metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, blend = -1,
-          alpha_cutoff = -1, uv = -1, unlit = -1;
+          alpha_cutoff = -1, uv = -1, unlit = -1, toon = -1, shade = -1, rim = -1, toon_params = -1;
   };
   std::vector<Program> programs;
   std::vector<std::size_t> program_of;  // per material, into `programs`
@@ -172,7 +172,11 @@ struct Slot {
          at("u_blend"),
          at("u_alpha_cutoff"),
          at("u_uv"),
-         at("u_unlit")};
+         at("u_unlit"),
+         at("u_toon"),
+         at("u_shade"),
+         at("u_rim"),
+         at("u_toon_params")};
     glUseProgram(g.id);
     GLint units[detail::kSlotCount];
     for (int i = 0; i < detail::kSlotCount; ++i) units[i] = detail::kFirstMaterialUnit + i;
@@ -285,6 +289,10 @@ struct Slot {
     glUniform1i(u.blend, m.alpha_mode == rig::AlphaMode::kBlend);
     glUniform1f(u.alpha_cutoff, m.alpha_cutoff);
     glUniform1i(u.unlit, m.unlit);
+    glUniform1i(u.toon, m.toon);
+    glUniform3fv(u.shade, 1, m.shade_color.data());
+    glUniform3fv(u.rim, 1, m.rim_color.data());
+    glUniform4fv(u.toon_params, 1, m.toon_params.data());
     for (int slot = 0; slot < detail::kSlotCount; ++slot) {
       glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(detail::kFirstMaterialUnit + slot));
       glBindTexture(GL_TEXTURE_2D, m.texture[slot] >= 0

@@ -55,6 +55,9 @@ uniform float u_occlusion_strength;
 uniform bool u_blend;  // alpha BLEND: keep the alpha; otherwise opaque
 uniform float u_alpha_cutoff;
 uniform bool u_unlit;  // KHR_materials_unlit
+uniform bool u_toon;   // MToon (rig::Toon)
+uniform vec3 u_shade, u_rim;
+uniform vec4 u_toon_params;  // shading shift, toony, rim fresnel power, rim lift
 uniform mat3 u_uv[SLOT_COUNT];
 uniform sampler2D u_textures[SLOT_COUNT];
 uniform vec3 u_eye;
@@ -96,6 +99,16 @@ vec3 light(vec3 n, vec3 v, vec3 l, float radiance, vec3 albedo, vec3 f0, float a
   vec3 f = f0 + (1.0 - f0) * (m2 * m2 * m);
   float spec = a2 / (4.0 * PI * q * q * gv * (nl * (1.0 - k) + k));
   return ((1.0 - f) * albedo * (1.0 / PI) + spec * f) * (radiance * nl);
+}
+// MToon, approximately: the shade and lit colours split by the toon ramp of the key light's n.l
+// (toon avatars are lit by one light; the fill and back lights of the PBR path would only add
+// shade colour), then the parametric rim.
+vec3 toon(vec3 n, vec3 v, vec3 lit) {
+  float lo = -1.0 + u_toon_params.y, hi = 1.0 - u_toon_params.y;
+  float s = clamp((dot(n, normalize(vec3(-0.45, 0.55, 0.75))) + u_toon_params.x - lo) /
+                  max(hi - lo, 1e-4), 0.0, 1.0);
+  return mix(u_shade, lit, s) +
+         u_rim * pow(clamp(1.0 - dot(n, v) + u_toon_params.w, 0.0, 1.0), u_toon_params.z);
 }
 void main() {
   SAMPLE(base_texel, BASE_COLOR_SLOT, vec4(1.0));
@@ -139,6 +152,10 @@ void main() {
   float a = max(rough * rough, 1e-3), a2 = a * a;
   float k = (rough + 1.0) * (rough + 1.0) / 8.0;
   float gv = max(dot(n, v), 1e-4) * (1.0 - k) + k;
+  if (u_toon) {
+    frag = vec4(to_srgb(toon(n, v, base.rgb)), u_blend ? base.a : 1.0);
+    return;
+  }
   vec3 c = light(n, v, normalize(vec3(-0.45, 0.55, 0.75)), 2.6, albedo, f0, a2, k, gv)
          + light(n, v, normalize(vec3(0.6, 0.1, 0.8)), 0.8, albedo, f0, a2, k, gv)
          + light(n, v, normalize(vec3(0.0, 0.4, -1.0)), 1.2, albedo, f0, a2, k, gv);

@@ -2,6 +2,7 @@
 // expressions.
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include "avatar_view_detail.hpp"
 #include "facecast/core/error.hpp"
@@ -160,6 +161,67 @@ int texture_source(const tinygltf::Texture& t) {
   return of("KHR_texture_basisu");
 }
 
+float number_or(const tinygltf::Value& o, const char* key, float fallback) {
+  if (!o.IsObject() || !o.Has(key) || !o.Get(key).IsNumber()) return fallback;
+  const double v = o.Get(key).GetNumberAsDouble();
+  return std::isfinite(v) ? static_cast<float>(std::clamp(v, -1e4, 1e4)) : fallback;
+}
+
+// The first three numbers of o[key] (a colour), or `fallback`; `srgb` decodes them to linear.
+Eigen::Vector3f colour_or(const tinygltf::Value& o, const char* key, Eigen::Vector3f fallback,
+                          bool srgb = false) {
+  if (!o.IsObject() || !o.Has(key) || !o.Get(key).IsArray() || o.Get(key).ArrayLen() < 3)
+    return fallback;
+  Eigen::Vector3f c;
+  for (int k = 0; k < 3; ++k) {
+    const auto& v = o.Get(key).Get(k);
+    if (!v.IsNumber()) return fallback;
+    const float x = std::clamp(static_cast<float>(v.GetNumberAsDouble()), 0.0f, 1e4f);
+    c[k] = !srgb ? x : x <= 0.04045f ? x / 12.92f : std::pow((x + 0.055f) / 1.055f, 2.4f);
+  }
+  return c;
+}
+
+// MToon of material `index`: VRMC_materials_mtoon (VRM 1.0), else the VRM 0.x material
+// properties of the same index with shader "VRM/MToon", whose _ShadeToony/_ShadeShift become
+// MToon 1.0's toony and shift as UniVRM migrates them (the shading range [shift,
+// lerp(1, shift, toony)]: toony = (2 - width) / 2, shift = -centre) and whose colours are sRGB.
+std::optional<Toon> read_toon(const tinygltf::Model& m, std::size_t index) {
+  const auto& gm = m.materials[index];
+  if (const auto it = gm.extensions.find("VRMC_materials_mtoon"); it != gm.extensions.end()) {
+    const auto& e = it->second;
+    Toon t;
+    t.shade_color = colour_or(e, "shadeColorFactor", t.shade_color);
+    t.shading_shift = std::clamp(number_or(e, "shadingShiftFactor", 0.0f), -1.0f, 1.0f);
+    t.shading_toony = std::clamp(number_or(e, "shadingToonyFactor", 0.9f), 0.0f, 1.0f);
+    t.rim_color = colour_or(e, "parametricRimColorFactor", t.rim_color);
+    t.rim_fresnel_power =
+        std::clamp(number_or(e, "parametricRimFresnelPowerFactor", 5.0f), 0.0f, 100.0f);
+    t.rim_lift = std::clamp(number_or(e, "parametricRimLiftFactor", 0.0f), -1.0f, 1.0f);
+    return t;
+  }
+  const auto vrm = m.extensions.find("VRM");
+  if (vrm == m.extensions.end()) return std::nullopt;
+  const auto& props = vrm->second.Get("materialProperties");
+  if (!props.IsArray() || index >= props.ArrayLen()) return std::nullopt;
+  const auto& p = props.Get(static_cast<int>(index));
+  if (!p.Get("shader").IsString() || p.Get("shader").Get<std::string>() != "VRM/MToon")
+    return std::nullopt;
+  const auto& f = p.Get("floatProperties");
+  const auto& v = p.Get("vectorProperties");
+  Toon t;
+  const float shift0 = std::clamp(number_or(f, "_ShadeShift", 0.0f), -1.0f, 1.0f);
+  const float toony0 = std::clamp(number_or(f, "_ShadeToony", 0.9f), 0.0f, 1.0f);
+  const float lo = shift0, hi = 1.0f + (shift0 - 1.0f) * toony0;
+  t.shading_toony = std::clamp((2.0f - (hi - lo)) * 0.5f, 0.0f, 1.0f);
+  t.shading_shift = std::clamp(-(hi + lo) * 0.5f, -1.0f, 1.0f);
+  t.shade_color = colour_or(v, "_ShadeColor", {0.97f, 0.81f, 0.86f}, true);
+  t.rim_color = colour_or(v, "_RimColor", t.rim_color, true);
+  t.rim_fresnel_power = std::clamp(number_or(f, "_RimFresnelPower", 1.0f), 0.0f, 100.0f);
+  t.rim_lift = std::clamp(number_or(f, "_RimLift", 0.0f), -1.0f, 1.0f);
+  return t;
+}
+
 void read_materials(const tinygltf::Model& m, Rig& rig) {
   for (const auto& t : m.textures) {
     Texture tex;
@@ -202,6 +264,7 @@ void read_materials(const tinygltf::Model& m, Rig& rig) {
       mat.emissive *= static_cast<float>(
           std::clamp(it->second.Get("emissiveStrength").GetNumberAsDouble(), 0.0, 1e4));
     mat.unlit = gm.extensions.count("KHR_materials_unlit") > 0;
+    mat.toon = read_toon(m, static_cast<std::size_t>(&gm - m.materials.data()));
     mat.alpha_mode = gm.alphaMode == "MASK"    ? AlphaMode::kMask
                      : gm.alphaMode == "BLEND" ? AlphaMode::kBlend
                                                : AlphaMode::kOpaque;

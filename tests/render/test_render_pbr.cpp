@@ -264,7 +264,7 @@ TEST_CASE("a background image covers the frame; bad textures are one-line errors
   CHECK_THROWS_WITH(Renderer(broken, options(Framing::kFace)), Catch::Contains("texture 0 'head'"));
   broken.textures[0].bytes = "GIF89a";
   CHECK_THROWS_WITH(Renderer(broken, options(Framing::kFace)),
-                    Catch::Contains("not a PNG or JPEG"));
+                    Catch::Contains("not a PNG, JPEG or WebP"));
   broken = rig;
   broken.materials[0].base_color_texture.texture = 7;
   CHECK_THROWS_WITH(Renderer(broken, options(Framing::kFace)),
@@ -334,4 +334,60 @@ TEST_CASE("an occlusion map reads the same from its own texture, an ORM texture 
     // The same picture wherever the occlusion is read (within the filtering of its edge).
     CHECK(mean_difference(Renderer(c.rig, o).render(neutral), own, o.height) < 1.0);
   }
+}
+
+TEST_CASE("MToon draws two flat tones split by the key light, and a rim", "[render][pbr]") {
+  Rig rig = textured_avatar();
+  rig::Material& head = rig.materials[kHead];
+  head.base_color_texture.texture = -1;
+  head.base_color = {0.8f, 0.1f, 0.1f, 1.0f};
+  const RenderOptions face = options(Framing::kFace);
+  const std::vector<float> neutral{0.0f};
+  const auto tones = [&](const Rig& r) {
+    const Image img = Renderer(r, face).render(neutral);
+    // Pixels of the sphere: near the lit colour (sRGB 231, 89, 89), near the shade (sRGB 0, 0,
+    // 188, blue), or between.
+    int lit = 0, shade = 0, between = 0;
+    for (int y = 20; y < 140; ++y)
+      for (int x = 20; x < 140; ++x) {
+        if (is_background(img, x, y, face)) continue;
+        const Eigen::Vector3i p = pixel(img, x, y);
+        if ((p - Eigen::Vector3i(231, 89, 89)).cwiseAbs().maxCoeff() <= 6)
+          ++lit;
+        else if ((p - Eigen::Vector3i(0, 0, 188)).cwiseAbs().maxCoeff() <= 6)
+          ++shade;
+        else
+          ++between;
+      }
+    return Eigen::Vector3i(lit, shade, between);
+  };
+  const Eigen::Vector3i pbr = tones(rig);
+  rig::Toon toon;
+  toon.shade_color = {0.0f, 0.0f, 0.5f};
+  toon.shading_toony = 0.95f;
+  head.toon = toon;
+  const Eigen::Vector3i flat = tones(rig);
+  INFO("PBR lit/shade/between " << pbr.transpose() << ", MToon " << flat.transpose());
+  const int total = flat.sum();
+  CHECK(total > 5000);
+  CHECK(flat.x() > total / 5);  // the side the key light (upper left) faces
+  CHECK(flat.y() > total / 20);
+  CHECK(flat.z() < total / 5);  // a narrow ramp between
+  CHECK(pbr.z() > total / 2);   // lit PBR shades smoothly instead
+  // A rim brightens the silhouette, not the middle.
+  toon.rim_color = {0.0f, 0.6f, 0.0f};
+  toon.rim_fresnel_power = 4.0f;
+  head.toon = toon;
+  const Image rimmed = Renderer(rig, face).render(neutral);
+  head.toon->rim_color.setZero();
+  const Image plain = Renderer(rig, face).render(neutral);
+  CHECK(pixel(rimmed, 80, 80) == pixel(plain, 80, 80));
+  int greener = 0, edge = 0;
+  for (int x = 0; x < 160; ++x)
+    if (!is_background(plain, x, 80, face)) {
+      ++edge;
+      if (pixel(rimmed, x, 80).y() > pixel(plain, x, 80).y() + 20) ++greener;
+    }
+  CHECK(greener > 0);
+  CHECK(greener < edge / 2);
 }

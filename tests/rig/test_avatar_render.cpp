@@ -285,3 +285,49 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
                      "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);
 }
+
+TEST_CASE("VRM MToon materials are read, 1.0 and 0.x alike", "[rig][gltf][vrm]") {
+  const rig::Rig v1 = edited("mtoon1.vrm", [](tinygltf::Model& m) {
+    tinygltf::Value::Object mtoon;
+    mtoon["shadeColorFactor"] = tinygltf::Value(
+        tinygltf::Value::Array{tinygltf::Value(0.1), tinygltf::Value(0.2), tinygltf::Value(0.3)});
+    mtoon["shadingShiftFactor"] = tinygltf::Value(-0.2);
+    mtoon["shadingToonyFactor"] = tinygltf::Value(0.8);
+    mtoon["parametricRimFresnelPowerFactor"] = tinygltf::Value(3.0);
+    m.materials[0].extensions["VRMC_materials_mtoon"] = tinygltf::Value(mtoon);
+    m.extensionsUsed.push_back("VRMC_materials_mtoon");
+  });
+  REQUIRE(v1.materials[0].toon);
+  CHECK(v1.materials[0].toon->shade_color.isApprox(Eigen::Vector3f(0.1f, 0.2f, 0.3f)));
+  CHECK(v1.materials[0].toon->shading_shift == Approx(-0.2));
+  CHECK(v1.materials[0].toon->shading_toony == Approx(0.8));
+  CHECK(v1.materials[0].toon->rim_fresnel_power == Approx(3.0));
+  CHECK_FALSE(v1.materials[1].toon);
+
+  // VRM 0.x: material properties by index, colours in sRGB, _ShadeToony/_ShadeShift migrated as
+  // UniVRM does (toony 0.9, shift 0: the range [0, 0.1] -> toony 0.95, shift -0.05).
+  const rig::Rig v0 = edited("mtoon0.vrm", [](tinygltf::Model& m) {
+    tinygltf::Value::Array props;
+    for (std::size_t i = 0; i < m.materials.size(); ++i) {
+      tinygltf::Value::Object p, floats, vectors;
+      p["name"] = tinygltf::Value(m.materials[i].name);
+      p["shader"] = tinygltf::Value(std::string(i == 1 ? "VRM/UnlitTexture" : "VRM/MToon"));
+      floats["_ShadeToony"] = tinygltf::Value(0.9);
+      floats["_ShadeShift"] = tinygltf::Value(0.0);
+      vectors["_ShadeColor"] = tinygltf::Value(tinygltf::Value::Array{
+          tinygltf::Value(0.5), tinygltf::Value(0.5), tinygltf::Value(1.0), tinygltf::Value(1.0)});
+      p["floatProperties"] = tinygltf::Value(floats);
+      p["vectorProperties"] = tinygltf::Value(vectors);
+      props.emplace_back(p);
+    }
+    tinygltf::Value::Object vrm;
+    vrm["materialProperties"] = tinygltf::Value(props);
+    m.extensions["VRM"] = tinygltf::Value(vrm);
+    m.extensionsUsed.push_back("VRM");
+  });
+  REQUIRE(v0.materials[0].toon);
+  CHECK(v0.materials[0].toon->shading_toony == Approx(0.95));
+  CHECK(v0.materials[0].toon->shading_shift == Approx(-0.05));
+  CHECK(v0.materials[0].toon->shade_color.isApprox(Eigen::Vector3f(0.2140f, 0.2140f, 1.0f), 1e-3f));
+  CHECK_FALSE(v0.materials[1].toon);
+}

@@ -5,6 +5,7 @@
 // Vertex order is the order of the source file and is never changed by Facecast: expressions of the
 // ICT FaceKit and marker files refer to vertices by index.
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -41,6 +42,18 @@ struct TextureRef {
 
 enum class AlphaMode { kOpaque, kMask, kBlend };
 
+/// VRM's MToon (VRMC_materials_mtoon; VRM 0.x "VRM/MToon" through UniVRM's migration), drawn
+/// approximately: the lit (base) and shade colours split by a toon ramp of each light,
+/// shade = linearstep(-1 + toony, 1 - toony, n.l + shift), plus a parametric rim
+/// rim_color * (1 - n.v + rim_lift)^rim_fresnel_power. Textures other than the base colour's
+/// (shade multiply, shift, rim, matcap) and outlines are not drawn.
+struct Toon {
+  Eigen::Vector3f shade_color{0.0f, 0.0f, 0.0f};  // linear
+  float shading_shift = 0.0f, shading_toony = 0.9f;
+  Eigen::Vector3f rim_color{0.0f, 0.0f, 0.0f};  // linear
+  float rim_fresnel_power = 5.0f, rim_lift = 0.0f;
+};
+
 /// A glTF metallic-roughness material. Colours are linear; textures hold sRGB base colour and
 /// emissive, linear metallic (B) / roughness (G), tangent-space normals and occlusion (R).
 struct Material {
@@ -50,6 +63,7 @@ struct Material {
   float roughness = 0.6f;
   Eigen::Vector3f emissive{0.0f, 0.0f, 0.0f};  // KHR_materials_emissive_strength folded in
   bool unlit = false;                          // KHR_materials_unlit: the base colour as it is
+  std::optional<Toon> toon;                    // a VRM MToon material
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // for kMask
   bool double_sided = false;
@@ -70,10 +84,10 @@ struct Material {
 /// already skinned to the rest pose; the renderer moves only the joints the head pose turns.
 struct Skeleton {
   std::vector<std::string> joint_names;
-  std::vector<int> parent;                   // -1 for a root
-  std::vector<Eigen::Vector3f> rest_origin;  // each joint's origin in the bind pose
-  int head = -1;                             // the head joint, or -1
-  int neck = -1;                             // the neck joint, or -1
+  std::vector<int> parent;                        // -1 for a root
+  std::vector<Eigen::Vector3f> rest_origin;       // each joint's origin in the bind pose
+  int head = -1;                                  // the head joint, or -1
+  int neck = -1;                                  // the neck joint, or -1
   int left_upper_arm = -1, right_upper_arm = -1;  // VRM humanoid bones, or -1 (see rest_pose.hpp)
 };
 
