@@ -2,6 +2,8 @@
 // (docs/algorithms.md#rendering).
 #include <algorithm>
 #include <cmath>
+#include <set>
+#include <tuple>
 
 #include "facecast/render/renderer.hpp"
 
@@ -32,10 +34,36 @@ std::vector<char> head_vertices(const rig::Rig& rig) {
       ++moved_in[static_cast<std::size_t>(comps.label[static_cast<std::size_t>(v)])];
   const auto best = std::max_element(moved_in.begin(), moved_in.end());
   if (best != moved_in.end() && *best > 0) {
-    const int face = static_cast<int>(best - moved_in.begin());
+    // The face: that component and those welded to it, sharing a vertex position (a face split
+    // at its primitives' seams, skin and lips, as tools that index each primitive on its own
+    // write it); not the teeth or eyes inside it.
+    const auto label = [&](int v) { return comps.label[static_cast<std::size_t>(v)]; };
+    std::vector<char> face(moved_in.size(), 0);
+    face[static_cast<std::size_t>(best - moved_in.begin())] = 1;
+    const auto key = [&](int v) {
+      const Eigen::RowVector3f p = rig.positions.row(v);
+      return std::tuple{p.x(), p.y(), p.z()};
+    };
+    for (bool grew = true; grew;) {
+      grew = false;
+      std::set<std::tuple<float, float, float>> at;
+      for (int v = 0; v < nv; ++v)
+        if (label(v) >= 0 && face[static_cast<std::size_t>(label(v))]) at.insert(key(v));
+      for (int v = 0; v < nv; ++v) {
+        const int c = label(v);
+        if (c < 0 || face[static_cast<std::size_t>(c)] ||
+            moved_in[static_cast<std::size_t>(c)] == 0 || !at.count(key(v)))
+          continue;
+        face[static_cast<std::size_t>(c)] = 1;
+        grew = true;
+      }
+    }
+    const auto on_face = [&](int v) {
+      return label(v) >= 0 && face[static_cast<std::size_t>(label(v))];
+    };
     Box all, shapes;
     for (int v = 0; v < nv; ++v) {
-      if (comps.label[static_cast<std::size_t>(v)] != face) continue;
+      if (!on_face(v)) continue;
       all.add(rig.positions.row(v).transpose());
       if (moved[static_cast<std::size_t>(v)]) shapes.add(rig.positions.row(v).transpose());
     }
@@ -43,7 +71,7 @@ std::vector<char> head_vertices(const rig::Rig& rig) {
     const bool body = all.size().y() > 2.5f * shapes.size().y();
     const Eigen::Vector3f c = shapes.centre(), half = 0.75f * shapes.size();
     for (int v = 0; v < nv; ++v) {
-      if (comps.label[static_cast<std::size_t>(v)] != face) continue;
+      if (!on_face(v)) continue;
       const Eigen::Vector3f p = rig.positions.row(v).transpose();
       head[static_cast<std::size_t>(v)] =
           !body || ((p - c).cwiseAbs().array() <= half.array()).head<2>().all();

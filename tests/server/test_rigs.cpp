@@ -11,6 +11,7 @@
 #include "client.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/render/image.hpp"
 #include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
@@ -346,6 +347,54 @@ TEST_CASE("an avatar GLB is imported as it is, served back unchanged and speaks 
   CHECK(bad.status == 400);
   CHECK(bad.json()["error"]["message"].get<std::string>().find('\n') == std::string::npos);
   CHECK(http_request(s.port(), http::verb::get, "/api/rigs").json()["rigs"].size() == 3);
+}
+
+TEST_CASE("a web-optimized avatar (meshopt and WebP) imports, speaks and renders like the original",
+          "[rigs][import][texture]") {
+  // The test avatar as web pipelines ship it: gltf-transform webp, then meshopt (a later webp
+  // would decode the meshopt streams).
+  const std::filesystem::path dir = facecast::test::scratch_dir() / "web-avatar";
+  std::filesystem::create_directories(dir);
+  facecast::write_file_atomic(dir / "base.glb", facecast::test::test_avatar_glb());
+  const std::string tool = std::string(FACECAST_SOURCE_DIR) + "/node_modules/.bin/gltf-transform ";
+  for (const auto& [command, in, out] :
+       {std::tuple{"webp", "base.glb", "webp.glb"}, {"meshopt", "webp.glb", "web.glb"}}) {
+    const std::string cmd = tool + command + " '" + (dir / in).string() + "' '" +
+                            (dir / out).string() + "' > '" + (dir / out).string() + ".log' 2>&1";
+    INFO(cmd);
+    REQUIRE(std::system(cmd.c_str()) == 0);
+  }
+  const std::string web = facecast::read_file(dir / "web.glb");
+  REQUIRE_THAT(web,
+               Catch::Contains("EXT_meshopt_compression") && Catch::Contains("EXT_texture_webp"));
+
+  TestServer s;
+  WsClient c(s.port());
+  c.read_json(10);
+  // The first frame of "Hello." in each: the same picture within a few levels.
+  std::vector<facecast::render::Image> first;
+  for (const std::string& glb : {facecast::test::test_avatar_glb(), web}) {
+    const auto r = http_request(s.port(), http::verb::post, "/api/rigs?name=web", glb,
+                                {{"Content-Type", "model/gltf-binary"}});
+    INFO(r.body);
+    REQUIRE(r.status == 201);
+    c.send(nlohmann::json{{"type", "speak"},
+                          {"id", "f"},
+                          {"rig", r.json()["id"]},
+                          {"text", "Hello."},
+                          {"output", "frames"},
+                          {"size", {160, 120}},
+                          {"fps", 10},
+                          {"audio", false}});
+    const auto f = collect_stream(c, "f");
+    REQUIRE_FALSE(f.error);
+    REQUIRE_FALSE(f.frames.empty());
+    first.push_back(facecast::render::decode_image(f.frames.front().jpeg, "frame"));
+  }
+  const auto d = facecast::render::compare_images(first[0], first[1], 24);
+  INFO("mean " << d.mean_abs << ", over 24: " << d.fraction_over);
+  CHECK(d.mean_abs < 3.0);
+  CHECK(d.fraction_over < 0.02);
 }
 
 namespace {
