@@ -30,6 +30,7 @@ AnimOptions load_anim_options() {
       .read("blink_open", o.blink_open)
       .read("eye_motion", o.eye_motion)
       .read("head_motion", o.head_motion)
+      .read("head_nod", o.head_nod)
       .read("seed", o.seed);
   c.reject_unknown();
   if (!(o.blink_interval_min > 0 && o.blink_interval_max >= o.blink_interval_min))
@@ -61,7 +62,7 @@ Performance::Performance(const viseme::Utterance& u, const Mapping& mapping,
     const auto* row = mapping_.expression(curve.name);
     expressions_.push_back({std::move(curve), row ? *row : std::vector<Mapping::Entry>{}});
   }
-  if (options_.idle) idle_ = idle_life(duration_, options_);
+  if (options_.idle) idle_ = idle_life(duration_, speech_spans(u, options_.rest_pause), options_);
 }
 
 int Performance::frame_count(double fps) const {

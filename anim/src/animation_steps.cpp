@@ -202,9 +202,54 @@ float sample_curve(const ExpressionCurve& curve, double t) {
 
 // ---- 4. Idle life ------------------------------------------------------------------------------
 
-IdleLife idle_life(double duration, const AnimOptions& options) {
+std::vector<Span> speech_spans(const viseme::Utterance& u, double pause) {
+  struct Piece {
+    double start, end;
+  };
+  std::vector<Piece> pieces;
+  for (const auto& w : u.words) pieces.push_back({w.start, w.end});
+  if (pieces.empty())
+    for (const auto& v : u.visemes)
+      if (v.viseme != "sil") pieces.push_back({v.start, v.end});
+  std::sort(pieces.begin(), pieces.end(),
+            [](const Piece& a, const Piece& b) { return a.start < b.start; });
+  std::vector<Span> spans;
+  std::size_t first = 0;                      // of the current span's pieces
+  const auto close = [&](std::size_t last) {  // pieces [first, last)
+    Span s{pieces[first].start, pieces[first].end, -1};
+    double total = 0, longest = 0, longest_at = -1;
+    for (std::size_t i = first; i < last; ++i) {
+      s.end = std::max(s.end, pieces[i].end);
+      const double len = pieces[i].end - pieces[i].start;
+      total += len;
+      if (len > longest) longest = len, longest_at = pieces[i].start;
+    }
+    const double mean = total / static_cast<double>(last - first);
+    if (!u.words.empty() && last - first >= 3 && longest > 1.4 * mean && longest_at > s.start + 0.3)
+      s.accent = longest_at;
+    spans.push_back(s);
+  };
+  double end = pieces.empty() ? 0 : pieces[0].end;  // of the current span so far
+  for (std::size_t i = 1; i <= pieces.size(); ++i) {
+    if (i == pieces.size() || pieces[i].start - end >= pause) {
+      close(i);
+      first = i;
+    }
+    if (i < pieces.size()) end = first == i ? pieces[i].end : std::max(end, pieces[i].end);
+  }
+  return spans;
+}
+
+IdleLife idle_life(double duration, const std::vector<Span>& phrases, const AnimOptions& options) {
   IdleLife idle;
   idle.duration = duration;
+  idle.phrases = phrases;
+  float side = 1;
+  for (const Span& p : phrases) {
+    idle.nods.push_back({p.start, 1.0f, 0.4f * side});
+    if (p.accent >= 0) idle.nods.push_back({p.accent, 0.6f, -0.4f * side});
+    side = -side;
+  }
   Rng rng{options.seed * 0x2545F4914F6CDD1Dull + 7};
   for (double t = rng.uniform(0.4, options.blink_interval_max); t < duration;
        t += rng.uniform(options.blink_interval_min, options.blink_interval_max))
@@ -248,10 +293,15 @@ std::array<float, 2> gaze_at(const IdleLife& idle, double t) {
 }
 
 rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t) {
-  // Slow sums of sines, faded in and out over 0.5 s so consecutive utterances join at rest.
+  // Slow sums of sines, faded in and out over 0.5 s so consecutive utterances join at rest, at
+  // full amplitude while a phrase lasts (ramping over 0.4 s), half of it in pauses.
   const auto& phase = idle.head_phase;
   const double env = smooth(t / 0.5) * smooth((idle.duration - t) / 0.5);
-  const double a = options.head_motion * env;
+  double speaking = idle.phrases.empty() ? 1.0 : 0.0;
+  for (const Span& p : idle.phrases)
+    speaking =
+        std::max(speaking, smooth((t - p.start + 0.2) / 0.4) * smooth((p.end - t + 0.2) / 0.4));
+  const double a = options.head_motion * env * (0.5 + 0.5 * speaking);
   rig::HeadPose head;
   head.yaw = static_cast<float>(a * (0.6 * std::sin(2 * M_PI * 0.13 * t + phase[0]) +
                                      0.4 * std::sin(2 * M_PI * 0.31 * t + phase[1])));
@@ -259,6 +309,14 @@ rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t
                                   (0.7 * std::sin(2 * M_PI * 0.17 * t + phase[1]) +
                                    0.3 * std::sin(2 * M_PI * 0.43 * t + phase[2])));
   head.roll = static_cast<float>(a * 0.4 * std::sin(2 * M_PI * 0.11 * t + phase[2]));
+  // Nods: pitch down and back, sin^2 over 0.45 s starting 0.05 s before the onset.
+  for (const Nod& n : idle.nods) {
+    const double u = (t - n.t + 0.05) / 0.45;
+    if (u <= 0 || u >= 1) continue;
+    const double bump = std::sin(M_PI * u) * std::sin(M_PI * u) * env;
+    head.pitch += static_cast<float>(options.head_nod * n.strength * bump);
+    head.roll += static_cast<float>(options.head_nod * n.tilt * bump);
+  }
   return head;
 }
 

@@ -54,6 +54,7 @@ TEST_CASE("the options file mirrors AnimOptions", "[anim][animation]") {
   CHECK(file.idle == code.idle);
   CHECK(file.blink_interval_max == code.blink_interval_max);
   CHECK(file.head_motion == code.head_motion);
+  CHECK(file.head_nod == code.head_nod);
   CHECK(file.seed == code.seed);
 }
 
@@ -336,13 +337,75 @@ TEST_CASE("the three start cases of an expression ramp", "[anim][animation]") {
   CHECK(cut.g < 0);
 }
 
+TEST_CASE("the head nods where phrases start and at their accents, and settles in pauses",
+          "[anim][animation]") {
+  // Two phrases of words; the second's third word is long (an accent); a 1.2 s pause between.
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kOculus;
+  u.words = {{"one", 0.3, 0.6},   {"two", 0.62, 0.9},    {"three", 0.92, 1.2}, {"four", 2.4, 2.6},
+             {"five", 2.62, 2.8}, {"siiiix", 2.82, 3.5}, {"seven", 3.52, 3.7}};
+  u.visemes = {{"sil", 0, 0.3}, {"aa", 0.3, 1.2}, {"sil", 1.2, 2.4}, {"aa", 2.4, 3.7}};
+  u.duration = 4.0;
+  const auto spans = speech_spans(u, AnimOptions{}.rest_pause);
+  REQUIRE(spans.size() == 2);
+  CHECK(spans[0].start == 0.3);
+  CHECK(spans[0].end == 1.2);
+  CHECK(spans[0].accent == -1);
+  CHECK(spans[1].accent == 2.82);
+
+  const Mapping m = Mapping::for_rig(face().shape_names());
+  AnimOptions still;
+  still.head_motion = 0;  // the nods alone
+  const Performance p(u, m, still);
+  std::vector<float> w(p.shape_names().size());
+  const auto pitch = [&](double t) {
+    HeadPose h;
+    p.sample(t, w, &h);
+    return h.pitch;
+  };
+  const auto roll = [&](double t) {
+    HeadPose h;
+    p.sample(t, w, &h);
+    return h.roll;
+  };
+  // Peaks 0.175 s after each onset; the accent's is 60 % and tilts to the other side.
+  CHECK(pitch(0.3 + 0.175) == Approx(still.head_nod).epsilon(0.05));
+  CHECK(pitch(2.4 + 0.175) == Approx(still.head_nod).epsilon(0.05));
+  CHECK(pitch(2.82 + 0.175) == Approx(0.6 * still.head_nod).epsilon(0.05));
+  CHECK(roll(0.3 + 0.175) * roll(2.4 + 0.175) < 0);
+  CHECK(roll(2.4 + 0.175) * roll(2.82 + 0.175) < 0);
+  CHECK(pitch(1.8) == 0.0f);  // the pause
+
+  // The slow sway is half as large in the pause as within the phrases.
+  AnimOptions sway;
+  sway.head_nod = 0;
+  const Performance q(u, m, sway);
+  viseme::Utterance silent = u;
+  silent.words.clear();
+  silent.visemes = {{"sil", 0, 4.0}};
+  const Performance r(silent, m, sway);
+  const auto ratio = [&](double t) {
+    HeadPose a, b;
+    q.sample(t, w, &a);
+    r.sample(t, w, &b);
+    return std::abs(b.yaw) > 1e-4f ? a.yaw / b.yaw : 1.0f;
+  };
+  CHECK(ratio(1.8) == Approx(0.5).epsilon(0.01));
+  CHECK(ratio(2.9) == Approx(1.0).epsilon(0.01));
+  // Idle off: still.
+  const Performance off(u, m, quiet());
+  HeadPose h;
+  off.sample(0.475, w, &h);
+  CHECK(h.pitch == 0.0f);
+}
+
 TEST_CASE("idle life is seeded and blinks close, hold and open", "[anim][animation]") {
   AnimOptions o;
-  const IdleLife a = idle_life(20, o), b = idle_life(20, o);
+  const IdleLife a = idle_life(20, {}, o), b = idle_life(20, {}, o);
   CHECK(a.blinks == b.blinks);
   REQUIRE(a.blinks.size() >= 3);
   o.seed = 2;
-  CHECK(idle_life(20, o).blinks != a.blinks);
+  CHECK(idle_life(20, {}, o).blinks != a.blinks);
   const double t = a.blinks[1];
   CHECK(blink_at(a, o, t - o.blink_close - 1e-3) == 0.0f);
   CHECK(blink_at(a, o, t + 0.5 * o.blink_hold) == 1.0f);

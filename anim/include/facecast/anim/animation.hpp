@@ -54,6 +54,7 @@ struct AnimOptions {
   double blink_open = 0.16;         // s to open
   double eye_motion = 0.12;         // peak eyeLook* weight of small saccades
   double head_motion = 0.035;       // peak head rotation (radians)
+  double head_nod = 0.05;           // nod at each phrase's start (radians; accents 60 %, tilt 40 %)
   uint32_t seed = 1;                // idle randomness
 };
 

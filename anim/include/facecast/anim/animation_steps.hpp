@@ -98,16 +98,37 @@ float sample_curve(const ExpressionCurve& curve, double t);
 
 /// Blink times, saccade targets and head-motion phases drawn from options.seed (splitmix64, the
 /// same on every platform).
+/// A stretch of speech between pauses (s), with its accent: the onset of its longest word when
+/// that word is long for the phrase (over 1.4 times its words' mean length), else -1.
+struct Span {
+  double start = 0, end = 0;
+  double accent = -1;
+};
+
+/// The speech's phrases: its words (else its visemes other than sil) joined across gaps shorter
+/// than `pause` seconds.
+std::vector<Span> speech_spans(const viseme::Utterance& u, double pause);
+
+/// A head accent: a nod (pitch down and back over 0.45 s) with a small tilt, at `t`.
+struct Nod {
+  double t = 0;
+  float strength = 1;  // of head_nod
+  float tilt = 0;      // roll, of head_nod (alternating sides)
+};
+
 struct IdleLife {
   double duration = 0;         // of the performance: gaze and head return to rest by then
   std::vector<double> blinks;  // when each blink starts closing
   std::vector<std::pair<double, std::array<float, 2>>> gazes;  // saccade targets (t, {x, y})
   std::array<double, 3> head_phase{};                          // of the yaw, pitch, roll sines
+  std::vector<Span> phrases;  // speech: the head moves more while it lasts, settles in pauses
+  std::vector<Nod> nods;      // at each phrase's start and its accented words
 };
 
 /// Blinks every blink_interval_min..max seconds, a new gaze target every 0.7-2.2 s (x in [-1, 1],
-/// y in [-0.6, 0.6], back to {0, 0} 0.3 s before the end), random sine phases.
-IdleLife idle_life(double duration, const AnimOptions& options);
+/// y in [-0.6, 0.6], back to {0, 0} 0.3 s before the end), random sine phases; a nod at each
+/// phrase's start (strength 1) and at its accent (0.6), tilting to alternate sides.
+IdleLife idle_life(double duration, const std::vector<Span>& phrases, const AnimOptions& options);
 
 /// Blink closure at t in [0, 1]: close over blink_close, hold blink_hold, open over blink_open.
 float blink_at(const IdleLife& idle, const AnimOptions& options, double t);
@@ -115,7 +136,8 @@ float blink_at(const IdleLife& idle, const AnimOptions& options, double t);
 /// Gaze at t ({x, y}, +x to the subject's left, +y up): a 40 ms smooth move to each target.
 std::array<float, 2> gaze_at(const IdleLife& idle, double t);
 
-/// Head pose at t: slow sums of sines of amplitude head_motion, faded in and out over 0.5 s.
+/// Head pose at t: slow sums of sines of amplitude head_motion (half of it outside the phrases:
+/// the head settles in pauses), faded in and out over 0.5 s, plus the nods.
 rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
 
 // ---- 5. Mixing (in Performance::sample). ------------------------------------------------------
