@@ -213,10 +213,7 @@ Model build_geometry(const AvatarParams& params) {
                    "teeth_lower",    "tongue",         "eyeball_left",    "eyeball_right",
                    "lid_upper_left", "lid_lower_left", "lid_upper_right", "lid_lower_right"};
   const auto srgb = [](float r, float gg, float bb) {
-    const auto lin = [](float c) {
-      c /= 255.0f;
-      return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-    };
+    const auto lin = [](float c) { return rig::srgb_to_linear(c / 255.0f); };
     return Eigen::Vector4f(lin(r), lin(gg), lin(bb), 1.0f);
   };
   for (const auto& [name, colour] : std::initializer_list<std::pair<const char*, Eigen::Vector4f>>{

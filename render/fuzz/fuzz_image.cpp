@@ -1,5 +1,6 @@
-// libFuzzer target: the image decoder that photo uploads and avatar textures reach (PNG and JPEG
-// through OpenImageIO, WebP through libwebp, KTX2 refused), after the header check it starts with.
+// libFuzzer target: the image decoder that photo uploads and avatar textures reach (PNG through
+// libpng, WebP through libwebp, JPEG through OpenImageIO, KTX2 refused), after the header check
+// it starts with.
 // Anything but facecast::Error is a bug; a decoded image must have the size its header promised.
 #include <cstddef>
 #include <cstdint>

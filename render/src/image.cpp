@@ -14,6 +14,7 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/rig/rig.hpp"
 
 namespace facecast::render {
 namespace {
@@ -53,10 +54,8 @@ std::string encode(const Image& image, const std::string& format_name, int quali
   bool ok = false;
   if (linear_half) {
     std::vector<float> lin(image.pixels.size());
-    for (std::size_t i = 0; i < lin.size(); ++i) {
-      const float c = image.pixels[i] / 255.0f;
-      lin[i] = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-    }
+    for (std::size_t i = 0; i < lin.size(); ++i)
+      lin[i] = rig::srgb_to_linear(image.pixels[i] / 255.0f);
     ok = out->write_image(OIIO::TypeDesc::FLOAT, lin.data());
   } else {
     ok = out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data());

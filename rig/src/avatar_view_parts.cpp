@@ -177,7 +177,7 @@ Eigen::Vector3f colour_or(const tinygltf::Value& o, const char* key, Eigen::Vect
     const auto& v = o.Get(key).Get(k);
     if (!v.IsNumber()) return fallback;
     const float x = std::clamp(static_cast<float>(v.GetNumberAsDouble()), 0.0f, 1e4f);
-    c[k] = !srgb ? x : x <= 0.04045f ? x / 12.92f : std::pow((x + 0.055f) / 1.055f, 2.4f);
+    c[k] = srgb ? srgb_to_linear(x) : x;
   }
   return c;
 }
@@ -259,10 +259,8 @@ void read_materials(const tinygltf::Model& m, Rig& rig) {
     for (std::size_t c = 0; c < 3 && c < gm.emissiveFactor.size(); ++c)
       mat.emissive[static_cast<Eigen::Index>(c)] = static_cast<float>(gm.emissiveFactor[c]);
     if (const auto it = gm.extensions.find("KHR_materials_emissive_strength");
-        it != gm.extensions.end() && it->second.IsObject() && it->second.Has("emissiveStrength") &&
-        it->second.Get("emissiveStrength").IsNumber())
-      mat.emissive *= static_cast<float>(
-          std::clamp(it->second.Get("emissiveStrength").GetNumberAsDouble(), 0.0, 1e4));
+        it != gm.extensions.end())
+      mat.emissive *= std::max(number_or(it->second, "emissiveStrength", 1.0f), 0.0f);
     mat.unlit = gm.extensions.count("KHR_materials_unlit") > 0;
     mat.toon = read_toon(m, static_cast<std::size_t>(&gm - m.materials.data()));
     mat.alpha_mode = gm.alphaMode == "MASK"    ? AlphaMode::kMask

@@ -209,9 +209,7 @@ void apply_presets(Rig& rig) {
           .read_choice("alpha_mode", m.alpha_mode,
                        {{"opaque", AlphaMode::kOpaque}, {"blend", AlphaMode::kBlend}})
           .reject_unknown();
-      for (int k = 0; k < 3; ++k)
-        m.base_color[k] =
-            srgb[k] <= 0.04045f ? srgb[k] / 12.92f : std::pow((srgb[k] + 0.055f) / 1.055f, 2.4f);
+      for (int k = 0; k < 3; ++k) m.base_color[k] = srgb_to_linear(srgb[k]);
       m.base_color[3] = alpha;
       out.emplace_back(name, m);
     }

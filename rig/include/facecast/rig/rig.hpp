@@ -5,6 +5,7 @@
 // Vertex order is the order of the source file and is never changed by Facecast: expressions of the
 // ICT FaceKit and marker files refer to vertices by index.
 #include <Eigen/Core>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -41,6 +42,11 @@ struct TextureRef {
 };
 
 enum class AlphaMode { kOpaque, kMask, kBlend };
+
+/// An sRGB-encoded value in [0, 1] as linear light (the sRGB transfer function's inverse).
+inline float srgb_to_linear(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
 
 /// VRM's MToon (VRMC_materials_mtoon; VRM 0.x "VRM/MToon" through UniVRM's migration), drawn
 /// approximately: the lit (base) and shade colours split by a toon ramp of each light,
