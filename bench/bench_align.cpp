@@ -10,6 +10,7 @@
 #include "align_cases.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/audio.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 
@@ -30,7 +31,7 @@ double mean(const std::vector<double>& v) {
 
 int main() {
   std::vector<test::AlignCase> cases =
-      test::all_cases(std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align");
+      test::all_cases(facecast::test::test_data_dir() / "align");
   if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
     std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
   const viseme::AlignOptions options = viseme::load_align_options();

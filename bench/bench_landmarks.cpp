@@ -14,6 +14,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 
@@ -104,7 +105,7 @@ int main(int argc, char** argv) try {
   int runs = 1;
   for (int i = 1; i < argc; ++i)
     if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
-  const auto dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
+  const auto dir = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   const rig::Rig tmpl = rig::read_obj_shapes(dir / "generic_neutral_mesh.obj", dir, {"identity*"});
   for (int run = 0; run < runs; ++run) {
     bench("MakeHuman head", tmpl, shared_data_dir() / "makehuman/head.obj");

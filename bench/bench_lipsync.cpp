@@ -14,12 +14,13 @@
 #include "facecast/core/config.hpp"
 #include "facecast/viseme/lipsync.hpp"
 #include "lipsync_eval.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 
 int main() {
   std::vector<test::AlignCase> cases =
-      test::all_cases(std::filesystem::path(FACECAST_TEST_DATA_DIR) / "align");
+      test::all_cases(facecast::test::test_data_dir() / "align");
   const viseme::LipsyncOptions lo = viseme::load_lipsync_options();
   std::map<std::string, test::LipsyncScore> scores;
   for (const auto& c : cases) {

@@ -10,6 +10,7 @@
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/quality.hpp"
 #include "ict_truth.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 
@@ -80,7 +81,7 @@ int main(int argc, char** argv) try {
       seed = static_cast<unsigned>(std::atoi(argv[i]));
     }
   }
-  const auto dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
+  const auto dir = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   const auto truth = test::make_ict_truth(dir, seed);
   for (auto mode : {rigbuild::VirtualEdgeMode::kAuto, rigbuild::VirtualEdgeMode::kOff}) {
     opt.virtual_edges = mode;

@@ -51,6 +51,7 @@
 #include "facecast/server/protocol.hpp"
 #include "raw_client.hpp"
 #include "serve_process.hpp"
+#include "build_paths.hpp"
 
 namespace {
 
@@ -76,7 +77,7 @@ struct Args {
   double frames_seconds = 15, frames_fps = 30;
   int width = 640, height = 480;
   int client_threads = 1;
-  std::string exe = FACECAST_EXE;
+  std::string exe = facecast::test::facecast_exe().string();
   std::vector<std::pair<std::string, std::string>> set;  // --set key=json (server config)
   bench::BroadcastArgs broadcast;
   int hostile = 0;

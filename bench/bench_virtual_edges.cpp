@@ -8,6 +8,7 @@
 
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rigbuild;
@@ -41,7 +42,7 @@ void subdivide(Points& p, Faces& f) {
 
 int main(int argc, char** argv) try {
   const long want = argc > 1 ? std::atol(argv[1]) : 1000000;
-  const auto dir = std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit/FaceXModel";
+  const auto dir = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   const rig::Rig rig = rig::read_obj(dir / "generic_neutral_mesh.obj");
   Points p = rig.positions.cast<double>();
   Faces f = rig.triangles;

@@ -32,3 +32,11 @@ function(facecast_library name)
                              PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_link_libraries(facecast_${name} PUBLIC ${ARG_DEPS} PRIVATE facecast_options ${ARG_PRIVATE_DEPS})
 endfunction()
+
+# facecast_source_paths(<source> NAME="value" ...)
+# Definitions holding absolute paths (this checkout's, its build folder's), given to one source file
+# only: a path differs in every clone, and in a target's flags it would keep ccache from reusing any
+# of that target's objects in a fresh clone, which is what CI builds.
+function(facecast_source_paths source)
+  set_property(SOURCE ${source} APPEND PROPERTY COMPILE_DEFINITIONS ${ARGN})
+endfunction()

@@ -11,6 +11,7 @@
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/viseme/viseme.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::anim;
@@ -21,7 +22,7 @@ namespace {
 // only: the face an ARKit-driven player has.
 const rig::Rig& face() {
   static const rig::Rig rig = [] {
-    rig::Rig r = rig::load_rig(FACECAST_SHIPPED_TEMPLATE);
+    rig::Rig r = rig::load_rig(facecast::test::source_dir() / "rigbuild/data/ict_facekit.glb");
     const auto arkit = arkit_shape_names();
     std::erase_if(r.shapes, [&](const rig::Blendshape& b) {
       return std::find(arkit.begin(), arkit.end(), b.name) == arkit.end();
@@ -70,7 +71,7 @@ std::string mask_line(std::initializer_list<int> faps) {
 }
 
 FapMotion drive_avatar(const std::string& file) {
-  const std::string path = std::string(FACECAST_ANIM_TEST_DATA) + "/" + file;
+  const std::string path = (facecast::test::source_dir() / "tests/anim/data").string() + "/" + file;
   return FapMotion(parse_fap(read_file(path), path), avatar_fap(),
                    Mapping::for_rig(face().shape_names()));
 }

@@ -14,6 +14,7 @@
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "test_avatar_file.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;
@@ -22,14 +23,14 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path work_dir() {
-  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-files";
+  const fs::path dir = facecast::test::build_dir() / "tests/rig" / "avatar-files";
   fs::create_directories(dir);
   return dir;
 }
 
 // The Khronos glTF validator's verdict on `path` (0 errors -> true).
 bool validator_clean(const fs::path& path) {
-  const std::string cmd = "node " + std::string(FACECAST_SOURCE_DIR) +
+  const std::string cmd = "node " + facecast::test::source_dir().string() +
                           "/scripts/validate-gltf.mjs '" + path.string() + "' > '" + path.string() +
                           ".validation' 2>&1";
   const int rc = std::system(cmd.c_str());

@@ -20,6 +20,7 @@
 #include "humanoid.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 namespace fs = std::filesystem;
@@ -27,7 +28,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path work_dir() {
-  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-render";
+  const fs::path dir = facecast::test::build_dir() / "tests/rig" / "avatar-render";
   fs::create_directories(dir);
   return dir;
 }
@@ -104,7 +105,7 @@ Extent covered(const render::Image& img) {
 // `facecast render --rig <path> <args> --size 160x160 --out <name>.png`, read back.
 render::Image render_cli(const fs::path& rig, const std::string& name, const std::string& args) {
   const fs::path out = rig.parent_path() / (name + ".png");
-  const std::string cmd = std::string(FACECAST_CLI) + " render --rig '" + rig.string() + "' " +
+  const std::string cmd = facecast::test::facecast_exe().string() + " render --rig '" + rig.string() + "' " +
                           args + " --size 160x160 --out '" + out.string() + "' > '" + out.string() +
                           ".log' 2>&1";
   INFO(cmd);
@@ -118,7 +119,7 @@ TEST_CASE("a WebP-textured avatar renders like its PNG-textured original", "[rig
   const fs::path dir = work_dir();
   write_file_atomic(dir / "base.glb", test::test_avatar_glb());
   const fs::path webp = dir / "webp.glb";
-  const std::string cmd = std::string(FACECAST_SOURCE_DIR) +
+  const std::string cmd = facecast::test::source_dir().string() +
                           "/node_modules/.bin/gltf-transform webp '" + (dir / "base.glb").string() +
                           "' '" + webp.string() + "' > '" + webp.string() + ".log' 2>&1";
   INFO(cmd);
@@ -281,7 +282,7 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
                << bind.height());
   CHECK(bind.width() > bind.height());
   CHECK(rest.width() < 0.7 * rest.height());
-  CHECK(std::system((std::string(FACECAST_CLI) + " render --rig '" + (dir / "tpose.glb").string() +
+  CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" + (dir / "tpose.glb").string() +
                      "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);
 }

@@ -14,6 +14,7 @@
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "test_avatar_file.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;
@@ -22,7 +23,7 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path variants_dir() {
-  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "avatar-variants";
+  const fs::path dir = facecast::test::build_dir() / "tests/rig" / "avatar-variants";
   fs::create_directories(dir);
   return dir;
 }
@@ -34,7 +35,7 @@ fs::path transform(const std::string& command, const std::string& out,
   write_file_atomic(dir / "base.glb", test::test_avatar_glb());
   const fs::path target = dir / out;
   fs::create_directories(target.parent_path());
-  const std::string cmd = std::string(FACECAST_SOURCE_DIR) + "/node_modules/.bin/gltf-transform " +
+  const std::string cmd = facecast::test::source_dir().string() + "/node_modules/.bin/gltf-transform " +
                           command + " '" + (dir / "base.glb").string() + "' '" + target.string() +
                           "' " + args + " > '" + target.string() + ".log' 2>&1";
   INFO(cmd);
@@ -68,7 +69,7 @@ void check_same_avatar(const Rig& a, const Rig& b, float tolerance) {
 
 nlohmann::json rig_info(const fs::path& path) {
   const fs::path out = path.string() + ".info.json";
-  const std::string cmd = std::string(FACECAST_CLI) + " rig info --json '" + path.string() +
+  const std::string cmd = facecast::test::facecast_exe().string() + " rig info --json '" + path.string() +
                           "' > '" + out.string() + "'";
   REQUIRE(std::system(cmd.c_str()) == 0);
   return nlohmann::json::parse(read_file(out));

@@ -16,6 +16,7 @@
 #include "facecast/rig/decode_limits.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "hostile_glb.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;
@@ -307,7 +308,7 @@ TEST_CASE("each attack the server is tested with is refused by the loader", "[ri
 
 TEST_CASE("the fuzzers' limit_* seeds are small, and each reaches the check it is next to",
           "[rig][glb][gltf][obj][limits]") {
-  const auto root = std::filesystem::path(FACECAST_SOURCE_DIR) / "tests/fuzz/corpus";
+  const auto root = facecast::test::source_dir() / "tests/fuzz/corpus";
   int files = 0;
   for (const char* target : {"fuzz_glb", "fuzz_gltf", "fuzz_obj"}) {
     for (const auto& entry : std::filesystem::directory_iterator(root / target)) {

@@ -19,6 +19,7 @@
 #include "facecast/rigbuild/template.hpp"
 #include "stages.hpp"  // fit_sphere
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 namespace fs = std::filesystem;
 using namespace facecast;
@@ -27,7 +28,7 @@ using facecast::rigbuild::load_shipped_template;
 namespace {
 
 fs::path out_dir() {
-  const fs::path dir = fs::path(FACECAST_TEST_BINARY_DIR) / "build-target";
+  const fs::path dir = facecast::test::build_dir() / "tests/rigbuild" / "build-target";
   fs::create_directories(dir);
   return dir;
 }
@@ -136,7 +137,7 @@ std::string avatar_without_shapes() {
 }
 
 bool validator_clean(const fs::path& path) {
-  const std::string cmd = "node " + std::string(FACECAST_SOURCE_DIR) +
+  const std::string cmd = "node " + facecast::test::source_dir().string() +
                           "/scripts/validate-gltf.mjs '" + path.string() + "' > '" + path.string() +
                           ".validation' 2>&1";
   const int rc = std::system(cmd.c_str());

@@ -20,6 +20,7 @@
 #include "serve_process.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 using namespace fctest;
 using facecast::server::KeyStore;
@@ -45,7 +46,7 @@ struct Cli {
 Cli facecast_cli(const std::vector<std::string>& args) {
   static int n = 0;
   const fs::path err = facecast::test::scratch_dir() / ("cli-" + std::to_string(++n) + ".err");
-  std::string cmd = "timeout 60 " + quote(FACECAST_EXE);
+  std::string cmd = "timeout 60 " + quote(facecast::test::facecast_exe().string());
   for (const auto& a : args) cmd += " " + quote(a);
   cmd += " 2>" + quote(err.string());
   Cli r;
@@ -585,7 +586,7 @@ TEST_CASE("off loopback, and with the shipped deploy config, serve refuses to st
         {"keys", "create", "--tenant", "ops", "--scopes", "admin", "--data", dir.string()});
     REQUIRE(made.status == 0);
     const std::string key = made.out.substr(0, made.out.find('\n'));
-    ServeProcess p(FACECAST_EXE, args, 60 * slowdown(), (dir / "serve.log").string());
+    ServeProcess p(facecast::test::facecast_exe().string(), args, 60 * slowdown(), (dir / "serve.log").string());
     CHECK(http_request(p.port(), http::verb::get, "/api/rigs").status == 401);
     CHECK(http_request(p.port(), http::verb::get, "/api/rigs", {}, bearer(key)).status == 200);
   }

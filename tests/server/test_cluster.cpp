@@ -22,6 +22,7 @@
 #include "facecast/server/server.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 using namespace fctest;
 namespace fs = std::filesystem;
@@ -222,7 +223,7 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
   facecast::write_file_atomic(dir / "server.json", config.dump(2));
   auto serve = [&](const std::string& name) {
     return std::make_unique<ServeProcess>(
-        FACECAST_EXE,
+        facecast::test::facecast_exe().string(),
         std::vector<std::string>{"--config", (dir / "server.json").string(), "--data",
                                  (dir / name).string()},
         60 * slowdown(), (dir / (name + ".log")).string());

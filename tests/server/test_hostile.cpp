@@ -18,6 +18,7 @@
 #include "raw_client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 using namespace fctest;
 using namespace fctest::raw;
@@ -51,7 +52,7 @@ class Target {
     config["http_timeout"] = 3;
     for (const auto& [k, v] : tweak.items()) config[k] = v;
     facecast::write_file_atomic(dir_ / "server.json", config.dump(2));
-    serve_.emplace(FACECAST_EXE,
+    serve_.emplace(facecast::test::facecast_exe().string(),
                    std::vector<std::string>{"--config", (dir_ / "server.json").string(), "--data",
                                             (dir_ / "data").string()},
                    30 * slowdown(), (dir_ / "serve.log").string());

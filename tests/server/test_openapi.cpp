@@ -8,6 +8,7 @@
 #include "client.hpp"
 #include "facecast/core/files.hpp"
 #include "route_table.hpp"
+#include "build_paths.hpp"
 
 using namespace fctest;
 namespace server = facecast::server;
@@ -43,7 +44,7 @@ TEST_CASE("every route is answered and documented, and the document has nothing 
   const nlohmann::json doc = served.json();
   CHECK(doc["openapi"] == "3.1.0");
   CHECK(served.body ==
-        facecast::read_file(std::string(FACECAST_SOURCE_DIR) + "/docs/openapi.json"));
+        facecast::read_file(facecast::test::source_dir().string() + "/docs/openapi.json"));
 
   std::set<std::pair<std::string, std::string>> table, documented;
   for (const server::Route& r : server::http_routes()) {

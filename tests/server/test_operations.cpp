@@ -11,6 +11,7 @@
 #include "serve_process.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
+#include "build_paths.hpp"
 
 using namespace fctest;
 using facecast::server::ServerOptions;
@@ -101,14 +102,14 @@ TEST_CASE("a job cut off by a crash reads as interrupted after the restart", "[j
   const auto data = facecast::test::scratch_dir() / "crash-data";
   std::string id;
   {
-    ServeProcess serve(FACECAST_EXE, {"--data", data.string(), "--log-level", "warn"},
+    ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", data.string(), "--log-level", "warn"},
                        30 * slowdown());
     // Long enough to be still queued or running when the process is killed.
     id = start_render(serve.port(), std::string(40, 'a') + " " + std::string(40, 'b') + ".");
     REQUIRE(kill(serve.pid(), SIGKILL) == 0);
     REQUIRE(serve.wait_exit(10));
   }
-  ServeProcess serve(FACECAST_EXE, {"--data", data.string(), "--log-level", "warn"},
+  ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", data.string(), "--log-level", "warn"},
                      30 * slowdown());
   const auto r = http_request(serve.port(), http::verb::get, "/api/jobs/" + id);
   REQUIRE(r.status == 200);
@@ -163,7 +164,7 @@ TEST_CASE("the logs name the client behind a proxy (X-Forwarded-For)", "[operati
   fs::create_directories(dir);
   const std::string log = (dir / "serve.log").string();
   {
-    ServeProcess serve(FACECAST_EXE, {"--data", (dir / "data").string(), "--log-level", "debug"},
+    ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", (dir / "data").string(), "--log-level", "debug"},
                        30 * slowdown(), log);
     http_request(serve.port(), http::verb::get, "/healthz", {},
                  {{"X-Forwarded-For", "203.0.113.7"}});

@@ -1,5 +1,7 @@
 #include "test_data.hpp"
 
+#include "build_paths.hpp"
+
 #include <unistd.h>
 #include <catch2/catch.hpp>
 #include <cstdlib>
@@ -14,11 +16,11 @@ std::filesystem::path shared_data() {
 }
 
 std::filesystem::path ict_dir() {
-  return std::filesystem::path(FACECAST_TEST_DATA_DIR) / "ict-facekit" / "FaceXModel";
+  return test_data_dir() / "ict-facekit" / "FaceXModel";
 }
 
 std::filesystem::path artifacts_dir(const std::string& name) {
-  const auto dir = std::filesystem::path(FACECAST_TEST_ARTIFACTS_DIR) / name;
+  const auto dir = build_dir() / "test-artifacts" / name;
   std::filesystem::create_directories(dir);
   return dir;
 }

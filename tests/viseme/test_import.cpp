@@ -4,6 +4,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/import.hpp"
+#include "build_paths.hpp"
 
 using namespace facecast::viseme;
 
@@ -11,7 +12,7 @@ namespace {
 
 Utterance load(TimestampFormat f, const char* file, VisemeSet set,
                PhoneSet phones = PhoneSet::kAuto) {
-  const std::string path = std::string(FACECAST_VISEME_FIXTURES) + "/" + file;
+  const std::string path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
   Options o;
   o.set = set;
   return import_timestamps(f, facecast::read_file(path), o, phones, path);
@@ -113,7 +114,7 @@ TEST_CASE("generic JSON phones: pinyin syllables and errors", "[viseme][import]"
   CHECK(visemes(u) == "zhchsh uv a ng sil jqx uv e");
   CHECK(u.syllables.size() == 2);
   CHECK(u.text == "装学");
-  const std::string unknown_path = std::string(FACECAST_VISEME_FIXTURES) + "/phones_unknown.json";
+  const std::string unknown_path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/phones_unknown.json";
   const std::string err =
       error_of(TimestampFormat::kJson, facecast::read_file(unknown_path), PhoneSet::kArpabet);
   CHECK_THAT(
@@ -151,7 +152,7 @@ TEST_CASE("the timestamp format is detected from the content", "[viseme][import]
       {"rhubarb.tsv", TimestampFormat::kRhubarb},
   };
   for (const auto& [file, format] : cases) {
-    const std::string path = std::string(FACECAST_VISEME_FIXTURES) + "/" + file;
+    const std::string path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
     INFO(file);
     CHECK(detect_timestamp_format(facecast::read_file(path), "x") == format);
   }
