@@ -266,6 +266,25 @@ std::vector<Points> Transfer::solve(const std::vector<const Gradients*>& source,
   return out;
 }
 
+std::vector<Points> Transfer::solve_edge_change(const std::vector<Points>& edge_change) const {
+  const Impl& I = *impl_;
+  const auto ne = static_cast<Eigen::Index>(I.setup.virtual_edges.size());
+  const std::size_t shapes = edge_change.size();
+  Dense rhs(I.free_n, static_cast<Eigen::Index>(3 * shapes));
+  const auto edge_columns = I.At_free.rightCols(ne);  // the virtual edges' rows of A
+  for (std::size_t k = 0; k < shapes; ++k) {
+    if (edge_change[k].rows() != ne) throw Error("transfer: one change per virtual edge expected");
+    rhs.middleCols(static_cast<Eigen::Index>(3 * k), 3) =
+        edge_columns * (std::sqrt(I.setup.lambda) * edge_change[k]);
+  }
+  const Dense x = I.free_n ? I.solve(rhs) : Dense(0, rhs.cols());
+  const Points still = Points::Zero(static_cast<Eigen::Index>(I.setup.dirichlet.size()), 3);
+  std::vector<Points> out(shapes);
+  for (std::size_t k = 0; k < shapes; ++k)
+    out[k] = I.positions(x, static_cast<Eigen::Index>(3 * k), still);
+  return out;
+}
+
 Points Transfer::solve_with_contacts(const Points& solved, const std::vector<char>& held,
                                      const std::vector<Contact>& contacts, const Points& targets,
                                      double weight, int rings) const {

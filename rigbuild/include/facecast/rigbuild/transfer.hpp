@@ -85,6 +85,11 @@ class Transfer {
                             const std::vector<Points>& prescribed,
                             const std::vector<Points>& edge_targets) const;
 
+  /// How solve()'s result moves when only the virtual-edge targets change, by `edge_change[k]`
+  /// (#E by 3) for shape k: the solution is linear in its right-hand side, so the gradients' and
+  /// the prescribed vertices' part is not built again. #V by 3 each, zero at prescribed vertices.
+  std::vector<Points> solve_edge_change(const std::vector<Points>& edge_change) const;
+
   /// A solved shape (a row of solve()'s result) with contact terms
   /// weight * ||x_a - sum_i w_i x_b[i] - t||^2 added to the energy (`targets` #contacts by 3).
   /// The change is local: only the free vertices within `rings` rings of the contacts move,
