@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config git ccache
   libboost1.81-dev libeigen3-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
-  libnanoflann-dev libsuitesparse-dev catch2
+  libnanoflann-dev libsuitesparse-dev libopenblas0-serial catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev
   libopenimageio-dev libpng-dev libwebp-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   nodejs chromium fonts-wqy-microhei fonts-dejavu-core

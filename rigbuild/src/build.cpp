@@ -14,7 +14,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Reports the stage to `progress`, runs it and adds its time to `seconds`.
 // Seconds that `work` takes.
 template <typename Work>
 double seconds_of(Work&& work) {
@@ -23,6 +22,7 @@ double seconds_of(Work&& work) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+// Reports the stage to `progress`, runs it and adds its time to `seconds`.
 template <typename Stage>
 auto timed(const ProgressFn& progress, const char* name, double& seconds, Stage&& stage) {
   report(progress, name, 0.0);
@@ -147,20 +147,29 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   const std::vector<Points> edge_targets = edge_vectors(rest, r.correspondence, source, copied,
                                                         r.virtual_edges, options.gap_scale_limit);
   r.quality.resize(source.size());
+  // The contacts' reference needs no solved shape: it is made on another thread while the solve,
+  // mostly CHOLMOD's back-substitutions on one core, runs on this one.
   std::optional<ContactStage> contacts;
   std::vector<Points> reference;
+  std::future<void> contacts_ready;
   if (options.contacts.enabled) {
-    reference = timed(progress, "contacts", time.contacts, [&] {
-      contacts.emplace(tmpl, source, r.correspondence.map, rest, faces, parts, placement,
-                       options.contacts);
-      return contacts->reference(copied, moved, r.quality);
+    contacts_ready = std::async(std::launch::async, [&] {
+      time.contacts = seconds_of([&] {
+        contacts.emplace(tmpl, source, r.correspondence.map, rest, faces, parts, placement,
+                         options.contacts);
+        reference = contacts->reference(copied, moved, r.quality);
+      });
     });
-    r.watched_pairs = contacts->watched();
   }
   std::vector<Points> solved = timed(progress, "solve", time.solve, [&] {
     return solve_shapes(transfer, rest, source.gradients, copied, edge_targets, placement, moved,
                         options.closing_rounds, progress);
   });
+  if (contacts_ready.valid()) {
+    report(progress, "contacts", 0.0);
+    contacts_ready.get();
+    r.watched_pairs = contacts->watched();
+  }
   if (contacts)
     time.contacts +=
         seconds_of([&] { contacts->hold(transfer, reference, moved, solved, r.quality); });
