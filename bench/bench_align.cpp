@@ -8,9 +8,9 @@
 #include <map>
 
 #include "align_cases.hpp"
+#include "build_paths.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/audio.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 
@@ -30,8 +30,7 @@ double mean(const std::vector<double>& v) {
 }  // namespace
 
 int main() {
-  std::vector<test::AlignCase> cases =
-      test::all_cases(facecast::test::test_data_dir() / "align");
+  std::vector<test::AlignCase> cases = test::all_cases(facecast::test::test_data_dir() / "align");
   if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
     std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
   const viseme::AlignOptions options = viseme::load_align_options();

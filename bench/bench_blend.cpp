@@ -5,17 +5,16 @@
 #include <cstdio>
 #include <random>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/rig/blend.hpp"
 #include "facecast/rig/rig_io.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast::rig;
 using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) try {
-  const std::filesystem::path ict =
-      facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
+  const std::filesystem::path ict = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   const auto t0 = Clock::now();
   Rig rig = argc > 1 ? load_rig(argv[1])
                      : parse_glb(glb_bytes(read_obj_shapes(ict / "generic_neutral_mesh.obj", ict,

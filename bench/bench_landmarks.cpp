@@ -11,10 +11,10 @@
 #include <string>
 #include <utility>
 
+#include "build_paths.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/build.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 

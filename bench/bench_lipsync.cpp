@@ -10,17 +10,16 @@
 #include <map>
 
 #include "align_cases.hpp"
+#include "build_paths.hpp"
 #include "facecast/anim/animation.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/viseme/lipsync.hpp"
 #include "lipsync_eval.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 
 int main() {
-  std::vector<test::AlignCase> cases =
-      test::all_cases(facecast::test::test_data_dir() / "align");
+  std::vector<test::AlignCase> cases = test::all_cases(facecast::test::test_data_dir() / "align");
   const viseme::LipsyncOptions lo = viseme::load_lipsync_options();
   std::map<std::string, test::LipsyncScore> scores;
   for (const auto& c : cases) {

@@ -23,11 +23,11 @@
 #include <string>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "facecast/server/protocol.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "serve_process.hpp"
-#include "build_paths.hpp"
 
 namespace {
 
@@ -195,7 +195,8 @@ int main(int argc, char** argv) {
   const auto dir =
       std::filesystem::temp_directory_path() / ("bench-live-audio-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
-  const fctest::ServeProcess server(facecast::test::facecast_exe().string(), {"--data", (dir / "data").string()}, 60,
+  const fctest::ServeProcess server(facecast::test::facecast_exe().string(),
+                                    {"--data", (dir / "data").string()}, 60,
                                     (dir / "server.log").string());
   const std::string load_before = load_average();
   const double cpu0 = cpu_seconds(server.pid());

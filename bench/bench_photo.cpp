@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "build_paths.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "photo_support.hpp"
-#include "build_paths.hpp"
 
 namespace {
 
@@ -51,8 +51,7 @@ void run(const std::string& name, const rigbuild::PhotoTemplate& tmpl, const ren
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::filesystem::path dir =
-      facecast::test::test_data_dir() / "ict-facekit" / "FaceXModel";
+  const std::filesystem::path dir = facecast::test::test_data_dir() / "ict-facekit" / "FaceXModel";
   const std::filesystem::path photo = argc > 1 ? argv[1] : test::astronaut_path();
   if (photo.empty() || !std::filesystem::exists(dir)) {
     std::cerr << "bench_photo: needs astronaut.png (scripts/install-deps.sh) and " << dir << '\n';

@@ -14,11 +14,11 @@
 #include <string>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/rig/intersections.hpp"
 #include "facecast/rig/rig_io.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using Clock = std::chrono::steady_clock;
@@ -148,8 +148,7 @@ int main(int argc, char** argv) try {
   if (wanted("textured"))
     bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa, lod);
   if (!wanted("ict")) return 0;
-  const std::filesystem::path ict =
-      facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
+  const std::filesystem::path ict = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   if (!std::filesystem::exists(ict / "generic_neutral_mesh.obj")) {
     std::printf("ICT FaceKit not extracted under %s: skipped\n", ict.c_str());
     return 0;

@@ -7,10 +7,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "build_paths.hpp"
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/quality.hpp"
 #include "ict_truth.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 

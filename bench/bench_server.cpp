@@ -46,12 +46,12 @@
 
 #include "bench_broadcast.hpp"
 #include "bench_hostile.hpp"
+#include "build_paths.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
 #include "raw_client.hpp"
 #include "serve_process.hpp"
-#include "build_paths.hpp"
 
 namespace {
 

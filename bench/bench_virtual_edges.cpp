@@ -6,9 +6,9 @@
 #include <cstdlib>
 #include <map>
 
+#include "build_paths.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rigbuild;

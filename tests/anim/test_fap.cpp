@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
+#include "build_paths.hpp"
 #include "facecast/anim/fap.hpp"
 #include "facecast/anim/live_link.hpp"
 #include "facecast/avatar/avatar.hpp"
@@ -11,7 +12,6 @@
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/viseme/viseme.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::anim;

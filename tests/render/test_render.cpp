@@ -7,6 +7,7 @@
 #include <iostream>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -14,7 +15,6 @@
 #include "facecast/rig/blend.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::render;
@@ -32,7 +32,8 @@ RenderOptions small() {
 }
 
 void check_golden(const Image& img, const std::string& name) {
-  const std::filesystem::path golden = facecast::test::source_dir() / "tests/render/golden" / (name + ".png");
+  const std::filesystem::path golden =
+      facecast::test::source_dir() / "tests/render/golden" / (name + ".png");
   const char* update = std::getenv("FACECAST_UPDATE_GOLDEN");
   if (update && std::string(update) == "1") {
     write_image(golden, img);

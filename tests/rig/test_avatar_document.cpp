@@ -8,13 +8,13 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "test_avatar_file.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;

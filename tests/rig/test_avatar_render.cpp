@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
@@ -20,7 +21,6 @@
 #include "humanoid.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 namespace fs = std::filesystem;
@@ -105,9 +105,9 @@ Extent covered(const render::Image& img) {
 // `facecast render --rig <path> <args> --size 160x160 --out <name>.png`, read back.
 render::Image render_cli(const fs::path& rig, const std::string& name, const std::string& args) {
   const fs::path out = rig.parent_path() / (name + ".png");
-  const std::string cmd = facecast::test::facecast_exe().string() + " render --rig '" + rig.string() + "' " +
-                          args + " --size 160x160 --out '" + out.string() + "' > '" + out.string() +
-                          ".log' 2>&1";
+  const std::string cmd = facecast::test::facecast_exe().string() + " render --rig '" +
+                          rig.string() + "' " + args + " --size 160x160 --out '" + out.string() +
+                          "' > '" + out.string() + ".log' 2>&1";
   INFO(cmd);
   REQUIRE(std::system(cmd.c_str()) == 0);
   return render::read_image(out);
@@ -282,8 +282,8 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
                << bind.height());
   CHECK(bind.width() > bind.height());
   CHECK(rest.width() < 0.7 * rest.height());
-  CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" + (dir / "tpose.glb").string() +
-                     "' --pose sit --out x.png 2>/dev/null")
+  CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" +
+                     (dir / "tpose.glb").string() + "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);
 }
 

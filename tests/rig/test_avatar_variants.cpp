@@ -8,13 +8,13 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "build_paths.hpp"
 #include "facecast/anim/animation.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "test_avatar_file.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;
@@ -35,9 +35,10 @@ fs::path transform(const std::string& command, const std::string& out,
   write_file_atomic(dir / "base.glb", test::test_avatar_glb());
   const fs::path target = dir / out;
   fs::create_directories(target.parent_path());
-  const std::string cmd = facecast::test::source_dir().string() + "/node_modules/.bin/gltf-transform " +
-                          command + " '" + (dir / "base.glb").string() + "' '" + target.string() +
-                          "' " + args + " > '" + target.string() + ".log' 2>&1";
+  const std::string cmd = facecast::test::source_dir().string() +
+                          "/node_modules/.bin/gltf-transform " + command + " '" +
+                          (dir / "base.glb").string() + "' '" + target.string() + "' " + args +
+                          " > '" + target.string() + ".log' 2>&1";
   INFO(cmd);
   REQUIRE(std::system(cmd.c_str()) == 0);
   return target;
@@ -69,8 +70,8 @@ void check_same_avatar(const Rig& a, const Rig& b, float tolerance) {
 
 nlohmann::json rig_info(const fs::path& path) {
   const fs::path out = path.string() + ".info.json";
-  const std::string cmd = facecast::test::facecast_exe().string() + " rig info --json '" + path.string() +
-                          "' > '" + out.string() + "'";
+  const std::string cmd = facecast::test::facecast_exe().string() + " rig info --json '" +
+                          path.string() + "' > '" + out.string() + "'";
   REQUIRE(std::system(cmd.c_str()) == 0);
   return nlohmann::json::parse(read_file(out));
 }

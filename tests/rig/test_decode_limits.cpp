@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/avatar_document.hpp"
@@ -16,7 +17,6 @@
 #include "facecast/rig/decode_limits.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "hostile_glb.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast;
 using namespace facecast::rig;

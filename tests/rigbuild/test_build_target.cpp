@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "build_paths.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/avatar_view.hpp"
@@ -19,7 +20,6 @@
 #include "facecast/rigbuild/template.hpp"
 #include "stages.hpp"  // fit_sphere
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 namespace fs = std::filesystem;
 using namespace facecast;

@@ -11,6 +11,7 @@
 #include <regex>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
@@ -20,7 +21,6 @@
 #include "serve_process.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 using facecast::server::KeyStore;
@@ -586,7 +586,8 @@ TEST_CASE("off loopback, and with the shipped deploy config, serve refuses to st
         {"keys", "create", "--tenant", "ops", "--scopes", "admin", "--data", dir.string()});
     REQUIRE(made.status == 0);
     const std::string key = made.out.substr(0, made.out.find('\n'));
-    ServeProcess p(facecast::test::facecast_exe().string(), args, 60 * slowdown(), (dir / "serve.log").string());
+    ServeProcess p(facecast::test::facecast_exe().string(), args, 60 * slowdown(),
+                   (dir / "serve.log").string());
     CHECK(http_request(p.port(), http::verb::get, "/api/rigs").status == 401);
     CHECK(http_request(p.port(), http::verb::get, "/api/rigs", {}, bearer(key)).status == 200);
   }

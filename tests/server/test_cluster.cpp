@@ -14,6 +14,7 @@
 #include <regex>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
@@ -22,7 +23,6 @@
 #include "facecast/server/server.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 namespace fs = std::filesystem;

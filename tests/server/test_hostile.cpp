@@ -11,6 +11,7 @@
 #include <fstream>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
@@ -18,7 +19,6 @@
 #include "raw_client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 using namespace fctest::raw;

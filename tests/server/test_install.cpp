@@ -6,21 +6,22 @@
 #include <catch2/catch.hpp>
 #include <cstdlib>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 namespace fs = std::filesystem;
 
 TEST_CASE("an installed facecast serves from another folder", "[install]") {
   const fs::path prefix = facecast::test::scratch_dir() / "prefix";
-  const std::string install = std::string("\"") + facecast::test::cmake_command().string() + "\" --install \"" +
-                              facecast::test::build_dir().string() + "\" --prefix \"" + prefix.string() + "\" > \"" +
+  const std::string install = std::string("\"") + facecast::test::cmake_command().string() +
+                              "\" --install \"" + facecast::test::build_dir().string() +
+                              "\" --prefix \"" + prefix.string() + "\" > \"" +
                               (prefix.string() + ".log") + "\" 2>&1";
   REQUIRE(std::system(install.c_str()) == 0);
   const fs::path share = prefix / "share/facecast";

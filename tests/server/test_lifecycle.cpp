@@ -1,10 +1,10 @@
 // Shutdown with clients connected: in-process stop() and the real `facecast serve` on SIGTERM.
 #include <catch2/catch.hpp>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "serve_process.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 using Clock = std::chrono::steady_clock;
@@ -59,8 +59,8 @@ TEST_CASE("stop closes every WebSocket with 1001 and returns quickly", "[lifecyc
 
 TEST_CASE("facecast serve drains on SIGTERM: the utterance finishes, then 1001", "[lifecycle]") {
   const auto data = facecast::test::scratch_dir() / "serve-data";
-  ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", data.string(), "--log-level", "warn"},
-                     30 * slowdown());
+  ServeProcess serve(facecast::test::facecast_exe().string(),
+                     {"--data", data.string(), "--log-level", "warn"}, 30 * slowdown());
   CHECK(serve.line().starts_with("facecast: listening on http://127.0.0.1:"));
   const auto port = serve.port();
   CHECK(port != 0);

@@ -5,10 +5,10 @@
 #include <regex>
 #include <set>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/core/files.hpp"
 #include "route_table.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 namespace server = facecast::server;

@@ -7,11 +7,11 @@
 #include <sstream>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "serve_process.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 using facecast::server::ServerOptions;
@@ -102,15 +102,15 @@ TEST_CASE("a job cut off by a crash reads as interrupted after the restart", "[j
   const auto data = facecast::test::scratch_dir() / "crash-data";
   std::string id;
   {
-    ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", data.string(), "--log-level", "warn"},
-                       30 * slowdown());
+    ServeProcess serve(facecast::test::facecast_exe().string(),
+                       {"--data", data.string(), "--log-level", "warn"}, 30 * slowdown());
     // Long enough to be still queued or running when the process is killed.
     id = start_render(serve.port(), std::string(40, 'a') + " " + std::string(40, 'b') + ".");
     REQUIRE(kill(serve.pid(), SIGKILL) == 0);
     REQUIRE(serve.wait_exit(10));
   }
-  ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", data.string(), "--log-level", "warn"},
-                     30 * slowdown());
+  ServeProcess serve(facecast::test::facecast_exe().string(),
+                     {"--data", data.string(), "--log-level", "warn"}, 30 * slowdown());
   const auto r = http_request(serve.port(), http::verb::get, "/api/jobs/" + id);
   REQUIRE(r.status == 200);
   const auto j = r.json();
@@ -164,8 +164,9 @@ TEST_CASE("the logs name the client behind a proxy (X-Forwarded-For)", "[operati
   fs::create_directories(dir);
   const std::string log = (dir / "serve.log").string();
   {
-    ServeProcess serve(facecast::test::facecast_exe().string(), {"--data", (dir / "data").string(), "--log-level", "debug"},
-                       30 * slowdown(), log);
+    ServeProcess serve(facecast::test::facecast_exe().string(),
+                       {"--data", (dir / "data").string(), "--log-level", "debug"}, 30 * slowdown(),
+                       log);
     http_request(serve.port(), http::verb::get, "/healthz", {},
                  {{"X-Forwarded-For", "203.0.113.7"}});
     WsClient::Options o;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <thread>
 
+#include "build_paths.hpp"
 #include "client.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/files.hpp"
@@ -18,7 +19,6 @@
 #include "hostile_glb.hpp"
 #include "test_avatar_file.hpp"
 #include "test_data.hpp"
-#include "build_paths.hpp"
 
 using namespace fctest;
 using facecast::server::ServerOptions;
@@ -357,7 +357,8 @@ TEST_CASE("a web-optimized avatar (meshopt and WebP) imports, speaks and renders
   const std::filesystem::path dir = facecast::test::scratch_dir() / "web-avatar";
   std::filesystem::create_directories(dir);
   facecast::write_file_atomic(dir / "base.glb", facecast::test::test_avatar_glb());
-  const std::string tool = facecast::test::source_dir().string() + "/node_modules/.bin/gltf-transform ";
+  const std::string tool =
+      facecast::test::source_dir().string() + "/node_modules/.bin/gltf-transform ";
   for (const auto& [command, in, out] :
        {std::tuple{"webp", "base.glb", "webp.glb"}, {"meshopt", "webp.glb", "web.glb"}}) {
     const std::string cmd = tool + command + " '" + (dir / in).string() + "' '" +

@@ -1,10 +1,10 @@
 // Timestamp importers, each on a fixture in its real format (tests/viseme/fixtures/).
 #include <catch2/catch.hpp>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/import.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast::viseme;
 
@@ -12,7 +12,8 @@ namespace {
 
 Utterance load(TimestampFormat f, const char* file, VisemeSet set,
                PhoneSet phones = PhoneSet::kAuto) {
-  const std::string path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
+  const std::string path =
+      (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
   Options o;
   o.set = set;
   return import_timestamps(f, facecast::read_file(path), o, phones, path);
@@ -114,7 +115,8 @@ TEST_CASE("generic JSON phones: pinyin syllables and errors", "[viseme][import]"
   CHECK(visemes(u) == "zhchsh uv a ng sil jqx uv e");
   CHECK(u.syllables.size() == 2);
   CHECK(u.text == "装学");
-  const std::string unknown_path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/phones_unknown.json";
+  const std::string unknown_path =
+      (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/phones_unknown.json";
   const std::string err =
       error_of(TimestampFormat::kJson, facecast::read_file(unknown_path), PhoneSet::kArpabet);
   CHECK_THAT(
@@ -152,7 +154,8 @@ TEST_CASE("the timestamp format is detected from the content", "[viseme][import]
       {"rhubarb.tsv", TimestampFormat::kRhubarb},
   };
   for (const auto& [file, format] : cases) {
-    const std::string path = (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
+    const std::string path =
+        (facecast::test::source_dir() / "tests/viseme/fixtures").string() + "/" + file;
     INFO(file);
     CHECK(detect_timestamp_format(facecast::read_file(path), "x") == format);
   }

@@ -3,9 +3,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/pinyin.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast::viseme;
 using V = std::vector<std::string>;
@@ -123,7 +123,8 @@ TEST_CASE("numbers, dates, times, percentages and money are read out", "[viseme]
 // Our own held-out-style set (tests/viseme/eval/zh_sentences.tsv, hand-written pinyin): the
 // toneless reading must stay at or above 98% of syllables. eval_viseme prints the full breakdown.
 TEST_CASE("toneless pinyin accuracy on the evaluation sentences", "[viseme][pinyin][eval]") {
-  std::ifstream in((facecast::test::source_dir() / "tests/viseme/eval").string() + "/zh_sentences.tsv");
+  std::ifstream in((facecast::test::source_dir() / "tests/viseme/eval").string() +
+                   "/zh_sentences.tsv");
   REQUIRE(in);
   std::size_t total = 0, right = 0, sentences = 0;
   for (std::string line; std::getline(in, line);) {

@@ -3,11 +3,11 @@
 #include <catch2/catch.hpp>
 #include <sstream>
 
+#include "build_paths.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/pinyin.hpp"
 #include "facecast/viseme/viseme.hpp"
 #include "plan.hpp"
-#include "build_paths.hpp"
 
 using namespace facecast::viseme;
 
@@ -85,7 +85,8 @@ TEST_CASE("the utterance keeps lexical tones when espeak-ng speaks the sandhi", 
 
 TEST_CASE("toned reading on the tone evaluation set", "[viseme][tones][eval]") {
   // tests/viseme/eval/zh_tones.tsv: a syllable is right when its tone is one the reference accepts.
-  std::istringstream in(facecast::read_file((facecast::test::source_dir() / "tests/viseme/eval").string() + "/zh_tones.tsv"));
+  std::istringstream in(facecast::read_file(
+      (facecast::test::source_dir() / "tests/viseme/eval").string() + "/zh_tones.tsv"));
   std::size_t total = 0, right = 0, neutral = 0, neutral_right = 0;
   for (std::string line; std::getline(in, line);) {
     if (line.empty() || line[0] == '#') continue;
