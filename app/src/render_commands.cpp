@@ -132,8 +132,9 @@ void add_render_commands(CLI::App& app) {
                 "Aim the camera at x,y,z (rig units) instead of the face centre");
   r->add_option("--zoom", a->zoom, "Move the camera closer by this factor")->capture_default_str();
   r->add_option("--pose", a->pose,
-                "rest (default: an avatar saved in T- or A-pose stands with its arms down) or "
-                "bind (as the file holds it)");
+                "How the figure stands: rest (default: an avatar saved in T- or A-pose stands with "
+                "its arms down), bind (as the file holds it) or a pose file, FILE.json (bones and "
+                "their turns, docs/cli.md#pose-files)");
   r->add_option("--framing", a->framing, "face, bust or full (default from render.json)")
       ->check(CLI::IsMember({"face", "bust", "full"}));
   r->add_option("--background-image", a->background_image, "An image behind the avatar")

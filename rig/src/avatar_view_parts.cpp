@@ -57,23 +57,35 @@ std::string lower(std::string s) {
   return s;
 }
 
-// A humanoid bone's node from VRM 0.x (extensions.VRM.humanoid.humanBones[]) or VRM 1.0
-// (extensions.VRMC_vrm.humanoid.humanBones.<bone>.node); -1 when absent.
-int vrm_bone(const tinygltf::Model& m, const char* bone) {
+// The humanoid's bones and their nodes from VRM 1.0 (extensions.VRMC_vrm.humanoid.humanBones.
+// <bone>.node) or VRM 0.x (extensions.VRM.humanoid.humanBones[]: {bone, node}); the bone names
+// are the same in both but for VRM 0.x's thumbs ("leftThumbProximal" is 1.0's
+// "leftThumbMetacarpal" and so on down the finger), renamed here to 1.0's.
+std::vector<std::pair<std::string, int>> vrm_bones(const tinygltf::Model& m) {
+  std::vector<std::pair<std::string, int>> out;
   if (const auto it = m.extensions.find("VRMC_vrm"); it != m.extensions.end()) {
-    const auto& hb = it->second.Get("humanoid").Get("humanBones").Get(bone);
-    if (hb.IsObject() && hb.Get("node").IsInt()) return hb.Get("node").GetNumberAsInt();
+    const auto& bones = it->second.Get("humanoid").Get("humanBones");
+    for (const auto& key : bones.IsObject() ? bones.Keys() : std::vector<std::string>{})
+      if (const auto& b = bones.Get(key); b.IsObject() && b.Get("node").IsInt())
+        out.emplace_back(key, b.Get("node").GetNumberAsInt());
+    return out;
   }
   if (const auto it = m.extensions.find("VRM"); it != m.extensions.end()) {
     const auto& bones = it->second.Get("humanoid").Get("humanBones");
     for (std::size_t i = 0; bones.IsArray() && i < bones.ArrayLen(); ++i) {
       const auto& b = bones.Get(static_cast<int>(i));
-      if (b.Get("bone").IsString() && b.Get("bone").Get<std::string>() == bone &&
-          b.Get("node").IsInt())
-        return b.Get("node").GetNumberAsInt();
+      if (!b.Get("bone").IsString() || !b.Get("node").IsInt()) continue;
+      std::string name = b.Get("bone").Get<std::string>();
+      for (const auto& [from, to] : {std::pair{"ThumbProximal", "ThumbMetacarpal"},
+                                     std::pair{"ThumbIntermediate", "ThumbProximal"}})
+        if (const auto at = name.find(from); at != std::string::npos) {
+          name.replace(at, std::string(from).size(), to);
+          break;
+        }
+      out.emplace_back(name, b.Get("node").GetNumberAsInt());
     }
   }
-  return -1;
+  return out;
 }
 
 }  // namespace
@@ -298,14 +310,12 @@ Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
     while (p >= 0 && !index_of.count(p)) p = g.parent[static_cast<std::size_t>(p)];
     s.parent.push_back(p >= 0 ? index_of[p] : -1);
   }
-  const auto by_vrm = [&](const char* bone) {
-    const auto it = index_of.find(vrm_bone(m, bone));
-    return it == index_of.end() ? -1 : it->second;
-  };
-  s.head = by_vrm("head");
-  s.neck = by_vrm("neck");
-  s.left_upper_arm = by_vrm("leftUpperArm");
-  s.right_upper_arm = by_vrm("rightUpperArm");
+  for (const auto& [bone, node] : vrm_bones(m))
+    if (const auto it = index_of.find(node); it != index_of.end())
+      s.humanoid.emplace_back(bone, it->second);
+  s.vrm0 = m.extensions.count("VRMC_vrm") == 0 && m.extensions.count("VRM") != 0;
+  s.head = s.humanoid_bone("head");
+  s.neck = s.humanoid_bone("neck");
   if (s.head < 0) s.head = find_joint(s.joint_names, "head");
   if (s.neck < 0) s.neck = find_joint(s.joint_names, "neck");
   return s;

@@ -528,12 +528,12 @@ Rig load_rig(const std::filesystem::path& path) {
               ErrorCode::kUnsupported);
 }
 
-Rig load_scene(const std::filesystem::path& path, Pose pose) {
+Rig load_scene(const std::filesystem::path& path, const Pose& pose) {
   const std::string ext = path.extension().string();
   Rig rig = ext == ".glb" || ext == ".gltf" || ext == ".vrm"
                 ? make_view(AvatarDocument::read(path), {.all_meshes = true}).rig
                 : load_rig(path);
-  if (pose == Pose::kRest) (void)apply_rest_pose(rig);
+  (void)apply_pose(rig, pose);
   return rig;
 }
 

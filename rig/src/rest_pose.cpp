@@ -1,5 +1,6 @@
-// The rest pose (see rest_pose.hpp): the upper arms found by VRM humanoid bone or by name
-// (configs/rig/humanoid.json), turned down about their joints, the rig re-skinned on the CPU.
+// Poses (see rest_pose.hpp): the rest pose's upper arms found by VRM humanoid bone or by name
+// (configs/rig/humanoid.json) and turned down about their joints, or a pose file's bones; the rig
+// re-skinned on the CPU.
 #include "facecast/rig/rest_pose.hpp"
 
 #include <Eigen/Geometry>
@@ -10,6 +11,8 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/files.hpp"
+#include "facecast/core/json_limits.hpp"
 
 namespace facecast::rig {
 namespace {
@@ -79,30 +82,33 @@ std::pair<Eigen::Quaternionf, float> arm_turn(const Skeleton& s, int arm) {
   return {Eigen::Quaternionf::FromTwoVectors(d, down), angle};
 }
 
-}  // namespace
+bool has_skeleton(const Rig& rig) {
+  const Skeleton& s = rig.skeleton;
+  const std::size_t nj = s.joint_names.size();
+  return nj > 0 && s.parent.size() == nj && s.rest_origin.size() == nj &&
+         rig.joints.rows() == rig.vertex_count();
+}
 
-RestPoseReport apply_rest_pose(Rig& rig) {
-  RestPoseReport report;
+// The joint of a humanoid bone: the VRM humanoid's, else for the upper arms the name table's.
+int humanoid_joint(const Skeleton& s, const std::string& bone) {
+  if (const int j = s.humanoid_bone(bone); j >= 0) return j;
+  if (bone == "leftUpperArm") return find_by_name(s, table().left);
+  if (bone == "rightUpperArm") return find_by_name(s, table().right);
+  return -1;
+}
+
+// Turns joints (each about its own origin, in the file's axes, carrying the joints under it) and
+// re-skins the rig.
+void turn_joints(Rig& rig, const std::vector<std::pair<int, Eigen::Quaternionf>>& turns) {
   Skeleton& s = rig.skeleton;
   const std::size_t nj = s.joint_names.size();
-  if (nj == 0 || s.parent.size() != nj || s.rest_origin.size() != nj ||
-      rig.joints.rows() != rig.vertex_count())
-    return report;
-  const int left = s.left_upper_arm >= 0 ? s.left_upper_arm : find_by_name(s, table().left);
-  const int right = s.right_upper_arm >= 0 ? s.right_upper_arm : find_by_name(s, table().right);
-
   // Each joint's local turn about its own origin, then the composed motion D_j = D_parent * L_j.
   std::vector<Eigen::Affine3f> local(nj, Eigen::Affine3f::Identity());
-  for (const int arm : {left, right}) {
-    if (arm < 0 || static_cast<std::size_t>(arm) >= nj) continue;
-    const auto [turn, angle] = arm_turn(s, arm);
-    if (angle == 0.0f) continue;
-    const Eigen::Vector3f o = s.rest_origin[static_cast<std::size_t>(arm)];
-    local[static_cast<std::size_t>(arm)] =
+  for (const auto& [joint, turn] : turns) {
+    const Eigen::Vector3f o = s.rest_origin[static_cast<std::size_t>(joint)];
+    local[static_cast<std::size_t>(joint)] =
         Eigen::Translation3f(o) * turn * Eigen::Translation3f(-o);
-    report.turned.emplace_back(s.joint_names[static_cast<std::size_t>(arm)], angle);
   }
-  if (report.turned.empty()) return report;
   std::vector<Eigen::Affine3f> motion(nj);
   std::vector<char> moved(nj, 0), done(nj, 0);
   for (std::size_t j = 0; j < nj; ++j) {
@@ -165,13 +171,122 @@ RestPoseReport apply_rest_pose(Rig& rig) {
     if (p >= 0 && moved[static_cast<std::size_t>(p)])
       s.rest_origin[j] = motion[static_cast<std::size_t>(p)] * s.rest_origin[j];
   }
+}
+
+float degrees(const Eigen::Quaternionf& q) {
+  return 2.0f * std::acos(std::clamp(std::abs(q.w()), 0.0f, 1.0f)) * 180.0f / kPi;
+}
+
+}  // namespace
+
+PoseReport apply_rest_pose(Rig& rig) {
+  PoseReport report;
+  if (!has_skeleton(rig)) return report;
+  const Skeleton& s = rig.skeleton;
+  std::vector<std::pair<int, Eigen::Quaternionf>> turns;
+  for (const char* bone : {"leftUpperArm", "rightUpperArm"}) {
+    const int arm = humanoid_joint(s, bone);
+    if (arm < 0) continue;
+    const auto [turn, angle] = arm_turn(s, arm);
+    if (angle == 0.0f) continue;
+    turns.emplace_back(arm, turn);
+    report.turned.emplace_back(s.joint_names[static_cast<std::size_t>(arm)], angle);
+  }
+  if (!turns.empty()) turn_joints(rig, turns);
   return report;
 }
 
-Pose parse_pose(const std::string& name, const std::string& what) {
-  if (name == "bind") return Pose::kBind;
-  if (name == "rest") return Pose::kRest;
-  throw Error(what + ": unknown pose '" + name + "' (bind or rest)", ErrorCode::kInvalidInput);
+PoseReport apply_pose_file(Rig& rig, const Pose& pose) {
+  PoseReport report;
+  if (!has_skeleton(rig)) return report;
+  const Skeleton& s = rig.skeleton;
+  std::vector<std::pair<int, Eigen::Quaternionf>> turns;
+  for (const BoneTurn& b : pose.bones) {
+    int joint = humanoid_joint(s, b.bone);
+    for (std::size_t j = 0; joint < 0 && j < s.joint_names.size(); ++j)
+      if (s.joint_names[j] == b.bone) joint = static_cast<int>(j);
+    if (joint < 0)
+      throw Error(pose.source + ": " + b.bone + ": the avatar has no such bone (a VRM humanoid " +
+                  "bone name or one of its joints' names)");
+    // The file is in the VRM 1.0 frame (facing +z); a VRM 0.x figure faces -z: turned half
+    // about y, (x, y, z, w) -> (-x, y, -z, w).
+    Eigen::Quaternionf q = b.rotation;
+    if (s.vrm0) q = Eigen::Quaternionf(q.w(), -q.x(), q.y(), -q.z());
+    turns.emplace_back(joint, q);
+    report.turned.emplace_back(s.joint_names[static_cast<std::size_t>(joint)], degrees(q));
+  }
+  if (!turns.empty()) turn_joints(rig, turns);
+  return report;
+}
+
+PoseReport apply_pose(Rig& rig, const Pose& pose) {
+  switch (pose.kind) {
+    case Pose::Kind::kRest:
+      return apply_rest_pose(rig);
+    case Pose::Kind::kFile:
+      return apply_pose_file(rig, pose);
+    case Pose::Kind::kBind:
+      break;
+  }
+  return {};
+}
+
+Pose read_pose_file(const std::filesystem::path& path) {
+  constexpr std::uintmax_t kMaxBytes = 1 << 20;
+  constexpr int kMaxDepth = 8;
+  const std::string where = path.string();
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error(where + ": cannot read the pose file: " + ec.message());
+  if (size > kMaxBytes) throw Error(where + ": a pose file is at most 1 MiB", ErrorCode::kLimit);
+  const std::string text = read_file(path);
+  check_json_depth(text, kMaxDepth, where);
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception&) {
+    throw Error(where + ": invalid JSON");
+  }
+  ConfigReader c(std::move(json), where);
+  Pose pose{Pose::Kind::kFile, {}, where};
+  for (const std::string& bone : c.keys()) {
+    ConfigReader& b = c.section(bone);
+    std::vector<double> rotation, euler, position;
+    b.read("rotation", rotation).read("euler_deg", euler).read("position", position);
+    b.reject_unknown();
+    const auto finite = [](const std::vector<double>& v) {
+      return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+    };
+    Eigen::Quaternionf q = Eigen::Quaternionf::Identity();
+    if (!rotation.empty() == !euler.empty())
+      b.fail("needs \"rotation\" [x, y, z, w] or \"euler_deg\" [x, y, z], one of them");
+    if (!rotation.empty()) {
+      if (rotation.size() != 4 || !finite(rotation)) b.fail("rotation", "expected [x, y, z, w]");
+      q = Eigen::Quaternionf(static_cast<float>(rotation[3]), static_cast<float>(rotation[0]),
+                             static_cast<float>(rotation[1]), static_cast<float>(rotation[2]));
+      if (!(q.norm() > 1e-6f)) b.fail("rotation", "is not a rotation (zero length)");
+      q.normalize();
+    } else {
+      if (euler.size() != 3 || !finite(euler)) b.fail("euler_deg", "expected [x, y, z]");
+      const auto axis = [&](int i, const Eigen::Vector3f& a) {
+        return Eigen::AngleAxisf(
+            static_cast<float>(euler[static_cast<std::size_t>(i)]) * kPi / 180.0f, a);
+      };
+      q = axis(2, Eigen::Vector3f::UnitZ()) * axis(1, Eigen::Vector3f::UnitY()) *
+          axis(0, Eigen::Vector3f::UnitX());
+    }
+    pose.bones.push_back({bone, q});
+  }
+  c.reject_unknown();
+  return pose;
+}
+
+Pose parse_pose(const std::string& value, const std::string& what) {
+  if (value == "bind") return {Pose::Kind::kBind, {}, {}};
+  if (value == "rest") return {Pose::Kind::kRest, {}, {}};
+  if (value.ends_with(".json")) return read_pose_file(value);
+  throw Error(what + ": unknown pose '" + value + "' (bind, rest or a pose file, FILE.json)",
+              ErrorCode::kInvalidInput);
 }
 
 }  // namespace facecast::rig

@@ -65,6 +65,10 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   c.read("web_root", o.web_root).read("three_root", o.three_root);
   c.read("three_vrm_root", o.three_vrm_root).read("client_root", o.client_root);
   c.read("default_rig", o.default_rig);
+  if (std::string pose = "rest"; c.has("pose")) {
+    c.read("pose", pose);
+    o.pose = rig::parse_pose(pose, path.string() + ": pose");
+  }
   c.read("io_threads", o.io_threads).read("workers", o.workers).read("job_workers", o.job_workers);
   c.read("max_connections", o.max_connections);
   c.read("max_message", o.max_message);

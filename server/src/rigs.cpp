@@ -80,10 +80,12 @@ nlohmann::json RigInfo::to_json() const {
   return j;
 }
 
-RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig, rig::DecodeLimits limits)
+RigRegistry::RigRegistry(fs::path data_dir, std::string default_rig, rig::DecodeLimits limits,
+                         rig::Pose pose)
     : rigs_dir_(std::move(data_dir) / "rigs"),
       default_rig_(std::move(default_rig)),
-      limits_(limits) {
+      limits_(limits),
+      pose_(std::move(pose)) {
   std::error_code ec;
   fs::create_directories(rigs_dir_, ec);
   if (ec)
@@ -209,14 +211,14 @@ std::shared_ptr<const LoadedRig> RigRegistry::load(const std::string& requested)
       rig::AvatarDocument doc = id == kBuiltin
                                     ? rig::AvatarDocument::parse(*builtin_glb(), "builtin.glb")
                                     : rig::AvatarDocument::read(glb_path(id), limits_);
-      // Standing in the rest pose: an avatar saved in T-pose puts its arms down.
+      // Standing as configured: in the rest pose an avatar saved in T-pose puts its arms down.
       rig::Rig scene = rig::make_view(doc, {.all_meshes = true}).rig;
-      const rig::RestPoseReport rest = rig::apply_rest_pose(scene);
+      const rig::PoseReport posed = rig::apply_pose(scene, pose_);
       loaded->rig = std::make_shared<const rig::Rig>(std::move(scene));
       log::info(
           "rig_loaded",
           {{"rig", id},
-           {"arms_lowered", rest.turned.size()},
+           {"bones_turned", posed.turned.size()},
            {"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                       .count()}});
     }

@@ -20,6 +20,7 @@
 
 #include "facecast/anim/animation.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
 
@@ -55,9 +56,10 @@ struct RigOwner {
 class RigRegistry {
  public:
   /// Creates <data>/rigs if needed and lists the stored rigs; `default_rig` is what "" resolves to.
-  /// Uploads and stored rigs are read within `limits` (rig/decode_limits.hpp).
+  /// Uploads and stored rigs are read within `limits` (rig/decode_limits.hpp); loaded rigs stand
+  /// in `pose` (rig/rest_pose.hpp).
   RigRegistry(std::filesystem::path data_dir, std::string default_rig,
-              rig::DecodeLimits limits = {});
+              rig::DecodeLimits limits = {}, rig::Pose pose = {});
 
   std::vector<RigInfo> list() const;
   std::optional<RigInfo> find(const std::string& id) const;
@@ -94,6 +96,7 @@ class RigRegistry {
   std::filesystem::path rigs_dir_;
   std::string default_rig_;
   rig::DecodeLimits limits_;
+  rig::Pose pose_;
   mutable std::mutex mutex_;
   mutable std::map<std::string, RigInfo> infos_;
   std::map<std::string, std::shared_future<std::shared_ptr<const LoadedRig>>> loaded_;

@@ -34,7 +34,7 @@ State::State(ServerOptions opts)
       three_vrm_root(project_path(options.three_vrm_root)),
       client_root(project_path(options.client_root)),
       rigs(options.shared_dir.empty() ? options.data : options.shared_dir, options.default_rig,
-           options.decode),
+           options.decode, options.pose),
       viseme_options(viseme::load_options()),
       anim_options(anim::load_anim_options()),
       render_options(render::load_render_options()),

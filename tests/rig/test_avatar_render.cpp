@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 #include "build_paths.hpp"
 #include "facecast/core/error.hpp"
@@ -282,6 +283,15 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
                << bind.height());
   CHECK(bind.width() > bind.height());
   CHECK(rest.width() < 0.7 * rest.height());
+  // A pose file: the right arm down by its joint's name, the left raised 30 degrees above the
+  // horizontal by its VRM name -- wider than the rest pose, the raised hand above the shoulders.
+  std::ofstream(dir / "wave.json") << R"({"mixamorig:RightArm": {"euler_deg": [0, 0, 80]},
+                                         "leftUpperArm": {"euler_deg": [0, 0, 30]}})";
+  const Extent wave = covered(render_cli(
+      dir / "tpose.glb", "wave", "--framing full --pose '" + (dir / "wave.json").string() + "'"));
+  INFO("wave " << wave.width() << "x" << wave.height());
+  CHECK(wave.width() > 1.3 * rest.width());
+  CHECK(wave.width() < bind.width());
   CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" +
                      (dir / "tpose.glb").string() + "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);

@@ -3,9 +3,11 @@
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <fstream>
 
 #include "facecast/rig/rest_pose.hpp"
 #include "humanoid.hpp"
+#include "test_data.hpp"
 
 using namespace facecast::rig;
 
@@ -23,7 +25,7 @@ Eigen::Vector3f extent(const Rig& r) {
 TEST_CASE("an avatar saved in T- or A-pose stands with its arms down", "[rig][pose]") {
   const Rig t_pose = humanoid(0);
   Rig rest = t_pose;
-  const RestPoseReport report = apply_rest_pose(rest);
+  const PoseReport report = apply_rest_pose(rest);
   REQUIRE(report.turned.size() == 2);
   CHECK(report.turned[0].first == "mixamorig:LeftArm");
   CHECK(report.turned[0].second == Approx(80).margin(0.5));
@@ -49,7 +51,7 @@ TEST_CASE("an avatar saved in T- or A-pose stands with its arms down", "[rig][po
 
   SECTION("an A-pose ends where the T-pose does") {
     Rig a = humanoid(45);
-    const RestPoseReport ra = apply_rest_pose(a);
+    const PoseReport ra = apply_rest_pose(a);
     REQUIRE(ra.turned.size() == 2);
     CHECK(ra.turned[1].second == Approx(35).margin(0.5));
     CHECK((a.skeleton.rest_origin[3] - hand).norm() < 1e-4f);
@@ -63,8 +65,7 @@ TEST_CASE("an avatar saved in T- or A-pose stands with its arms down", "[rig][po
     Rig vrm = humanoid(0, "Bone.003", "Bone.007");
     Rig unnamed = vrm;
     CHECK(apply_rest_pose(unnamed).turned.empty());
-    vrm.skeleton.left_upper_arm = 1;
-    vrm.skeleton.right_upper_arm = 4;
+    vrm.skeleton.humanoid = {{"leftUpperArm", 1}, {"rightUpperArm", 4}};
     CHECK(apply_rest_pose(vrm).turned.size() == 2);
     CHECK(vrm.positions.isApprox(rest.positions, 1e-5f));
   }
@@ -79,7 +80,79 @@ TEST_CASE("an avatar saved in T- or A-pose stands with its arms down", "[rig][po
       CHECK(apply_rest_pose(other).turned.size() == 2);
     }
   }
-  CHECK(parse_pose("rest", "--pose") == Pose::kRest);
+  CHECK(parse_pose("rest", "--pose").kind == Pose::Kind::kRest);
+  CHECK(parse_pose("bind", "--pose").kind == Pose::Kind::kBind);
   CHECK_THROWS_WITH(parse_pose("sit", "--pose"),
                     Catch::Contains("--pose") && Catch::Contains("sit"));
+}
+
+TEST_CASE("a pose file turns the bones it names", "[rig][pose]") {
+  const auto dir = facecast::test::scratch_dir();
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / name).string();
+  };
+  const Rig t_pose = humanoid(0);
+  // The rest pose written as a file: the left arm by its VRM name (through the name table), the
+  // right by its joint's own name; a quaternion and Euler angles (80 degrees about z each way).
+  const float s = std::sin(40 * kDeg), c = std::cos(40 * kDeg);
+  const Pose pose =
+      parse_pose(write("rest.json", "{\"leftUpperArm\": {\"rotation\": [0, 0, " +
+                                        std::to_string(-s) + ", " + std::to_string(c) +
+                                        "]}, \"mixamorig:RightArm\": {\"euler_deg\": [0, 0, 80], "
+                                        "\"position\": [0, 1, 0]}}"),
+                 "--pose");
+  REQUIRE(pose.kind == Pose::Kind::kFile);
+  REQUIRE(pose.bones.size() == 2);
+  Rig posed = t_pose, rest = t_pose;
+  const PoseReport report = apply_pose(posed, pose);
+  REQUIRE(report.turned.size() == 2);
+  CHECK(report.turned[1].second == Approx(80).margin(0.01));
+  (void)apply_rest_pose(rest);
+  CHECK(posed.positions.isApprox(rest.positions, 1e-4f));
+  CHECK(posed.skeleton.rest_origin[3].isApprox(rest.skeleton.rest_origin[3], 1e-4f));
+  CHECK(posed.positions.topRows(16) == t_pose.positions.topRows(16));  // torso and head stay
+
+  SECTION("a VRM 0.x figure faces -z: the file's turn is mirrored into its axes") {
+    Rig vrm0 = t_pose;
+    vrm0.skeleton.vrm0 = true;
+    vrm0.skeleton.humanoid = {{"leftUpperArm", 1}, {"rightUpperArm", 4}};
+    const Pose nod =
+        parse_pose(write("nod.json", "{\"leftUpperArm\": {\"euler_deg\": [0, 0, 30]}}"), "--pose");
+    Rig a = t_pose, b = vrm0;
+    (void)apply_pose(a, nod);
+    (void)apply_pose(b, nod);
+    // 30 degrees about z in the file's frame is -30 about z in the VRM 0.x file's axes: the
+    // same arm goes up in one and down in the other.
+    const auto rise = [](const Rig& r) {
+      return r.skeleton.rest_origin[3].y() - r.skeleton.rest_origin[1].y();
+    };
+    CHECK(rise(a) > 0.1f);
+    CHECK(rise(b) == Approx(-rise(a)).margin(1e-5));
+  }
+  SECTION("bad files get one line naming the file and the field") {
+    CHECK_THROWS_WITH(
+        apply_pose(posed, parse_pose(write("tail.json", "{\"tail\": {\"euler_deg\": [0, 0, 1]}}"),
+                                     "--pose")),
+        Catch::Contains("tail.json") && Catch::Contains("tail") && Catch::Contains("no such bone"));
+    CHECK_THROWS_WITH(
+        parse_pose(write("short.json", "{\"head\": {\"rotation\": [0, 0, 1]}}"), "--pose"),
+        Catch::Contains("short.json") && Catch::Contains("head.rotation"));
+    CHECK_THROWS_WITH(
+        parse_pose(write("zero.json", "{\"head\": {\"rotation\": [0, 0, 0, 0]}}"), "--pose"),
+        Catch::Contains("zero length"));
+    CHECK_THROWS_WITH(
+        parse_pose(write("both.json", "{\"head\": {}}"), "--pose"),
+        Catch::Contains("both.json") && Catch::Contains("head") && Catch::Contains("euler_deg"));
+    CHECK_THROWS_WITH(parse_pose(write("scale.json",
+                                       "{\"head\": {\"euler_deg\": [0, 0, 0], "
+                                       "\"scale\": [2, 2, 2]}}"),
+                                 "--pose"),
+                      Catch::Contains("scale"));
+    CHECK_THROWS_WITH(
+        parse_pose(write("deep.json", std::string(100, '[') + std::string(100, ']')), "--pose"),
+        Catch::Contains("deep.json") && Catch::Contains("deeper"));
+    CHECK_THROWS_WITH(parse_pose((dir / "missing.json").string(), "--pose"),
+                      Catch::Contains("missing.json"));
+  }
 }

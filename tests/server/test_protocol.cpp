@@ -235,6 +235,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.three_vrm_root == d.three_vrm_root);
   CHECK(file.client_root == d.client_root);
   CHECK(file.default_rig == d.default_rig);
+  CHECK(file.pose.kind == d.pose.kind);
   CHECK(file.io_threads == d.io_threads);
   CHECK(file.workers == d.workers);
   CHECK(file.job_workers == d.job_workers);
@@ -318,7 +319,7 @@ TEST_CASE("server options defaults mirror configs/server.json", "[protocol][conf
   CHECK(file.vmc_targets.empty());
   CHECK(file.tenant_disk_quota == d.tenant_disk_quota);
   CHECK(file.rig_retention == d.rig_retention);
-  CHECK(j.size() == 71);            // 70 settings + "_doc"
+  CHECK(j.size() == 72);            // 71 settings + "_doc"
   CHECK(j["decode"].size() == 16);  // every field of rig::DecodeLimits
 }
 
@@ -354,6 +355,14 @@ TEST_CASE("server config errors name the key", "[protocol][config]") {
   CHECK_THAT(load_error(R"({"decode": {"max_image_sides": 2}})"),
              Catch::Contains("unknown key 'decode.max_image_sides'"));
   CHECK_THAT(load_error(R"({"redis": {"hosts": 1}})"), Catch::Contains("hosts"));
+  CHECK_THAT(load_error(R"({"pose": "sit"})"),
+             Catch::Contains("s.json: pose") && Catch::Contains("sit"));
+  CHECK_THAT(load_error(R"({"pose": "/nonexistent/wave.json"})"), Catch::Contains("wave.json"));
+  write_file_atomic(dir / "wave.json", R"({"leftUpperArm": {"euler_deg": [0, 0, 30]}})");
+  write_file_atomic(dir / "posed.json", R"({"pose": ")" + (dir / "wave.json").string() + R"("})");
+  const ServerOptions posed = load_server_options(dir / "posed.json");
+  CHECK(posed.pose.kind == rig::Pose::Kind::kFile);
+  CHECK(posed.pose.bones.size() == 1);
   CHECK_THAT(load_error(R"({"host": "0.0.0.0"})"), Catch::Contains("set a token"));
   CHECK(load_error(R"({"host": "0.0.0.0", "token": "t0k3n"})").empty());
   CHECK(is_loopback_host("127.0.0.1"));

@@ -1,9 +1,12 @@
 #pragma once
-// The rest pose: an avatar saved in T- or A-pose (arms straight out, as Ready Player Me, Mixamo,
-// VRoid and MakeHuman export them) stands with its arms down. Linear blend skinning on the rig's
-// own skeleton: each upper arm turns about its joint, carrying the joints under it; vertices,
-// normals, shape deltas and joint origins follow their skin weights. The face (no arm weight) is
-// untouched, so the rig builder's face view and every shape stay as they are.
+// How an avatar stands. The rest pose: an avatar saved in T- or A-pose (arms straight out, as Ready
+// Player Me, Mixamo, VRoid and MakeHuman export them) stands with its arms down. A pose file turns
+// the bones it names. Both are linear blend skinning on the rig's own skeleton: each turned joint
+// turns about its origin, carrying the joints under it; vertices, normals, shape deltas and joint
+// origins follow their skin weights. The face (no weight on a turned joint) is untouched, so the
+// rig builder's face view and every shape stay as they are.
+#include <Eigen/Geometry>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -11,20 +14,48 @@
 
 namespace facecast::rig {
 
-/// How an avatar is drawn: as its file holds it (bind) or standing at rest (rest, the default).
-enum class Pose { kBind, kRest };
+/// One bone of a pose: its turn about its joint, in the avatar file's axes (for a VRM 0.x file,
+/// already turned from the VRM 1.0 frame the pose file is written in).
+struct BoneTurn {
+  std::string bone;
+  Eigen::Quaternionf rotation = Eigen::Quaternionf::Identity();
+};
 
-/// What the rest pose turned: the upper arms' joint names and their turns in degrees.
-struct RestPoseReport {
+/// How an avatar is drawn: as its file holds it (bind), standing at rest (rest, the default), or
+/// with the bones of a pose file turned (file).
+struct Pose {
+  enum class Kind { kBind, kRest, kFile };
+  Kind kind = Kind::kRest;
+  std::vector<BoneTurn> bones;  // kFile
+  std::string source;           // kFile: the file, for messages
+};
+
+/// What a pose turned: the joints' names and their turns in degrees.
+struct PoseReport {
   std::vector<std::pair<std::string, float>> turned;
 };
 
-/// Finds the upper arms (Skeleton::left_upper_arm/right_upper_arm, else the name table in
+/// Finds the upper arms (the VRM humanoid's leftUpperArm/rightUpperArm, else the name table in
 /// configs/rig/humanoid.json) and turns each down (see the config). A rig without a skeleton or
 /// arms is left as it is.
-RestPoseReport apply_rest_pose(Rig& rig);
+PoseReport apply_rest_pose(Rig& rig);
 
-/// Parses "bind" or "rest" (an Error naming `what` otherwise).
-Pose parse_pose(const std::string& name, const std::string& what);
+/// Turns the bones of a pose file. A bone is a VRM humanoid bone name ("leftUpperArm", found by
+/// the file's humanoid or, for the upper arms, by configs/rig/humanoid.json's names) or a joint's
+/// own name. A bone the rig does not have is an Error naming it and the file; a rig without a
+/// skeleton is left as it is.
+PoseReport apply_pose_file(Rig& rig, const Pose& pose);
+
+/// bind: nothing; rest: apply_rest_pose; file: apply_pose_file.
+PoseReport apply_pose(Rig& rig, const Pose& pose);
+
+/// Reads a pose file (JSON, at most 1 MiB): an object of bones, each {"rotation": [x, y, z, w]}
+/// (a quaternion, as three-vrm's VRMPose holds it) or {"euler_deg": [x, y, z]} (degrees, about x
+/// then y then z), in the VRM 1.0 frame (the figure faces +z, y up); "position" is allowed and
+/// ignored (the figure stays where it stands). Errors name the file and the field.
+Pose read_pose_file(const std::filesystem::path& path);
+
+/// Parses "bind", "rest" or the path of a pose file (an Error naming `what` otherwise).
+Pose parse_pose(const std::string& value, const std::string& what);
 
 }  // namespace facecast::rig

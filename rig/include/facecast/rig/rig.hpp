@@ -94,7 +94,16 @@ struct Skeleton {
   std::vector<Eigen::Vector3f> rest_origin;       // each joint's origin in the bind pose
   int head = -1;                                  // the head joint, or -1
   int neck = -1;                                  // the neck joint, or -1
-  int left_upper_arm = -1, right_upper_arm = -1;  // VRM humanoid bones, or -1 (see rest_pose.hpp)
+  // The VRM humanoid's bones (VRM 1.0 names: "leftUpperArm" ...) and their joints, when the file
+  // has them; `vrm0`: a VRM 0.x file, whose figure faces -z (see rest_pose.hpp).
+  std::vector<std::pair<std::string, int>> humanoid;
+  bool vrm0 = false;
+  /// The joint of a humanoid bone, or -1.
+  int humanoid_bone(std::string_view bone) const {
+    for (const auto& [name, joint] : humanoid)
+      if (name == bone) return joint;
+    return -1;
+  }
 };
 
 /// A blendshape: the vertices it moves (ascending, unique) and their deltas from the neutral.

@@ -55,8 +55,8 @@ Rig read_glb(const std::filesystem::path& path, const DecodeLimits& limits = {})
 /// Reads a rig by extension: .glb, .gltf, .vrm (the face view of the avatar) or .obj.
 Rig load_rig(const std::filesystem::path& path);
 /// The whole avatar, for drawing: every mesh of a .glb/.gltf/.vrm (hair, body, glasses, outfit
-/// with the face; the same shapes as load_rig), an .obj as it is; standing in the rest pose
-/// (rest_pose.hpp) unless `pose` is kBind. What every render path draws.
-Rig load_scene(const std::filesystem::path& path, Pose pose = Pose::kRest);
+/// with the face; the same shapes as load_rig), an .obj as it is; posed by `pose` (rest_pose.hpp:
+/// the rest pose by default). What every render path draws.
+Rig load_scene(const std::filesystem::path& path, const Pose& pose = {});
 
 }  // namespace facecast::rig

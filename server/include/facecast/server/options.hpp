@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "facecast/rig/decode_limits.hpp"
+#include "facecast/rig/rest_pose.hpp"
 
 namespace facecast::server {
 
@@ -37,6 +38,9 @@ struct ServerOptions {
   std::filesystem::path client_root = "clients/js";  // the JS client the web page imports
   // The rig a `speak` without "rig" uses: "default" is the built-in avatar.
   std::string default_rig = "default";
+  // How the avatars stand in frames and streams: "rest", "bind" or a pose file (rig/rest_pose.hpp,
+  // docs/cli.md#pose-files), read when the options are loaded.
+  rig::Pose pose;
 
   // Threads.
   int io_threads = 2;   // network I/O (one strand per connection)
