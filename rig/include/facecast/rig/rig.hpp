@@ -90,10 +90,10 @@ struct Material {
 /// already skinned to the rest pose; the renderer moves only the joints the head pose turns.
 struct Skeleton {
   std::vector<std::string> joint_names;
-  std::vector<int> parent;                        // -1 for a root
-  std::vector<Eigen::Vector3f> rest_origin;       // each joint's origin in the bind pose
-  int head = -1;                                  // the head joint, or -1
-  int neck = -1;                                  // the neck joint, or -1
+  std::vector<int> parent;                   // -1 for a root
+  std::vector<Eigen::Vector3f> rest_origin;  // each joint's origin in the bind pose
+  int head = -1;                             // the head joint, or -1
+  int neck = -1;                             // the neck joint, or -1
   // The VRM humanoid's bones (VRM 1.0 names: "leftUpperArm" ...) and their joints, when the file
   // has them; `vrm0`: a VRM 0.x file, whose figure faces -z (see rest_pose.hpp).
   std::vector<std::pair<std::string, int>> humanoid;
