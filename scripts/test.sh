@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # One command from a fresh Debian 12 machine (as root) to a passing test suite:
 # installs dependencies, builds (Release), runs every test through ctest, then builds again with
-# AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there, and runs the server
-# fast tests under ThreadSanitizer (build-tsan/, only the server and what it links), and runs every
-# libFuzzer target for 30 s from its seed corpus (scripts/fuzz.sh, clang).
+# AddressSanitizer + UndefinedBehaviorSanitizer and runs the fast tests there, and runs every server
+# test, slow ones too, under ThreadSanitizer (build-tsan/, only the server and what it links; the
+# checks of real-time behaviour are left out there), and runs every libFuzzer target for 30 s from
+# its seed corpus (scripts/fuzz.sh, clang).
 # Options: --fast  skip tests labelled slow (CI runs everything)
 #          --no-sanitize  skip the sanitizer and fuzzing passes
 set -euo pipefail
@@ -18,19 +19,19 @@ for a in "$@"; do
 done
 scripts/install-deps.sh
 scripts/build.sh build
-labels=()
-((fast)) && labels=(-LE slow)
+labels=() tsan_cases=()
+((fast)) && labels=(-LE slow) tsan_cases=("~[slow]")
 (cd build && ctest --output-on-failure -j2 "${labels[@]}")
 if ((sanitize)); then
   scripts/build.sh build-asan -DFACECAST_SANITIZE=ON -DFACECAST_BUILD_BENCH=OFF
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   (cd build-asan && ctest --output-on-failure -j2 -LE slow)
-  # ThreadSanitizer on the multi-threaded part: the server and its tests only.
+  # ThreadSanitizer on the multi-threaded part: the server and its tests only (--fast: not the slow).
   scripts/build.sh build-tsan --target=test_server -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF
   # test_server runs outside ctest here: the shared data comes through the same fixture first.
   (cd build-tsan && ctest -R '^extract_shared_data$' --output-on-failure >/dev/null)
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
-    build-tsan/tests/server/test_server "~[slow]"
+    build-tsan/tests/server/test_server "${tsan_cases[@]}"
   scripts/fuzz.sh "${FACECAST_FUZZ_SECONDS:-30}"
 fi

@@ -49,6 +49,14 @@ double slowdown() {
 #endif
 }
 
+bool real_time() {
+#if defined(__SANITIZE_THREAD__)
+  return false;
+#else
+  return true;
+#endif
+}
+
 HttpResponse http_request(unsigned short port, http::verb method, const std::string& target,
                           const std::string& body, const Headers& headers, double timeout) {
   net::io_context ioc;

@@ -267,6 +267,10 @@ TEST_CASE("a channel publishes RTMP (H.264 + AAC) with the mouth in sync with th
                  (dir / "hls" / first_segment).string() + "'"),
              Catch::Contains("h264") && Catch::Contains("aac"));
 
+  if (!real_time()) {
+    WARN("ThreadSanitizer build: the audio/video offset is not measured (slower than real time)");
+    return;
+  }
   // Video: where the recorded pictures match the weights the channel sent.
   const int w = 80, h = 60;
   const std::string gray =
