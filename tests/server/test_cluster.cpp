@@ -219,7 +219,10 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
       {"channels", {{"show", {{"producer_token", kToken}}}}},
       {"channel_idle", 0},
       {"presence_interval", 0.2},
-      {"job_workers", 1}};
+      {"job_workers", 1},
+      // The subscribers are not read while the rig jobs run (two minutes under ThreadSanitizer);
+      // an idle peer that answers no ping is closed after ws_idle_timeout.
+      {"ws_idle_timeout", 60 * slowdown()}};
   facecast::write_file_atomic(dir / "server.json", config.dump(2));
   auto serve = [&](const std::string& name) {
     return std::make_unique<ServeProcess>(
