@@ -35,8 +35,8 @@ endfunction()
 
 # facecast_source_paths(<source> NAME="value" ...)
 # Definitions holding absolute paths (this checkout's, its build folder's), given to one source file
-# only: a path differs in every clone, and in a target's flags it would keep ccache from reusing any
-# of that target's objects in a fresh clone, which is what CI builds.
+# only: a path differs in every clone, and in a target's flags ccache's direct mode would miss every
+# file of that target in a fresh clone (which is what CI builds) and preprocess each instead.
 function(facecast_source_paths source)
   set_property(SOURCE ${source} APPEND PROPERTY COMPILE_DEFINITIONS ${ARGN})
 endfunction()

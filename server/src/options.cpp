@@ -65,7 +65,8 @@ ServerOptions read_server_options(const std::filesystem::path& path) {
   c.read("web_root", o.web_root).read("three_root", o.three_root);
   c.read("three_vrm_root", o.three_vrm_root).read("client_root", o.client_root);
   c.read("default_rig", o.default_rig);
-  if (std::string pose = "rest"; c.has("pose")) {
+  if (c.has("pose")) {
+    std::string pose;
     c.read("pose", pose);
     o.pose = rig::parse_pose(pose, path.string() + ": pose");
   }

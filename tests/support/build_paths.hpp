@@ -1,7 +1,7 @@
 #pragma once
 // Where this checkout and its build folder are, for the tests and the benchmarks. The paths are
-// compiled into build_paths.cpp alone: an absolute path in every file's -D would differ in every
-// clone, and ccache could then reuse nothing for a fresh clone (what CI builds).
+// compiled into build_paths.cpp alone: an absolute path in every file's -D differs in every clone,
+// and ccache's direct mode then misses every such file in a fresh clone (what CI builds).
 #include <filesystem>
 
 namespace facecast::test {
