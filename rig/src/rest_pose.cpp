@@ -89,9 +89,12 @@ bool has_skeleton(const Rig& rig) {
          rig.joints.rows() == rig.vertex_count();
 }
 
-// The joint of a humanoid bone: the VRM humanoid's, else for the upper arms the name table's.
+// The joint of a humanoid bone: the VRM humanoid's, else the head and neck the skeleton found by
+// name, the upper arms by the name table.
 int humanoid_joint(const Skeleton& s, const std::string& bone) {
   if (const int j = s.humanoid_bone(bone); j >= 0) return j;
+  if (bone == "head") return s.head;
+  if (bone == "neck") return s.neck;
   if (bone == "leftUpperArm") return find_by_name(s, table().left);
   if (bone == "rightUpperArm") return find_by_name(s, table().right);
   return -1;

@@ -292,6 +292,12 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
   INFO("wave " << wave.width() << "x" << wave.height());
   CHECK(wave.width() > 1.3 * rest.width());
   CHECK(wave.width() < bind.width());
+  // "head" names the head joint of an avatar without a VRM humanoid (Mixamo's "mixamorig:Head").
+  std::ofstream(dir / "turn.json") << R"({"head": {"euler_deg": [0, 90, 0]}})";
+  CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" +
+                     (dir / "tpose.glb").string() + "' --pose '" + (dir / "turn.json").string() +
+                     "' --out '" + (dir / "turn.png").string() + "'")
+                        .c_str()) == 0);
   CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" +
                      (dir / "tpose.glb").string() + "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);
