@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
     {
       const anim::Performance p(u60, mapping, options);
       std::vector<float> w(rig.shapes.size());
-      rig::HeadPose head;
+      rig::BodyPose head;
       const int n = 100000;
       const auto t0 = Clock::now();
       for (int i = 0; i < n; ++i) p.sample((i % 3600) / 60.0, w, &head);

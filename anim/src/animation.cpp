@@ -80,7 +80,7 @@ float Performance::expression_value(const std::string& name, double t) const {
   return 0.0f;
 }
 
-void Performance::sample(double t, std::span<float> weights, rig::HeadPose* head) const {
+void Performance::sample(double t, std::span<float> weights, rig::BodyPose* head) const {
   const auto& shapes = mapping_.shape_names();
   if (weights.size() != shapes.size())
     throw Error("sample: " + std::to_string(weights.size()) + " weights for a rig with " +

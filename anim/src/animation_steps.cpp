@@ -292,7 +292,7 @@ std::array<float, 2> gaze_at(const IdleLife& idle, double t) {
           static_cast<float>(prev.second[1] + (cur.second[1] - prev.second[1]) * u)};
 }
 
-rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t) {
+rig::BodyPose head_at(const IdleLife& idle, const AnimOptions& options, double t) {
   // Slow sums of sines, faded in and out over 0.5 s so consecutive utterances join at rest, at
   // full amplitude while a phrase lasts (ramping over 0.4 s), half of it in pauses.
   const auto& phase = idle.head_phase;
@@ -302,7 +302,7 @@ rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t
     speaking =
         std::max(speaking, smooth((t - p.start + 0.2) / 0.4) * smooth((p.end - t + 0.2) / 0.4));
   const double a = options.head_motion * env * (0.5 + 0.5 * speaking);
-  rig::HeadPose head;
+  rig::BodyPose head;
   head.yaw = static_cast<float>(a * (0.6 * std::sin(2 * M_PI * 0.13 * t + phase[0]) +
                                      0.4 * std::sin(2 * M_PI * 0.31 * t + phase[1])));
   head.pitch = static_cast<float>(a * 0.7 *

@@ -214,7 +214,7 @@ double FapRig::basis(int fap, int s) const {
   return basis_[at(fap) * shapes_.size() + static_cast<std::size_t>(s)];
 }
 
-void FapRig::encode(std::span<const float> weights, const rig::HeadPose& head,
+void FapRig::encode(std::span<const float> weights, const rig::BodyPose& head,
                     FapFrame& out) const {
   if (weights.size() != shapes_.size())
     throw Error("fap: " + std::to_string(weights.size()) + " weights for " +

@@ -215,7 +215,7 @@ FapSequence to_fap(const rig::Motion& m, const FapRig& rig, double fps, std::str
   s.frames.resize(frames);
   std::vector<float> w(m.shape_names().size());
   for (std::size_t f = 0; f < frames; ++f) {
-    rig::HeadPose head;
+    rig::BodyPose head;
     m.sample(static_cast<double>(f) / fps, w, &head);
     rig.encode(w, head, s.frames[f]);
   }
@@ -262,7 +262,7 @@ double FapMotion::duration() const {
   return frames_ / fps_;
 }
 
-void FapMotion::sample(double t, std::span<float> weights, rig::HeadPose* head) const {
+void FapMotion::sample(double t, std::span<float> weights, rig::BodyPose* head) const {
   const std::size_t n = shapes_.size();
   if (weights.size() != n)
     throw Error("fap: " + std::to_string(weights.size()) + " weights for " + std::to_string(n) +

@@ -129,8 +129,8 @@ std::string to_live_link_csv(const WeightTrack& track) {
     out += ",61";
     const auto row = track.frame(f);
     for (const int s : column) put(s < 0 ? 0.0 : row[static_cast<std::size_t>(s)]);
-    const rig::HeadPose head =
-        static_cast<std::size_t>(f) < track.head.size() ? track.head[f] : rig::HeadPose{};
+    const rig::BodyPose head =
+        static_cast<std::size_t>(f) < track.head.size() ? track.head[f] : rig::BodyPose{};
     for (const double v : {double(head.yaw), double(head.pitch), double(head.roll)}) put(v);
     for (int k = 0; k < 6; ++k) put(0.0);
     out += '\n';

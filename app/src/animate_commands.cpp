@@ -125,7 +125,7 @@ void play_vmc(const anim::Performance& p, const server::VmcTarget& target, serve
   server::VmcSender sender(target, names);
   const auto& shapes = p.shape_names();
   std::vector<float> w(shapes.size());
-  rig::HeadPose head;
+  rig::BodyPose head;
   const int frames = p.frame_count(fps);
   const auto player = sound.empty() ? nullptr : play_sound(sound);
   const auto start = std::chrono::steady_clock::now();

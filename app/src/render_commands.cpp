@@ -166,7 +166,7 @@ void add_render_commands(CLI::App& app) {
     }
     if (!a->audio.empty() || a->fps > 0)
       throw Error("--audio and --fps need --text or --timestamps");
-    rig::HeadPose head;
+    rig::BodyPose head;
     if (!a->head.empty()) {
       float yaw = 0, pitch = 0, roll = 0;
       if (std::sscanf(a->head.c_str(), "%f,%f,%f", &yaw, &pitch, &roll) != 3)

@@ -212,43 +212,76 @@ void pack_tangents(const Rig& rig, PackedRig& p) {
   }
 }
 
-// Whether joint j is `root` or below it.
-bool under(const rig::Skeleton& s, int j, int root) {
-  for (int guard = 0; j >= 0 && guard <= static_cast<int>(s.parent.size()); ++guard) {
-    if (j == root) return true;
-    j = s.parent[static_cast<std::size_t>(j)];
-  }
-  return false;
-}
-
-// The head pose's weights: with a head joint, each vertex's skin weight on joints under the head
-// (and, with a neck, under the neck but not the head); otherwise every vertex turns with the head
-// about a pivot at the centre of the mesh's bounds in x and z, 10 % above its bottom.
-void pack_head(const Rig& rig, PackedRig& p) {
+// The body's palette (BodySkin): each joint's entry is that of the nearest joint at or above it
+// that the body turns; each vertex's weights summed per entry. Without a skeleton with a head
+// joint, every vertex turns with the head about a pivot at the centre of the mesh's bounds in x
+// and z, 10 % above its bottom.
+void pack_body(const Rig& rig, PackedRig& p) {
   const int nv = rig.vertex_count();
   const rig::Skeleton& sk = rig.skeleton;
-  p.skin.assign(static_cast<std::size_t>(nv) * 2, 0.0f);
-  if (sk.head >= 0 && rig.joints.rows() == nv) {
-    p.head.skeleton = true;
-    p.head.head = sk.rest_origin[static_cast<std::size_t>(sk.head)];
-    p.head.has_neck = sk.neck >= 0 && sk.neck != sk.head && under(sk, sk.head, sk.neck);
-    if (p.head.has_neck) p.head.neck = sk.rest_origin[static_cast<std::size_t>(sk.neck)];
-    for (int v = 0; v < nv; ++v)
+  BodySkin& b = p.body;
+  p.skin_groups.assign(static_cast<std::size_t>(nv) * 4, 0.0f);
+  p.skin_weights.assign(static_cast<std::size_t>(nv) * 4, 0.0f);
+  b.joints = rig::find_body_joints(sk);
+  if (b.joints.head >= 0 && rig.joints.rows() == nv) {
+    // A spine longer than the palette holds leans on its top joints only.
+    auto& spine = b.joints.spine;
+    const std::size_t room = kPaletteSize - 1 - (b.joints.all().size() - spine.size());
+    if (spine.size() > room) spine.erase(spine.begin(), spine.end() - static_cast<long>(room));
+    b.skinned = true;
+    b.skeleton.parent = sk.parent;
+    b.skeleton.rest_origin = sk.rest_origin;
+    b.group_joint.assign(1, -1);
+    const std::size_t nj = sk.parent.size();
+    std::vector<int> entry(nj, -1);  // the palette entry of each turned joint
+    for (const int j : b.joints.all()) {
+      entry[static_cast<std::size_t>(j)] = static_cast<int>(b.group_joint.size());
+      b.group_joint.push_back(j);
+    }
+    b.head_group = entry[static_cast<std::size_t>(b.joints.head)];
+    std::vector<int> group(nj, 0);
+    for (std::size_t j = 0; j < nj; ++j) {
+      int a = static_cast<int>(j);
+      for (std::size_t guard = 0; a >= 0 && entry[static_cast<std::size_t>(a)] < 0 && guard <= nj;
+           ++guard)
+        a = sk.parent[static_cast<std::size_t>(a)];
+      group[j] = a >= 0 && entry[static_cast<std::size_t>(a)] >= 0
+                     ? entry[static_cast<std::size_t>(a)]
+                     : 0;
+    }
+    for (int v = 0; v < nv; ++v) {
+      float* g = &p.skin_groups[4 * static_cast<std::size_t>(v)];
+      float* w = &p.skin_weights[4 * static_cast<std::size_t>(v)];
+      int used = 0;
+      float total = 0;
       for (int k = 0; k < 4; ++k) {
         const int j = rig.joints(v, k);
-        const float w = rig.joint_weights(v, k);
-        if (under(sk, j, sk.head))
-          p.skin[2 * static_cast<std::size_t>(v) + 1] += w;
-        else if (p.head.has_neck && under(sk, j, sk.neck))
-          p.skin[2 * static_cast<std::size_t>(v)] += w;
+        const float wk = rig.joint_weights(v, k);
+        if (wk <= 0 || j < 0 || static_cast<std::size_t>(j) >= nj) continue;
+        const auto e = static_cast<float>(group[static_cast<std::size_t>(j)]);
+        int at = 0;
+        while (at < used && g[at] != e) ++at;
+        if (at == used) g[used++] = e;
+        w[at] += wk;
+        total += wk;
       }
+      if (total <= 1e-6f) {
+        w[0] = 1;  // entry 0: stays
+        continue;
+      }
+      for (int k = 0; k < used; ++k) w[k] /= total;
+    }
     return;
   }
   const Eigen::Vector3f lo = rig.positions.colwise().minCoeff().transpose();
   const Eigen::Vector3f hi = rig.positions.colwise().maxCoeff().transpose();
-  p.head.head = {0.5f * (lo.x() + hi.x()), lo.y() + 0.1f * (hi.y() - lo.y()),
-                 0.5f * (lo.z() + hi.z())};
-  for (int v = 0; v < nv; ++v) p.skin[2 * static_cast<std::size_t>(v) + 1] = 1.0f;
+  b.pivot = {0.5f * (lo.x() + hi.x()), lo.y() + 0.1f * (hi.y() - lo.y()), 0.5f * (lo.z() + hi.z())};
+  b.group_joint = {-1, -1};
+  b.head_group = 1;
+  for (int v = 0; v < nv; ++v) {
+    p.skin_groups[4 * static_cast<std::size_t>(v)] = 1;
+    p.skin_weights[4 * static_cast<std::size_t>(v)] = 1;
+  }
 }
 
 void pack_ranges(const Rig& rig, PackedRig& p) {
@@ -297,7 +330,7 @@ PackedRig pack_rig(const Rig& rig) {
   const bool normal_maps = std::any_of(p.materials.begin(), p.materials.end(),
                                        [](const auto& m) { return m.texture[kNormalSlot] >= 0; });
   if (normal_maps) pack_tangents(rig, p);
-  pack_head(rig, p);
+  pack_body(rig, p);
   pack_ranges(rig, p);
   return p;
 }

@@ -8,6 +8,7 @@
 #include <span>
 #include <vector>
 
+#include "facecast/rig/body.hpp"
 #include "facecast/rig/rig.hpp"
 
 namespace facecast::render::detail {
@@ -15,7 +16,10 @@ namespace facecast::render::detail {
 /// Vertex attribute locations. Position and normal come interleaved from one buffer that each frame
 /// rewrites (the blended mesh); the others are static.
 constexpr int kPositionAttribute = 0, kNormalAttribute = 1, kUvAttribute = 2, kTangentAttribute = 3,
-              kSkinAttribute = 4;
+              kSkinAttribute = 4, kSkinWeightAttribute = 5;
+/// Entries of the body's skinning palette (BodySkin), the vertex shader's u_palette: 32 matrices
+/// are half of the vertex uniforms OpenGL 3.3 guarantees.
+constexpr int kPaletteSize = 32;
 /// Floats per vertex in the blended buffer: position xyz, normal xyz.
 constexpr int kBlendedStride = 6;
 /// Texture units: one per material texture slot, then the background.
@@ -63,13 +67,18 @@ struct PackedMaterial {
   Eigen::Matrix3f uv_transform[kSlotCount];
 };
 
-/// How the head pose moves the vertices: per vertex (a_skin) the weight of the neck's motion
-/// alone and of the head's motion (neck then head); the rest stays. Without a skeleton every
-/// vertex follows the head, turned about `pivot`.
-struct HeadJoints {
-  bool skeleton = false;
-  bool has_neck = false;
-  Eigen::Vector3f neck{0, 0, 0}, head{0, 0, 0};  // pivots
+/// How the body pose moves the vertices: linear blend skinning over a small palette. Entry 0
+/// stays; entry g > 0 is the motion of joint group_joint[g], one of the joints a BodyPose turns
+/// (rig::BodyJoints), and carries every joint below it up to the next such joint. Per vertex up to
+/// four entries and their weights (PackedRig::skin_groups, skin_weights). Without a skeleton with
+/// a head joint, every vertex is entry 1: the whole rig turned with the head about `pivot`.
+struct BodySkin {
+  bool skinned = false;
+  rig::Skeleton skeleton;  // parents and origins (the rig's, posed as drawn at rest)
+  rig::BodyJoints joints;
+  std::vector<int> group_joint;  // palette entry -> joint; entry 0 (and 1 unskinned): -1
+  int head_group = 1;            // the head's entry
+  Eigen::Vector3f pivot{0, 0, 0};
 };
 
 /// One shape's sparse deltas: the vertices it moves or whose normal it changes, and per vertex
@@ -84,7 +93,8 @@ struct PackedRig {
   std::vector<float> neutral;          // #V * kBlendedStride: position, normal
   std::vector<float> uvs;              // #V * 2 (zeros without UVs)
   std::vector<float> tangents;         // #V * 4 (xyz, handedness); empty without normal maps
-  std::vector<float> skin;             // #V * 2: neck-only weight, head weight
+  std::vector<float> skin_groups;      // #V * 4: palette entries (BodySkin)
+  std::vector<float> skin_weights;     // #V * 4: their weights
   std::vector<PackedMorph> morphs;     // per shape
   std::vector<std::uint32_t> indices;  // triangles sorted by material
   struct Range {
@@ -99,7 +109,7 @@ struct PackedRig {
   float lod_error = 0;  // the simplification's error in the neutral, rig units
   std::vector<PackedMaterial> materials;
   std::vector<PackedTexture> textures;
-  HeadJoints head;
+  BodySkin body;
   int shape_count = 0;
 };
 

@@ -29,38 +29,43 @@ float pixel_size(const Camera& cam, int height) {
          std::tan(0.5f * cam.fov_y_deg * 3.14159265f / 180.0f) / static_cast<float>(height);
 }
 
-// The head pose as the vertex shader takes it (see detail::HeadJoints).
-struct HeadMatrices {
-  Eigen::Matrix4f neck = Eigen::Matrix4f::Identity(), head = Eigen::Matrix4f::Identity();
+// The body pose as the vertex shader takes it: detail::BodySkin's palette, column-major 4x4
+// matrices.
+struct Palette {
+  std::vector<Eigen::Matrix4f> entries;
+  int head = 1;  // the head's entry
 };
 
-// Yaw about +Y, then pitch about +X, then roll about +Z, each scaled by `share`, about `pivot`.
-Eigen::Matrix4f turn(const rig::HeadPose& pose, float share, const Eigen::Vector3f& pivot) {
-  Eigen::Affine3f m =
-      Eigen::Translation3f(pivot) * Eigen::AngleAxisf(share * pose.roll, Eigen::Vector3f::UnitZ()) *
-      Eigen::AngleAxisf(share * pose.pitch, Eigen::Vector3f::UnitX()) *
-      Eigen::AngleAxisf(share * pose.yaw, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-pivot);
-  return m.matrix();
-}
-
-// With a neck joint the neck turns 40 % of the pose about its joint and the head the rest about
-// its own (carried by the neck); otherwise the head turns all of it.
-HeadMatrices head_matrices(const rig::HeadPose& pose, const detail::HeadJoints& joints) {
-  HeadMatrices m;
-  if (joints.has_neck) {
-    constexpr float kNeckShare = 0.4f;
-    m.neck = turn(pose, kNeckShare, joints.neck);
-    m.head = m.neck * turn(pose, 1.0f - kNeckShare, joints.head);
-  } else {
-    m.head = turn(pose, 1.0f, joints.head);
+Palette palette(const detail::BodySkin& b, const rig::BodyPose& pose) {
+  Palette out{std::vector<Eigen::Matrix4f>(b.group_joint.size(), Eigen::Matrix4f::Identity()),
+              b.head_group};
+  if (!b.skinned) {
+    // Yaw about +Y, then pitch about +X, then roll about +Z, about the pivot.
+    const Eigen::Affine3f m =
+        Eigen::Translation3f(b.pivot) * Eigen::AngleAxisf(pose.roll, Eigen::Vector3f::UnitZ()) *
+        Eigen::AngleAxisf(pose.pitch, Eigen::Vector3f::UnitX()) *
+        Eigen::AngleAxisf(pose.yaw, Eigen::Vector3f::UnitY()) * Eigen::Translation3f(-b.pivot);
+    out.entries[1] = m.matrix();
+    return out;
   }
-  return m;
+  const auto motion = rig::compose_turns(b.skeleton, rig::body_turns(b.joints, b.skeleton, pose));
+  for (std::size_t g = 1; g < b.group_joint.size(); ++g)
+    out.entries[g] = motion[static_cast<std::size_t>(b.group_joint[g])].matrix();
+  return out;
 }
 
 // One pooled GL context with its own copy of the rig and its framebuffers.
 struct Slot {
   detail::Context context;
-  enum { kBlendedBuffer, kUvBuffer, kTangentBuffer, kSkinBuffer, kIndexBuffer, kBufferCount };
+  enum {
+    kBlendedBuffer,
+    kUvBuffer,
+    kTangentBuffer,
+    kSkinBuffer,
+    kSkinWeightBuffer,
+    kIndexBuffer,
+    kBufferCount
+  };
   GLuint vao = 0, buffers[kBufferCount] = {};
   std::vector<float> mesh;  // this frame's mesh, detail::kBlendedStride floats per vertex
   GLuint background_program = 0, background_vao = 0, background_tex = 0;
@@ -71,9 +76,9 @@ struct Slot {
   // The avatar's program in one variant per kind of material (detail::ProgramVariant).
   struct Program {
     GLuint id = 0;
-    GLint mvp = -1, neck = -1, head = -1, eye = -1, base_color = -1, emissive = -1,
-          metallic_roughness = -1, normal_scale = -1, occlusion_strength = -1, blend = -1,
-          alpha_cutoff = -1, uv = -1, unlit = -1, toon = -1, shade = -1, rim = -1, toon_params = -1;
+    GLint mvp = -1, palette = -1, eye = -1, base_color = -1, emissive = -1, metallic_roughness = -1,
+          normal_scale = -1, occlusion_strength = -1, blend = -1, alpha_cutoff = -1, uv = -1,
+          unlit = -1, toon = -1, shade = -1, rim = -1, toon_params = -1;
   };
   std::vector<Program> programs;
   std::vector<std::size_t> program_of;  // per material, into `programs`
@@ -129,7 +134,8 @@ struct Slot {
       glEnableVertexAttribArray(static_cast<GLuint>(index));
     };
     attribute(kUvBuffer, detail::kUvAttribute, p.uvs, 2);
-    attribute(kSkinBuffer, detail::kSkinAttribute, p.skin, 2);
+    attribute(kSkinBuffer, detail::kSkinAttribute, p.skin_groups, 4);
+    attribute(kSkinWeightBuffer, detail::kSkinWeightAttribute, p.skin_weights, 4);
     if (p.tangents.empty())
       glVertexAttrib4f(detail::kTangentAttribute, 1, 0, 0, 1);
     else
@@ -161,8 +167,7 @@ struct Slot {
     const auto at = [&](const char* name) { return glGetUniformLocation(g.id, name); };
     g = {g.id,
          at("u_mvp"),
-         at("u_neck"),
-         at("u_head"),
+         at("u_palette"),
          at("u_eye"),
          at("u_base_color"),
          at("u_emissive"),
@@ -305,7 +310,7 @@ struct Slot {
   }
 
   void draw(const PackedRig& p, const RenderOptions& o, const Camera& cam,
-            std::span<const float> weights, const HeadMatrices& pose, Image& out) {
+            std::span<const float> weights, const Palette& pose, Image& out) {
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
     glViewport(0, 0, width, height);
     glClearColor(o.background.x(), o.background.y(), o.background.z(), 1.0f);
@@ -332,8 +337,8 @@ struct Slot {
     for (const Program& g : programs) {
       glUseProgram(g.id);
       glUniformMatrix4fv(g.mvp, 1, GL_FALSE, mvp.data());
-      glUniformMatrix4fv(g.neck, 1, GL_FALSE, pose.neck.data());
-      glUniformMatrix4fv(g.head, 1, GL_FALSE, pose.head.data());
+      glUniformMatrix4fv(g.palette, static_cast<GLsizei>(pose.entries.size()), GL_FALSE,
+                         pose.entries[0].data());
       glUniform3fv(g.eye, 1, cam.eye.data());
     }
     glBindVertexArray(vao);
@@ -356,7 +361,9 @@ struct Slot {
       const auto depth = [&](const PackedRig::Range* r) {
         // View-space z (more negative: farther), which the projection's last row copies negated
         // into w.
-        return -(mvp * pose.head * r->centroid.homogeneous()).w();
+        return -(mvp * pose.entries[static_cast<std::size_t>(pose.head)] *
+                 r->centroid.homogeneous())
+                    .w();
       };
       std::stable_sort(blended.begin(), blended.end(),
                        [&](auto* a, auto* b) { return depth(a) < depth(b); });
@@ -489,10 +496,10 @@ void Renderer::set_camera(const Camera& camera) {
 }
 
 Image Renderer::render(std::span<const float> weights) const {
-  return render(weights, rig::HeadPose{});
+  return render(weights, rig::BodyPose{});
 }
 
-Image Renderer::render(std::span<const float> weights, const rig::HeadPose& head) const {
+Image Renderer::render(std::span<const float> weights, const rig::BodyPose& pose) const {
   if (static_cast<int>(weights.size()) != impl_->packed.shape_count)
     throw Error("render: " + std::to_string(weights.size()) + " weights for a rig with " +
                 std::to_string(impl_->packed.shape_count) + " shapes");
@@ -505,7 +512,7 @@ Image Renderer::render(std::span<const float> weights, const rig::HeadPose& head
   Image image;
   try {
     slot->context.make_current();
-    slot->draw(impl_->packed, impl_->options, cam, weights, head_matrices(head, impl_->packed.head),
+    slot->draw(impl_->packed, impl_->options, cam, weights, palette(impl_->packed.body, pose),
                image);
     slot->context.release();
   } catch (...) {

@@ -18,17 +18,18 @@ layout(location = POSITION_ATTRIBUTE) in vec3 a_pos;
 layout(location = NORMAL_ATTRIBUTE) in vec3 a_nrm;
 layout(location = UV_ATTRIBUTE) in vec2 a_uv;
 layout(location = TANGENT_ATTRIBUTE) in vec4 a_tan;
-layout(location = SKIN_ATTRIBUTE) in vec2 a_skin;  // weight of the neck's motion, of the head's
+layout(location = SKIN_ATTRIBUTE) in vec4 a_groups;  // palette entries (BodySkin)
+layout(location = SKIN_WEIGHT_ATTRIBUTE) in vec4 a_weights;
 uniform mat4 u_mvp;
-uniform mat4 u_neck;  // head pose: the neck's rotation about its joint
-uniform mat4 u_head;  // the head's: the neck's followed by the head's own
+uniform mat4 u_palette[PALETTE_SIZE];  // the body pose's joint motions
 out vec3 v_pos;
 out vec3 v_nrm;
 out vec2 v_uv;
 out vec4 v_tan;
 void main() {
   // a_pos and a_nrm are the blended mesh (renderer.cpp blends the shapes on the CPU).
-  mat4 m = (1.0 - a_skin.x - a_skin.y) * mat4(1.0) + a_skin.x * u_neck + a_skin.y * u_head;
+  mat4 m = a_weights.x * u_palette[int(a_groups.x)] + a_weights.y * u_palette[int(a_groups.y)] +
+           a_weights.z * u_palette[int(a_groups.z)] + a_weights.w * u_palette[int(a_groups.w)];
   vec4 world = m * vec4(a_pos, 1.0);
   v_pos = world.xyz;
   v_nrm = mat3(m) * a_nrm;
@@ -193,6 +194,8 @@ std::string prelude() {
     << "#define UV_ATTRIBUTE " << kUvAttribute << "\n"
     << "#define TANGENT_ATTRIBUTE " << kTangentAttribute << "\n"
     << "#define SKIN_ATTRIBUTE " << kSkinAttribute << "\n"
+    << "#define SKIN_WEIGHT_ATTRIBUTE " << kSkinWeightAttribute << "\n"
+    << "#define PALETTE_SIZE " << kPaletteSize << "\n"
     << "#define SLOT_COUNT " << kSlotCount << "\n"
     << "#define BASE_COLOR_SLOT " << kBaseColorSlot << "\n"
     << "#define METALLIC_ROUGHNESS_SLOT " << kMetallicRoughnessSlot << "\n"

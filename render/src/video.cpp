@@ -42,7 +42,7 @@ void render_frames(const Renderer& renderer, const rig::Motion& motion, double f
       const double t = next / fps;
       inflight.push_back(std::async(std::launch::async, [&renderer, &motion, shapes, t] {
         std::vector<float> w(shapes);
-        rig::HeadPose head;
+        rig::BodyPose head;
         motion.sample(t, w, &head);
         return renderer.render(w, head);
       }));

@@ -13,6 +13,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/core/json_limits.hpp"
+#include "facecast/rig/body.hpp"
 
 namespace facecast::rig {
 namespace {
@@ -89,46 +90,13 @@ bool has_skeleton(const Rig& rig) {
          rig.joints.rows() == rig.vertex_count();
 }
 
-// The joint of a humanoid bone: the VRM humanoid's, else the head and neck the skeleton found by
-// name, the upper arms by the name table.
-int humanoid_joint(const Skeleton& s, const std::string& bone) {
-  if (const int j = s.humanoid_bone(bone); j >= 0) return j;
-  if (bone == "head") return s.head;
-  if (bone == "neck") return s.neck;
-  if (bone == "leftUpperArm") return find_by_name(s, table().left);
-  if (bone == "rightUpperArm") return find_by_name(s, table().right);
-  return -1;
-}
-
 // Turns joints (each about its own origin, in the file's axes, carrying the joints under it) and
 // re-skins the rig.
-void turn_joints(Rig& rig, const std::vector<std::pair<int, Eigen::Quaternionf>>& turns) {
+void turn_joints(Rig& rig, const JointTurns& turns) {
   Skeleton& s = rig.skeleton;
   const std::size_t nj = s.joint_names.size();
-  // Each joint's local turn about its own origin, then the composed motion D_j = D_parent * L_j.
-  std::vector<Eigen::Affine3f> local(nj, Eigen::Affine3f::Identity());
-  for (const auto& [joint, turn] : turns) {
-    const Eigen::Vector3f o = s.rest_origin[static_cast<std::size_t>(joint)];
-    local[static_cast<std::size_t>(joint)] =
-        Eigen::Translation3f(o) * turn * Eigen::Translation3f(-o);
-  }
-  std::vector<Eigen::Affine3f> motion(nj);
-  std::vector<char> moved(nj, 0), done(nj, 0);
-  for (std::size_t j = 0; j < nj; ++j) {
-    // The chain up to a joint already composed (or a root), then down it.
-    std::vector<std::size_t> chain{j};
-    while (!done[chain.back()] && s.parent[chain.back()] >= 0 && chain.size() <= nj)
-      chain.push_back(static_cast<std::size_t>(s.parent[chain.back()]));
-    if (chain.size() > nj) throw Error("rest pose: the skeleton's parents form a cycle");
-    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
-      if (done[*it]) continue;
-      const int p = s.parent[*it];
-      const bool from_parent = p >= 0 && moved[static_cast<std::size_t>(p)];
-      motion[*it] = from_parent ? motion[static_cast<std::size_t>(p)] * local[*it] : local[*it];
-      moved[*it] = from_parent || !local[*it].matrix().isIdentity();
-      done[*it] = 1;
-    }
-  }
+  std::vector<char> moved;
+  const std::vector<Eigen::Affine3f> motion = compose_turns(s, turns, &moved);
 
   // Vertices, normals and shape deltas by their blended joint motion; joint origins by their
   // parent's.
@@ -182,11 +150,22 @@ float degrees(const Eigen::Quaternionf& q) {
 
 }  // namespace
 
+// The joint of a humanoid bone: the VRM humanoid's, else the head and neck the skeleton found by
+// name, the upper arms by the name table.
+int humanoid_joint(const Skeleton& s, std::string_view bone) {
+  if (const int j = s.humanoid_bone(bone); j >= 0) return j;
+  if (bone == "head") return s.head;
+  if (bone == "neck") return s.neck;
+  if (bone == "leftUpperArm") return find_by_name(s, table().left);
+  if (bone == "rightUpperArm") return find_by_name(s, table().right);
+  return -1;
+}
+
 PoseReport apply_rest_pose(Rig& rig) {
   PoseReport report;
   if (!has_skeleton(rig)) return report;
   const Skeleton& s = rig.skeleton;
-  std::vector<std::pair<int, Eigen::Quaternionf>> turns;
+  JointTurns turns;
   for (const char* bone : {"leftUpperArm", "rightUpperArm"}) {
     const int arm = humanoid_joint(s, bone);
     if (arm < 0) continue;
@@ -203,7 +182,7 @@ PoseReport apply_pose_file(Rig& rig, const Pose& pose) {
   PoseReport report;
   if (!has_skeleton(rig)) return report;
   const Skeleton& s = rig.skeleton;
-  std::vector<std::pair<int, Eigen::Quaternionf>> turns;
+  JointTurns turns;
   for (const BoneTurn& b : pose.bones) {
     int joint = humanoid_joint(s, b.bone);
     for (std::size_t j = 0; joint < 0 && j < s.joint_names.size(); ++j)

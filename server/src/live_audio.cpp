@@ -6,6 +6,7 @@
 #include <string>
 
 #include "facecast/core/error.hpp"
+#include "facecast/rig/motion.hpp"
 
 namespace facecast::server {
 namespace {
@@ -104,12 +105,10 @@ int LiveLipsync::emit(double until, std::vector<float>& values) {
   int count = 0;
   for (; next_frame_ / fps_ <= end; ++next_frame_, ++count) {
     const std::size_t at = values.size();
-    values.resize(at + shapes + 3);
-    rig::HeadPose head;
-    p.sample(next_frame_ / fps_, std::span<float>(values.data() + at, shapes), &head);
-    values[at + shapes] = head.yaw;
-    values[at + shapes + 1] = head.pitch;
-    values[at + shapes + 2] = head.roll;
+    values.resize(at + shapes + rig::BodyPose::kChannels.size());
+    rig::BodyPose pose;
+    p.sample(next_frame_ / fps_, std::span<float>(values.data() + at, shapes), &pose);
+    std::ranges::copy(pose.channels(), values.begin() + static_cast<std::ptrdiff_t>(at + shapes));
   }
   return count;
 }

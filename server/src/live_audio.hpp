@@ -37,7 +37,7 @@ struct AudioChunk {
 /// Throws Error naming the field (size, kind, version, rate 8000..48000, count vs payload).
 AudioChunk read_audio_chunk(std::string_view bytes);
 
-/// PCM in, frames of weights (rig shapes + headYaw/Pitch/Roll) out. Not thread-safe.
+/// PCM in, frames of weights (rig shapes + the body pose's channels) out. Not thread-safe.
 class LiveLipsync {
  public:
   LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
@@ -54,7 +54,9 @@ class LiveLipsync {
   int input_rate() const { return resampler_.from_rate(); }
   std::uint64_t samples() const { return samples_; }  // received so far
   int frames() const { return next_frame_; }          // sent so far
-  std::size_t values_per_frame() const { return rig_->mapping.shape_names().size() + 3; }
+  std::size_t values_per_frame() const {
+    return rig_->mapping.shape_names().size() + rig::BodyPose::kChannels.size();
+  }
   const LoadedRig& rig() const { return *rig_; }
   double fps() const { return fps_; }
 

@@ -1,6 +1,7 @@
 #include "facecast/server/protocol.hpp"
 
 #include "facecast/core/json_limits.hpp"
+#include "facecast/rig/motion.hpp"
 
 #include <bit>
 #include <cmath>
@@ -413,7 +414,7 @@ std::string stream_start_message(const StreamStart& s, const std::vector<std::st
                {"duration", s.duration},
                {"speech_duration", s.speech_duration},
                {"names", names},
-               {"extra", {"headYaw", "headPitch", "headRoll"}},
+               {"extra", rig::BodyPose::kChannels},
                {"audio", audio},
                {"size", frames ? json{s.width, s.height} : json(nullptr)},
                {"rig", s.rig},

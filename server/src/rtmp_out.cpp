@@ -11,6 +11,7 @@
 #include <cstring>
 
 #include "facecast/core/error.hpp"
+#include "facecast/rig/motion.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -105,7 +106,7 @@ void RtmpOutput::take(const OutMessage& message) {
   const std::string_view payload = std::string_view(*message.data).substr(kHeaderSize);
   if (h.kind == MediaKind::kWeights) {
     const std::vector<float> v = read_floats(payload);
-    const std::size_t per = s->names + 3;
+    const std::size_t per = s->names + rig::BodyPose::kChannels.size();
     for (std::uint32_t i = 0; i < h.count && (i + 1) * per <= v.size(); ++i)
       s->frames[h.first + i].assign(v.begin() + i * per, v.begin() + (i + 1) * per);
   } else if (h.kind == MediaKind::kAudio) {
@@ -162,10 +163,10 @@ render::Image RtmpOutput::render(const Pose& pose) {
     const auto renderer = state_->renderers.get(*rig, settings_.width, settings_.height);
     const std::size_t n = rig->mapping.shape_names().size();
     std::vector<float> v = pose.values;
-    v.resize(n + 3, 0.0f);
-    const rig::HeadPose head{v[n], v[n + 1], v[n + 2]};
+    v.resize(n + rig::BodyPose::kChannels.size(), 0.0f);
+    const rig::BodyPose body = rig::BodyPose::from_channels(std::span(v).subspan(n));
     v.resize(n);
-    return renderer->render(v, head);
+    return renderer->render(v, body);
   } catch (const std::exception& e) {
     log::warn("rtmp_render_failed", {{"channel", channel_->name()}, {"error", e.what()}});
     if (!last_image_.pixels.empty()) return last_image_;

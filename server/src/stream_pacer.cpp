@@ -4,6 +4,7 @@
 
 #include "clock.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/rig/motion.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -34,7 +35,7 @@ StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor stra
       frames_mode_(request_.output == Output::kFrames),
       names_(static_cast<int>(p_->rig->mapping.shape_names().size())),
       end_frame_(p_->frames),
-      last_(static_cast<std::size_t>(names_ + 3), 0.0f),
+      last_(static_cast<std::size_t>(names_) + rig::BodyPose::kChannels.size(), 0.0f),
       open_(open),
       end_time_(p_->duration) {
   segments_.push_back(Segment{0.0, p_});
@@ -280,8 +281,8 @@ void StreamPacer::render(int frame) {
   std::vector<float> values;
   frame_values(frame, values);
   const std::size_t n = static_cast<std::size_t>(names_);
-  const rig::HeadPose head{values[n], values[n + 1], values[n + 2]};
-  values.resize(n);  // the renderer takes the shapes, and the head pose apart
+  const rig::BodyPose head = rig::BodyPose::from_channels(std::span(values).subspan(n));
+  values.resize(n);  // the renderer takes the shapes, and the body pose apart
   in_flight_.push_back(Render{frame, false, nullptr});
   net::post(state_->workers, [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
                               values = std::move(values), head, stream = stream_, frame, fps = fps_,
@@ -342,7 +343,7 @@ void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> mess
   tick();
 }
 
-// The blendshape weights of `frame`, then headYaw, headPitch, headRoll.
+// The blendshape weights of `frame`, then the body pose's channels (rig::BodyPose::kChannels).
 void StreamPacer::frame_values(int frame, std::vector<float>& out) {
   out.resize(last_.size());
   if (cancelling_ && frame >= fade_start_) {
@@ -353,11 +354,9 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
     const double t = frame / fps_;
     while (segment_ + 1 < segments_.size() && segments_[segment_ + 1].t0 <= t) ++segment_;
     const Segment& seg = segments_[segment_];
-    rig::HeadPose head;
-    seg.p->performance->sample(t - seg.t0, std::span<float>(out.data(), n), &head);
-    out[n] = head.yaw;
-    out[n + 1] = head.pitch;
-    out[n + 2] = head.roll;
+    rig::BodyPose pose;
+    seg.p->performance->sample(t - seg.t0, std::span<float>(out.data(), n), &pose);
+    std::ranges::copy(pose.channels(), out.begin() + static_cast<std::ptrdiff_t>(n));
   }
   last_ = out;
   have_last_ = true;

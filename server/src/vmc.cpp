@@ -62,7 +62,7 @@ VmcSender::~VmcSender() {
 }
 
 void VmcSender::send(std::span<const std::string> shapes, std::span<const float> weights,
-                     const rig::HeadPose& head, double t) {
+                     const rig::BodyPose& head, double t) {
   if (impl_->for_shapes.size() != shapes.size() ||
       !std::equal(shapes.begin(), shapes.end(), impl_->for_shapes.begin())) {
     impl_->for_shapes.assign(shapes.begin(), shapes.end());

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "facecast/rig/motion.hpp"
 #include "facecast/server/protocol.hpp"
 #include "log.hpp"
 #include "state.hpp"
@@ -34,7 +35,7 @@ std::vector<std::unique_ptr<VmcSender>> vmc_senders(const ServerOptions::Channel
 void send_vmc_frame(const std::vector<std::unique_ptr<VmcSender>>& senders,
                     const VmcTimeline::Frame& f, const std::string& where) {
   const std::size_t n = f.names->size();
-  const rig::HeadPose head{f.values[n], f.values[n + 1], f.values[n + 2]};
+  const rig::BodyPose head = rig::BodyPose::from_channels(std::span(f.values).subspan(n));
   for (const auto& s : senders) {
     try {
       s->send(*f.names, std::span<const float>(f.values.data(), n), head, f.t);
@@ -104,7 +105,7 @@ void VmcTimeline::take(const OutMessage& message, std::deque<Frame>& out) {
     placed_ = true;
   }
   const std::vector<float> v = read_floats(std::string_view(*message.data).substr(kHeaderSize));
-  const std::size_t per = names_->size() + 3;
+  const std::size_t per = names_->size() + rig::BodyPose::kChannels.size();
   for (std::uint32_t i = 0; i < h.count && (i + 1) * per <= v.size(); ++i) {
     Frame f;
     f.names = names_;

@@ -217,7 +217,7 @@ TEST_CASE("idle life blinks, moves the eyes and head, and is reproducible", "[an
   bool closed = false;
   std::vector<float> wa(a.shape_names().size()), wb(wa.size()), wo(wa.size());
   for (double t = 0; t < a.duration(); t += 1.0 / 60) {
-    HeadPose ha, hb;
+    BodyPose ha, hb;
     a.sample(t, wa, &ha);
     b.sample(t, wb, &hb);
     off.sample(t, wo);
@@ -359,12 +359,12 @@ TEST_CASE("the head nods where phrases start and at their accents, and settles i
   const Performance p(u, m, still);
   std::vector<float> w(p.shape_names().size());
   const auto pitch = [&](double t) {
-    HeadPose h;
+    BodyPose h;
     p.sample(t, w, &h);
     return h.pitch;
   };
   const auto roll = [&](double t) {
-    HeadPose h;
+    BodyPose h;
     p.sample(t, w, &h);
     return h.roll;
   };
@@ -385,7 +385,7 @@ TEST_CASE("the head nods where phrases start and at their accents, and settles i
   silent.visemes = {{"sil", 0, 4.0}};
   const Performance r(silent, m, sway);
   const auto ratio = [&](double t) {
-    HeadPose a, b;
+    BodyPose a, b;
     q.sample(t, w, &a);
     r.sample(t, w, &b);
     return std::abs(b.yaw) > 1e-4f ? a.yaw / b.yaw : 1.0f;
@@ -394,7 +394,7 @@ TEST_CASE("the head nods where phrases start and at their accents, and settles i
   CHECK(ratio(2.9) == Approx(1.0).epsilon(0.01));
   // Idle off: still.
   const Performance off(u, m, quiet());
-  HeadPose h;
+  BodyPose h;
   off.sample(0.475, w, &h);
   CHECK(h.pitch == 0.0f);
 }

@@ -76,7 +76,7 @@ FapMotion drive_avatar(const std::string& file) {
                    Mapping::for_rig(face().shape_names()));
 }
 
-std::vector<float> weights_at(const FapMotion& m, int frame, rig::HeadPose* head = nullptr) {
+std::vector<float> weights_at(const FapMotion& m, int frame, rig::BodyPose* head = nullptr) {
   std::vector<float> w(m.shape_names().size());
   m.sample(frame / m.fps(), w, head);
   return w;
@@ -200,7 +200,7 @@ TEST_CASE("a performance written as FAPs and read back moves the mouth and eyes 
   int with_viseme = 0, a_frames = 0;
   for (std::size_t f = 0; f < read.frames.size(); ++f) {
     const double t = static_cast<double>(f) / 30;
-    rig::HeadPose ha, hb;
+    rig::BodyPose ha, hb;
     p.sample(t, a, &ha);
     back.sample(t, b, &hb);
     jaw_a.push_back(a[static_cast<std::size_t>(shape("jawOpen"))]);
@@ -247,7 +247,7 @@ TEST_CASE("hand-written FAP files drive a rig", "[anim][fap]") {
     CHECK(weights_at(m, 7)[static_cast<std::size_t>(shape("eyeBlinkLeft"))] > 0.6f);
     CHECK(weights_at(m, 7)[static_cast<std::size_t>(shape("eyeBlinkRight"))] > 0.6f);
     CHECK(weights_at(m, 9)[static_cast<std::size_t>(shape("eyeBlinkLeft"))] < 0.1f);
-    rig::HeadPose head;
+    rig::BodyPose head;
     weights_at(m, 11, &head);
     CHECK(head.pitch == Approx(0.05));
     CHECK(head.yaw == Approx(-0.08));

@@ -215,7 +215,7 @@ TEST_CASE("the head pose turns the head through the neck; the body stays", "[ren
   Renderer r(rig, full);
   const std::vector<float> neutral{0.0f};
   const Image still = r.render(neutral);
-  const Image turned = r.render(neutral, rig::HeadPose{0.6f, 0.0f, 0.0f});
+  const Image turned = r.render(neutral, rig::BodyPose{0.6f, 0.0f, 0.0f});
   // Rows of the head change, rows of the body's middle do not.
   const auto row_difference = [&](int y) {
     int d = 0;

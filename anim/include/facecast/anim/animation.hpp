@@ -131,7 +131,7 @@ class Performance final : public rig::Motion {
   /// Weights at time `t` (seconds from the start of the audio), one per rig shape in the mapping's
   /// order; `weights.size()` must equal the shape count (throws Error otherwise). `head` (optional)
   /// receives the idle head pose. Thread-safe (const).
-  void sample(double t, std::span<float> weights, rig::HeadPose* head = nullptr) const override;
+  void sample(double t, std::span<float> weights, rig::BodyPose* head = nullptr) const override;
 
   /// The rig's shape names, in the order sample() writes them.
   const std::vector<std::string>& shape_names() const override { return mapping_.shape_names(); }
@@ -166,7 +166,7 @@ struct WeightTrack {
   double fps = 60;
   int frames = 0;
   std::vector<float> weights;       // frames * shapes.size()
-  std::vector<rig::HeadPose> head;  // one per frame
+  std::vector<rig::BodyPose> head;  // one per frame
   std::span<const float> frame(int f) const {
     return {weights.data() + static_cast<size_t>(f) * shapes.size(), shapes.size()};
   }

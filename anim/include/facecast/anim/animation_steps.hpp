@@ -138,7 +138,7 @@ std::array<float, 2> gaze_at(const IdleLife& idle, double t);
 
 /// Head pose at t: slow sums of sines of amplitude head_motion (half of it outside the phrases:
 /// the head settles in pauses), faded in and out over 0.5 s, plus the nods.
-rig::HeadPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
+rig::BodyPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
 
 // ---- 5. Mixing (in Performance::sample). ------------------------------------------------------
 

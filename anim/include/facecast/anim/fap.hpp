@@ -127,7 +127,7 @@ class FapRig {
   double basis(int fap, int s) const;
 
   /// The low-level FAPs of weights and a head pose; sets the mask of every measured FAP.
-  void encode(std::span<const float> weights, const rig::HeadPose& head, FapFrame& out) const;
+  void encode(std::span<const float> weights, const rig::BodyPose& head, FapFrame& out) const;
 
  private:
   FapTable table_;
@@ -155,7 +155,7 @@ class FapMotion final : public rig::Motion {
 
   double duration() const override;
   const std::vector<std::string>& shape_names() const override { return shapes_; }
-  void sample(double t, std::span<float> weights, rig::HeadPose* head = nullptr) const override;
+  void sample(double t, std::span<float> weights, rig::BodyPose* head = nullptr) const override;
   int frame_count() const { return frames_; }
   double fps() const { return fps_; }
 
@@ -164,7 +164,7 @@ class FapMotion final : public rig::Motion {
   double fps_ = 25;
   int frames_ = 0;
   std::vector<float> weights_;  // frames x shapes
-  std::vector<rig::HeadPose> head_;
+  std::vector<rig::BodyPose> head_;
 };
 
 }  // namespace facecast::anim

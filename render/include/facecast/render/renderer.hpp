@@ -82,10 +82,11 @@ class Renderer {
   /// Renders one frame with one weight per rig shape (in rig order). Thread-safe. Throws
   /// facecast::Error on a size mismatch, or naming the EGL/GL call that failed.
   Image render(std::span<const float> weights) const;
-  /// The same with the head turned by `head` (idle head motion): through the neck and head joints
-  /// of a skinned avatar (the neck takes 40 % of the turn), else the whole rig about a pivot low in
-  /// its bounds.
-  Image render(std::span<const float> weights, const rig::HeadPose& head) const;
+  /// The same in a body pose: a skinned avatar's joints turned as rig::body_turns says (the head
+  /// through the neck and the head, breath, lean and shrug through the chest, spine and
+  /// shoulders); a rig without a skeleton turns whole with the head about a pivot low in its
+  /// bounds.
+  Image render(std::span<const float> weights, const rig::BodyPose& pose) const;
 
   /// Creates every context of the pool now (each uploads the rig: about a second for a rig with
   /// a dozen 1024x1024 textures on llvmpipe), so that the first frames of concurrent streams do

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "facecast/rig/rig.hpp"
@@ -34,6 +35,10 @@ struct Pose {
 struct PoseReport {
   std::vector<std::pair<std::string, float>> turned;
 };
+
+/// The joint of a VRM humanoid bone ("head", "leftUpperArm" ...): the file's humanoid, else the
+/// head and neck the skeleton found by name and the upper arms by configs/rig/humanoid.json; -1.
+int humanoid_joint(const Skeleton& s, std::string_view bone);
 
 /// Finds the upper arms (the VRM humanoid's leftUpperArm/rightUpperArm, else the name table in
 /// configs/rig/humanoid.json) and turns each down (see the config). A rig without a skeleton or

@@ -175,8 +175,8 @@ struct StreamStart {
   std::string rig;
   double lead = 0;
 };
-/// `stream_start`: `names` are the blendshapes of each frame (headYaw, headPitch, headRoll follow
-/// as "extra"), `utterance` the viseme engine's timeline.
+/// `stream_start`: `names` are the blendshapes of each frame (the body pose's channels follow as
+/// "extra": rig::BodyPose::kChannels), `utterance` the viseme engine's timeline.
 std::string stream_start_message(const StreamStart& start, const std::vector<std::string>& names,
                                  const nlohmann::json& utterance);
 

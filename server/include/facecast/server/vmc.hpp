@@ -42,7 +42,7 @@ class VmcSender {
   /// One frame: `weights[i]` of `shapes[i]` (as vmc_shape_names gave them), the head pose, and
   /// the time since the start. Throws Error when the datagram cannot be sent.
   void send(std::span<const std::string> shapes, std::span<const float> weights,
-            const rig::HeadPose& head, double t);
+            const rig::BodyPose& head, double t);
 
  private:
   struct Impl;
