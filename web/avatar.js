@@ -11,7 +11,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
 import { MorphBinding, morphMeshes, targetNames } from './morphs.js';
-import { restPose } from './pose.js';
+import { bodyJoints, restPose, setBodyPose } from './pose.js';
 
 export { morphMeshes, targetNames };
 
@@ -141,7 +141,7 @@ export class AvatarView extends Viewport {
     this.model = null;
     this.vrm = null;
     this.morphs = null;
-    this.headPose = { yaw: 0, pitch: 0, roll: 0 };
+    this.headPose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
     this.clock = new THREE.Clock();
     this.observeSize();
   }
@@ -175,7 +175,6 @@ export class AvatarView extends Viewport {
     if (vrm) VRMUtils.rotateVRM0(vrm); // VRM 0.x faces -Z; turn it to the camera like VRM 1.0
     this.vrm = vrm;
     this.bones = headBones(model, vrm);
-    this.rest = this.bones ? { head: this.bones.head.quaternion.clone(), neck: this.bones.neck?.quaternion.clone() } : null;
     const box = faceBox(model);
     // Without bones the head turns about the pivot: the neck, below the face's centre, a little behind.
     const size = box.getSize(new THREE.Vector3());
@@ -186,6 +185,7 @@ export class AvatarView extends Viewport {
     this.pivot.rotation.set(0, 0, 0);
     this.pivot.add(model);
     this.restTurned = restPose(model, vrm); // arms down, as the server draws it (pose.js)
+    this.body = this.bones ? bodyJoints(model, vrm, this.bones.head, this.bones.neck) : null;
     colorizePlainMaterials(model);
     for (const m of morphMeshes(model)) {
       for (const mat of [].concat(m.material)) {
@@ -199,7 +199,7 @@ export class AvatarView extends Viewport {
     const force = new URLSearchParams(window.location.search).get('morph');
     const cpu = force === 'cpu' || (force !== 'gpu' && this.software);
     this.morphs = new MorphBinding(model, vrm, { cpu });
-    this.headPose = { yaw: 0, pitch: 0, roll: 0 };
+    this.headPose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
     this.box = box;
     this.userMoved = false;
     this.frame(box);
@@ -244,22 +244,19 @@ export class AvatarView extends Viewport {
   }
 
   /**
-   * Head rotation in radians: yaw about +Y, pitch about +X, roll about +Z, applied in that order (the
-   * matrix Rz * Rx * Ry, three's Euler order 'ZXY'). With head bones the neck takes 40 % of it and
-   * the head the rest, on top of their rest poses; otherwise the whole avatar turns about the pivot.
+   * The head and body pose of the stream's extra channels: the head's rotation in radians (yaw about
+   * +Y, pitch about +X, roll about +Z, in that order: three's Euler order 'ZXY'; the neck takes 40 %
+   * of it and the head the rest) and the idle body (breath, lean, shrug), turned as the server's
+   * renderer turns the skeleton (pose.js setBodyPose). An avatar without head bones turns whole about
+   * the pivot and has no body. Missing channels are 0.
    */
-  setHead(yaw, pitch, roll) {
+  setPose({ yaw = 0, pitch = 0, roll = 0, breath = 0, lean = 0, shrug = 0 }) {
+    const pose = { yaw, pitch, roll, breath, lean, shrug };
     const h = this.headPose;
-    if (h.yaw === yaw && h.pitch === pitch && h.roll === roll) return;
-    this.headPose = { yaw, pitch, roll };
-    if (!this.bones) {
-      this.pivot.rotation.set(pitch, yaw, roll, 'ZXY');
-    } else {
-      const turn = (share) => new THREE.Quaternion().setFromEuler(new THREE.Euler(share * pitch, share * yaw, share * roll, 'ZXY'));
-      const { head, neck } = this.bones;
-      if (neck) neck.quaternion.copy(this.rest.neck).multiply(turn(0.4));
-      head.quaternion.copy(this.rest.head).multiply(turn(neck ? 0.6 : 1));
-    }
+    if (Object.keys(pose).every((k) => h[k] === pose[k])) return;
+    this.headPose = pose;
+    if (this.body) setBodyPose(this.body, pose);
+    else this.pivot.rotation.set(pitch, yaw, roll, 'ZXY');
     this.dirty = true;
   }
 

@@ -70,3 +70,99 @@ export function restPose(root, vrm = null) {
   }
   return turned;
 }
+
+// The idle body, as the server's renderer turns it (rig/src/body.cpp, docs/algorithms.md#idle-body):
+// BODY mirrors configs/rig/body.json (the web test checks they agree).
+export const BODY = { neckShare: 0.4, breathChestDeg: 1.2, breathShoulderDeg: 1.0, shrugDeg: 6.0, leanCounter: 0.7 };
+
+/**
+ * The joints a body pose turns: a VRM's normalized humanoid bones, else found from the head down
+ * (the chest carries the neck, the spine runs down to where another limb branches off, a shoulder
+ * carries an upper arm). `head` and `neck` are the avatar's head bones. Returns null without a
+ * head; each joint with its rest rotations, for setBodyPose.
+ */
+export function bodyJoints(root, vrm, head, neck) {
+  if (!head) return null;
+  root.updateMatrixWorld(true);
+  const h = vrm?.humanoid;
+  const bone = (name) => h?.getNormalizedBoneNode(name) ?? null;
+  const normalized = new Set();
+  if (h) for (const name of Object.keys(h.humanBones)) bone(name) && normalized.add(bone(name));
+  const isJoint = (o) => !!o && (o.isBone || normalized.has(o));
+  const top = neck || head;
+  let chest = (h && (bone('upperChest') || bone('chest'))) || null;
+  if (!chest || chest === top) chest = isJoint(top.parent) ? top.parent : null;
+  if (chest && !isJoint(chest.parent)) chest = null; // a root chest would turn the legs too
+  const spine = [];
+  const arms = h ? [bone('leftUpperArm'), bone('rightUpperArm')] : [byName(root, HUMANOID.leftUpperArm), byName(root, HUMANOID.rightUpperArm)];
+  const shoulders = [null, null];
+  if (chest) {
+    const hips = bone('hips');
+    for (let from = chest, j = chest.parent; isJoint(j) && isJoint(j.parent) && j !== hips; from = j, j = j.parent) {
+      const limb = !hips && j.children.some((c) => c !== from && isJoint(c) && c.children.some(isJoint));
+      if (limb) break;
+      spine.unshift(j);
+    }
+    const named = h ? [bone('leftShoulder'), bone('rightShoulder')] : [null, null];
+    for (const side of [0, 1]) {
+      const s = named[side] || (isJoint(arms[side]?.parent) ? arms[side].parent : null);
+      if (s && s !== chest && !spine.includes(s)) shoulders[side] = s;
+    }
+  }
+  const joints = { head, neck, chest, spine, shoulders, arms: chest ? arms : [null, null] };
+  const all = [head, neck, chest, ...spine, ...shoulders, ...joints.arms].filter(Boolean);
+  joints.rest = new Map(all.map((o) => [o, { local: o.quaternion.clone(), world: o.getWorldQuaternion(new THREE.Quaternion()), origin: o.getWorldPosition(new THREE.Vector3()) }]));
+  return joints;
+}
+
+/**
+ * Turns the joints for a body pose {yaw, pitch, roll, breath, lean, shrug} (the stream's extra
+ * channels), each about its joint in the world's axes at rest (the figure faces +Z), as
+ * rig::body_turns does: a turn R in world axes is the local rotation q0 * W0^-1 * R * W0.
+ */
+export function setBodyPose(joints, pose) {
+  const deg = THREE.MathUtils.degToRad;
+  const { yaw = 0, pitch = 0, roll = 0, breath = 0, lean = 0, shrug = 0 } = pose;
+  const turns = new Map();
+  const add = (o, q) => o && turns.set(o, (turns.get(o) || new THREE.Quaternion()).multiply(q));
+  const about = (x, y, z, a) => new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(x, y, z), a);
+  const headTurn = (share) => new THREE.Quaternion().setFromEuler(new THREE.Euler(share * pitch, share * yaw, share * roll, 'ZXY'));
+  const { head, neck, chest, spine, shoulders, arms } = joints;
+  if (neck) {
+    add(neck, headTurn(BODY.neckShare));
+    add(head, headTurn(1 - BODY.neckShare));
+  } else add(head, headTurn(1));
+  if (chest) {
+    const top = neck || head;
+    const c = breath * deg(BODY.breathChestDeg);
+    add(chest, about(1, 0, 0, -c));
+    add(top, about(1, 0, 0, c));
+    if (spine.length) {
+      for (const j of spine) add(j, about(0, 0, 1, -lean / spine.length));
+      add(chest, about(0, 0, 1, BODY.leanCounter * lean));
+    } else {
+      add(chest, about(0, 0, 1, -lean));
+      add(top, about(0, 0, 1, BODY.leanCounter * lean));
+    }
+    const raise = breath * deg(BODY.breathShoulderDeg) + shrug * deg(BODY.shrugDeg);
+    const centre = joints.rest.get(chest).origin;
+    for (const side of [0, 1]) {
+      const s = shoulders[side];
+      if (!s || raise === 0) continue;
+      const tip = arms[side] || s;
+      const dx = joints.rest.get(tip).origin.x - centre.x;
+      const sign = dx !== 0 ? Math.sign(dx) : side === 0 ? 1 : -1;
+      add(s, about(0, 0, 1, sign * raise));
+      add(arms[side], about(0, 0, 1, -sign * raise));
+    }
+  }
+  for (const [o, rest] of joints.rest) {
+    const r = turns.get(o);
+    if (!r) {
+      o.quaternion.copy(rest.local);
+      continue;
+    }
+    const w0 = rest.world;
+    o.quaternion.copy(rest.local).multiply(w0.clone().invert().multiply(r).multiply(w0));
+  }
+}

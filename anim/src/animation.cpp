@@ -31,8 +31,16 @@ AnimOptions load_anim_options() {
       .read("eye_motion", o.eye_motion)
       .read("head_motion", o.head_motion)
       .read("head_nod", o.head_nod)
+      .read("breath_rate", o.breath_rate)
+      .read("breath_depth", o.breath_depth)
+      .read("body_lean", o.body_lean)
+      .read("shrug", o.shrug)
       .read("seed", o.seed);
   c.reject_unknown();
+  if (!(o.breath_rate >= 0 && o.breath_rate <= 2)) c.fail("breath_rate", "must be in [0, 2]");
+  if (!(o.breath_depth >= 0 && o.breath_depth <= 1)) c.fail("breath_depth", "must be in [0, 1]");
+  if (!(o.shrug >= 0 && o.shrug <= 1)) c.fail("shrug", "must be in [0, 1]");
+  if (!(std::abs(o.body_lean) <= 0.2)) c.fail("body_lean", "must be within 0.2 radians");
   if (!(o.blink_interval_min > 0 && o.blink_interval_max >= o.blink_interval_min))
     c.fail("blink_interval_min", "must be > 0 and <= blink_interval_max");
   if (!(o.theta_anticipation > 0 && o.theta_carryover > 0 && o.closure_alpha > 0))
@@ -133,7 +141,7 @@ void Performance::sample(double t, std::span<float> weights, rig::BodyPose* head
     add(mapping_.look_down[0], -gy);
     add(mapping_.look_down[1], -gy);
 
-    if (head) *head = head_at(idle_, options_, t);
+    if (head) *head = body_at(idle_, options_, t);
   }
   for (float& w : weights) w = std::clamp(w, 0.0f, 1.0f);
 }

@@ -262,6 +262,7 @@ IdleLife idle_life(double duration, const std::vector<Span>& phrases, const Anim
   }
   idle.gazes.push_back({std::max(0.0, duration - 0.3), {0.0f, 0.0f}});
   for (double& p : idle.head_phase) p = rng.uniform(0, 2 * M_PI);
+  for (double& p : idle.body_phase) p = rng.uniform(0, 2 * M_PI);
   return idle;
 }
 
@@ -318,6 +319,54 @@ rig::BodyPose head_at(const IdleLife& idle, const AnimOptions& options, double t
     head.roll += static_cast<float>(options.head_nod * n.tilt * bump);
   }
   return head;
+}
+
+float breath_at(const IdleLife& idle, const AnimOptions& options, double t) {
+  constexpr double kInhale = 0.45, kExhaleRate = 0.15, kFloor = 0.2, kBackToRest = 1.0;
+  const auto& phrases = idle.phrases;
+  const auto rest = [&](double u) {
+    return 0.5 - 0.5 * std::cos(2 * M_PI * options.breath_rate * u + idle.body_phase[0]);
+  };
+  // A phrase's breath in starts 0.45 s before it, or in the pause before it when that is shorter.
+  const auto inhale_at = [&](std::size_t p) {
+    const double gap = p == 0 ? kInhale : phrases[p].start - phrases[p - 1].end;
+    return phrases[p].start - std::min(kInhale, gap);
+  };
+  // The breath from phrase p's inhale on, from `from_level` (its end level is held after it).
+  const auto through = [&](std::size_t p, double from_level, double u) {
+    const Span& s = phrases[p];
+    if (u < s.start) {
+      const double len = s.start - inhale_at(p);
+      return from_level + (1 - from_level) * smooth((u - inhale_at(p)) / std::max(len, 1e-3));
+    }
+    return std::max(kFloor, 1 - kExhaleRate * (std::min(u, s.end) - s.start));
+  };
+  double level = 0;  // when the current phrase's inhale starts
+  std::size_t p = 0;
+  for (; p < phrases.size() && inhale_at(p) <= t; ++p)
+    level = p == 0 ? rest(inhale_at(0)) : through(p - 1, level, inhale_at(p));
+  double b = p == 0 ? rest(t) : through(p - 1, level, t);
+  if (p > 0 && p == phrases.size())  // after the last phrase, back to the resting cycle
+    b += (rest(t) - b) * smooth((t - phrases.back().end) / kBackToRest);
+  const double env = smooth(t / 0.5) * smooth((idle.duration - t) / 0.5);
+  return static_cast<float>(options.breath_depth * env * std::clamp(b, 0.0, 1.0));
+}
+
+rig::BodyPose body_at(const IdleLife& idle, const AnimOptions& options, double t) {
+  rig::BodyPose pose = head_at(idle, options, t);
+  const double env = smooth(t / 0.5) * smooth((idle.duration - t) / 0.5);
+  pose.breath = breath_at(idle, options, t);
+  pose.lean = static_cast<float>(options.body_lean * env *
+                                 (0.7 * std::sin(2 * M_PI * 0.07 * t + idle.body_phase[1]) +
+                                  0.3 * std::sin(2 * M_PI * 0.19 * t + idle.head_phase[0])));
+  double shrug = 0;
+  for (const Nod& n : idle.nods) {
+    if (n.strength >= 1) continue;  // phrase starts nod; accents also shrug
+    const double u = (t - n.t + 0.05) / 0.6;
+    if (u > 0 && u < 1) shrug = std::max(shrug, std::sin(M_PI * u) * std::sin(M_PI * u));
+  }
+  pose.shrug = static_cast<float>(options.shrug * env * shrug);
+  return pose;
 }
 
 // ---- 5. Mixing ---------------------------------------------------------------------------------

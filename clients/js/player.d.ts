@@ -34,7 +34,7 @@ export interface Presentation {
   t: number | null;
   /** interpolated weights for stream.names, null before the first frame */
   weights: Float32Array | null;
-  /** interpolated extra values (stream.extra: headYaw, headPitch, headRoll) */
+  /** interpolated extra values (stream.extra: headYaw, headPitch, headRoll, breath, lean, shrug) */
   extra: Float32Array | null;
   /** the JPEG frame due now, when it changed */
   jpeg: ImageBitmap | null;

@@ -106,6 +106,8 @@ BodyJoints find_body_joints(const Skeleton& s) {
   b.chest = s.humanoid_bone("upperChest");
   if (b.chest < 0) b.chest = s.humanoid_bone("chest");
   if (b.chest < 0 || b.chest == top) b.chest = parent_of(s, top);
+  // A chest that is the skeleton's root would turn the whole figure, legs and all.
+  if (parent_of(s, b.chest) < 0) b.chest = -1;
   if (b.chest < 0) return b;
   b.spine = find_spine(s, b.chest);
   const char* arms[2] = {"leftUpperArm", "rightUpperArm"};

@@ -399,6 +399,54 @@ TEST_CASE("the head nods where phrases start and at their accents, and settles i
   CHECK(h.pitch == 0.0f);
 }
 
+TEST_CASE("the body breathes by the phrases, shrugs at accents and shifts its weight",
+          "[anim][animation]") {
+  // Two phrases (0.6-2.2 s and 3.0-4.0 s; the second's long word an accent) in 6 s.
+  viseme::Utterance u;
+  u.set = viseme::VisemeSet::kOculus;
+  u.words = {{"one", 0.6, 1.0},   {"two", 1.02, 2.2},    {"three", 3.0, 3.2},
+             {"four", 3.22, 3.4}, {"fiiive", 3.42, 3.9}, {"six", 3.92, 4.0}};
+  u.visemes = {{"sil", 0, 0.6}, {"aa", 0.6, 2.2}, {"sil", 2.2, 3.0}, {"aa", 3.0, 4.0}};
+  u.duration = 6.0;
+  const Mapping m = Mapping::for_rig(face().shape_names());
+  const AnimOptions o;
+  const Performance p(u, m, o);
+  std::vector<float> w(p.shape_names().size());
+  const auto at = [&](double t) {
+    BodyPose b;
+    p.sample(t, w, &b);
+    return b;
+  };
+  // In [0, depth], at rest at both ends, continuous (100 Hz steps move it little).
+  float last = 0, lean_peak = 0;
+  for (double t = 0; t <= p.duration(); t += 0.01) {
+    const BodyPose b = at(t);
+    CHECK(b.breath >= 0.0f);
+    CHECK(b.breath <= o.breath_depth);
+    CHECK(std::abs(b.breath - last) < 0.03f);
+    CHECK(std::abs(b.lean) <= o.body_lean);
+    lean_peak = std::max(lean_peak, std::abs(b.lean));
+    last = b.breath;
+  }
+  CHECK(lean_peak > 0.0f);
+  CHECK(at(0).breath == 0.0f);
+  CHECK(at(p.duration()).breath == 0.0f);
+  // Breathed in just before each phrase, out while it lasts.
+  CHECK(at(0.6).breath == Approx(1.0).margin(0.02));
+  CHECK(at(2.2).breath < at(1.0).breath - 0.15f);
+  CHECK(at(3.0).breath == Approx(1.0).margin(0.02));
+  CHECK(at(2.6).breath < at(2.9).breath);
+  // A shrug at the accented word only.
+  CHECK(at(1.0).shrug == 0.0f);
+  CHECK(at(3.42 + 0.25).shrug == Approx(o.shrug).epsilon(0.05));
+  // Idle off: still.
+  const Performance off(u, m, quiet());
+  BodyPose b;
+  off.sample(0.6, w, &b);
+  CHECK(b.breath == 0.0f);
+  CHECK(b.lean == 0.0f);
+}
+
 TEST_CASE("idle life is seeded and blinks close, hold and open", "[anim][animation]") {
   AnimOptions o;
   const IdleLife a = idle_life(20, {}, o), b = idle_life(20, {}, o);

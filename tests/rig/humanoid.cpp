@@ -52,18 +52,30 @@ Rig humanoid(float droop, const char* left, const char* right) {
                    "mixamorig:RightForeArm",
                    "mixamorig:RightHand",
                    "mixamorig:Neck",
-                   "mixamorig:Head"};
-  s.parent = {-1, 0, 1, 2, 0, 4, 5, 0, 7};
+                   "mixamorig:Head",
+                   "mixamorig:Spine",
+                   "mixamorig:Spine2",
+                   "mixamorig:LeftShoulder",
+                   "mixamorig:RightShoulder",
+                   "mixamorig:LeftUpLeg",
+                   "mixamorig:LeftLeg",
+                   "mixamorig:RightUpLeg",
+                   "mixamorig:RightLeg"};
+  s.parent = {-1, 11, 1, 2, 12, 4, 5, 10, 7, 0, 9, 10, 10, 0, 13, 0, 15};
   const float c = std::cos(droop * kDeg), sn = std::sin(droop * kDeg);
   const auto along = [&](float side, float d) {
     return Eigen::Vector3f(side * (0.2f + d * c), 1.45f - d * sn, 0.0f);
   };
-  s.rest_origin = {{0, 1, 0},       along(1, 0),      along(1, 0.3f), along(1, 0.55f), along(-1, 0),
-                   along(-1, 0.3f), along(-1, 0.55f), {0, 1.5f, 0},   {0, 1.6f, 0}};
+  s.rest_origin = {{0, 1, 0},          along(1, 0),      along(1, 0.3f),   along(1, 0.55f),
+                   along(-1, 0),       along(-1, 0.3f),  along(-1, 0.55f), {0, 1.5f, 0},
+                   {0, 1.6f, 0},       {0, 1.15f, 0},    {0, 1.35f, 0},    {0.08f, 1.45f, 0},
+                   {-0.08f, 1.45f, 0}, {0.1f, 0.95f, 0}, {0.1f, 0.5f, 0},  {-0.1f, 0.95f, 0},
+                   {-0.1f, 0.5f, 0}};
   s.neck = 7;
   s.head = 8;
-  add_box(rig, {-0.2f, 0.5f, -0.1f}, {0.2f, 1.5f, 0.1f}, [](const Eigen::Vector3f&) {
-    return std::tuple{0, 0, 0.0f};
+  // The torso: its top on the chest, its bottom on the hips.
+  add_box(rig, {-0.2f, 0.5f, -0.1f}, {0.2f, 1.5f, 0.1f}, [](const Eigen::Vector3f& p) {
+    return p.y() > 1.0f ? std::tuple{10, 10, 0.0f} : std::tuple{0, 0, 0.0f};
   });
   add_box(rig, {-0.1f, 1.55f, -0.1f}, {0.1f, 1.75f, 0.1f}, [](const Eigen::Vector3f&) {
     return std::tuple{8, 8, 0.0f};

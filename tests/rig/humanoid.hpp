@@ -2,8 +2,10 @@
 // A humanoid made in code: a torso (skinned to Hips), a head with a "jawOpen" shape (Head), and
 // arms of two bones each, saved with its arms `droop` degrees below the horizontal (0: T-pose,
 // 45: A-pose). Joints: 0 Hips, 1/2/3 left arm, forearm, hand, 4/5/6 the right ones, 7 Neck,
-// 8 Head; Mixamo's names unless the upper arms are named. Vertices: torso 0-7, head 8-15, left
-// arm 16-23, right arm 24-31.
+// 8 Head, 9 Spine, 10 Spine2 (the chest: neck and shoulders hang from it), 11/12 left and right
+// shoulders (the arms hang from them), 13/14 left thigh and shin, 15/16 the right ones (no
+// vertices); Mixamo's names unless the upper arms are named. Vertices: torso 0-7 (the top four on
+// the chest, the bottom four on the hips), head 8-15, left arm 16-23, right arm 24-31.
 #include "facecast/rig/rig.hpp"
 
 namespace facecast::test {

@@ -18,6 +18,7 @@
 #include "facecast/render/renderer.hpp"
 #include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/decode_limits.hpp"
+#include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "humanoid.hpp"
 #include "test_avatar_file.hpp"
@@ -301,6 +302,73 @@ TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig
   CHECK(std::system((facecast::test::facecast_exe().string() + " render --rig '" +
                      (dir / "tpose.glb").string() + "' --pose sit --out x.png 2>/dev/null")
                         .c_str()) != 0);
+}
+
+TEST_CASE("the idle body breathes, shrugs and leans in renders; a rig without a skeleton does not",
+          "[rig][render][body]") {
+  rig::Rig figure = test::humanoid(0);
+  rig::apply_rest_pose(figure);
+  render::RenderOptions o;
+  o.width = o.height = 160;
+  o.framing = render::Framing::kFull;
+  o.contexts = 1;
+  const render::Renderer renderer(figure, o);
+  const std::vector<float> neutral(figure.shapes.size(), 0.0f);
+  const auto draw = [&](float breath, float lean, float shrug) {
+    rig::BodyPose pose;
+    pose.breath = breath, pose.lean = lean, pose.shrug = shrug;
+    return renderer.render(neutral, pose);
+  };
+  const render::Image rest = draw(0, 0, 0);
+  const Extent at_rest = covered(rest);
+  // The lowest covered row within `columns` of the left or right edge of the figure (a hand).
+  const auto hand_bottom = [&](const render::Image& img, bool left) {
+    int bottom = -1;
+    for (int y = 0; y < img.height; ++y)
+      for (int i = 0; i < 6; ++i) {
+        const int x = left ? at_rest.x0 + i : at_rest.x1 - i;
+        int d = 0;
+        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(img.at(x, y, c) - img.at(0, 0, c)));
+        if (d > 6) bottom = y;
+      }
+    return bottom;
+  };
+  // The head's columns: the mean x of the covered pixels in the figure's top eighth.
+  const auto head_x = [&](const render::Image& img) {
+    double sum = 0;
+    int n = 0;
+    for (int y = at_rest.y0; y < at_rest.y0 + at_rest.height() / 8; ++y)
+      for (int x = 0; x < img.width; ++x) {
+        int d = 0;
+        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(img.at(x, y, c) - img.at(0, 0, c)));
+        if (d > 6) sum += x, ++n;
+      }
+    return n ? sum / n : -1.0;
+  };
+  const render::Image shrug = draw(0, 0, 1), breath = draw(1, 0, 0), lean = draw(0, 0.08f, 0);
+  INFO("hands' bottom rows at rest " << hand_bottom(rest, true) << "/" << hand_bottom(rest, false)
+                                     << ", shrugging " << hand_bottom(shrug, true) << "/"
+                                     << hand_bottom(shrug, false) << "; head x at rest "
+                                     << head_x(rest) << ", leaning " << head_x(lean));
+  // A shrug lifts both hands (rows count down the image) by at least a pixel.
+  CHECK(hand_bottom(shrug, true) < hand_bottom(rest, true));
+  CHECK(hand_bottom(shrug, false) < hand_bottom(rest, false));
+  // A breath turns the chest (its shading changes) and leaves the head where it was.
+  CHECK(breath.pixels != rest.pixels);
+  CHECK(head_x(breath) == Approx(head_x(rest)).margin(0.5));
+  // Leaning to the figure's left (+X) moves its head to the right of the image (seen from the
+  // front).
+  CHECK(head_x(lean) > head_x(rest) + 1.0);
+  // Without a skeleton the body's channels change nothing.
+  rig::Rig unskinned = figure;
+  unskinned.skeleton = {};
+  unskinned.joints.resize(0, 4);
+  unskinned.joint_weights.resize(0, 4);
+  const render::Renderer plain(unskinned, o);
+  rig::BodyPose body;
+  body.breath = body.shrug = 1;
+  body.lean = 0.08f;
+  CHECK(plain.render(neutral, body).pixels == plain.render(neutral).pixels);
 }
 
 TEST_CASE("VRM MToon materials are read, 1.0 and 0.x alike", "[rig][gltf][vrm]") {

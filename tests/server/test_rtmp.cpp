@@ -121,7 +121,7 @@ Sent collect(WsClient& c, const std::string& id) {
         s.fps = j["fps"];
         s.duration = j["duration"];
         s.rate = j["audio"]["sample_rate"];
-        s.per_frame = j["names"].size() + 3;
+        s.per_frame = j["names"].size() + j["extra"].size();
       }
       if (j["type"] == "stream_end" && j["id"] == id) return s;
       continue;

@@ -87,7 +87,8 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   CHECK(st["fps"] == 60.0);
   CHECK(st["rig"] == "default");
   CHECK(st["names"].get<std::vector<std::string>>() == facecast::avatar::avatar_shape_names());
-  CHECK(st["extra"] == nlohmann::json({"headYaw", "headPitch", "headRoll"}));
+  CHECK(st["extra"] ==
+        nlohmann::json({"headYaw", "headPitch", "headRoll", "breath", "lean", "shrug"}));
   const int frames = st["frames"];
   const double duration = st["duration"];
   CHECK(frames == static_cast<int>(std::ceil(duration * 60 - 1e-9)));
@@ -110,7 +111,7 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   const auto& names = facecast::avatar::avatar_shape_names();
   const auto jaw =
       static_cast<std::size_t>(std::find(names.begin(), names.end(), "jawOpen") - names.begin());
-  const std::size_t values = names.size() + 3;
+  const std::size_t values = names.size() + st["extra"].size();
   float max_jaw = 0;
   for (const auto& w : r.weights)
     for (std::size_t f = 0; f < w.header.count; ++f)
@@ -246,7 +247,7 @@ TEST_CASE("cancel fades the face to rest", "[ws][stream][cancel]") {
   CHECK(sent < total);
   check_weights(r, sent);
   // Smooth: no value jumps between consecutive frames; the last frame is at rest.
-  const std::size_t values = r.start["names"].size() + 3;
+  const std::size_t values = r.start["names"].size() + r.start["extra"].size();
   std::vector<float> all;
   for (const auto& w : r.weights) all.insert(all.end(), w.values.begin(), w.values.end());
   const std::size_t n = all.size() / values;

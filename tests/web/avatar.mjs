@@ -5,7 +5,8 @@
 // weights by name reach every mesh, VRM expressions drive their bound targets (also under a VRM 0.x
 // preset name), the JS client's applyWeights / applyExpressions do the same, the camera frames the
 // face (not the body), the T-posed arms hang down (web/pose.js, mirroring configs/rig/humanoid.json),
-// the head pose turns the head bone, and the page logs no errors. Both are
+// the head pose turns the head bone, the idle body leans and breathes (web/pose.js, mirroring
+// configs/rig/body.json), and the page logs no errors. Both are
 // imported through the server (POST /api/rigs) and loaded from what it serves back.
 
 import { readFileSync, writeFileSync } from 'node:fs';
@@ -213,11 +214,24 @@ await run('avatar', async () => {
           const d = at(`${side}ForeArm`).sub(at(`${side}Arm`)).normalize();
           return THREE.MathUtils.radToDeg(Math.atan2(Math.abs(d.x), -d.y));
         });
-        const { HUMANOID } = await import('/pose.js');
-        view.setHead(0.3, 0, 0);
+        const { HUMANOID, BODY } = await import('/pose.js');
+        const headRest = view.bones.head.quaternion.clone();
+        const headAt = at('Head');
+        view.setPose({ yaw: 0.3 });
         view.render(true);
-        const headTurned = view.bones ? view.bones.head.quaternion.angleTo(view.rest.head) : null;
-        return { armAngles, turned: view.restTurned.length, humanoid: HUMANOID, names: view.names, byName, byExpression, byVrm0Name, helper, helperExpression, vrm: !!view.vrm, targetY: target.y, headTurned };
+        const headTurned = view.bones.head.quaternion.angleTo(headRest);
+        // The idle body: leaning to the figure's left (+X) carries the head that way; a breath turns
+        // the chest (the Spine, which carries the neck).
+        view.setPose({ lean: 0.1, breath: 1 });
+        view.vrm?.update(0);
+        view.model.updateMatrixWorld(true);
+        const leanX = at('Head').x - headAt.x;
+        const chestTurned = view.body?.chest ? view.body.chest.quaternion.angleTo(view.body.rest.get(view.body.chest).local) : 0;
+        view.setPose({});
+        view.vrm?.update(0);
+        view.model.updateMatrixWorld(true);
+        const back = at('Head').distanceTo(headAt);
+        return { armAngles, turned: view.restTurned.length, humanoid: HUMANOID, body: BODY, names: view.names, byName, byExpression, byVrm0Name, helper, helperExpression, vrm: !!view.vrm, targetY: target.y, headTurned, leanX, chestTurned, back };
       },
       { url: urls[file] },
     );
@@ -230,7 +244,13 @@ await run('avatar', async () => {
       const table = JSON.parse(readFileSync(join(sourceDir, 'configs/rig/humanoid.json'), 'utf8'));
       const mirrored = { prefixes: table.prefixes, leftUpperArm: table.left_upper_arm, rightUpperArm: table.right_upper_arm, armAngleDeg: table.arm_angle_deg, minTurnDeg: table.min_turn_deg };
       check('web/pose.js mirrors configs/rig/humanoid.json', JSON.stringify(result.humanoid) === JSON.stringify(mirrored), JSON.stringify(result.humanoid));
+      const body = JSON.parse(readFileSync(join(sourceDir, 'configs/rig/body.json'), 'utf8'));
+      const bodyMirrored = { neckShare: body.neck_share, breathChestDeg: body.breath_chest_deg, breathShoulderDeg: body.breath_shoulder_deg, shrugDeg: body.shrug_deg, leanCounter: body.lean_counter };
+      check('web/pose.js mirrors configs/rig/body.json', JSON.stringify(result.body) === JSON.stringify(bodyMirrored), JSON.stringify(result.body));
     }
+    check(`${tag}: a lean to the figure's left carries the head to +X`, result.leanX > 0.005, result.leanX.toFixed(4));
+    check(`${tag}: the breath and the lean turn the chest`, result.chestTurned > 0.01, result.chestTurned.toFixed(4));
+    check(`${tag}: the pose at zero puts the head back`, result.back < 1e-4, result.back.toExponential(2));
     check(`${tag}: the head pose turns the head bone`, result.headTurned > 0.1, String(result.headTurned));
     check(`${tag}: facecast-client's applyWeights sets jawOpen on every mesh`, result.helper.filter((v) => v === 0.75).length === 2, JSON.stringify(result.helper));
     if (isVrm) {

@@ -34,7 +34,7 @@ export function tick() {
           const i = s.extra.indexOf(n);
           return i >= 0 ? r.extra[i] : 0;
         };
-        view.setHead(e('headYaw'), e('headPitch'), e('headRoll'));
+        view.setPose({ yaw: e('headYaw'), pitch: e('headPitch'), roll: e('headRoll'), breath: e('breath'), lean: e('lean'), shrug: e('shrug') });
       }
       state.history.push([r.t, mouth()]);
       if (state.history.length > 5000) state.history.splice(0, 1000);
@@ -51,9 +51,8 @@ export function tick() {
   if (state.restDecay && view.model) {
     view.scaleWeights(Math.exp(-dt / 0.08));
     const k = Math.exp(-dt / 0.2);
-    const h = view.headPose;
     const small = (v) => (Math.abs(v * k) < 1e-5 ? 0 : v * k);
-    view.setHead(small(h.yaw), small(h.pitch), small(h.roll));
+    view.setPose(Object.fromEntries(Object.entries(view.headPose).map(([name, v]) => [name, small(v)])));
     idleBlink(now);
   }
   if (view.model && output() === 'weights') view.render();

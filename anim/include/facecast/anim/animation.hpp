@@ -55,7 +55,12 @@ struct AnimOptions {
   double eye_motion = 0.12;         // peak eyeLook* weight of small saccades
   double head_motion = 0.035;       // peak head rotation (radians)
   double head_nod = 0.05;           // nod at each phrase's start (radians; accents 60 %, tilt 40 %)
-  uint32_t seed = 1;                // idle randomness
+  // Idle body (rig::BodyPose's breath, lean and shrug; 0 turns each off)
+  double breath_rate = 0.25;  // breaths per second at rest (speech breathes by its phrases)
+  double breath_depth = 1.0;  // peak of the breath channel
+  double body_lean = 0.02;    // peak weight shift (radians of the spine's lean)
+  double shrug = 0.4;         // the shoulders' rise at an accented word
+  uint32_t seed = 1;          // idle randomness
 };
 
 /// Reads configs/anim/animation.json; throws Error naming the field when invalid.

@@ -121,6 +121,7 @@ struct IdleLife {
   std::vector<double> blinks;  // when each blink starts closing
   std::vector<std::pair<double, std::array<float, 2>>> gazes;  // saccade targets (t, {x, y})
   std::array<double, 3> head_phase{};                          // of the yaw, pitch, roll sines
+  std::array<double, 2> body_phase{};                          // of the breath and the lean
   std::vector<Span> phrases;  // speech: the head moves more while it lasts, settles in pauses
   std::vector<Nod> nods;      // at each phrase's start and its accented words
 };
@@ -139,6 +140,16 @@ std::array<float, 2> gaze_at(const IdleLife& idle, double t);
 /// Head pose at t: slow sums of sines of amplitude head_motion (half of it outside the phrases:
 /// the head settles in pauses), faded in and out over 0.5 s, plus the nods.
 rig::BodyPose head_at(const IdleLife& idle, const AnimOptions& options, double t);
+
+/// The breath at t in [0, breath_depth]: at rest a cosine of breath_rate; with speech a breath
+/// in over the 0.45 s before each phrase, out through it (0.15 a second, to 0.2 at least), the
+/// level held in short pauses and back to the resting cycle within a second after the last
+/// phrase; faded in and out over 0.5 s at the ends.
+float breath_at(const IdleLife& idle, const AnimOptions& options, double t);
+
+/// The whole idle pose at t: head_at, the breath, a slow weight shift (two sines of peak
+/// body_lean, faded at the ends) and a shrug of `shrug` over 0.6 s at each accented word.
+rig::BodyPose body_at(const IdleLife& idle, const AnimOptions& options, double t);
 
 // ---- 5. Mixing (in Performance::sample). ------------------------------------------------------
 

@@ -27,7 +27,8 @@ const BodyOptions& body_options();
 /// The joints a BodyPose turns, -1 where the skeleton has none. The VRM humanoid names them where
 /// the file has one; otherwise they are found from the head down: the chest carries the neck, the
 /// spine runs from the hips (the first joint below the chest that another limb branches from) up
-/// to the chest, a shoulder carries an upper arm (rest_pose.hpp finds those).
+/// to the chest, a shoulder carries an upper arm (rest_pose.hpp finds those). A chest that would
+/// be the skeleton's root is none: then only the head and neck turn.
 struct BodyJoints {
   int head = -1, neck = -1, chest = -1;
   std::vector<int> spine;                               // lowest first; empty: the chest leans
