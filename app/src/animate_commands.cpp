@@ -41,7 +41,7 @@ void add_speech_options(CLI::App* cmd, SpeechArgs& a) {
   cmd->add_option("--rate", a.rate, "Duration-model speech rate, syllables per second")
       ->check(CLI::Range(0.5, 20.0));
   cmd->add_option("--voice", a.voice, "espeak-ng voice for English (default en-us)");
-  cmd->add_option("--idle", a.idle, "Blinks and small head/eye motion: on or off")
+  cmd->add_option("--idle", a.idle, "Blinks, small eye and head motion, breathing: on or off")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_option("--fap", a.fap,
