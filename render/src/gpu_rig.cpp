@@ -270,6 +270,7 @@ void pack_body(const Rig& rig, PackedRig& p) {
         continue;
       }
       for (int k = 0; k < used; ++k) w[k] /= total;
+      b.influences = std::max(b.influences, used);
     }
     return;
   }

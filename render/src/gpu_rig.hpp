@@ -78,6 +78,7 @@ struct BodySkin {
   rig::BodyJoints joints;
   std::vector<int> group_joint;  // palette entry -> joint; entry 0 (and 1 unskinned): -1
   int head_group = 1;            // the head's entry
+  int influences = 1;            // the most entries any vertex blends (1-4)
   Eigen::Vector3f pivot{0, 0, 0};
 };
 

@@ -109,6 +109,7 @@ struct Slot {
       detail::ProgramVariant v;
       v.alpha_mask = m.alpha_mode == rig::AlphaMode::kMask;
       v.fast_srgb = o.fast_srgb;
+      v.influences = p.body.influences;
       v.occlusion_source = m.occlusion;
       for (int slot = 0; slot < detail::kSlotCount; ++slot)
         if (m.texture[slot] >= 0) {

@@ -28,8 +28,19 @@ out vec2 v_uv;
 out vec4 v_tan;
 void main() {
   // a_pos and a_nrm are the blended mesh (renderer.cpp blends the shapes on the CPU).
-  mat4 m = a_weights.x * u_palette[int(a_groups.x)] + a_weights.y * u_palette[int(a_groups.y)] +
-           a_weights.z * u_palette[int(a_groups.z)] + a_weights.w * u_palette[int(a_groups.w)];
+  // INFLUENCES: the most palette entries any vertex of the rig uses (llvmpipe pays for each
+  // indexed matrix on every vertex).
+#if INFLUENCES == 1
+  mat4 m = u_palette[int(a_groups.x)];
+#else
+  mat4 m = a_weights.x * u_palette[int(a_groups.x)] + a_weights.y * u_palette[int(a_groups.y)];
+#if INFLUENCES > 2
+  m += a_weights.z * u_palette[int(a_groups.z)];
+#endif
+#if INFLUENCES > 3
+  m += a_weights.w * u_palette[int(a_groups.w)];
+#endif
+#endif
   vec4 world = m * vec4(a_pos, 1.0);
   v_pos = world.xyz;
   v_nrm = mat3(m) * a_nrm;
@@ -258,7 +269,8 @@ GLuint link_program(const ProgramVariant& v) {
            << "\n#define UV_TRANSFORM " << v.uv_transform << "\n#define OCCLUSION_SOURCE "
            << v.occlusion_source << "\n#define FAST_SRGB " << v.fast_srgb << "\n"
            << kFragmentShader;
-  return link(kVertexShader, fragment.str().c_str(), "avatar");
+  const std::string vertex = "#define INFLUENCES " + std::to_string(v.influences) + "\n" + kVertexShader;
+  return link(vertex.c_str(), fragment.str().c_str(), "avatar");
 }
 
 GLuint link_background_program() {

@@ -21,6 +21,7 @@ struct ProgramVariant {
   bool uv_transform = false;
   int occlusion_source = 0;  // where the material's occlusion is read (an OcclusionSource)
   bool fast_srgb = false;    // RenderOptions::fast_srgb
+  int influences = 1;        // the most body palette entries a vertex blends (BodySkin, 1-4)
   bool operator==(const ProgramVariant&) const = default;
 };
 
