@@ -167,7 +167,7 @@ JointTurns body_turns(const BodyJoints& b, const Skeleton& s, const BodyPose& po
   const Eigen::Vector3f centre = s.rest_origin[static_cast<std::size_t>(b.chest)];
   for (int side = 0; side < 2; ++side) {
     const int sh = b.shoulder[side];
-    if (sh < 0 || raise == 0) continue;
+    if (sh < 0) continue;
     const int tip = b.upper_arm[side] >= 0 ? b.upper_arm[side] : sh;
     const float dx = s.rest_origin[static_cast<std::size_t>(tip)].x() - centre.x();
     const float sign = dx != 0 ? (dx > 0 ? 1.0f : -1.0f) : (side == 0 ? f : -f);

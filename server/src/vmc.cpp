@@ -7,6 +7,7 @@
 
 #include "facecast/anim/live_link.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/rig/body.hpp"
 #include "facecast/rig/vrm_names.hpp"
 
 namespace facecast::server {
@@ -42,6 +43,34 @@ VmcTarget parse_vmc_target(std::string_view text, std::string_view field) {
   if (t.host.empty() || t.host.size() > 253) throw bad("has no host");
   return t;
 }
+
+namespace {
+
+// A humanoid in Unity's bone names, standing with its arms down, its bones unturned at rest: the
+// bones VMC carries for the body. Its upper arms are left out: a receiver's arms at rest are not
+// unturned (T-pose), so a shrug raises the shoulders with the arms on them.
+struct VmcBody {
+  rig::Skeleton skeleton;
+  rig::BodyJoints joints;
+};
+
+const VmcBody& vmc_body() {
+  static const VmcBody body = [] {
+    VmcBody b;
+    rig::Skeleton& s = b.skeleton;
+    s.joint_names = {"Hips", "Spine", "Chest", "Neck", "Head", "LeftShoulder", "RightShoulder"};
+    s.parent = {-1, 0, 1, 2, 3, 2, 2};
+    s.rest_origin = {{0, 1.0f, 0}, {0, 1.1f, 0},      {0, 1.3f, 0},      {0, 1.5f, 0},
+                     {0, 1.6f, 0}, {0.05f, 1.45f, 0}, {-0.05f, 1.45f, 0}};
+    s.humanoid = {{"hips", 0}, {"spine", 1},        {"chest", 2},        {"neck", 3},
+                  {"head", 4}, {"leftShoulder", 5}, {"rightShoulder", 6}};
+    b.joints = rig::find_body_joints(s);
+    return b;
+  }();
+  return body;
+}
+
+}  // namespace
 
 struct VmcSender::Impl {
   lo_address address = nullptr;
@@ -79,17 +108,13 @@ void VmcSender::send(std::span<const std::string> shapes, std::span<const float>
     add("/VMC/Ext/Blend/Val", m);
   }
   add("/VMC/Ext/Blend/Apply", lo_message_new());
-  // Yaw about +Y, pitch about +X, roll about +Z (rig/motion.hpp), in Unity's left-handed axes
-  // (z mirrored: the rotation's x and y components change sign). The neck takes a third of the
-  // turn, the head the rest, as the renderer shares it.
-  const Eigen::Quaternionf q = Eigen::AngleAxisf(head.yaw, Eigen::Vector3f::UnitY()) *
-                               Eigen::AngleAxisf(head.pitch, Eigen::Vector3f::UnitX()) *
-                               Eigen::AngleAxisf(head.roll, Eigen::Vector3f::UnitZ());
-  const Eigen::Quaternionf neck = Eigen::Quaternionf::Identity().slerp(1.0f / 3.0f, q);
-  const Eigen::Quaternionf rest = neck.conjugate() * q;
-  for (const auto& [bone, r] : {std::pair{"Neck", neck}, std::pair{"Head", rest}}) {
+  // The head and the idle body as the renderer turns them (rig::body_turns), on a humanoid
+  // whose bones rest unturned, as a receiver's normalized humanoid does; in Unity's left-handed
+  // axes (z mirrored: a rotation's x and y components change sign).
+  for (const auto& [joint, r] : rig::body_turns(vmc_body().joints, vmc_body().skeleton, head)) {
     lo_message m = lo_message_new();
-    lo_message_add_string(m, bone);
+    lo_message_add_string(m,
+                          vmc_body().skeleton.joint_names[static_cast<std::size_t>(joint)].c_str());
     for (int k = 0; k < 3; ++k) lo_message_add_float(m, 0.0f);
     lo_message_add_float(m, -r.x());
     lo_message_add_float(m, -r.y());

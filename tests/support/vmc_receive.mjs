@@ -1,8 +1,8 @@
 // An independent VMC receiver (the npm `osc` package): binds a UDP port, runs COMMAND with "{port}"
 // replaced by it, and checks what arrives -- one OSC bundle per frame in real time (arrival times
-// against the bundles' /VMC/Ext/T), every shape then Apply, the head and neck bones, OK, and a jaw
-// that opens and closes.
-// Usage: node vmc_receive.mjs NAMES(perfect-sync|vrm0|vrm1) JAW_SHAPE -- COMMAND...
+// against the bundles' /VMC/Ext/T), every shape then Apply, the head and neck bones, the idle body's
+// (Spine, Chest, shoulders; the chest turns as it breathes), OK, and a jaw that opens and closes.
+// Usage: [VMC_IDLE=off] node vmc_receive.mjs NAMES(perfect-sync|vrm0|vrm1) JAW_SHAPE -- COMMAND...
 import { spawn } from "node:child_process";
 import osc from "osc";
 
@@ -29,7 +29,7 @@ function check(code) {
   port.close();
   if (code !== 0) fail(`${command[0]} exited ${code}`);
   if (bundles.length < 20) fail(`only ${bundles.length} bundles`);
-  const jawValues = [], times = [];
+  const jawValues = [], times = [], chestAngles = [];
   for (const b of bundles) {
     const addresses = b.packets.map((p) => p.address);
     const vals = b.packets.filter((p) => p.address === "/VMC/Ext/Blend/Val");
@@ -38,6 +38,10 @@ function check(code) {
     if (names === "perfect-sync" && vals.length < 52) fail(`${vals.length} shapes, not 52`);
     const bones = b.packets.filter((p) => p.address === "/VMC/Ext/Bone/Pos").map((p) => p.args[0].value);
     if (!bones.includes("Head") || !bones.includes("Neck")) fail("no Head/Neck bone");
+    for (const b of ["Spine", "Chest", "LeftShoulder", "RightShoulder"])
+      if (!bones.includes(b)) fail(`no ${b} bone (the idle body)`);
+    const chest = b.packets.find((p) => p.address === "/VMC/Ext/Bone/Pos" && p.args[0].value === "Chest");
+    chestAngles.push(2 * Math.acos(Math.min(1, Math.abs(chest.args[7].value))));
     if (!addresses.includes("/VMC/Ext/OK")) fail("no /VMC/Ext/OK");
     const t = b.packets.find((p) => p.address === "/VMC/Ext/T");
     if (!t) fail("no /VMC/Ext/T");
@@ -46,6 +50,11 @@ function check(code) {
     if (!j) fail(`no ${jaw} in the bundle: ${vals.map((p) => p.args[0].value).join(" ")}`);
     jawValues.push(j.args[1].value);
   }
+  // The chest breathes (and leans): it turns by a tenth of a degree or more at some point (unless
+  // the command ran with --idle off: VMC_IDLE=off).
+  const chestPeak = Math.max(...chestAngles) * 180 / Math.PI;
+  if (process.env.VMC_IDLE !== "off" && !(chestPeak > 0.1))
+    fail(`the Chest bone never turns: ${chestPeak.toFixed(3)} degrees`);
   const peak = Math.max(...jawValues);
   if (!(peak > 0.2)) fail(`${jaw} never opens: ${peak}`);
   if (!(jawValues[jawValues.length - 1] < 0.05)) fail(`${jaw} does not close at the end`);

@@ -1,8 +1,9 @@
 #pragma once
 // VMC out: blendshape weights and the head to desktop VTuber apps (VSeeFace, Warudo, VNyan,
 // VMagicMirror) over the VMC protocol -- OSC over UDP (liblo), one bundle per frame:
-// /VMC/Ext/Blend/Val (name, value) for every shape, /VMC/Ext/Blend/Apply, the head and neck as
-// /VMC/Ext/Bone/Pos (name, position, rotation quaternion in Unity's left-handed axes),
+// /VMC/Ext/Blend/Val (name, value) for every shape, /VMC/Ext/Blend/Apply, the head, neck and idle
+// body (Spine, Chest, LeftShoulder, RightShoulder: rig::body_turns) as /VMC/Ext/Bone/Pos (name,
+// position, local rotation quaternion in Unity's left-handed axes),
 // /VMC/Ext/OK (1) and /VMC/Ext/T (seconds). Receivers take it on port 39539 by default.
 #include <memory>
 #include <span>
