@@ -13,6 +13,8 @@
 namespace facecast::rig::detail {
 
 /// World transforms of every node (identity for nodes in no scene) and each node's parent (-1).
+/// The nodes' world transforms in the rig's frame: as the file has them, except that a VRM 0.x
+/// figure (which faces -Z) is turned half about +Y to face +Z as every other avatar does.
 struct NodeGraph {
   std::vector<Eigen::Matrix4f> world;
   std::vector<int> parent;

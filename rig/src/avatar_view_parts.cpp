@@ -115,13 +115,17 @@ NodeGraph node_graph(const tinygltf::Model& m, const std::string& what) {
     for (std::size_t i = 0; i < n; ++i)
       if (g.parent[i] < 0) roots.push_back(static_cast<int>(i));
   }
+  // A VRM 0.x figure faces -Z (UniVRM's export): turned half about +Y, x and z negated.
+  Eigen::Matrix4f root = Eigen::Matrix4f::Identity();
+  if (m.extensions.count("VRMC_vrm") == 0 && m.extensions.count("VRM") != 0)
+    root.diagonal() << -1, 1, -1, 1;
   std::vector<char> seen(n, 0);
   std::vector<std::pair<int, Eigen::Matrix4f>> stack;
   for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
     if (*it < 0 || static_cast<std::size_t>(*it) >= n ||
         g.parent[static_cast<std::size_t>(*it)] >= 0)
       throw Error(what + ": scene root " + std::to_string(*it) + " is not a root node");
-    stack.emplace_back(*it, Eigen::Matrix4f::Identity());
+    stack.emplace_back(*it, root);
   }
   while (!stack.empty()) {
     const auto [i, parent_world] = stack.back();
@@ -138,8 +142,7 @@ NodeGraph node_graph(const tinygltf::Model& m, const std::string& what) {
   // Nodes under a root that no scene lists are still placed (skins may name them).
   for (std::size_t i = 0; i < n; ++i) {
     if (seen[i] || g.parent[i] >= 0) continue;
-    std::vector<std::pair<int, Eigen::Matrix4f>> rest{
-        {static_cast<int>(i), Eigen::Matrix4f::Identity()}};
+    std::vector<std::pair<int, Eigen::Matrix4f>> rest{{static_cast<int>(i), root}};
     while (!rest.empty()) {
       const auto [k, pw] = rest.back();
       rest.pop_back();

@@ -91,7 +91,6 @@ std::vector<int> BodyJoints::all() const {
 
 BodyJoints find_body_joints(const Skeleton& s) {
   BodyJoints b;
-  b.facing = s.vrm0 ? -1.0f : 1.0f;
   if (s.parent.size() != s.joint_names.size() || s.rest_origin.size() != s.parent.size()) return b;
   b.head = humanoid_joint(s, "head");
   if (b.head < 0) return b;
@@ -133,11 +132,9 @@ JointTurns body_turns(const BodyJoints& b, const Skeleton& s, const BodyPose& po
   };
   const Eigen::Vector3f x = Eigen::Vector3f::UnitX(), y = Eigen::Vector3f::UnitY(),
                         z = Eigen::Vector3f::UnitZ();
-  const float f = b.facing;  // a figure facing -Z: pitch and roll turn the other way
   // The head's rotation (yaw, then pitch, then roll), shared by the neck and the head.
   const auto head_turn = [&](float share) {
-    return about(z, f * share * pose.roll) * about(x, f * share * pose.pitch) *
-           about(y, share * pose.yaw);
+    return about(z, share * pose.roll) * about(x, share * pose.pitch) * about(y, share * pose.yaw);
   };
   if (b.neck >= 0) {
     add(b.neck, head_turn(o.neck_share));
@@ -149,19 +146,18 @@ JointTurns body_turns(const BodyJoints& b, const Skeleton& s, const BodyPose& po
   const int top = b.neck >= 0 ? b.neck : b.head;
   // Breath: the chest pitched back, the neck keeping the head's direction.
   const float chest = pose.breath * o.breath_chest_deg * kDegree;
-  add(b.chest, about(x, -f * chest));
-  add(top, about(x, f * chest));
-  // Lean (+: to the figure's left, a turn about -Z for a figure facing +Z), spread over the spine;
+  add(b.chest, about(x, -chest));
+  add(top, about(x, chest));
+  // Lean (+: to the figure's left, +X: a turn about -Z), spread over the spine;
   // the chest (or, leaning itself, the neck) turns part of it back.
   if (!b.spine.empty()) {
-    for (const int j : b.spine)
-      add(j, about(z, -f * pose.lean / static_cast<float>(b.spine.size())));
-    add(b.chest, about(z, f * o.lean_counter * pose.lean));
+    for (const int j : b.spine) add(j, about(z, -pose.lean / static_cast<float>(b.spine.size())));
+    add(b.chest, about(z, o.lean_counter * pose.lean));
   } else {
-    add(b.chest, about(z, -f * pose.lean));
-    add(top, about(z, f * o.lean_counter * pose.lean));
+    add(b.chest, about(z, -pose.lean));
+    add(top, about(z, o.lean_counter * pose.lean));
   }
-  // Shoulders raised (each toward its own side, whichever way the figure faces), the upper arms
+  // Shoulders raised (each toward its own side), the upper arms
   // turned back so that the arms rise without swinging out.
   const float raise = (pose.breath * o.breath_shoulder_deg + pose.shrug * o.shrug_deg) * kDegree;
   const Eigen::Vector3f centre = s.rest_origin[static_cast<std::size_t>(b.chest)];
@@ -170,7 +166,7 @@ JointTurns body_turns(const BodyJoints& b, const Skeleton& s, const BodyPose& po
     if (sh < 0) continue;
     const int tip = b.upper_arm[side] >= 0 ? b.upper_arm[side] : sh;
     const float dx = s.rest_origin[static_cast<std::size_t>(tip)].x() - centre.x();
-    const float sign = dx != 0 ? (dx > 0 ? 1.0f : -1.0f) : (side == 0 ? f : -f);
+    const float sign = dx != 0 ? (dx > 0 ? 1.0f : -1.0f) : (side == 0 ? 1.0f : -1.0f);
     add(sh, about(z, sign * raise));
     if (b.upper_arm[side] >= 0) add(b.upper_arm[side], about(z, -sign * raise));
   }

@@ -190,10 +190,8 @@ PoseReport apply_pose_file(Rig& rig, const Pose& pose) {
     if (joint < 0)
       throw Error(pose.source + ": " + b.bone + ": the avatar has no such bone (a VRM humanoid " +
                   "bone name or one of its joints' names)");
-    // The file is in the VRM 1.0 frame (facing +z); a VRM 0.x figure faces -z: turned half
-    // about y, (x, y, z, w) -> (-x, y, -z, w).
-    Eigen::Quaternionf q = b.rotation;
-    if (s.vrm0) q = Eigen::Quaternionf(q.w(), -q.x(), q.y(), -q.z());
+    // The file is in the VRM 1.0 frame, the rig's own (a VRM 0.x figure was turned to face +Z).
+    const Eigen::Quaternionf q = b.rotation;
     turns.emplace_back(joint, q);
     report.turned.emplace_back(s.joint_names[static_cast<std::size_t>(joint)], degrees(q));
   }

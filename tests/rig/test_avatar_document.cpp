@@ -253,3 +253,44 @@ TEST_CASE("glb_bytes writes textures, PBR materials and the skeleton, one mesh p
   CHECK((back.joint_weights - rig.joint_weights).cwiseAbs().maxCoeff() < 1e-6f);
   CHECK(back.joints == rig.joints);
 }
+
+TEST_CASE("a VRM 0.x figure, facing -Z in its file, is read facing +Z; shapes go back turned back",
+          "[rig][gltf][vrm]") {
+  const AvatarView plain = make_view(AvatarDocument::parse(test::test_avatar_glb(), "base.glb"));
+  AvatarDocument doc = AvatarDocument::parse(test::test_avatar_glb(), "old.vrm");
+  tinygltf::Value::Object vrm;
+  vrm["specVersion"] = tinygltf::Value(std::string("0.0"));
+  doc.model().extensions["VRM"] = tinygltf::Value(vrm);
+  doc.model().extensionsUsed.push_back("VRM");
+  const AvatarView view = make_view(doc);
+  // The same file read as VRM 0.x is the figure turned half about +Y: x and z negated.
+  const Eigen::DiagonalMatrix<float, 3> half(-1, 1, -1);
+  const Positions turned = plain.rig.positions * half;
+  CHECK((view.rig.positions - turned).cwiseAbs().maxCoeff() < 1e-5f);
+  CHECK((view.rig.normals - plain.rig.normals * half).cwiseAbs().maxCoeff() < 1e-5f);
+  REQUIRE(view.rig.skeleton.rest_origin.size() == plain.rig.skeleton.rest_origin.size());
+  for (std::size_t j = 0; j < plain.rig.skeleton.rest_origin.size(); ++j)
+    CHECK((view.rig.skeleton.rest_origin[j] - half * plain.rig.skeleton.rest_origin[j]).norm() <
+          1e-5f);
+  // A shape moving a vertex along +X in the rig is stored along -X in the file, and read back.
+  Rig rig = view.rig;
+  const int nv = rig.vertex_count();
+  Positions smile = Positions::Zero(nv, 3);
+  const int v = part_of(view, "Head").first_vertex + 3;
+  smile(v, 0) = 0.01f;
+  rig.shapes.push_back(Blendshape::from_dense("mouthSmileLeft", smile));
+  write_back(doc, view, rig);
+  const fs::path out = work_dir() / "old_written_back.vrm";
+  doc.write_glb(out);
+  const AvatarDocument again = AvatarDocument::read(out);
+  const Rig back = make_view(again).rig;
+  const auto& b = back.shapes[static_cast<std::size_t>(back.find_shape("mouthSmileLeft"))];
+  CHECK((b.dense(nv) - smile).cwiseAbs().maxCoeff() < 1e-6f);
+  // In the file's own axes (read without its VRM extension) the delta points along -X.
+  AvatarDocument file = AvatarDocument::read(out);
+  file.model().extensions.erase("VRM");
+  std::erase(file.model().extensionsUsed, std::string("VRM"));
+  const Rig unturned = make_view(file).rig;
+  const auto& u = unturned.shapes[static_cast<std::size_t>(unturned.find_shape("mouthSmileLeft"))];
+  CHECK(u.dense(nv)(v, 0) == Approx(-0.01f));
+}

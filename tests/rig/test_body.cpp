@@ -48,9 +48,8 @@ TEST_CASE("the body's joints are found from the head down, or by the VRM humanoi
   CHECK(b.shoulder[1] == 12);
   CHECK(b.upper_arm[0] == 1);
   CHECK(b.upper_arm[1] == 4);
-  CHECK(b.facing == 1);
 
-  SECTION("by the VRM humanoid, whatever the names; a VRM 0.x figure faces -Z") {
+  SECTION("by the VRM humanoid, whatever the names") {
     Rig vrm = facecast::test::humanoid(0, "Bone.003", "Bone.007");
     Skeleton& s = vrm.skeleton;
     for (auto& n : s.joint_names) n = "Bone." + std::to_string(&n - &s.joint_names[0]);
@@ -58,13 +57,11 @@ TEST_CASE("the body's joints are found from the head down, or by the VRM humanoi
     s.humanoid = {{"hips", 0},           {"spine", 9},        {"chest", 10},
                   {"neck", 7},           {"head", 8},         {"leftShoulder", 11},
                   {"rightShoulder", 12}, {"leftUpperArm", 1}, {"rightUpperArm", 4}};
-    s.vrm0 = true;
     const BodyJoints v = find_body_joints(s);
     CHECK(v.head == 8);
     CHECK(v.chest == 10);
     CHECK(v.spine == std::vector<int>{9});
     CHECK(v.shoulder[1] == 12);
-    CHECK(v.facing == -1);
   }
   SECTION("a skeleton without a head, or whose chest would be its root, turns no body") {
     Skeleton headless = mixamo.skeleton;
@@ -121,10 +118,6 @@ TEST_CASE("breath, shrug, lean and the head's turn move the figure as a body wou
     CHECK(h1.x() - h0.x() > 0.01f);  // +X: the figure's left (it faces +Z)
     CHECK(angle_deg(m[head].linear()) ==
           Approx((1 - body_options().lean_counter) * 0.05f / kDeg).margin(0.05));
-    // A figure facing -Z (VRM 0.x) leans to its own left: -X.
-    Posed back(facecast::test::humanoid(0));
-    back.joints.facing = -1;
-    CHECK(back.at(lean, head).x() < h0.x() - 0.01f);
   }
   SECTION("the head's turn is shared by the neck and the head") {
     BodyPose turn;

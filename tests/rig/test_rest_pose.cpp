@@ -113,22 +113,21 @@ TEST_CASE("a pose file turns the bones it names", "[rig][pose]") {
   CHECK(posed.skeleton.rest_origin[3].isApprox(rest.skeleton.rest_origin[3], 1e-4f));
   CHECK(posed.positions.topRows(16) == t_pose.positions.topRows(16));  // torso and head stay
 
-  SECTION("a VRM 0.x figure faces -z: the file's turn is mirrored into its axes") {
+  SECTION("a VRM 0.x figure (turned to face +Z when read) turns as any other") {
     Rig vrm0 = t_pose;
     vrm0.skeleton.vrm0 = true;
     vrm0.skeleton.humanoid = {{"leftUpperArm", 1}, {"rightUpperArm", 4}};
-    const Pose nod =
-        parse_pose(write("nod.json", "{\"leftUpperArm\": {\"euler_deg\": [0, 0, 30]}}"), "--pose");
+    const Pose raise = parse_pose(
+        write("raise.json", "{\"leftUpperArm\": {\"euler_deg\": [0, 0, 30]}}"), "--pose");
     Rig a = t_pose, b = vrm0;
-    (void)apply_pose(a, nod);
-    (void)apply_pose(b, nod);
-    // 30 degrees about z in the file's frame is -30 about z in the VRM 0.x file's axes: the
-    // same arm goes up in one and down in the other.
+    (void)apply_pose(a, raise);
+    (void)apply_pose(b, raise);
+    // 30 degrees about +Z raises the figure's left arm (+X) above the shoulder.
     const auto rise = [](const Rig& r) {
       return r.skeleton.rest_origin[3].y() - r.skeleton.rest_origin[1].y();
     };
     CHECK(rise(a) > 0.1f);
-    CHECK(rise(b) == Approx(-rise(a)).margin(1e-5));
+    CHECK(rise(b) == Approx(rise(a)).margin(1e-5));
   }
   SECTION("bad files get one line naming the file and the field") {
     CHECK_THROWS_WITH(

@@ -33,7 +33,6 @@ struct BodyJoints {
   int head = -1, neck = -1, chest = -1;
   std::vector<int> spine;                               // lowest first; empty: the chest leans
   int shoulder[2] = {-1, -1}, upper_arm[2] = {-1, -1};  // left, right (of the figure)
-  float facing = 1;  // +1: the figure faces +Z; -1: -Z (a VRM 0.x file)
 
   /// Every joint above, once.
   std::vector<int> all() const;

@@ -15,8 +15,8 @@
 
 namespace facecast::rig {
 
-/// One bone of a pose: its turn about its joint, in the avatar file's axes (for a VRM 0.x file,
-/// already turned from the VRM 1.0 frame the pose file is written in).
+/// One bone of a pose: its turn about its joint, in the rig's axes (the figure faces +Z, as in
+/// the VRM 1.0 frame pose files are written in; a VRM 0.x figure is turned to face +Z when read).
 struct BoneTurn {
   std::string bone;
   Eigen::Quaternionf rotation = Eigen::Quaternionf::Identity();

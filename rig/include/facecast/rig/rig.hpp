@@ -95,7 +95,7 @@ struct Skeleton {
   int head = -1;                             // the head joint, or -1
   int neck = -1;                             // the neck joint, or -1
   // The VRM humanoid's bones (VRM 1.0 names: "leftUpperArm" ...) and their joints, when the file
-  // has them; `vrm0`: a VRM 0.x file, whose figure faces -z (see rest_pose.hpp).
+  // has them; `vrm0`: a VRM 0.x file (its figure, facing -Z in the file, was turned to face +Z).
   std::vector<std::pair<std::string, int>> humanoid;
   bool vrm0 = false;
   /// The joint of a humanoid bone, or -1.
