@@ -141,7 +141,7 @@ export class AvatarView extends Viewport {
     this.model = null;
     this.vrm = null;
     this.morphs = null;
-    this.headPose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
+    this.pose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
     this.clock = new THREE.Clock();
     this.observeSize();
   }
@@ -199,7 +199,7 @@ export class AvatarView extends Viewport {
     const force = new URLSearchParams(window.location.search).get('morph');
     const cpu = force === 'cpu' || (force !== 'gpu' && this.software);
     this.morphs = new MorphBinding(model, vrm, { cpu });
-    this.headPose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
+    this.pose = { yaw: 0, pitch: 0, roll: 0, breath: 0, lean: 0, shrug: 0 };
     this.box = box;
     this.userMoved = false;
     this.frame(box);
@@ -252,9 +252,9 @@ export class AvatarView extends Viewport {
    */
   setPose({ yaw = 0, pitch = 0, roll = 0, breath = 0, lean = 0, shrug = 0 }) {
     const pose = { yaw, pitch, roll, breath, lean, shrug };
-    const h = this.headPose;
+    const h = this.pose;
     if (Object.keys(pose).every((k) => h[k] === pose[k])) return;
-    this.headPose = pose;
+    this.pose = pose;
     if (this.body) setBodyPose(this.body, pose);
     else this.pivot.rotation.set(pitch, yaw, roll, 'ZXY');
     this.dirty = true;

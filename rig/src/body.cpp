@@ -21,7 +21,7 @@ int parent_of(const Skeleton& s, int j) {
              : -1;
 }
 
-// Joints below j, at most `limit` levels counted (a leg is three: thigh, shin, foot).
+// How many levels of joints hang below j, counted up to `limit`.
 int depth_below(const std::vector<std::vector<int>>& children, int j, int limit) {
   if (limit == 0) return 0;
   int deepest = 0;

@@ -14,9 +14,12 @@ OutQueue::Pushed OutQueue::push(OutMessage message) {
     const auto victim = std::find_if(from, queue_.end(), [&](const OutMessage& m) {
       return m.kind == OutKind::kWeights && m.stream == message.stream;
     });
-    if (victim == queue_.end()) return Pushed{false, message.frames};
-    pushed.dropped_frames = victim->frames;
-    remove(victim);
+    // None waiting (the write in flight holds them all): this one waits beyond the limit, and the
+    // stream's next replaces it, so the newest frames still go out.
+    if (victim != queue_.end()) {
+      pushed.dropped_frames = victim->frames;
+      remove(victim);
+    }
   }
   media_ += message.media();
   queue_.push_back(std::move(message));

@@ -5,8 +5,9 @@
 // docs/algorithms.md#stream-pacing):
 //
 //   when `media_limit` media messages are waiting, a new weights message replaces the oldest
-//   queued weights message of its stream (never one being written), or is dropped itself
-//   when there is none. Control messages, audio and JPEG frames are never dropped here.
+//   queued weights message of its stream (never one being written); when there is none it
+//   waits beyond the limit (one per stream at most: the stream's next replaces it), so the
+//   newest frames always go out. Control messages, audio and JPEG frames are never dropped here.
 #include <atomic>
 #include <cstdint>
 #include <deque>
@@ -47,8 +48,7 @@ class OutQueue {
   bool media_full() const noexcept { return media_ >= limit_; }
 
   struct Pushed {
-    bool queued = true;                // false: `message` itself was dropped
-    std::uint32_t dropped_frames = 0;  // of `message` or of the older weights message it replaced
+    std::uint32_t dropped_frames = 0;  // of the older weights message it replaced
   };
   /// Appends `message`, applying the drop-oldest rule to weights.
   Pushed push(OutMessage message);

@@ -78,5 +78,5 @@ window.__facecast = {
   },
   log: state.log,
   expressions: EXPRESSIONS,
-  headRotation: () => ({ x: view.headPose.pitch, y: view.headPose.yaw, z: view.headPose.roll }),
+  headRotation: () => ({ x: view.pose.pitch, y: view.pose.yaw, z: view.pose.roll }),
 };

@@ -52,7 +52,7 @@ export function tick() {
     view.scaleWeights(Math.exp(-dt / 0.08));
     const k = Math.exp(-dt / 0.2);
     const small = (v) => (Math.abs(v * k) < 1e-5 ? 0 : v * k);
-    view.setPose(Object.fromEntries(Object.entries(view.headPose).map(([name, v]) => [name, small(v)])));
+    view.setPose(Object.fromEntries(Object.entries(view.pose).map(([name, v]) => [name, small(v)])));
     idleBlink(now);
   }
   if (view.model && output() === 'weights') view.render();
