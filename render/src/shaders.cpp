@@ -269,7 +269,8 @@ GLuint link_program(const ProgramVariant& v) {
            << "\n#define UV_TRANSFORM " << v.uv_transform << "\n#define OCCLUSION_SOURCE "
            << v.occlusion_source << "\n#define FAST_SRGB " << v.fast_srgb << "\n"
            << kFragmentShader;
-  const std::string vertex = "#define INFLUENCES " + std::to_string(v.influences) + "\n" + kVertexShader;
+  const std::string vertex =
+      "#define INFLUENCES " + std::to_string(v.influences) + "\n" + kVertexShader;
   return link(vertex.c_str(), fragment.str().c_str(), "avatar");
 }
 
