@@ -178,6 +178,7 @@ std::string to_json(const WeightTrack& track) {
   j["shapes"] = track.shapes;
   auto& w = j["weights"] = nlohmann::json::array();
   auto& h = j["head"] = nlohmann::json::array();
+  auto& b = j["body"] = nlohmann::json::array();
   for (int f = 0; f < track.frames; ++f) {
     const auto row = track.frame(f);
     nlohmann::json r = nlohmann::json::array();
@@ -185,6 +186,7 @@ std::string to_json(const WeightTrack& track) {
     w.push_back(std::move(r));
     const auto& p = track.head[f];
     h.push_back({p.yaw, p.pitch, p.roll});
+    b.push_back({p.breath, p.lean, p.shrug});
   }
   return j.dump();
 }

@@ -439,6 +439,10 @@ TEST_CASE("the body breathes by the phrases, shrugs at accents and shifts its we
   // A shrug at the accented word only.
   CHECK(at(1.0).shrug == 0.0f);
   CHECK(at(3.42 + 0.25).shrug == Approx(o.shrug).epsilon(0.05));
+  // weights.json carries the body beside the head, frame by frame.
+  const auto j = nlohmann::json::parse(to_json(bake(p, 50)));
+  REQUIRE(j["body"].size() == j["head"].size());
+  CHECK(j["body"][30][0].get<float>() == Approx(at(0.6).breath));
   // Idle off: still.
   const Performance off(u, m, quiet());
   BodyPose b;
