@@ -231,12 +231,26 @@ void pack_body(const Rig& rig, PackedRig& p) {
     b.skinned = true;
     b.skeleton.parent = sk.parent;
     b.skeleton.rest_origin = sk.rest_origin;
+    b.skeleton.springs = sk.springs;
     b.group_joint.assign(1, -1);
     const std::size_t nj = sk.parent.size();
     std::vector<int> entry(nj, -1);  // the palette entry of each turned joint
     for (const int j : b.joints.all()) {
       entry[static_cast<std::size_t>(j)] = static_cast<int>(b.group_joint.size());
       b.group_joint.push_back(j);
+    }
+    // Spring joints by their place in the chain (every first joint, then every second ...) while
+    // the palette has room; a joint left out swings with the one above it.
+    for (std::size_t k = 0, added = 1; added && b.group_joint.size() < kPaletteSize; ++k) {
+      added = 0;
+      for (const auto& spring : sk.springs.springs)
+        if (k < spring.joints.size() && b.group_joint.size() < kPaletteSize) {
+          const auto j = static_cast<std::size_t>(spring.joints[k].joint);
+          added = 1;
+          if (entry[j] >= 0) continue;
+          entry[j] = static_cast<int>(b.group_joint.size());
+          b.group_joint.push_back(static_cast<int>(j));
+        }
     }
     b.head_group = entry[static_cast<std::size_t>(b.joints.head)];
     std::vector<int> group(nj, 0);

@@ -17,9 +17,11 @@ namespace facecast::render::detail {
 /// rewrites (the blended mesh); the others are static.
 constexpr int kPositionAttribute = 0, kNormalAttribute = 1, kUvAttribute = 2, kTangentAttribute = 3,
               kSkinAttribute = 4, kSkinWeightAttribute = 5;
-/// Entries of the body's skinning palette (BodySkin), the vertex shader's u_palette: 32 matrices
-/// are half of the vertex uniforms OpenGL 3.3 guarantees.
-constexpr int kPaletteSize = 32;
+/// The most entries of the body's skinning palette (BodySkin), the vertex shader's u_palette (sized
+/// per rig): 128 matrices are 512 of the vertex shader's uniform vectors, within the 1024 that
+/// llvmpipe and NVIDIA's drivers give (OpenGL 3.3 guarantees 256: a rig that needs more than 64
+/// entries, a body with long spring chains, needs a desktop driver).
+constexpr int kPaletteSize = 128;
 /// Floats per vertex in the blended buffer: position xyz, normal xyz.
 constexpr int kBlendedStride = 6;
 /// Texture units: one per material texture slot, then the background.
@@ -69,12 +71,13 @@ struct PackedMaterial {
 
 /// How the body pose moves the vertices: linear blend skinning over a small palette. Entry 0
 /// stays; entry g > 0 is the motion of joint group_joint[g], one of the joints a BodyPose turns
-/// (rig::BodyJoints), and carries every joint below it up to the next such joint. Per vertex up to
+/// (rig::BodyJoints) or a spring joint (rig::SpringSim; the chains' first joints first when they
+/// do not all fit), and carries every joint below it up to the next such joint. Per vertex up to
 /// four entries and their weights (PackedRig::skin_groups, skin_weights). Without a skeleton with
 /// a head joint, every vertex is entry 1: the whole rig turned with the head about `pivot`.
 struct BodySkin {
   bool skinned = false;
-  rig::Skeleton skeleton;  // parents and origins (the rig's, posed as drawn at rest)
+  rig::Skeleton skeleton;  // parents, origins and springs (the rig's, posed as drawn at rest)
   rig::BodyJoints joints;
   std::vector<int> group_joint;  // palette entry -> joint; entry 0 (and 1 unskinned): -1
   int head_group = 1;            // the head's entry

@@ -36,7 +36,8 @@ struct Palette {
   int head = 1;  // the head's entry
 };
 
-Palette palette(const detail::BodySkin& b, const rig::BodyPose& pose) {
+Palette palette(const detail::BodySkin& b, const rig::BodyPose& pose,
+                const rig::JointTurns& springs) {
   Palette out{std::vector<Eigen::Matrix4f>(b.group_joint.size(), Eigen::Matrix4f::Identity()),
               b.head_group};
   if (!b.skinned) {
@@ -48,7 +49,11 @@ Palette palette(const detail::BodySkin& b, const rig::BodyPose& pose) {
     out.entries[1] = m.matrix();
     return out;
   }
-  const auto motion = rig::compose_turns(b.skeleton, rig::body_turns(b.joints, b.skeleton, pose));
+  rig::JointTurns turns = rig::body_turns(b.joints, b.skeleton, pose);
+  const auto nj = static_cast<int>(b.skeleton.parent.size());
+  for (const auto& turn : springs)  // after the body's: a spring's turn is the joint's own
+    if (turn.first >= 0 && turn.first < nj) turns.push_back(turn);
+  const auto motion = rig::compose_turns(b.skeleton, turns);
   for (std::size_t g = 1; g < b.group_joint.size(); ++g)
     out.entries[g] = motion[static_cast<std::size_t>(b.group_joint[g])].matrix();
   return out;
@@ -110,6 +115,7 @@ struct Slot {
       v.alpha_mask = m.alpha_mode == rig::AlphaMode::kMask;
       v.fast_srgb = o.fast_srgb;
       v.influences = p.body.influences;
+      v.palette_size = static_cast<int>(p.body.group_joint.size());
       v.occlusion_source = m.occlusion;
       for (int slot = 0; slot < detail::kSlotCount; ++slot)
         if (m.texture[slot] >= 0) {
@@ -500,7 +506,13 @@ Image Renderer::render(std::span<const float> weights) const {
   return render(weights, rig::BodyPose{});
 }
 
-Image Renderer::render(std::span<const float> weights, const rig::BodyPose& pose) const {
+rig::SpringSim Renderer::spring_sim() const {
+  const detail::BodySkin& b = impl_->packed.body;
+  return b.skinned ? rig::SpringSim(b.skeleton, b.joints) : rig::SpringSim();
+}
+
+Image Renderer::render(std::span<const float> weights, const rig::BodyPose& pose,
+                       const rig::JointTurns& springs) const {
   if (static_cast<int>(weights.size()) != impl_->packed.shape_count)
     throw Error("render: " + std::to_string(weights.size()) + " weights for a rig with " +
                 std::to_string(impl_->packed.shape_count) + " shapes");
@@ -513,8 +525,8 @@ Image Renderer::render(std::span<const float> weights, const rig::BodyPose& pose
   Image image;
   try {
     slot->context.make_current();
-    slot->draw(impl_->packed, impl_->options, cam, weights, palette(impl_->packed.body, pose),
-               image);
+    slot->draw(impl_->packed, impl_->options, cam, weights,
+               palette(impl_->packed.body, pose, springs), image);
     slot->context.release();
   } catch (...) {
     slot->context.release();

@@ -206,7 +206,6 @@ std::string prelude() {
     << "#define TANGENT_ATTRIBUTE " << kTangentAttribute << "\n"
     << "#define SKIN_ATTRIBUTE " << kSkinAttribute << "\n"
     << "#define SKIN_WEIGHT_ATTRIBUTE " << kSkinWeightAttribute << "\n"
-    << "#define PALETTE_SIZE " << kPaletteSize << "\n"
     << "#define SLOT_COUNT " << kSlotCount << "\n"
     << "#define BASE_COLOR_SLOT " << kBaseColorSlot << "\n"
     << "#define METALLIC_ROUGHNESS_SLOT " << kMetallicRoughnessSlot << "\n"
@@ -269,8 +268,9 @@ GLuint link_program(const ProgramVariant& v) {
            << "\n#define UV_TRANSFORM " << v.uv_transform << "\n#define OCCLUSION_SOURCE "
            << v.occlusion_source << "\n#define FAST_SRGB " << v.fast_srgb << "\n"
            << kFragmentShader;
-  const std::string vertex =
-      "#define INFLUENCES " + std::to_string(v.influences) + "\n" + kVertexShader;
+  const std::string vertex = "#define INFLUENCES " + std::to_string(v.influences) +
+                             "\n#define PALETTE_SIZE " + std::to_string(v.palette_size) + "\n" +
+                             kVertexShader;
   return link(vertex.c_str(), fragment.str().c_str(), "avatar");
 }
 

@@ -22,6 +22,7 @@ struct ProgramVariant {
   int occlusion_source = 0;  // where the material's occlusion is read (an OcclusionSource)
   bool fast_srgb = false;    // RenderOptions::fast_srgb
   int influences = 1;        // the most body palette entries a vertex blends (BodySkin, 1-4)
+  int palette_size = 2;  // the rig's palette entries (BodySkin::group_joint, at most kPaletteSize)
   bool operator==(const ProgramVariant&) const = default;
 };
 

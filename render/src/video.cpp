@@ -30,21 +30,23 @@ bool is_pattern(const fs::path& out) {
 }
 
 // Renders frames [0, frames) keeping `depth` in flight (the renderer's context pool does the work
-// in parallel) and hands them to `sink` in order.
+// in parallel) and hands them to `sink` in order. The spring bones step here, in frame order.
 template <class Sink>
 void render_frames(const Renderer& renderer, const rig::Motion& motion, double fps, int frames,
                    int depth, const ProgressFn& progress, Sink&& sink) {
   const size_t shapes = motion.shape_names().size();
+  rig::SpringSim springs = renderer.spring_sim();
   std::deque<std::future<Image>> inflight;
   int next = 0;
   for (int done = 0; done < frames;) {
     while (next < frames && static_cast<int>(inflight.size()) < std::max(1, depth)) {
       const double t = next / fps;
-      inflight.push_back(std::async(std::launch::async, [&renderer, &motion, shapes, t] {
-        std::vector<float> w(shapes);
-        rig::BodyPose head;
-        motion.sample(t, w, &head);
-        return renderer.render(w, head);
+      std::vector<float> w(shapes);
+      rig::BodyPose body;
+      motion.sample(t, w, &body);
+      inflight.push_back(std::async(std::launch::async, [&renderer, w = std::move(w), body,
+                                                         turns = springs.advance(body, t)] {
+        return renderer.render(w, body, turns);
       }));
       ++next;
     }

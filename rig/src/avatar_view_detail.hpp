@@ -25,9 +25,19 @@ NodeGraph node_graph(const tinygltf::Model& m, const std::string& what);
 /// Materials and textures of the document into the rig (indices kept).
 void read_materials(const tinygltf::Model& m, Rig& rig);
 
-/// The skeleton over `joint_nodes` (node indices, in order), with head and neck found.
+/// The skeleton over `joint_nodes` (node indices, in order), with head and neck found and the
+/// spring bones read.
 Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
                        const std::vector<int>& joint_nodes);
+
+/// The spring bones of VRMC_springBone (VRM 1.0) or VRM 0.x's secondaryAnimation over the
+/// skeleton whose joints `joint_of_node` maps from nodes (avatar_view_springs.cpp). Throws Error
+/// naming the extension past the limits there.
+SpringBones read_springs(const tinygltf::Model& m, const NodeGraph& g,
+                         const std::map<int, int>& joint_of_node);
+
+/// o[key] when it is a finite number (clamped to +-1e4), else `fallback`.
+float number_or(const tinygltf::Value& o, const char* key, float fallback);
 
 /// A VRM expression: its name (VRM 1.0 preset naming) and (mesh, target index, weight) binds.
 struct Expression {

@@ -317,6 +317,7 @@ Skeleton read_skeleton(const tinygltf::Model& m, const NodeGraph& g,
     if (const auto it = index_of.find(node); it != index_of.end())
       s.humanoid.emplace_back(bone, it->second);
   s.vrm0 = m.extensions.count("VRMC_vrm") == 0 && m.extensions.count("VRM") != 0;
+  s.springs = read_springs(m, g, index_of);
   s.head = s.humanoid_bone("head");
   s.neck = s.humanoid_bone("neck");
   if (s.head < 0) s.head = find_joint(s.joint_names, "head");

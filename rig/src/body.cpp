@@ -70,7 +70,10 @@ const BodyOptions& body_options() {
         .read("breath_shoulder_deg", o.breath_shoulder_deg)
         .read("shrug_deg", o.shrug_deg)
         .read("lean_counter", o.lean_counter)
+        .read("spring_rate", o.spring_rate)
         .reject_unknown();
+    if (!(o.spring_rate >= 10 && o.spring_rate <= 480))
+      c.fail("spring_rate", "must be in [10, 480] steps per second");
     if (!(o.neck_share >= 0 && o.neck_share <= 1)) c.fail("neck_share", "must be in [0, 1]");
     if (!(o.lean_counter >= 0 && o.lean_counter <= 1)) c.fail("lean_counter", "must be in [0, 1]");
     for (const float deg : {o.breath_chest_deg, o.breath_shoulder_deg, o.shrug_deg})

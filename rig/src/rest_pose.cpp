@@ -142,6 +142,16 @@ void turn_joints(Rig& rig, const JointTurns& turns) {
     if (p >= 0 && moved[static_cast<std::size_t>(p)])
       s.rest_origin[j] = motion[static_cast<std::size_t>(p)] * s.rest_origin[j];
   }
+  // Spring tails hang from their joint, colliders from theirs.
+  const auto carried = [&](int j) { return j >= 0 && moved[static_cast<std::size_t>(j)]; };
+  for (auto& spring : s.springs.springs)
+    for (auto& sj : spring.joints)
+      if (carried(sj.joint)) sj.tail = motion[static_cast<std::size_t>(sj.joint)] * sj.tail;
+  for (auto& c : s.springs.colliders)
+    if (carried(c.joint)) {
+      c.offset = motion[static_cast<std::size_t>(c.joint)] * c.offset;
+      c.tail = motion[static_cast<std::size_t>(c.joint)] * c.tail;
+    }
 }
 
 float degrees(const Eigen::Quaternionf& q) {

@@ -134,6 +134,20 @@ void Rig::validate(std::string_view what) const {
   }
   if (skeleton.head < -1 || skeleton.head >= nj || skeleton.neck < -1 || skeleton.neck >= nj)
     throw Error(w + ": skeleton head or neck joint out of range");
+  const auto& sb = skeleton.springs;
+  const int nc = static_cast<int>(sb.colliders.size());
+  for (const auto& c : sb.colliders)
+    if (c.joint < -1 || c.joint >= nj || !(c.radius >= 0) || !c.offset.allFinite() ||
+        !c.tail.allFinite())
+      throw Error(w + ": bad spring collider");
+  for (const auto& spring : sb.springs) {
+    for (const auto& j : spring.joints)
+      if (j.joint < 0 || j.joint >= nj || !j.tail.allFinite() || !j.gravity_dir.allFinite() ||
+          !std::isfinite(j.hit_radius + j.stiffness + j.gravity_power + j.drag))
+        throw Error(w + ": bad spring joint");
+    for (const int c : spring.colliders)
+      if (c < 0 || c >= nc) throw Error(w + ": spring collider index out of range");
+  }
   if (joints.rows() != joint_weights.rows() || (joints.rows() != 0 && joints.rows() != nv))
     throw Error(w + ": joint count differs from vertex count");
   if (joints.rows() && (joints.minCoeff() < 0 || joints.maxCoeff() >= nj))

@@ -157,7 +157,7 @@ RtmpOutput::Pose RtmpOutput::sample(double t, std::int64_t first, std::size_t co
   return last_;
 }
 
-render::Image RtmpOutput::render(const Pose& pose) {
+render::Image RtmpOutput::render(const Pose& pose, double time) {
   try {
     const auto rig = state_->rigs.load(pose.rig.empty() ? state_->options.default_rig : pose.rig);
     const auto renderer = state_->renderers.get(*rig, settings_.width, settings_.height);
@@ -166,7 +166,12 @@ render::Image RtmpOutput::render(const Pose& pose) {
     v.resize(n + rig::BodyPose::kChannels.size(), 0.0f);
     const rig::BodyPose body = rig::BodyPose::from_channels(std::span(v).subspan(n));
     v.resize(n);
-    return renderer->render(v, body);
+    // The springs step with the channel's clock; another avatar starts them afresh.
+    if (springs_renderer_ != renderer) {
+      springs_ = renderer->spring_sim();
+      springs_renderer_ = renderer;
+    }
+    return renderer->render(v, body, springs_.advance(body, time));
   } catch (const std::exception& e) {
     log::warn("rtmp_render_failed", {{"channel", channel_->name()}, {"error", e.what()}});
     if (!last_image_.pixels.empty()) return last_image_;
@@ -203,7 +208,7 @@ void RtmpOutput::run() {
     if (!ffmpeg_) continue;
     // Behind by more than a frame: repeat the last picture (the timeline stays whole).
     const bool late = Clock::now() - deadline > period && !last_image_.pixels.empty();
-    if (!late) last_image_ = render(pose);
+    if (!late) last_image_ = render(pose, static_cast<double>(k) / fps);
     if (!write_all(ffmpeg_->pipe_fd(3), pcm.data(), pcm.size() * sizeof(std::int16_t)) ||
         !write_all(ffmpeg_->pipe_fd(0), last_image_.pixels.data(), last_image_.pixels.size())) {
       log::warn("rtmp_ffmpeg_ended", {{"channel", channel_->name()}, {"frame", k}});

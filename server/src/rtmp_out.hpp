@@ -26,6 +26,7 @@
 #include "channel.hpp"
 #include "facecast/core/subprocess.hpp"
 #include "facecast/render/image.hpp"
+#include "facecast/render/renderer.hpp"
 
 namespace facecast::server {
 
@@ -70,7 +71,8 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
   void run();
   /// The pose at output time t and the samples of [first, first + count) (output rate).
   Pose sample(double t, std::int64_t first, std::size_t count, std::vector<std::int16_t>& pcm);
-  render::Image render(const Pose& pose);
+  /// The picture of `pose` at output time `time` (the spring bones step to it).
+  render::Image render(const Pose& pose, double time);
   bool spawn();
   void end_ffmpeg();
   bool write_all(int fd, const void* data, std::size_t size);
@@ -89,6 +91,8 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
   std::thread thread_;
   std::optional<Child> ffmpeg_;  // pictures on its stdin, sound on its descriptor 3
   render::Image last_image_;
+  std::shared_ptr<render::Renderer> springs_renderer_;  // the renderer springs_ simulates for
+  rig::SpringSim springs_;
 };
 
 /// Starts the RTMP outputs of the configured channels (ServerOptions::rtmp).

@@ -271,6 +271,12 @@ void StreamPacer::launch_renders(double elapsed) {
 }
 
 void StreamPacer::skip_frame() {
+  if (springs_ && !springs_->empty()) {  // the springs step through dropped frames too
+    std::vector<float> values;
+    frame_values(next_frame_, values);
+    step_springs(next_frame_, rig::BodyPose::from_channels(
+                                  std::span(values).subspan(static_cast<std::size_t>(names_))));
+  }
   ++dropped_;
   ++next_frame_;
   state_->metrics.frames_dropped.frames.fetch_add(1);
@@ -285,13 +291,13 @@ void StreamPacer::render(int frame) {
   values.resize(n);  // the renderer takes the shapes, and the body pose apart
   in_flight_.push_back(Render{frame, false, nullptr});
   net::post(state_->workers, [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
-                              values = std::move(values), head, stream = stream_, frame, fps = fps_,
-                              quality = o_.jpeg_quality] {
+                              values = std::move(values), head, springs = step_springs(frame, head),
+                              stream = stream_, frame, fps = fps_, quality = o_.jpeg_quality] {
     std::shared_ptr<const std::string> msg;
     std::optional<Problem> problem;
     try {
       const auto t0 = Clock::now();
-      const render::Image image = renderer->render(values, head);
+      const render::Image image = renderer->render(values, head, springs);
       const std::string jpeg = render::encode_jpeg(image, quality);
       msg = std::make_shared<const std::string>(
           jpeg_message(stream, static_cast<std::uint32_t>(frame), fps, jpeg));
@@ -341,6 +347,13 @@ void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> mess
     }
   }
   tick();
+}
+
+// The spring bones' turns at `frame`, stepped on the strand in frame order: a stream's hair moves
+// the same whichever frames the pool finishes first.
+rig::JointTurns StreamPacer::step_springs(int frame, const rig::BodyPose& body) {
+  if (!springs_) springs_ = p_->renderer->spring_sim();
+  return springs_->advance(body, frame / fps_);
 }
 
 // The blendshape weights of `frame`, then the body pose's channels (rig::BodyPose::kChannels).

@@ -93,6 +93,7 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   void on_rendered(int frame, std::shared_ptr<const std::string> message,
                    std::optional<Problem> problem);
   void frame_values(int frame, std::vector<float>& out);
+  rig::JointTurns step_springs(int frame, const rig::BodyPose& body);
   void count_first_frame();
   void finish();
 
@@ -124,7 +125,8 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   bool cancelling_ = false;
   int fade_start_ = 0;
   std::vector<float> fade_from_;
-  std::deque<Render> in_flight_;  // launch order = frame order
+  std::deque<Render> in_flight_;           // launch order = frame order
+  std::optional<rig::SpringSim> springs_;  // frames: the avatar's spring bones, stepped here
   std::optional<Problem> render_error_;
   bool stopped_ = false;
 

@@ -105,4 +105,32 @@ Rig humanoid(float droop, const char* left, const char* right) {
   return rig;
 }
 
+void add_ponytail(Rig& rig) {
+  Skeleton& s = rig.skeleton;
+  const int first = static_cast<int>(s.joint_names.size());
+  s.joint_names.insert(s.joint_names.end(), {"Hair1", "Hair2", "Hair3"});
+  s.parent.insert(s.parent.end(), {s.head, first, first + 1});
+  s.rest_origin.insert(s.rest_origin.end(),
+                       {{0, 1.7f, -0.12f}, {0, 1.5f, -0.14f}, {0, 1.3f, -0.16f}});
+  add_box(rig, {-0.03f, 1.3f, -0.17f}, {0.03f, 1.7f, -0.11f}, [&](const Eigen::Vector3f& p) {
+    return p.y() > 1.6f ? std::tuple{first, first, 0.0f} : std::tuple{first + 1, first + 1, 0.0f};
+  });
+  rig.normals = vertex_normals(rig.positions, rig.triangles);
+  rig.triangle_material.resize(static_cast<std::size_t>(rig.triangles.rows()), 0);
+  SpringBones& sb = s.springs;
+  sb = {};
+  sb.colliders.push_back({s.head, {0, 1.65f, 0}, {0, 1.65f, 0}, 0.1f, false});
+  SpringBones::Spring spring;
+  for (int k = 0; k < 2; ++k) {
+    SpringJoint j;
+    j.joint = first + k;
+    j.tail = s.rest_origin[static_cast<std::size_t>(first + k + 1)];
+    j.drag = 0.4f;
+    spring.joints.push_back(j);
+  }
+  spring.colliders = {0};
+  sb.springs.push_back(spring);
+  rig.validate("humanoid with a ponytail");
+}
+
 }  // namespace facecast::test

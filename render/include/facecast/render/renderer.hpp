@@ -27,6 +27,7 @@
 #include "facecast/render/image.hpp"
 #include "facecast/rig/motion.hpp"
 #include "facecast/rig/rig.hpp"
+#include "facecast/rig/spring_sim.hpp"
 
 namespace facecast::render {
 
@@ -85,8 +86,14 @@ class Renderer {
   /// The same in a body pose: a skinned avatar's joints turned as rig::body_turns says (the head
   /// through the neck and the head, breath, lean and shrug through the chest, spine and
   /// shoulders); a rig without a skeleton turns whole with the head about a pivot low in its
-  /// bounds.
-  Image render(std::span<const float> weights, const rig::BodyPose& pose) const;
+  /// bounds. `springs`: the spring joints' turns this frame (a SpringSim from spring_sim(),
+  /// advanced in frame order); none: the springs hang as at rest.
+  Image render(std::span<const float> weights, const rig::BodyPose& pose,
+               const rig::JointTurns& springs = {}) const;
+
+  /// A simulation of the rig's spring bones as this renderer draws them (empty without any):
+  /// one per stream of frames, advanced in frame order, its turns passed to render().
+  rig::SpringSim spring_sim() const;
 
   /// Creates every context of the pool now (each uploads the rig: about a second for a rig with
   /// a dozen 1024x1024 textures on llvmpipe), so that the first frames of concurrent streams do

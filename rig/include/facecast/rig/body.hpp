@@ -12,16 +12,18 @@
 
 namespace facecast::rig {
 
-/// Turns per unit of the body's channels; defaults mirrored in configs/rig/humanoid.json "body".
+/// Turns per unit of the body's channels, and the spring bones' step rate; defaults mirrored in
+/// configs/rig/body.json.
 struct BodyOptions {
   float neck_share = 0.4f;           // of the head's turn the neck takes (the head the rest)
   float breath_chest_deg = 1.2f;     // the chest pitched back at breath 1 (the neck keeps the head)
   float breath_shoulder_deg = 1.0f;  // the shoulders raised at breath 1
   float shrug_deg = 6.0f;            // the shoulders raised at shrug 1 (the arms keep hanging)
   float lean_counter = 0.7f;         // of the spine's lean the chest turns back: the head stays up
+  float spring_rate = 60;            // spring bone steps per second (spring_sim.hpp)
 };
 
-/// BodyOptions from configs/rig/humanoid.json; throws Error naming the field when invalid.
+/// BodyOptions from configs/rig/body.json; throws Error naming the field when invalid.
 const BodyOptions& body_options();
 
 /// The joints a BodyPose turns, -1 where the skeleton has none. The VRM humanoid names them where

@@ -86,6 +86,35 @@ struct Material {
   }
 };
 
+/// One simulated joint of a spring chain (VRMC_springBone, VRM 0.x secondaryAnimation): the joint
+/// turns so that its tail, a point mass on a rod, trails the motion of the joint's parent.
+struct SpringJoint {
+  int joint = 0;                  // into the skeleton
+  Eigen::Vector3f tail{0, 0, 0};  // the tail at rest: the next joint's origin, or 7 cm on (VRM 0.x)
+  float hit_radius = 0, stiffness = 1, gravity_power = 0, drag = 0.5f;
+  Eigen::Vector3f gravity_dir{0, -1, 0};  // in the rig's axes
+};
+
+/// A sphere (a capsule when `capsule`: from `offset` to `tail`) that spring tails stay out of,
+/// carried by `joint` (-1: fixed); positions at rest in the rig's axes.
+struct SpringCollider {
+  int joint = -1;
+  Eigen::Vector3f offset{0, 0, 0}, tail{0, 0, 0};
+  float radius = 0;
+  bool capsule = false;
+};
+
+/// The spring bones of an avatar: chains simulated root first, in order.
+struct SpringBones {
+  struct Spring {
+    std::vector<SpringJoint> joints;  // root first; each carries the ones after it
+    std::vector<int> colliders;       // into `colliders`
+  };
+  std::vector<Spring> springs;
+  std::vector<SpringCollider> colliders;
+  bool empty() const { return springs.empty(); }
+};
+
 /// The skeleton of a skinned avatar, in the rig's (bind pose) coordinates. The rig's vertices are
 /// already skinned to the rest pose; the renderer moves only the joints the head pose turns.
 struct Skeleton {
@@ -98,6 +127,7 @@ struct Skeleton {
   // has them; `vrm0`: a VRM 0.x file (its figure, facing -Z in the file, was turned to face +Z).
   std::vector<std::pair<std::string, int>> humanoid;
   bool vrm0 = false;
+  SpringBones springs;  // hair and clothes that swing (spring_sim.hpp)
   /// The joint of a humanoid bone, or -1.
   int humanoid_bone(std::string_view bone) const {
     for (const auto& [name, joint] : humanoid)
