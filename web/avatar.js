@@ -11,7 +11,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
 import { Viewport } from './viewport.js';
 import { MorphBinding, morphMeshes, targetNames } from './morphs.js';
-import { bodyJoints, restPose, setBodyPose } from './pose.js';
+import { bodyJoints, filePose, restPose, setBodyPose } from './pose.js';
 
 export { morphMeshes, targetNames };
 
@@ -184,7 +184,10 @@ export class AvatarView extends Viewport {
     this.pivot.position.copy(neck);
     this.pivot.rotation.set(0, 0, 0);
     this.pivot.add(model);
-    this.restTurned = restPose(model, vrm); // arms down, as the server draws it (pose.js)
+    // Standing as the server's frames show it (its pose option, from GET /api/rigs; pose.js).
+    const standing = this.standing || { kind: 'rest' };
+    if (standing.kind === 'file') this.restTurned = filePose(model, vrm, standing.bones || [], this.bones);
+    else this.restTurned = standing.kind === 'bind' ? [] : restPose(model, vrm);
     this.body = this.bones ? bodyJoints(model, vrm, this.bones.head, this.bones.neck) : null;
     colorizePlainMaterials(model);
     for (const m of morphMeshes(model)) {

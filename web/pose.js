@@ -71,6 +71,40 @@ export function restPose(root, vrm = null) {
   return turned;
 }
 
+/**
+ * Turns the bones of a pose file as the server does (rig/src/rest_pose.cpp, docs/cli.md#pose-files):
+ * `bones` is [{ bone, rotation: [x, y, z, w] }], each a turn in the figure's axes (it faces +Z)
+ * about the bone's joint, carried by the bones above it. A bone is a VRM humanoid bone name (the
+ * VRM's normalized bone; without a VRM the head and neck in `head`, the upper arms by HUMANOID) or
+ * a joint's own name. Returns what it turned: [{ name, degrees }]; a bone the avatar lacks is left.
+ */
+export function filePose(root, vrm, bones, head = null) {
+  root.updateMatrixWorld(true);
+  const own = (name) => {
+    const wanted = THREE.PropertyBinding.sanitizeNodeName(name);
+    let hit = null;
+    root.traverse((o) => (hit ||= o.name === wanted || o.name === name ? o : null));
+    return hit;
+  };
+  const find = (name) =>
+    vrm?.humanoid?.getNormalizedBoneNode(name) ??
+    (name === 'head' || name === 'neck' ? head?.[name] : null) ??
+    (name === 'leftUpperArm' || name === 'rightUpperArm' ? byName(root, HUMANOID[name]) : null) ??
+    own(name);
+  // Each bone's rest rotations first: the turns compose down the skeleton as on the server.
+  const found = bones.map((b) => [find(b.bone), b]).filter(([node]) => node);
+  const rest = found.map(([node]) => ({ local: node.quaternion.clone(), world: node.getWorldQuaternion(new THREE.Quaternion()) }));
+  const turned = [];
+  found.forEach(([node, b], i) => {
+    const r = new THREE.Quaternion(...b.rotation).normalize();
+    const w = rest[i].world;
+    node.quaternion.copy(rest[i].local).multiply(w.clone().invert().multiply(r).multiply(w));
+    turned.push({ name: node.name, degrees: THREE.MathUtils.radToDeg(2 * Math.acos(Math.min(1, Math.abs(r.w)))) });
+  });
+  root.updateMatrixWorld(true);
+  return turned;
+}
+
 // The idle body, as the server's renderer turns it (rig/src/body.cpp, docs/algorithms.md#idle-body):
 // BODY mirrors configs/rig/body.json (the web test checks they agree).
 export const BODY = { neckShare: 0.4, breathChestDeg: 1.2, breathShoulderDeg: 1.0, shrugDeg: 6.0, leanCounter: 0.7 };

@@ -69,7 +69,8 @@ void write_motion(const RenderArgs& a, const rig::Rig& rig, render::RenderOption
       render::write_video(renderer, motion, pcm, rate, a.out, vo, terminal_progress());
   std::cerr << "wrote " << a.out << ": " << result.frames << " frames at " << vo.fps << " fps ("
             << result.duration << " s" << (pcm.empty() ? "" : ", with audio") << ") in "
-            << result.render_seconds << " s, " << renderer.backend() << "\n";
+            << result.render_seconds << " s (" << renderer.backend()
+            << (result.encoder.empty() ? "" : ", " + result.encoder) << ")\n";
 }
 
 // Text or timestamps -> MP4 (ffmpeg) or a frame sequence + WAV.

@@ -2,6 +2,7 @@
 
 #include <EGL/eglext.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
@@ -90,9 +91,18 @@ std::vector<Display> open_displays() {
       has_extension(client, "EGL_EXT_platform_device")) {
     auto query_devices =
         reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    auto device_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(
+        eglGetProcAddress("eglQueryDeviceStringEXT"));
     EGLDeviceEXT devices[16];
     EGLint n = 0;
     if (query_devices && query_devices(16, devices, &n)) {
+      // A GPU first (an NVIDIA driver and Mesa's software device may both be listed, in either
+      // order), then a software device.
+      const auto software = [&](EGLDeviceEXT dev) {
+        const char* ext = device_string ? device_string(dev, EGL_EXTENSIONS) : nullptr;
+        return ext && has_extension(ext, "EGL_MESA_device_software");
+      };
+      std::stable_partition(devices, devices + n, [&](EGLDeviceEXT dev) { return !software(dev); });
       for (EGLint i = 0; i < n; ++i)
         if (try_display(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr),
                         "device", d)) {

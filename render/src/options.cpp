@@ -41,7 +41,11 @@ Options load_options() {
       .read("preset", v.preset)
       .read("audio_bitrate_kbps", v.audio_bitrate_kbps)
       .read("pipeline", v.pipeline)
-      .read("ffmpeg", v.ffmpeg);
+      .read("ffmpeg", v.ffmpeg)
+      .read_choice("encoder", v.encoder,
+                   {{"auto", VideoOptions::Encoder::kAuto},
+                    {"x264", VideoOptions::Encoder::kX264},
+                    {"nvenc", VideoOptions::Encoder::kNvenc}});
   c.reject_unknown();
   return o;
 }

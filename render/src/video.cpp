@@ -8,6 +8,8 @@
 #include <deque>
 #include <fstream>
 #include <future>
+#include <map>
+#include <mutex>
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -55,6 +57,39 @@ void render_frames(const Renderer& renderer, const rig::Motion& motion, double f
     ++done;
     report(progress, "render", static_cast<double>(done) / frames);
   }
+}
+
+// Whether ffmpeg's h264_nvenc encodes here (a GPU with NVENC and its driver): a fifth of a second
+// of black, once per process and ffmpeg.
+bool nvenc_works(const std::string& ffmpeg) {
+  static std::mutex mutex;
+  static std::map<std::string, bool> known;
+  std::lock_guard lock(mutex);
+  if (const auto it = known.find(ffmpeg); it != known.end()) return it->second;
+  bool ok = false;
+  try {
+    Child probe({ffmpeg, "-nostdin", "-hide_banner", "-loglevel", "error", "-f", "lavfi", "-i",
+                 "color=c=black:s=256x256:r=30:d=0.2", "-c:v", "h264_nvenc", "-f", "null", "-"},
+                {{2, ChildFd::Kind::kRead, -1, 4096, true}});
+    ok = probe.finish(20).ok();
+  } catch (const Error&) {
+    ok = false;
+  }
+  return known[ffmpeg] = ok;
+}
+
+// The encoder's ffmpeg arguments: NVENC (constant quality `crf`, preset p4) when asked for, or
+// asked for automatically with the renderer on an NVIDIA GPU where NVENC works; else x264.
+std::vector<std::string> encoder_args(const Renderer& renderer, const VideoOptions& o) {
+  using E = VideoOptions::Encoder;
+  const bool nvenc =
+      o.encoder == E::kNvenc ||
+      (o.encoder == E::kAuto && renderer.backend().find("NVIDIA") != std::string::npos &&
+       nvenc_works(o.ffmpeg));
+  if (nvenc)
+    return {"-c:v", "h264_nvenc",          "-preset", "p4", "-rc", "vbr",
+            "-cq",  std::to_string(o.crf), "-b:v",    "0"};
+  return {"-c:v", "libx264", "-preset", o.preset, "-crf", std::to_string(o.crf)};
 }
 
 }  // namespace
@@ -111,9 +146,11 @@ VideoResult write_video(const Renderer& renderer, const rig::Motion& motion,
       write_file_atomic(wav, facecast::encode_wav(pcm, sample_rate));
       args.insert(args.end(), {"-i", wav.string()});
     }
-    args.insert(args.end(),
-                {"-map", "0:v", "-c:v", "libx264", "-preset", options.preset, "-crf",
-                 std::to_string(options.crf), "-pix_fmt", "yuv420p", "-movflags", "+faststart"});
+    const std::vector<std::string> encoder = encoder_args(renderer, options);
+    result.encoder = encoder[1];
+    args.insert(args.end(), {"-map", "0:v"});
+    args.insert(args.end(), encoder.begin(), encoder.end());
+    args.insert(args.end(), {"-pix_fmt", "yuv420p", "-movflags", "+faststart"});
     if (audio)
       args.insert(args.end(), {"-map", "1:a", "-c:a", "aac", "-b:a",
                                std::to_string(options.audio_bitrate_kbps) + "k"});

@@ -21,6 +21,24 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// How the avatars stand (ServerOptions::pose), for the browser to stand them the same way: the
+// kind, and a pose file's bones as rotations (quaternions x, y, z, w in the figure's axes); the
+// file's path stays on the server.
+json pose_json(const rig::Pose& pose) {
+  using Kind = rig::Pose::Kind;
+  json out = {{"kind", pose.kind == Kind::kBind   ? "bind"
+                       : pose.kind == Kind::kFile ? "file"
+                                                  : "rest"}};
+  if (pose.kind != Kind::kFile) return out;
+  json bones = json::array();
+  for (const auto& b : pose.bones) {
+    const auto& q = b.rotation.coeffs();  // x, y, z, w
+    bones.push_back({{"bone", b.bone}, {"rotation", {q.x(), q.y(), q.z(), q.w()}}});
+  }
+  out["bones"] = std::move(bones);
+  return out;
+}
+
 int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -277,7 +295,9 @@ http::message_generator api(State& state, Request& req, const Target& t) {
     for (const auto& r : state.rigs.list())
       if (rig_listed(who, r)) rigs.push_back(r.to_json());
     return json_response(state, req, http::status::ok,
-                         {{"rigs", rigs}, {"default", state.options.default_rig}});
+                         {{"rigs", rigs},
+                          {"default", state.options.default_rig},
+                          {"pose", pose_json(state.options.pose)}});
   }
   if (path == "/api/tokens") {
     require_method(req, {http::verb::post});

@@ -54,7 +54,9 @@ nlohmann::json render_video(State& state, const VideoRequest& r, JobContext& ctx
           {"duration", result.duration},
           {"size", {r.width, r.height}},
           {"audio", with_audio},
-          {"seconds", secs}};
+          {"seconds", secs},
+          {"renderer", renderer.backend()},
+          {"encoder", result.encoder}};
 }
 
 }  // namespace facecast::server

@@ -174,6 +174,24 @@ TEST_CASE("a frame sequence with its WAV, and ffmpeg errors", "[render][video]")
   CHECK_THROWS_WITH(render::write_video(renderer, p, u.pcm, u.sample_rate, bad, vo),
                     Catch::Contains("ffmpeg failed"));
   CHECK(!fs::exists(bad));
+
+  // The encoder: x264 unless the renderer is on an NVIDIA GPU where NVENC works; NVENC asked for
+  // where it does not work is ffmpeg's error, and no file.
+  vo.preset = "veryfast";
+  const fs::path mp4 = test::scratch_dir() / "encoder.mp4";
+  const bool gpu = renderer.backend().find("NVIDIA") != std::string::npos;
+  const auto x264 = render::write_video(renderer, p, u.pcm, u.sample_rate, mp4, vo);
+  CHECK((gpu || x264.encoder == "libx264"));
+  CHECK(fs::exists(mp4));
+  vo.encoder = render::VideoOptions::Encoder::kNvenc;
+  fs::remove(mp4);
+  try {
+    CHECK(render::write_video(renderer, p, u.pcm, u.sample_rate, mp4, vo).encoder == "h264_nvenc");
+  } catch (const facecast::Error& e) {
+    INFO(e.what());
+    CHECK_THAT(e.what(), Catch::Contains("ffmpeg failed"));
+    CHECK(!fs::exists(mp4));
+  }
 }
 
 TEST_CASE("configs/render/render.json mirrors RenderOptions and VideoOptions", "[render][video]") {
@@ -197,4 +215,5 @@ TEST_CASE("configs/render/render.json mirrors RenderOptions and VideoOptions", "
   CHECK(vfile.audio_bitrate_kbps == vcode.audio_bitrate_kbps);
   CHECK(vfile.pipeline == vcode.pipeline);
   CHECK(vfile.ffmpeg == vcode.ffmpeg);
+  CHECK(vfile.encoder == vcode.encoder);
 }

@@ -262,5 +262,35 @@ await run('avatar', async () => {
     }
     await screenshot(page, `avatar-${isVrm ? 'vrm' : 'glb'}`);
   }
+  const rest = await (await fetch(`${server.url}/api/rigs`)).json();
+  check('GET /api/rigs says the avatars stand at rest', rest.pose?.kind === 'rest', JSON.stringify(rest.pose));
+
+  // A server configured with a pose file: the page stands the avatar by it, as the server's frames
+  // do -- the right upper arm turned 60 degrees down from the T-pose (30 from straight down), the
+  // left one as saved (no rest pose under a pose file).
+  const poseFile = join(artifacts, 'wave.json');
+  writeFileSync(poseFile, JSON.stringify({ rightUpperArm: { euler_deg: [0, 0, 60] } }));
+  const config = join(artifacts, 'posed-server.json');
+  writeFileSync(config, JSON.stringify({ ...JSON.parse(readFileSync(join(sourceDir, 'configs/server.json'), 'utf8')), pose: poseFile }));
+  const posed = await startServer({ extraArgs: ['--config', config] });
+  const listed = await (await fetch(`${posed.url}/api/rigs`)).json();
+  must('GET /api/rigs carries the pose file', listed.pose?.kind === 'file' && listed.pose.bones?.[0]?.bone === 'rightUpperArm', JSON.stringify(listed.pose));
+  const angles = await page.evaluate(
+    async ({ url, pose }) => {
+      const THREE = await import('three');
+      const view = window.__view;
+      view.standing = pose;
+      view.setModel(await (await import('/avatar.js')).loadGlb(url));
+      view.model.updateMatrixWorld(true);
+      const at = (name) => view.model.getObjectByName(name).getWorldPosition(new THREE.Vector3());
+      return ['Left', 'Right'].map((side) => {
+        const d = at(`${side}ForeArm`).sub(at(`${side}Arm`)).normalize();
+        return THREE.MathUtils.radToDeg(Math.atan2(Math.abs(d.x), -d.y));
+      });
+    },
+    { url: urls['multi.glb'], pose: listed.pose },
+  );
+  check('a pose file stands the page\'s avatar as the server does', Math.abs(angles[0] - 90) < 1 && Math.abs(angles[1] - 30) < 1, JSON.stringify(angles));
+  await posed.stop();
   check('no console errors', page.problems.length === 0, page.problems.join(' | '));
 });

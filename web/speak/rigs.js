@@ -12,6 +12,7 @@ export async function refreshRigs() {
     const res = await fetchJson('/api/rigs');
     state.rigs = res?.rigs || [];
     if (res?.default) state.serverDefault = res.default;
+    if (res?.pose) view.standing = res.pose; // stand avatars as the server's frames do
   } catch (e) {
     if (e.status === 401) state.needsToken = true;
     else showAlert({ level: 'error', code: e.code || 'rigs', message: `Could not list the rigs: ${e.message}` });

@@ -21,6 +21,9 @@ struct VideoOptions {
   int audio_bitrate_kbps = 128;     // AAC
   int pipeline = 3;                 // frames rendered ahead of the encoder
   std::string ffmpeg = "ffmpeg";    // the executable (looked up on PATH)
+  /// H.264 encoder: auto (NVENC when the renderer draws on an NVIDIA GPU and ffmpeg's h264_nvenc
+  /// encodes there, x264 otherwise), x264, or nvenc.
+  enum class Encoder { kAuto, kX264, kNvenc } encoder = Encoder::kAuto;
 };
 
 /// VideoOptions from configs/render/render.json ("video").
@@ -31,6 +34,7 @@ struct VideoResult {
   int frames = 0;
   double duration = 0;        // frames / fps
   double render_seconds = 0;  // wall time
+  std::string encoder;        // ffmpeg's encoder ("libx264", "h264_nvenc"); empty for frames
 };
 
 /// Renders `motion` with `renderer` into `out`:
