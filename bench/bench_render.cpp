@@ -3,7 +3,8 @@
 // streams at once on two threads (what two viewers of frames mode cost); also a heavier textured
 // avatar (every material with its own 1024x1024 base-colour texture, the skin with a normal and an
 // occlusion map: 12 textures); and times the triangle self-intersection check.
-// Usage: bench_render [frames] [msaa] [avatar|textured|ict] [lod_pixels]
+// Also the spring bones' simulation per frame.
+// Usage: bench_render [frames] [msaa] [avatar|textured|ict|springs] [lod_pixels]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -128,6 +129,55 @@ rig::Rig heavily_textured(rig::Rig rig) {
   }
   return rig;
 }
+
+// The spring bones' cost per frame at the size of a VRoid export's (about 180 joints): 30 chains
+// of six joints hanging from a head, each spring against 12 sphere colliders, stepped at 60 Hz for
+// 30 frames a second while the head turns back and forth.
+void bench_springs() {
+  rig::Skeleton s;
+  s.joint_names = {"Hips", "Neck", "Head"};
+  s.parent = {-1, 0, 1};
+  s.rest_origin = {{0, 1, 0}, {0, 1.5f, 0}, {0, 1.6f, 0}};
+  s.head = 2;
+  s.neck = 1;
+  for (int c = 0; c < 12; ++c) {
+    const float a = static_cast<float>(c) * 0.52f;
+    rig::SpringCollider col;
+    col.joint = 2;
+    col.offset = col.tail = {0.08f * std::cos(a), 1.65f, 0.08f * std::sin(a)};
+    col.radius = 0.05f;
+    s.springs.colliders.push_back(col);
+  }
+  for (int chain = 0; chain < 30; ++chain) {
+    const float a = static_cast<float>(chain) * 0.21f;
+    rig::SpringBones::Spring spring;
+    for (int k = 0; k < 6; ++k) {
+      const int j = static_cast<int>(s.parent.size());
+      s.joint_names.push_back("Hair" + std::to_string(j));
+      s.parent.push_back(k == 0 ? 2 : j - 1);
+      const float down = 0.05f * static_cast<float>(k);
+      s.rest_origin.push_back({0.1f * std::cos(a), 1.7f - down, 0.1f * std::sin(a)});
+      rig::SpringJoint sj;
+      sj.joint = j;
+      sj.tail = {0.1f * std::cos(a), 1.65f - down, 0.1f * std::sin(a)};
+      sj.gravity_power = 0.2f;
+      spring.joints.push_back(sj);
+    }
+    for (int c = 0; c < 12; ++c) spring.colliders.push_back(c);
+    s.springs.springs.push_back(spring);
+  }
+  rig::SpringSim sim(s);
+  const int frames = 300;
+  const auto t0 = Clock::now();
+  for (int f = 0; f < frames; ++f) {
+    rig::BodyPose pose;
+    pose.yaw = 0.5f * std::sin(static_cast<float>(f) * 0.1f);
+    (void)sim.advance(pose, f / 30.0);
+  }
+  std::printf("spring bones, 180 joints x 12 colliders: %.3f ms per 30 fps frame (two steps)\n",
+              ms_since(t0) / frames);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -144,6 +194,7 @@ int main(int argc, char** argv) try {
   const std::size_t glb = rig::glb_bytes(avatar).size();
   std::printf("avatar generation: %.0f ms, GLB encoding %.0f ms (%zu KB)\n", generation,
               ms_since(t0), glb / 1024);
+  if (wanted("springs") || only.empty()) bench_springs();
   if (wanted("avatar")) bench("avatar", avatar, frames, msaa, lod);
   if (wanted("textured"))
     bench("avatar, 12 textures of 1024x1024", heavily_textured(avatar), frames, msaa, lod);
