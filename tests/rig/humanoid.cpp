@@ -1,6 +1,7 @@
 // A humanoid made in code (see humanoid.hpp).
 #include "humanoid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <tuple>
 
@@ -105,16 +106,19 @@ Rig humanoid(float droop, const char* left, const char* right) {
   return rig;
 }
 
-void add_ponytail(Rig& rig) {
+void add_ponytail(Rig& rig, bool front) {
   Skeleton& s = rig.skeleton;
   const int first = static_cast<int>(s.joint_names.size());
+  const float z = front ? -1.0f : 1.0f;  // behind the head, or in front of the face
   s.joint_names.insert(s.joint_names.end(), {"Hair1", "Hair2", "Hair3"});
   s.parent.insert(s.parent.end(), {s.head, first, first + 1});
   s.rest_origin.insert(s.rest_origin.end(),
-                       {{0, 1.7f, -0.12f}, {0, 1.5f, -0.14f}, {0, 1.3f, -0.16f}});
-  add_box(rig, {-0.03f, 1.3f, -0.17f}, {0.03f, 1.7f, -0.11f}, [&](const Eigen::Vector3f& p) {
-    return p.y() > 1.6f ? std::tuple{first, first, 0.0f} : std::tuple{first + 1, first + 1, 0.0f};
-  });
+                       {{0, 1.7f, -0.12f * z}, {0, 1.5f, -0.14f * z}, {0, 1.3f, -0.16f * z}});
+  add_box(rig, {-0.03f, 1.3f, std::min(-0.17f * z, -0.11f * z)},
+          {0.03f, 1.7f, std::max(-0.17f * z, -0.11f * z)}, [&](const Eigen::Vector3f& p) {
+            return p.y() > 1.6f ? std::tuple{first, first, 0.0f}
+                                : std::tuple{first + 1, first + 1, 0.0f};
+          });
   rig.normals = vertex_normals(rig.positions, rig.triangles);
   rig.triangle_material.resize(static_cast<std::size_t>(rig.triangles.rows()), 0);
   SpringBones& sb = s.springs;

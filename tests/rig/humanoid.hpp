@@ -13,10 +13,11 @@ namespace facecast::test {
 rig::Rig humanoid(float droop, const char* left = "mixamorig:LeftArm",
                   const char* right = "mixamorig:RightArm");
 
-/// Adds a ponytail hanging behind the head: joints 17 Hair1 (on the Head), 18 Hair2, 19 Hair3 down
-/// it, a box of vertices on Hair1 (top half) and Hair2 (bottom half), and as spring bones Hair1 and
-/// Hair2 (stiffness 1, drag 0.4, no gravity) with a sphere collider on the head (radius 0.1 about
-/// its centre), the file's springs replaced.
-void add_ponytail(rig::Rig& rig);
+/// Adds a ponytail hanging behind the head (`front`: a lock hanging in front of the face, as the
+/// camera sees it): joints 17 Hair1 (on the Head), 18 Hair2, 19 Hair3 down it, a box of vertices
+/// on Hair1 (top half) and Hair2 (bottom half), and as spring bones Hair1 and Hair2 (stiffness 1,
+/// drag 0.4, no gravity) with a sphere collider on the head (radius 0.1 about its centre), the
+/// file's springs replaced.
+void add_ponytail(rig::Rig& rig, bool front = false);
 
 }  // namespace facecast::test

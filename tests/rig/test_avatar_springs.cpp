@@ -2,34 +2,21 @@
 // read into the skeleton at rest in the rig's axes, and the hair they move in rendered frames.
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <catch2/catch.hpp>
-#include <filesystem>
 
-#include "build_paths.hpp"
-#include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/render/renderer.hpp"
-#include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/rig_io.hpp"
-#include "humanoid.hpp"
+#include "spring_avatar.hpp"
 
 using namespace facecast;
-namespace fs = std::filesystem;
 using tinygltf::Value;
 
 namespace {
 
-fs::path work_dir() {
-  const fs::path dir = facecast::test::build_dir() / "tests/rig" / "avatar-springs";
-  fs::create_directories(dir);
-  return dir;
-}
-
-Value number(double x) { return Value(x); }
-Value array(std::initializer_list<double> xs) {
-  Value::Array a;
-  for (const double x : xs) a.push_back(number(x));
-  return Value(a);
+Value number(double x) {
+  return Value(x);
 }
 Value ints(std::initializer_list<int> xs) {
   Value::Array a;
@@ -38,27 +25,6 @@ Value ints(std::initializer_list<int> xs) {
 }
 Value object(std::initializer_list<std::pair<const std::string, Value>> members) {
   return Value(Value::Object(members));
-}
-
-// The humanoid with its ponytail written as a GLB, `edit` given the document and the node of
-// each joint name, then read back.
-template <class Edit>
-rig::Rig ponytail_file(const std::string& name, Edit edit) {
-  rig::Rig figure = test::humanoid(0);
-  test::add_ponytail(figure);
-  const fs::path path = work_dir() / name;
-  rig::write_glb(path, figure);
-  rig::AvatarDocument doc = rig::AvatarDocument::parse(read_file(path), name);
-  tinygltf::Model& m = doc.model();
-  const auto node = [&m](const std::string& joint) {
-    for (std::size_t i = 0; i < m.nodes.size(); ++i)
-      if (m.nodes[i].name == joint) return static_cast<int>(i);
-    FAIL("no node " << joint);
-    return -1;
-  };
-  edit(m, node);
-  doc.write_glb(path);
-  return rig::load_rig(path);
 }
 
 int joint(const rig::Rig& r, const std::string& name) {
@@ -71,24 +37,7 @@ Eigen::Vector3f origin(const rig::Rig& r, const std::string& name) {
 }
 
 rig::Rig vrm1_ponytail() {
-  return ponytail_file("ponytail1.vrm", [](tinygltf::Model& m, auto node) {
-    Value::Array joints;
-    for (const char* j : {"Hair1", "Hair2", "Hair3"})
-      joints.push_back(object({{"node", Value(node(j))},
-                               {"stiffness", number(1)},
-                               {"dragForce", number(0.4)},
-                               {"hitRadius", number(0.02)}}));
-    const Value sphere = object({{"offset", array({0, 0.05, 0})}, {"radius", number(0.1)}});
-    m.extensions["VRMC_springBone"] = object(
-        {{"specVersion", Value(std::string("1.0"))},
-         {"colliders",
-          Value(Value::Array{object({{"node", Value(node("mixamorig:Head"))},
-                                     {"shape", object({{"sphere", sphere}})}})})},
-         {"colliderGroups", Value(Value::Array{object({{"colliders", ints({0})}})})},
-         {"springs", Value(Value::Array{object(
-                         {{"joints", Value(joints)}, {"colliderGroups", ints({0})}})})}});
-    m.extensionsUsed.push_back("VRMC_springBone");
-  });
+  return rig::parse_glb(test::ponytail_vrm(), "ponytail1.vrm");
 }
 
 }  // namespace
@@ -114,26 +63,28 @@ TEST_CASE("VRMC_springBone springs and colliders are read at rest", "[rig][gltf]
 }
 
 TEST_CASE("VRM 0.x secondaryAnimation is read turned to face +Z", "[rig][gltf][spring][vrm]") {
-  const rig::Rig r = ponytail_file("ponytail0.vrm", [](tinygltf::Model& m, auto node) {
-    const Value group =
-        object({{"stiffiness", number(1.5)},
-                {"dragForce", number(0.3)},
-                {"gravityPower", number(0.2)},
-                {"gravityDir", object({{"x", number(0.6)}, {"y", number(-0.8)}, {"z", number(0)}})},
-                {"hitRadius", number(0.01)},
-                {"bones", ints({node("Hair1")})},
-                {"colliderGroups", ints({0})}});
-    const Value colliders = object(
-        {{"node", Value(node("mixamorig:Head"))},
-         {"colliders",
-          Value(Value::Array{object(
-              {{"offset", object({{"x", number(0)}, {"y", number(0.05)}, {"z", number(0.02)}})},
-               {"radius", number(0.1)}})})}});
-    m.extensions["VRM"] = object(
-        {{"secondaryAnimation", object({{"boneGroups", Value(Value::Array{group})},
-                                        {"colliderGroups", Value(Value::Array{colliders})}})}});
-    m.extensionsUsed.push_back("VRM");
-  });
+  const std::string bytes =
+      test::ponytail_glb(false, [](tinygltf::Model& m, const test::NodeOf& node) {
+        const Value group = object(
+            {{"stiffiness", number(1.5)},
+             {"dragForce", number(0.3)},
+             {"gravityPower", number(0.2)},
+             {"gravityDir", object({{"x", number(0.6)}, {"y", number(-0.8)}, {"z", number(0)}})},
+             {"hitRadius", number(0.01)},
+             {"bones", ints({node("Hair1")})},
+             {"colliderGroups", ints({0})}});
+        const Value colliders = object(
+            {{"node", Value(node("mixamorig:Head"))},
+             {"colliders",
+              Value(Value::Array{object(
+                  {{"offset", object({{"x", number(0)}, {"y", number(0.05)}, {"z", number(0.02)}})},
+                   {"radius", number(0.1)}})})}});
+        m.extensions["VRM"] = object(
+            {{"secondaryAnimation", object({{"boneGroups", Value(Value::Array{group})},
+                                            {"colliderGroups", Value(Value::Array{colliders})}})}});
+        m.extensionsUsed.push_back("VRM");
+      });
+  const rig::Rig r = rig::parse_glb(bytes, "ponytail0.vrm");
   CHECK(r.skeleton.vrm0);
   const auto& sb = r.skeleton.springs;
   REQUIRE(sb.springs.size() == 1);
@@ -174,9 +125,9 @@ TEST_CASE("spring-bone hair swings in rendered frames and settles", "[rig][rende
     pose.pitch = static_cast<float>(0.5 * std::clamp((t - 0.5) / 0.2, 0.0, 1.0));
     const rig::JointTurns& turns = springs.advance(pose, t);
     if (f % 6 != 0 && f != 120) continue;
-    const double differ =
-        render::compare_images(renderer.render(neutral, pose, turns), renderer.render(neutral, pose))
-            .fraction_over;
+    const double differ = render::compare_images(renderer.render(neutral, pose, turns),
+                                                 renderer.render(neutral, pose))
+                              .fraction_over;
     if (t < 0.5) CHECK(differ == 0.0);
     if (t <= 1.5) most = std::max(most, differ);
     last = differ;
