@@ -136,3 +136,37 @@ TEST_CASE("spring-bone hair swings in rendered frames and settles", "[rig][rende
   CHECK(most > 0.004);
   CHECK(last < 0.0005);
 }
+
+TEST_CASE("spring bones past the limits are refused in one line; bad entries are skipped",
+          "[rig][gltf][spring][hostile]") {
+  // 1000 bone groups each listing the ponytail's root: 3000 joints to simulate per frame.
+  const std::string many = test::ponytail_glb(false, [](tinygltf::Model& m,
+                                                        const test::NodeOf& node) {
+    Value::Array groups;
+    for (int i = 0; i < 1000; ++i) groups.push_back(object({{"bones", ints({node("Hair1")})}}));
+    m.extensions["VRM"] = object({{"secondaryAnimation", object({{"boneGroups", Value(groups)}})}});
+  });
+  CHECK_THROWS_WITH(rig::parse_glb(many, "many.vrm"),
+                    Catch::Contains("VRM secondaryAnimation") && Catch::Contains("2048"));
+  // Nodes out of range, colliders that name nothing, wrong types: left out, the rest read.
+  const std::string bad = test::ponytail_glb(false, [](tinygltf::Model& m,
+                                                       const test::NodeOf& node) {
+    Value::Array joints{object({{"node", Value(node("Hair1"))}}), object({{"node", Value(99999)}}),
+                        object({{"node", Value(std::string("Hair2"))}}),
+                        object({{"node", Value(node("Hair2"))}, {"stiffness", Value(-5.0)}}),
+                        object({{"node", Value(node("Hair3"))}})};
+    m.extensions["VRMC_springBone"] =
+        object({{"colliders", Value(Value::Array{object({{"node", Value(-1)}}), Value(3.0)})},
+                {"colliderGroups", Value(Value::Array{object({{"colliders", ints({0, 1, 7})}})})},
+                {"springs", Value(Value::Array{object(
+                                {{"joints", Value(joints)}, {"colliderGroups", ints({0, 5})}})})}});
+  });
+  const rig::Rig r = rig::parse_glb(bad, "bad.vrm");
+  REQUIRE(r.skeleton.springs.springs.size() == 1);
+  const auto& joints = r.skeleton.springs.springs[0].joints;
+  REQUIRE(joints.size() == 1);  // Hair2 -> Hair3; the pairs with a bad node are left out
+  CHECK(joints[0].joint == joint(r, "Hair2"));
+  CHECK(joints[0].stiffness == 0.0f);  // clamped
+  CHECK(r.skeleton.springs.colliders.empty());
+  CHECK(r.skeleton.springs.springs[0].colliders.empty());
+}
