@@ -6,21 +6,7 @@
 #include "humanoid.hpp"
 
 namespace facecast::test {
-namespace {
-
 using tinygltf::Value;
-
-Value numbers(std::initializer_list<double> xs) {
-  Value::Array a;
-  for (const double x : xs) a.push_back(Value(x));
-  return Value(a);
-}
-
-Value object(std::initializer_list<std::pair<const std::string, Value>> members) {
-  return Value(Value::Object(members));
-}
-
-}  // namespace
 
 std::string ponytail_glb(bool front,
                          const std::function<void(tinygltf::Model&, const NodeOf&)>& edit) {
@@ -46,13 +32,12 @@ std::string ponytail_vrm(bool front, bool springs, double gravity_x) {
                                {"dragForce", Value(0.4)},
                                {"hitRadius", Value(0.02)},
                                {"gravityPower", Value(gravity_x)},
-                               {"gravityDir", numbers({1, 0, 0})}}));
-    const Value sphere = object({{"offset", numbers({0, 0.05, 0})}, {"radius", Value(0.1)}});
+                               {"gravityDir", array_of({1.0, 0.0, 0.0})}}));
+    const Value sphere = object({{"offset", array_of({0.0, 0.05, 0.0})}, {"radius", Value(0.1)}});
     const Value collider =
         object({{"node", Value(node("mixamorig:Head"))}, {"shape", object({{"sphere", sphere}})}});
-    const Value group = object({{"colliders", Value(Value::Array{Value(0)})}});
-    const Value spring =
-        object({{"joints", Value(joints)}, {"colliderGroups", Value(Value::Array{Value(0)})}});
+    const Value group = object({{"colliders", array_of({0})}});
+    const Value spring = object({{"joints", Value(joints)}, {"colliderGroups", array_of({0})}});
     m.extensions["VRMC_springBone"] = object({{"specVersion", Value(std::string("1.0"))},
                                               {"colliders", Value(Value::Array{collider})},
                                               {"colliderGroups", Value(Value::Array{group})},

@@ -8,6 +8,18 @@
 
 namespace facecast::test {
 
+/// JSON values for extensions written in code.
+inline tinygltf::Value object(
+    std::initializer_list<std::pair<const std::string, tinygltf::Value>> members) {
+  return tinygltf::Value(tinygltf::Value::Object(members));
+}
+template <class T>
+tinygltf::Value array_of(std::initializer_list<T> xs) {
+  tinygltf::Value::Array a;
+  for (const T x : xs) a.push_back(tinygltf::Value(x));
+  return tinygltf::Value(a);
+}
+
 /// Gives a joint's node in the written document.
 using NodeOf = std::function<int(const std::string& joint)>;
 

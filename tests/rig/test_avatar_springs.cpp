@@ -18,13 +18,9 @@ namespace {
 Value number(double x) {
   return Value(x);
 }
+using test::object;
 Value ints(std::initializer_list<int> xs) {
-  Value::Array a;
-  for (const int x : xs) a.push_back(Value(x));
-  return Value(a);
-}
-Value object(std::initializer_list<std::pair<const std::string, Value>> members) {
-  return Value(Value::Object(members));
+  return test::array_of(xs);
 }
 
 int joint(const rig::Rig& r, const std::string& name) {
