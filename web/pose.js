@@ -2,7 +2,7 @@
 // an avatar saved in T- or A-pose stands with its arms down. The upper arms are a VRM's humanoid
 // bones, else found by name through HUMANOID (configs/rig/humanoid.json, mirrored here; the web
 // test checks they agree); each turns about its joint until the line to its farthest child points
-// down and armAngleDeg outward.
+// down and armAngleDeg outward, and the fingers curl (fingerCurlDeg).
 
 import * as THREE from 'three';
 
@@ -12,6 +12,7 @@ export const HUMANOID = {
   rightUpperArm: ['rightupperarm', 'rightarm', 'upperarmr', 'upperarm01r', 'rupperarm', 'upperarmright', 'rightshoulderarm', 'armr'],
   armAngleDeg: 10,
   minTurnDeg: 15,
+  fingerCurlDeg: [15, 25, 15],
 };
 
 // "mixamorig:LeftArm" -> "leftarm", "J_Bip_L_UpperArm" -> "lupperarm" (as rest_pose.cpp does).
@@ -40,9 +41,64 @@ function turnInWorld(node, r) {
   node.updateMatrixWorld(true);
 }
 
+const worldPosition = (o) => o.getWorldPosition(new THREE.Vector3());
+
+// The child of `node` farthest from it, or null.
+function farthestChild(node) {
+  const origin = worldPosition(node);
+  let far = null;
+  let best = 0;
+  for (const child of node.children) {
+    const d = worldPosition(child).distanceTo(origin);
+    if (d > best) [far, best] = [child, d];
+  }
+  return far;
+}
+
+// Relaxed hands, as rest_pose.cpp curls them: the fingers of the hand below `arm` (`side` 1: the
+// figure's left, at +x) turn toward the palm by fingerCurlDeg per joint, the thumb (the finger that
+// points least along the hand) stays. Returns [node, world-axis turn] pairs, found at rest.
+function fingerCurls(arm, side) {
+  const forearm = farthestChild(arm);
+  const hand = forearm && farthestChild(forearm);
+  if (!hand) return [];
+  const along = worldPosition(hand).sub(worldPosition(forearm)).normalize();
+  const fingers = [];
+  for (const c of hand.children) {
+    const chain = [c];
+    for (let n = farthestChild(c); n && chain.length <= 64; n = farthestChild(n)) chain.push(n);
+    if (chain.length >= 2) fingers.push(chain);
+  }
+  if (fingers.length < 3) return [];
+  const direction = (f) => worldPosition(f[f.length - 1]).sub(worldPosition(f[0])).normalize();
+  let thumb = 0;
+  fingers.forEach((f, i) => direction(f).dot(along) < direction(fingers[thumb]).dot(along) && (thumb = i));
+  fingers.splice(thumb, 1);
+  let across = new THREE.Vector3();
+  for (const a of fingers)
+    for (const b of fingers) {
+      const d = worldPosition(a[0]).sub(worldPosition(b[0]));
+      if (d.length() > across.length()) across = d;
+    }
+  const palm = along.clone().cross(across);
+  if (palm.length() < 1e-9) return [];
+  palm.normalize();
+  const facing = palm.dot(new THREE.Vector3(-side, -1, 0).normalize());
+  if (Math.abs(facing) < 0.3) return [];
+  if (facing < 0) palm.negate();
+  const turns = [];
+  for (const f of fingers)
+    for (let k = 0; k + 1 < f.length && k < HUMANOID.fingerCurlDeg.length; ++k) {
+      const axis = worldPosition(f[k + 1]).sub(worldPosition(f[k])).normalize().cross(palm);
+      if (axis.length() < 1e-6 || !HUMANOID.fingerCurlDeg[k]) continue;
+      turns.push([f[k], new THREE.Quaternion().setFromAxisAngle(axis.normalize(), THREE.MathUtils.degToRad(HUMANOID.fingerCurlDeg[k]))]);
+    }
+  return turns;
+}
+
 /**
- * Puts the arms of `root` down (a VRM through its normalized humanoid bones, so three-vrm keeps the
- * pose). Returns what it turned: [{ name, degrees }].
+ * Puts the arms of `root` down and relaxes the hands (a VRM through its normalized humanoid bones,
+ * so three-vrm keeps the pose). Returns what it turned: [{ name, degrees }].
  */
 export function restPose(root, vrm = null) {
   root.updateMatrixWorld(true);
@@ -50,18 +106,22 @@ export function restPose(root, vrm = null) {
     ? [vrm.humanoid.getNormalizedBoneNode('leftUpperArm'), vrm.humanoid.getNormalizedBoneNode('rightUpperArm')]
     : [byName(root, HUMANOID.leftUpperArm), byName(root, HUMANOID.rightUpperArm)];
   const turned = [];
+  // The fingers first, each about its joint in the world's axes at rest (q = q0 W0^-1 R W0: the arm's
+  // turn below then carries them).
+  const curls = arms.flatMap((arm, i) => (arm ? fingerCurls(arm, i === 0 ? 1 : -1) : []));
+  const rest = curls.map(([node]) => [node.quaternion.clone(), node.getWorldQuaternion(new THREE.Quaternion())]);
+  curls.forEach(([node, r], i) => {
+    const [q0, w0] = rest[i];
+    node.quaternion.copy(q0).multiply(w0.clone().invert().multiply(r).multiply(w0));
+    turned.push({ name: node.name, degrees: THREE.MathUtils.radToDeg(2 * Math.acos(Math.min(1, Math.abs(r.w)))) });
+  });
+  root.updateMatrixWorld(true);
   const a = THREE.MathUtils.degToRad(HUMANOID.armAngleDeg);
   for (const arm of arms) {
     if (!arm) continue;
-    const origin = arm.getWorldPosition(new THREE.Vector3());
-    let far = null;
-    let best = 0;
-    for (const child of arm.children) {
-      const d = child.getWorldPosition(new THREE.Vector3()).distanceTo(origin);
-      if (d > best) [far, best] = [child, d];
-    }
-    if (!far || best <= 0) continue;
-    const d = far.getWorldPosition(new THREE.Vector3()).sub(origin).normalize();
+    const far = farthestChild(arm);
+    if (!far) continue;
+    const d = worldPosition(far).sub(worldPosition(arm)).normalize();
     const down = new THREE.Vector3(d.x >= 0 ? Math.sin(a) : -Math.sin(a), -Math.cos(a), 0);
     const degrees = THREE.MathUtils.radToDeg(Math.acos(THREE.MathUtils.clamp(d.dot(down), -1, 1)));
     if (degrees < HUMANOID.minTurnDeg) continue;

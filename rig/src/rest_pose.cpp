@@ -23,6 +23,7 @@ constexpr float kPi = 3.14159265f;
 struct HumanoidTable {
   std::vector<std::string> prefixes, left, right;
   float arm_angle_deg = 10, min_turn_deg = 15;
+  std::vector<float> finger_curl_deg{15, 25, 15};  // per finger joint from the hand out
 };
 
 const HumanoidTable& table() {
@@ -34,7 +35,10 @@ const HumanoidTable& table() {
         .read("right_upper_arm", h.right)
         .read("arm_angle_deg", h.arm_angle_deg)
         .read("min_turn_deg", h.min_turn_deg)
+        .read("finger_curl_deg", h.finger_curl_deg)
         .reject_unknown();
+    for (const float deg : h.finger_curl_deg)
+      if (!(std::abs(deg) <= 90)) c.fail("finger_curl_deg", "angles must be within 90 degrees");
     return h;
   }();
   return t;
@@ -63,24 +67,83 @@ int find_by_name(const Skeleton& s, const std::vector<std::string>& candidates) 
   return -1;
 }
 
+// The child of `j` whose origin is farthest from j's, or -1.
+int farthest_child(const Skeleton& s, int j) {
+  int farthest = -1;
+  float best = 0;
+  for (std::size_t c = 0; c < s.parent.size(); ++c)
+    if (s.parent[c] == j) {
+      const float d = (s.rest_origin[c] - s.rest_origin[static_cast<std::size_t>(j)]).norm();
+      if (d > best) best = d, farthest = static_cast<int>(c);
+    }
+  return farthest;
+}
+
 // The turn that brings the upper arm `arm` down, or none (identity, angle 0) when it has no child
 // joint or hangs down already.
 std::pair<Eigen::Quaternionf, float> arm_turn(const Skeleton& s, int arm) {
   const auto origin = [&](int j) { return s.rest_origin[static_cast<std::size_t>(j)]; };
-  int farthest = -1;
-  float best = 0;
-  for (std::size_t j = 0; j < s.parent.size(); ++j)
-    if (s.parent[j] == arm) {
-      const float d = (origin(static_cast<int>(j)) - origin(arm)).norm();
-      if (d > best) best = d, farthest = static_cast<int>(j);
-    }
-  if (farthest < 0 || best <= 0) return {Eigen::Quaternionf::Identity(), 0.0f};
+  const int farthest = farthest_child(s, arm);
+  if (farthest < 0) return {Eigen::Quaternionf::Identity(), 0.0f};
   const Eigen::Vector3f d = (origin(farthest) - origin(arm)).normalized();
   const float a = table().arm_angle_deg * kPi / 180.0f;
   const Eigen::Vector3f down(d.x() >= 0 ? std::sin(a) : -std::sin(a), -std::cos(a), 0.0f);
   const float angle = std::acos(std::clamp(d.dot(down), -1.0f, 1.0f)) * 180.0f / kPi;
   if (angle < table().min_turn_deg) return {Eigen::Quaternionf::Identity(), 0.0f};
   return {Eigen::Quaternionf::FromTwoVectors(d, down), angle};
+}
+
+// Relaxed hands: the fingers of the hand below upper arm `arm` (`side` +1: the figure's left, at
+// +X) curled toward the palm by finger_curl_deg per joint; the thumb (the finger that points least
+// along the hand) left straight. The hand is the arm's farthest child's farthest child; a finger
+// is a chain of two or more joints from it. The palm faces where the normal of the plane of the
+// hand and its fingers' bases points down and inward; a hand whose palm faces forward or back
+// (no such side) stays as it is.
+void curl_fingers(const Skeleton& s, int arm, float side, JointTurns& turns, PoseReport& report) {
+  const auto origin = [&](int j) { return s.rest_origin[static_cast<std::size_t>(j)]; };
+  const int forearm = farthest_child(s, arm);
+  const int hand = forearm >= 0 ? farthest_child(s, forearm) : -1;
+  if (hand < 0) return;
+  const Eigen::Vector3f along = (origin(hand) - origin(forearm)).normalized();
+  std::vector<std::vector<int>> fingers;
+  for (std::size_t c = 0; c < s.parent.size(); ++c) {
+    if (s.parent[c] != hand) continue;
+    std::vector<int> chain{static_cast<int>(c)};
+    for (int next = farthest_child(s, chain.back()); next >= 0 && chain.size() <= s.parent.size();
+         next = farthest_child(s, chain.back()))
+      chain.push_back(next);
+    if (chain.size() >= 2) fingers.push_back(std::move(chain));
+  }
+  if (fingers.size() < 3) return;
+  const auto direction = [&](const std::vector<int>& f) {
+    return Eigen::Vector3f((origin(f.back()) - origin(f.front())).normalized());
+  };
+  const auto thumb =
+      std::min_element(fingers.begin(), fingers.end(), [&](const auto& a, const auto& b) {
+        return direction(a).dot(along) < direction(b).dot(along);
+      });
+  fingers.erase(thumb);
+  // Across the hand: between the two finger bases farthest apart.
+  Eigen::Vector3f across = Eigen::Vector3f::Zero();
+  for (const auto& a : fingers)
+    for (const auto& b : fingers)
+      if ((origin(a.front()) - origin(b.front())).norm() > across.norm())
+        across = origin(a.front()) - origin(b.front());
+  Eigen::Vector3f palm = along.cross(across);
+  if (palm.norm() < 1e-9f) return;
+  palm.normalize();
+  const float facing = palm.dot(Eigen::Vector3f(-side, -1, 0).normalized());
+  if (std::abs(facing) < 0.3f) return;
+  if (facing < 0) palm = -palm;
+  const auto& curl = table().finger_curl_deg;
+  for (const auto& f : fingers)
+    for (std::size_t k = 0; k + 1 < f.size() && k < curl.size(); ++k) {
+      const Eigen::Vector3f d = (origin(f[k + 1]) - origin(f[k])).normalized();
+      const Eigen::Vector3f axis = d.cross(palm);
+      if (axis.norm() < 1e-6f || curl[k] == 0) continue;
+      turns.emplace_back(f[k], Eigen::AngleAxisf(curl[k] * kPi / 180.0f, axis.normalized()));
+      report.turned.emplace_back(s.joint_names[static_cast<std::size_t>(f[k])], curl[k]);
+    }
 }
 
 bool has_skeleton(const Rig& rig) {
@@ -179,6 +242,7 @@ PoseReport apply_rest_pose(Rig& rig) {
   for (const char* bone : {"leftUpperArm", "rightUpperArm"}) {
     const int arm = humanoid_joint(s, bone);
     if (arm < 0) continue;
+    curl_fingers(s, arm, bone[0] == 'l' ? 1.0f : -1.0f, turns, report);
     const auto [turn, angle] = arm_turn(s, arm);
     if (angle == 0.0f) continue;
     turns.emplace_back(arm, turn);

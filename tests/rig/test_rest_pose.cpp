@@ -1,6 +1,7 @@
 // The rest pose on a humanoid made in code (humanoid.hpp) saved in T-pose or A-pose with
 // Mixamo's and others' joint names: the arms come down, the face stays.
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <fstream>
@@ -84,6 +85,51 @@ TEST_CASE("an avatar saved in T- or A-pose stands with its arms down", "[rig][po
   CHECK(parse_pose("bind", "--pose").kind == Pose::Kind::kBind);
   CHECK_THROWS_WITH(parse_pose("sit", "--pose"),
                     Catch::Contains("--pose") && Catch::Contains("sit"));
+}
+
+TEST_CASE("the rest pose relaxes the hands: fingers curl toward the palm, the thumb stays",
+          "[rig][pose]") {
+  // The T-posed humanoid's left hand (joint 3, palm down) with four fingers of four joints along
+  // +X, spread in z, and a thumb pointing forward (+Z).
+  Rig r = humanoid(0);
+  Skeleton& s = r.skeleton;
+  const Eigen::Vector3f hand = s.rest_origin[3];
+  const auto add_chain = [&](const std::string& name, Eigen::Vector3f at,
+                             const Eigen::Vector3f& step, int joints) {
+    int parent = 3;
+    for (int k = 0; k < joints; ++k, at += step) {
+      s.joint_names.push_back(name + std::to_string(k + 1));
+      s.parent.push_back(parent);
+      s.rest_origin.push_back(at);
+      parent = static_cast<int>(s.parent.size()) - 1;
+    }
+    return static_cast<int>(s.parent.size()) - joints;
+  };
+  const int index =
+      add_chain("LeftHandIndex", hand + Eigen::Vector3f(0.05f, 0, 0.03f), {0.03f, 0, 0}, 4);
+  for (const float z : {0.01f, -0.01f, -0.03f})
+    add_chain("LeftHandFinger", hand + Eigen::Vector3f(0.05f, 0, z), {0.03f, 0, 0}, 4);
+  const int thumb =
+      add_chain("LeftHandThumb", hand + Eigen::Vector3f(0.02f, 0, 0.05f), {0.01f, 0, 0.03f}, 3);
+  r.validate("hand");
+  const auto at = [&](int j) { return r.skeleton.rest_origin[static_cast<std::size_t>(j)]; };
+  const auto angle = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+    return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0f, 1.0f)) / kDeg;
+  };
+  const float thumb_before = angle(at(thumb + 2) - at(thumb), at(3) - at(2));
+
+  const PoseReport report = apply_rest_pose(r);
+  CHECK(report.turned.size() == 4 * 3 + 2);     // three joints of each finger, and both arms
+  const Eigen::Vector3f along = at(3) - at(2);  // the hand's direction, now down
+  // Each joint curls by configs/rig/humanoid.json's 15, 25 and 15 degrees.
+  CHECK(angle(at(index + 1) - at(index), along) == Approx(15).margin(0.5));
+  CHECK(angle(at(index + 2) - at(index + 1), along) == Approx(40).margin(0.5));
+  CHECK(angle(at(index + 3) - at(index + 2), along) == Approx(55).margin(0.5));
+  // Toward the palm: down in the T-pose, turned inward (-X) with the arm.
+  const Eigen::Vector3f palm = along.cross(Eigen::Vector3f::UnitZ()).normalized();
+  CHECK(palm.x() < -0.9f);
+  CHECK((at(index + 3) - at(index)).dot(palm) > 0.02f);
+  CHECK(angle(at(thumb + 2) - at(thumb), along) == Approx(thumb_before).margin(0.5));
 }
 
 TEST_CASE("a pose file turns the bones it names", "[rig][pose]") {

@@ -242,7 +242,7 @@ await run('avatar', async () => {
     check(`${tag}: the T-posed arms hang down, 10 degrees outward (the rest pose)`, result.turned === 2 && result.armAngles.every((a) => Math.abs(a - 10) < 1), `${result.turned} turned, ${JSON.stringify(result.armAngles)}`);
     if (!isVrm) {
       const table = JSON.parse(readFileSync(join(sourceDir, 'configs/rig/humanoid.json'), 'utf8'));
-      const mirrored = { prefixes: table.prefixes, leftUpperArm: table.left_upper_arm, rightUpperArm: table.right_upper_arm, armAngleDeg: table.arm_angle_deg, minTurnDeg: table.min_turn_deg };
+      const mirrored = { prefixes: table.prefixes, leftUpperArm: table.left_upper_arm, rightUpperArm: table.right_upper_arm, armAngleDeg: table.arm_angle_deg, minTurnDeg: table.min_turn_deg, fingerCurlDeg: table.finger_curl_deg };
       check('web/pose.js mirrors configs/rig/humanoid.json', JSON.stringify(result.humanoid) === JSON.stringify(mirrored), JSON.stringify(result.humanoid));
       const body = JSON.parse(readFileSync(join(sourceDir, 'configs/rig/body.json'), 'utf8'));
       const bodyMirrored = { neckShare: body.neck_share, breathChestDeg: body.breath_chest_deg, breathShoulderDeg: body.breath_shoulder_deg, shrugDeg: body.shrug_deg, leanCounter: body.lean_counter };
@@ -262,6 +262,50 @@ await run('avatar', async () => {
     }
     await screenshot(page, `avatar-${isVrm ? 'vrm' : 'glb'}`);
   }
+  // Relaxed hands on a skeleton made here as the C++ test makes it (tests/rig/test_rest_pose.cpp):
+  // a T-posed left arm, four fingers along +x spread in z, a thumb pointing forward.
+  const hands = await page.evaluate(async () => {
+    const THREE = await import('three');
+    const { restPose } = await import('/pose.js');
+    const bone = (name, parent, [x, y, z]) => {
+      const b = new THREE.Bone();
+      b.name = name;
+      b.position.set(x, y, z);
+      parent?.add(b);
+      return b;
+    };
+    const hips = bone('Hips', null, [0, 1, 0]);
+    const arm = bone('LeftArm', hips, [0.2, 0.45, 0]);
+    const forearm = bone('LeftForeArm', arm, [0.3, 0, 0]);
+    const hand = bone('LeftHand', forearm, [0.25, 0, 0]);
+    const chain = (name, at, step, n) => {
+      let parent = hand;
+      const out = [];
+      for (let k = 0; k < n; ++k) out.push((parent = bone(`${name}${k + 1}`, parent, k === 0 ? at : step)));
+      return out;
+    };
+    const index = chain('LeftHandIndex', [0.05, 0, 0.03], [0.03, 0, 0], 4);
+    for (const z of [0.01, -0.01, -0.03]) chain('LeftHandFinger', [0.05, 0, z], [0.03, 0, 0], 4);
+    const thumb = chain('LeftHandThumb', [0.02, 0, 0.05], [0.01, 0, 0.03], 3);
+    const root = new THREE.Group();
+    root.add(hips);
+    const at = (o) => o.getWorldPosition(new THREE.Vector3());
+    const angle = (a, b) => THREE.MathUtils.radToDeg(a.angleTo(b));
+    root.updateMatrixWorld(true);
+    const thumbBefore = angle(at(thumb[2]).sub(at(thumb[0])), at(hand).sub(at(forearm)));
+    const turned = restPose(root).length;
+    root.updateMatrixWorld(true);
+    const along = at(hand).sub(at(forearm));
+    const palm = along.clone().cross(new THREE.Vector3(0, 0, 1)).normalize();
+    return {
+      turned,
+      curls: [0, 1, 2].map((k) => angle(at(index[k + 1]).sub(at(index[k])), along)),
+      toward: at(index[3]).sub(at(index[0])).dot(palm),
+      thumb: angle(at(thumb[2]).sub(at(thumb[0])), along) - thumbBefore,
+    };
+  });
+  check('relaxed hands: the fingers curl 15, 40, 55 degrees from the hand, toward the palm, the thumb stays (as rest_pose.cpp)', hands.turned === 13 && [15, 40, 55].every((a, k) => Math.abs(hands.curls[k] - a) < 0.5) && hands.toward > 0.02 && Math.abs(hands.thumb) < 0.5, JSON.stringify(hands));
+
   const rest = await (await fetch(`${server.url}/api/rigs`)).json();
   check('GET /api/rigs says the avatars stand at rest', rest.pose?.kind === 'rest', JSON.stringify(rest.pose));
 
