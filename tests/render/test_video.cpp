@@ -186,7 +186,8 @@ TEST_CASE("a frame sequence with its WAV, and ffmpeg errors", "[render][video]")
   vo.encoder = render::VideoOptions::Encoder::kNvenc;
   fs::remove(mp4);
   try {
-    CHECK(render::write_video(renderer, p, u.pcm, u.sample_rate, mp4, vo).encoder == "h264_nvenc");
+    const auto nvenc = render::write_video(renderer, p, u.pcm, u.sample_rate, mp4, vo);
+    CHECK(nvenc.encoder == "h264_nvenc");
   } catch (const facecast::Error& e) {
     INFO(e.what());
     CHECK_THAT(e.what(), Catch::Contains("ffmpeg failed"));
