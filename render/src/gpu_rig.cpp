@@ -241,12 +241,13 @@ void pack_body(const Rig& rig, PackedRig& p) {
     }
     // Spring joints by their place in the chain (every first joint, then every second ...) while
     // the palette has room; a joint left out swings with the one above it.
-    for (std::size_t k = 0, added = 1; added && b.group_joint.size() < kPaletteSize; ++k) {
-      added = 0;
+    bool deeper = true;
+    for (std::size_t k = 0; deeper && b.group_joint.size() < kPaletteSize; ++k) {
+      deeper = false;  // some chain has a k-th joint
       for (const auto& spring : sk.springs.springs)
         if (k < spring.joints.size() && b.group_joint.size() < kPaletteSize) {
           const auto j = static_cast<std::size_t>(spring.joints[k].joint);
-          added = 1;
+          deeper = true;
           if (entry[j] >= 0) continue;
           entry[j] = static_cast<int>(b.group_joint.size());
           b.group_joint.push_back(static_cast<int>(j));

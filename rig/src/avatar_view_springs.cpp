@@ -24,6 +24,7 @@ struct Reader {
   const std::map<int, int>& joint_of_node;
   std::string what;
   SpringBones out;
+  std::size_t joints = 0;  // added so far
 
   bool is_node(const tinygltf::Value& v) const {
     return v.IsInt() && v.GetNumberAsInt() >= 0 &&
@@ -52,7 +53,6 @@ struct Reader {
       throw Error(what + ": more than " + std::to_string(kMaxJoints) + " spring joints");
     spring.joints.push_back(j);
   }
-  std::size_t joints = 0;
   void add_collider(SpringCollider c) {
     if (out.colliders.size() >= kMaxColliders)
       throw Error(what + ": more than " + std::to_string(kMaxColliders) + " colliders");

@@ -271,7 +271,8 @@ void StreamPacer::launch_renders(double elapsed) {
 }
 
 void StreamPacer::skip_frame() {
-  if (springs_ && !springs_->empty()) {  // the springs step through dropped frames too
+  if (!springs_) springs_ = p_->renderer->spring_sim();
+  if (!springs_->empty()) {  // the springs step through dropped frames too (the first ones too)
     std::vector<float> values;
     frame_values(next_frame_, values);
     step_springs(next_frame_, rig::BodyPose::from_channels(
