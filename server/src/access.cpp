@@ -6,8 +6,8 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/json_limits.hpp"
 #include "log.hpp"
+#include "responses.hpp"
 #include "routes.hpp"
-#include "state.hpp"
 
 namespace facecast::server {
 namespace {
@@ -18,31 +18,31 @@ using nlohmann::json;
   throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
 }
 
-std::shared_ptr<Channel> owned_channel(const State& state, const Principal& who,
-                                       const std::string& name) {
-  auto c = state.channels ? state.channels->find(name) : nullptr;
+}  // namespace
+
+std::shared_ptr<Channel> Access::owned_channel(const Principal& who,
+                                               const std::string& name) const {
+  auto c = channels_ ? channels_->find(name) : nullptr;
   if (!c || !who.owns(c->tenant()))
     throw Error("channel: '" + name + "' does not exist", ErrorCode::kNotFound);
   return c;
 }
 
-void check_speak(State& state, const Principal& who, const SpeakRequest& r) {
+void Access::check_speak(const Principal& who, const SpeakRequest& r) const {
   if (r.channel.empty())
     who.require(kScopeSpeak, "speak");
   else
     who.require(kScopeChannelsProduce, "speak on a channel");
-  const RigInfo rig = usable_rig(state, who, r.rig);
+  const RigInfo rig = usable_rig(who, r.rig);
   if (who.viewer && rig.id != who.rig)
     throw RequestError(Code::kForbidden, "this token may speak only with rig '" + who.rig + "'");
   if (!r.audio_id.empty()) {
-    const auto owner = state.audio_uploads.owner(r.audio_id);
+    const auto owner = uploads_.owner(r.audio_id);
     if (!owner || !who.owns(*owner))
       throw Error("audio_id '" + r.audio_id + "': no such upload (POST /api/audio; uploads expire)",
                   ErrorCode::kNotFound);
   }
 }
-
-}  // namespace
 
 bool rig_listed(const Principal& who, const RigInfo& rig) {
   return rig.builtin || who.owns(rig.tenant);
@@ -52,19 +52,19 @@ bool rig_usable(const Principal& who, const RigInfo& rig) {
   return rig.is_public || rig_listed(who, rig);
 }
 
-RigInfo usable_rig(const State& state, const Principal& who, const std::string& id) {
-  const std::string resolved = state.rigs.resolve(id);
-  const auto info = state.rigs.find(resolved);
+RigInfo Access::usable_rig(const Principal& who, const std::string& id) const {
+  const std::string resolved = rigs_.resolve(id);
+  const auto info = rigs_.find(resolved);
   if (!info || !rig_usable(who, *info)) no_rig(resolved);
   return *info;
 }
 
-void authorize_message(State& state, const Principal& who, const ClientMessage& message) {
+void Access::authorize_message(const Principal& who, const ClientMessage& message) const {
   std::visit(
       [&](const auto& m) {
         using T = std::decay_t<decltype(m)>;
         if constexpr (std::is_same_v<T, SpeakRequest>) {
-          check_speak(state, who, m);
+          check_speak(who, m);
         } else if constexpr (std::is_same_v<T, CancelRequest> || std::is_same_v<T, AppendRequest> ||
                              std::is_same_v<T, EndRequest>) {
           if (m.channel.empty())
@@ -78,24 +78,24 @@ void authorize_message(State& state, const Principal& who, const ClientMessage& 
           if (who.viewer && m.channel != who.channel)
             throw RequestError(Code::kForbidden,
                                "this token may subscribe only to channel '" + who.channel + "'");
-          (void)owned_channel(state, who, m.channel);
+          (void)owned_channel(who, m.channel);
         } else if constexpr (std::is_same_v<T, ProduceRequest>) {
           who.require(kScopeChannelsProduce, "produce");
-          (void)owned_channel(state, who, m.channel);
+          (void)owned_channel(who, m.channel);
         }
         // ping, unsubscribe: anyone connected
       },
       message);
 }
 
-void authorize_live_audio(State& state, const Principal& who) {
+void Access::authorize_live_audio(const Principal& who) const {
   who.require(kScopeSpeak, "live audio");
-  const RigInfo rig = usable_rig(state, who, "");
+  const RigInfo rig = usable_rig(who, "");
   if (who.viewer && rig.id != who.rig)
     throw RequestError(Code::kForbidden, "this token may speak only with rig '" + who.rig + "'");
 }
 
-http::message_generator post_token(State& state, const Request& req, const Principal& who) {
+http::message_generator Access::post_token(const Request& req, const Principal& who) const {
   if (who.viewer)
     throw RequestError(Code::kForbidden, "POST /api/tokens needs a key, not a viewer token");
   check_json_depth(req.body(), 8, "body");
@@ -103,14 +103,14 @@ http::message_generator post_token(State& state, const Request& req, const Princ
   if (!body.is_object())
     throw Error("body: expected a JSON object {\"scope\", \"channel\"|\"rig\"}");
   std::string scope_name, channel, rig;
-  double ttl = std::min(600.0, state.auth.max_ttl());
+  double ttl = std::min(600.0, auth_.max_ttl());
   for (const auto& [k, v] : body.items()) {
     if (k == "scope" || k == "channel" || k == "rig") {
       if (!v.is_string()) throw Error(k + ": expected a string");
       (k == "scope" ? scope_name : k == "channel" ? channel : rig) = v.get<std::string>();
     } else if (k == "ttl") {
-      if (!v.is_number() || !(v.get<double>() >= 1 && v.get<double>() <= state.auth.max_ttl()))
-        throw Error("ttl: expected seconds in 1.." + std::to_string(state.auth.max_ttl()) +
+      if (!v.is_number() || !(v.get<double>() >= 1 && v.get<double>() <= auth_.max_ttl()))
+        throw Error("ttl: expected seconds in 1.." + std::to_string(auth_.max_ttl()) +
                     " (token_max_ttl)");
       ttl = v.get<double>();
     } else {
@@ -124,18 +124,18 @@ http::message_generator post_token(State& state, const Request& req, const Princ
       throw Error("channel: a channels:subscribe token names one channel (and no rig)");
     scope = kScopeChannelsSubscribe;
     who.require(scope, "a channels:subscribe token");
-    (void)owned_channel(state, who, channel);
+    (void)owned_channel(who, channel);
     out["channel"] = channel;
   } else if (scope_name == "speak") {
     if (!channel.empty()) throw Error("channel: a speak token names a rig, not a channel");
     scope = kScopeSpeak;
     who.require(scope, "a speak token");
-    rig = usable_rig(state, who, rig).id;  // "" or absent: the default rig
+    rig = usable_rig(who, rig).id;  // "" or absent: the default rig
     out["rig"] = rig;
   } else {
     throw Error("scope: '" + scope_name + "' is not channels:subscribe or speak");
   }
-  const std::string token = state.auth.mint(who, scope, channel, rig, ttl);
+  const std::string token = auth_.mint(who, scope, channel, rig, ttl);
   const double now =
       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   out["token"] = token;
@@ -149,7 +149,7 @@ http::message_generator post_token(State& state, const Request& req, const Princ
                              {"channel", channel},
                              {"rig", rig},
                              {"ttl", ttl}});
-  return json_response(state, req, http::status::created, out);
+  return reply_.json(req, http::status::created, out);
 }
 
 }  // namespace facecast::server

@@ -11,7 +11,6 @@
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/picture.hpp"
 #include "log.hpp"
-#include "photo_api.hpp"
 #include "routes.hpp"
 #include "storage.hpp"
 #include "video.hpp"
@@ -125,10 +124,10 @@ std::string base64_encode(std::string_view bytes) {
 
 }  // namespace
 
-http::message_generator post_landmarks(State& state, const Request& req, const Principal& who) {
-  const json body = parse_body(req, state.limits.max_json_depth);
+http::message_generator RigApi::post_landmarks(const Request& req, const Principal& who) {
+  const json body = parse_body(req, s_.options.max_json_depth);
   if (!body.is_object()) throw Error("body: expected a JSON object");
-  std::string template_id = state.options.default_rig;
+  std::string template_id = s_.options.default_rig;
   const json* mesh = nullptr;
   for (const auto& [k, v] : body.items()) {
     if (k == "template")
@@ -138,10 +137,10 @@ http::message_generator post_landmarks(State& state, const Request& req, const P
     else
       throw Error("body: unknown field '" + k + "'");
   }
-  std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh, state.options.decode);
-  (void)usable_rig(state, who, template_id);
-  const auto tmpl = state.rigs.load(template_id);
-  const std::string job = state.jobs.submit(
+  std::shared_ptr<const rigbuild::BuildTarget> user = parse_mesh(mesh, s_.options.decode);
+  (void)access_.usable_rig(who, template_id);
+  const auto tmpl = s_.rigs.load(template_id);
+  const std::string job = jobs_.submit(
       "landmarks",
       [tmpl, user](JobContext& ctx) -> json {
         ctx.progress("landmarks", 0.0);
@@ -163,8 +162,7 @@ http::message_generator post_landmarks(State& state, const Request& req, const P
       },
       {}, who.tenant);
   log::info("landmarks_upload", {{"job", job}, {"template", tmpl->id}});
-  return json_response(state, req, http::status::accepted,
-                       {{"job", job}, {"url", "/api/jobs/" + job}});
+  return reply_.json(req, http::status::accepted, {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
 // ?public=1 / true / yes.
@@ -174,26 +172,26 @@ bool public_query(const Target& t) {
 }
 
 // POST /api/rigs with a GLB or VRM body: the user's avatar, stored as it is (?name= names it).
-http::message_generator import_rig(State& state, const Request& req, const Target& t,
-                                   const Principal& who) {
+http::message_generator RigApi::import_rig(const Request& req, const Target& t,
+                                           const Principal& who) {
   std::string name = query_value(t.query, "name").value_or("Avatar");
   if (name.empty() || utf8_length(name) > 64) throw Error("name: expected 1 to 64 characters");
   const std::string& bytes = req.body();
   if (bytes.empty()) throw Error("body: empty (expected a GLB or VRM file)");
-  const auto job = state.jobs.hold("rig import");
-  check_disk_quota(state, who.tenant, bytes.size());
+  const auto job = jobs_.hold("rig import");
+  storage_.check_quota(who.tenant, bytes.size());
   const std::string id =
-      state.rigs.import(name, bytes, "upload", RigOwner{who.tenant, public_query(t)});
-  const auto info = state.rigs.find(id);
+      s_.rigs.import(name, bytes, "upload", RigOwner{who.tenant, public_query(t)});
+  const auto info = s_.rigs.find(id);
   log::info("rig_import", {{"rig", id}, {"name", name}, {"bytes", bytes.size()}});
-  return json_response(state, req, http::status::created, info->to_json());
+  return reply_.json(req, http::status::created, info->to_json());
 }
 
 // A rig build from a POST /api/rigs JSON body: checked here (throws Error naming the field), run
 // by a job worker (with Redis, on any instance: the body is the job's payload).
-static Jobs::Work rig_work(State& state, const json& body, const std::string& tenant) {
+Jobs::Work RigApi::rig_work(const json& body, const std::string& tenant) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
-  std::string name = "Rig", template_id = state.options.default_rig;
+  std::string name = "Rig", template_id = s_.options.default_rig;
   RigOwner owner{tenant, false};
   const json* mesh = nullptr;
   const json* markers = nullptr;
@@ -233,9 +231,9 @@ static Jobs::Work rig_work(State& state, const json& body, const std::string& te
       throw Error("body: unknown field '" + k + "'");
     }
   }
-  auto user = parse_mesh(mesh, state.options.decode);
+  auto user = parse_mesh(mesh, s_.options.decode);
   rig::Rig& target = user->neutral();
-  const auto tmpl = state.rigs.load(template_id);
+  const auto tmpl = s_.rigs.load(template_id);
 
   // Without markers, another topology is registered through landmarks found automatically on
   // rendered views of the mesh (in the job: a mesh that is not a head fails there, saying so).
@@ -250,60 +248,58 @@ static Jobs::Work rig_work(State& state, const json& body, const std::string& te
                            {"vertices", vertices},
                            {"markers", markers != nullptr}});
   std::shared_ptr<const rigbuild::BuildTarget> shared_target = std::move(user);
-  return [&state, shared_target, tmpl, opt, name, owner](JobContext& ctx) -> json {
+  return [this, shared_target, tmpl, opt, name, owner](JobContext& ctx) -> json {
     const auto t0 = std::chrono::steady_clock::now();
     const auto r =
         rigbuild::build_rig(*tmpl->rig, shared_target->neutral(), opt, ctx.progress_fn());
     const json report = rigbuild::build_report_json(r, opt);
     ctx.progress("storing", 1.0);
     const std::string glb = shared_target->glb_bytes(r.rig);
-    check_disk_quota(state, owner.tenant, glb.size());
-    const std::string id = state.rigs.add(name, tmpl->id, r.rig, glb, report,
-                                          opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
-                                              ? r.virtual_edges
-                                              : std::vector<rigbuild::VirtualEdge>{},
-                                          r.ve_stats, owner);
-    state.metrics.rig_build_seconds.observe(
+    storage_.check_quota(owner.tenant, glb.size());
+    const std::string id = s_.rigs.add(name, tmpl->id, r.rig, glb, report,
+                                       opt.virtual_edges != rigbuild::VirtualEdgeMode::kOff
+                                           ? r.virtual_edges
+                                           : std::vector<rigbuild::VirtualEdge>{},
+                                       r.ve_stats, owner);
+    s_.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id}, {"url", "/api/rigs/" + id + ".glb"}, {"report", report}};
   };
 }
 
-http::message_generator post_rig(State& state, const Request& req, const Target& t,
-                                 const Principal& who) {
+http::message_generator RigApi::post_rig(const Request& req, const Target& t,
+                                         const Principal& who) {
   const std::string type(req[http::field::content_type]);
   if (type.starts_with("model/gltf-binary") || type.starts_with("model/vrm") ||
       type.starts_with("application/octet-stream"))
-    return import_rig(state, req, t, who);
-  json body = parse_body(req, state.limits.max_json_depth);
-  check_disk_quota(state, who.tenant);
+    return import_rig(req, t, who);
+  json body = parse_body(req, s_.options.max_json_depth);
+  storage_.check_quota(who.tenant);
   if (body.is_object()) {
     if (const auto it = body.find("template"); it != body.end() && it->is_string())
-      (void)usable_rig(state, who, it->get<std::string>());
+      (void)access_.usable_rig(who, it->get<std::string>());
     if (public_query(t)) body["public"] = true;  // the payload carries it (Redis)
   }
-  const std::string job =
-      state.jobs.submit("rig", rig_work(state, body, who.tenant), body, who.tenant);
+  const std::string job = jobs_.submit("rig", rig_work(body, who.tenant), body, who.tenant);
   log::info("rig_job", {{"job", job}});
-  return json_response(state, req, http::status::accepted,
-                       {{"job", job}, {"url", "/api/jobs/" + job}});
+  return reply_.json(req, http::status::accepted, {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
 // A video render from a POST /api/render body (checked here, run by a job worker).
-static Jobs::Work render_work(State& state, const json& body) {
+Jobs::Work RigApi::render_work(const json& body) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   VideoRequest r;
-  r.rig = state.options.default_rig;
+  r.rig = s_.options.default_rig;
   bool have_text = false;
   for (const auto& [k, v] : body.items()) {
     if (k == "text") {
       r.text = str(v, "text");
       const std::size_t n = utf8_length(r.text);
       if (n == 0) throw Error("text: empty");
-      if (n > state.options.max_text)
+      if (n > s_.options.max_text)
         throw RequestError(Code::kLimit, "text: " + std::to_string(n) +
                                              " characters, the limit is " +
-                                             std::to_string(state.options.max_text));
+                                             std::to_string(s_.options.max_text));
       have_text = true;
     } else if (k == "rig") {
       r.rig = str(v, "rig");
@@ -312,7 +308,7 @@ static Jobs::Work render_work(State& state, const json& body) {
     } else if (k == "size") {
       if (!v.is_array() || v.size() != 2 || !v[0].is_number_integer() || !v[1].is_number_integer())
         throw Error("size: expected [width, height] in pixels");
-      const double hi = state.options.max_frame_side;
+      const double hi = s_.options.max_frame_side;
       r.width = static_cast<int>(number(v[0], "size[0]", 16, hi));
       r.height = static_cast<int>(number(v[1], "size[1]", 16, hi));
       if (r.width % 2 || r.height % 2) throw Error("size: width and height must be even (H.264)");
@@ -333,42 +329,41 @@ static Jobs::Work render_work(State& state, const json& body) {
     }
   }
   if (!have_text) throw Error("text: missing");
-  if (!state.rigs.find(r.rig))
-    throw Error("rig '" + r.rig + "' does not exist", ErrorCode::kNotFound);
+  if (!s_.rigs.find(r.rig)) throw Error("rig '" + r.rig + "' does not exist", ErrorCode::kNotFound);
   log::info("render_request", {{"rig", r.rig},
                                {"fps", r.fps},
                                {"size", std::to_string(r.width) + "x" + std::to_string(r.height)}});
-  return [&state, r](JobContext& ctx) { return render_video(state, r, ctx); };
+  return [&streams = s_, r](JobContext& ctx) { return render_video(streams, r, ctx); };
 }
 
-http::message_generator post_render(State& state, const Request& req, const Principal& who) {
-  const json body = parse_body(req, state.limits.max_json_depth);
+http::message_generator RigApi::post_render(const Request& req, const Principal& who) {
+  const json body = parse_body(req, s_.options.max_json_depth);
   if (body.is_object()) {
     const auto it = body.find("rig");
-    (void)usable_rig(state, who, it != body.end() && it->is_string() ? it->get<std::string>() : "");
+    (void)access_.usable_rig(who,
+                             it != body.end() && it->is_string() ? it->get<std::string>() : "");
   }
-  check_disk_quota(state, who.tenant);
-  const std::string job = state.jobs.submit("render", render_work(state, body), body, who.tenant);
+  storage_.check_quota(who.tenant);
+  const std::string job = jobs_.submit("render", render_work(body), body, who.tenant);
   log::info("render_job", {{"job", job}});
-  return json_response(state, req, http::status::accepted,
-                       {{"job", job}, {"url", "/api/jobs/" + job}});
+  return reply_.json(req, http::status::accepted, {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
-http::message_generator patch_rig(State& state, const Request& req, const std::string& id) {
-  const json body = parse_body(req, state.limits.max_json_depth);
+http::message_generator RigApi::patch_rig(const Request& req, const std::string& id) {
+  const json body = parse_body(req, s_.options.max_json_depth);
   if (!body.is_object() || body.size() != 1 || !body.contains("public") ||
       !body["public"].is_boolean())
     throw Error("body: expected {\"public\": true|false}");
-  if (!state.rigs.set_public(id, body["public"].get<bool>()))
+  if (!s_.rigs.set_public(id, body["public"].get<bool>()))
     throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
-  return json_response(state, req, http::status::ok, state.rigs.find(id)->to_json());
+  return reply_.json(req, http::status::ok, s_.rigs.find(id)->to_json());
 }
 
-Jobs::Work job_work(State& state, const std::string& kind, const json& payload,
-                    const std::string& tenant) {
-  if (kind == "rig") return rig_work(state, payload, tenant);
-  if (kind == "render") return render_work(state, payload);
-  if (kind == "photo") return photo_work(state, payload, tenant);
+Jobs::Work RigApi::job_work(const std::string& kind, const json& payload,
+                            const std::string& tenant) {
+  if (kind == "rig") return rig_work(payload, tenant);
+  if (kind == "render") return render_work(payload);
+  if (kind == "photo") return photo_work(payload, tenant);
   throw Error("job kind '" + kind + "' is not rig, render or photo");
 }
 

@@ -10,8 +10,9 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/random.hpp"
+#include "jobs.hpp"
+#include "responses.hpp"
 #include "routes.hpp"
-#include "state.hpp"
 
 namespace facecast::server {
 namespace fs = std::filesystem;
@@ -115,14 +116,14 @@ void AudioUploads::expire(Clock::time_point now) {
   std::erase_if(entries_, [&](const auto& e) { return now - e.second.at > ttl; });
 }
 
-http::message_generator post_audio(State& state, const Request& req, const std::string& tenant) {
-  const auto job = state.jobs.hold("audio decode");
-  viseme::Audio audio = state.audio_uploads.decode(req.body());
+http::message_generator post_audio(const Responses& reply, Jobs& jobs, AudioUploads& uploads,
+                                   const Request& req, const std::string& tenant) {
+  const auto job = jobs.hold("audio decode");
+  viseme::Audio audio = uploads.decode(req.body());
   const double seconds = audio.seconds();
-  const std::string id = state.audio_uploads.put(std::move(audio), tenant);
-  return json_response(
-      state, req, http::status::created,
-      {{"audio_id", id}, {"seconds", seconds}, {"expires_in", state.audio_uploads.ttl()}});
+  const std::string id = uploads.put(std::move(audio), tenant);
+  return reply.json(req, http::status::created,
+                    {{"audio_id", id}, {"seconds", seconds}, {"expires_in", uploads.ttl()}});
 }
 
 }  // namespace facecast::server

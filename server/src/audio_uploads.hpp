@@ -19,7 +19,8 @@
 
 namespace facecast::server {
 
-struct State;
+class Jobs;
+class Responses;
 
 struct AudioUploadOptions {
   // Where an upload waits while ffmpeg decodes it (a private file, removed after; one a killed
@@ -72,6 +73,7 @@ class AudioUploads {
 
 /// POST /api/audio: the body is an audio file, kept for `tenant`; answers {"audio_id", "seconds",
 /// "expires_in"}.
-http::message_generator post_audio(State& state, const Request& req, const std::string& tenant);
+http::message_generator post_audio(const Responses& reply, Jobs& jobs, AudioUploads& uploads,
+                                   const Request& req, const std::string& tenant);
 
 }  // namespace facecast::server

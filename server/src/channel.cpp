@@ -2,23 +2,21 @@
 
 #include <future>
 
-#include "access.hpp"
+#include "facecast/server/keys.hpp"
 #include "log.hpp"
 #include "redis_bus.hpp"
-#include "routes.hpp"
-#include "speech.hpp"
 
 namespace facecast::server {
 
-Channel::Channel(std::shared_ptr<State> state, net::any_io_executor strand, std::string name,
-                 std::string producer_token, std::string tenant)
-    : state_(std::move(state)),
+Channel::Channel(std::shared_ptr<const StreamServices> services, net::any_io_executor strand,
+                 std::string name, std::string producer_token, std::string tenant)
+    : services_(std::move(services)),
       strand_(std::move(strand)),
       name_(std::move(name)),
       token_(std::move(producer_token)),
       tenant_(std::move(tenant)),
       presence_timer_(strand_) {
-  queue_ = std::make_shared<SpeakQueue>(state_, strand_, *this, "ch:" + name_,
+  queue_ = std::make_shared<SpeakQueue>(services_, strand_, *this, "ch:" + name_,
                                         std::hash<std::string>{}(name_));
 }
 
@@ -121,7 +119,7 @@ std::uint32_t Channel::send(OutMessage message) {
     on_air_id_ = nlohmann::json::parse(*message.data).value("id", "");
   }
   // Idle life stays on each instance; utterances reach the other instances' subscribers too.
-  if (state_->redis && on_air_id_ != kIdleId) state_->redis->publish(name_, message);
+  if (services_->redis && on_air_id_ != kIdleId) services_->redis->publish(name_, message);
   if (message.boundary == Boundary::kEnd) {
     on_air_.reset();
     on_air_id_.reset();
@@ -133,7 +131,7 @@ std::uint32_t Channel::send(OutMessage message) {
 }
 
 void Channel::send_error(const std::optional<std::string>& id, const Problem& problem) {
-  state_->metrics.protocol_errors_total.fetch_add(1);
+  services_->metrics.protocol_errors_total.fetch_add(1);
   log::info("channel_error", {{"channel", name_},
                               {"id", id ? *id : std::string("null")},
                               {"code", to_string(problem.code)},
@@ -200,7 +198,7 @@ void Channel::flush() {
 void Channel::presence_changed() {
   if (presence_armed_ || closed_) return;
   presence_armed_ = true;
-  presence_timer_.expires_after(from_seconds(state_->options.presence_interval));
+  presence_timer_.expires_after(from_seconds(services_->options.presence_interval));
   presence_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
     self->presence_armed_ = false;
     if (ec || self->closed_) return;
@@ -214,9 +212,9 @@ void Channel::presence_changed() {
 // Between utterances a channel with subscribers plays idle life (blinks, small head and eye
 // motion) in streams of channel_idle seconds, so viewers never see a frozen face.
 void Channel::maybe_idle() {
-  const double seconds = state_->options.channel_idle;
+  const double seconds = services_->options.channel_idle;
   if (closed_ || seconds <= 0 || members_.empty() || idle_preparing_ || queue_->busy() ||
-      remote_on_air_ || state_->stopping)
+      remote_on_air_ || services_->sessions.stopping)
     return;
   idle_preparing_ = true;
   SpeakRequest r;
@@ -225,16 +223,17 @@ void Channel::maybe_idle() {
   r.timing = viseme::Timing::kModel;
   const std::uint32_t seed =
       static_cast<std::uint32_t>(std::hash<std::string>{}(name_)) + ++idle_count_;
-  net::post(state_->workers, [self = shared_from_this(), r, seconds, seed]() mutable {
+  net::post(services_->workers, [self = shared_from_this(), r, seconds, seed]() mutable {
     std::shared_ptr<PreparedSpeech> prepared;
     try {
-      prepared = prepare_idle(*self->state_, r, seconds, seed);
+      prepared = self->services_->speech.prepare_idle(r, seconds, seed);
     } catch (const std::exception& e) {
       log::warn("channel_idle_failed", {{"channel", self->name_}, {"error", e.what()}});
     }
     net::post(self->strand_, [self, r = std::move(r), prepared = std::move(prepared)]() mutable {
       self->idle_preparing_ = false;
-      if (!prepared || self->closed_ || self->queue_->busy() || self->state_->stopping) return;
+      if (!prepared || self->closed_ || self->queue_->busy() || self->services_->sessions.stopping)
+        return;
       self->queue_->speak_prepared(std::move(r), std::move(prepared));
     });
   });
@@ -242,12 +241,13 @@ void Channel::maybe_idle() {
 
 // ---- registry ----------------------------------------------------------------------------------
 
-ChannelRegistry::ChannelRegistry(const std::shared_ptr<State>& state, net::io_context& io) {
+ChannelRegistry::ChannelRegistry(const std::shared_ptr<const StreamServices>& services,
+                                 net::io_context& io) {
   // A strand of the io_context's own executor (not of a polymorphic one): it fits inside an
   // any_io_executor without a shared, fence-counted target (ThreadSanitizer cannot model fences).
-  for (const auto& c : state->options.channels) {
-    channels_.push_back(
-        std::make_shared<Channel>(state, net::make_strand(io), c.name, c.producer_token, c.tenant));
+  for (const auto& c : services->options.channels) {
+    channels_.push_back(std::make_shared<Channel>(services, net::make_strand(io), c.name,
+                                                  c.producer_token, c.tenant));
   }
 }
 
@@ -275,83 +275,6 @@ std::string channel_metrics(const ChannelRegistry& channels) {
     out += "facecast_channel_subscribers{channel=\"" + c->name() + "\"} " +
            std::to_string(c->subscribers()) + "\n";
   return out;
-}
-
-// ---- HTTP --------------------------------------------------------------------------------------
-
-namespace {
-
-// POST /api/channels/{c}/speak: the body is a `speak` message (type and id optional).
-http::message_generator post_channel_speak(State& state, const Request& req, Channel& channel,
-                                           const Principal& who) {
-  nlohmann::json body;
-  try {
-    body = nlohmann::json::parse(req.body());
-  } catch (const nlohmann::json::exception&) {
-    throw Error("body: malformed JSON");
-  }
-  if (!body.is_object()) throw Error("body: expected a JSON object (a speak message)");
-  body["type"] = "speak";
-  if (!body.contains("id")) body["id"] = "h" + std::to_string(state.next_stream.load());
-  body["channel"] = channel.name();
-  ClientMessage m = parse_client_message(body.dump(), state.limits);
-  authorize_message(state, who, m);  // the rig and the upload it names
-  const std::string id = std::get<SpeakRequest>(m).id;
-  // Runs on a worker (POST is heavy): waiting for the channel's strand blocks no I/O thread.
-  auto answer = std::make_shared<std::promise<std::optional<Problem>>>();
-  auto done = answer->get_future();
-  channel.request(std::move(m), {},
-                  [answer](std::optional<Problem> p) { answer->set_value(std::move(p)); });
-  if (done.wait_for(std::chrono::seconds(10)) != std::future_status::ready)
-    throw RequestError(Code::kUnavailable, "channel '" + channel.name() + "' did not answer");
-  if (const auto problem = done.get())
-    throw RequestError(problem->code, problem->message, problem->status);
-  return json_response(state, req, http::status::accepted,
-                       {{"channel", channel.name()}, {"id", id}});
-}
-
-}  // namespace
-
-http::message_generator channel_api(State& state, const Request& req, const Target& target) {
-  std::string_view rest =
-      std::string_view(target.path).substr(std::string_view("/api/channels/").size());
-  const auto slash = rest.find('/');
-  const std::string name(rest.substr(0, slash));
-  const std::string_view tail = slash == std::string_view::npos ? "" : rest.substr(slash);
-  const auto channel = state.channels ? state.channels->find(name) : nullptr;
-  if (tail == "/speak") {
-    if (req.method() != http::verb::post)
-      throw RequestError(Code::kMethod, "/api/channels/{c}/speak takes POST");
-    // The channel's producer token, or (with keys) a key of its tenant with channels:produce.
-    const auto given = Auth::credential(req, target);
-    std::optional<Principal> who;
-    if (channel && given && channel->producer_token_ok(*given)) {
-      who = Principal{channel->tenant(), kScopeChannelsProduce, {}, false, {}, {}};
-    } else if (state.auth.enabled()) {
-      who = state.auth.identify(req, target);
-      if (who->viewer) throw RequestError(Code::kForbidden, "a viewer token cannot speak here");
-      who->require(kScopeChannelsProduce, "POST /api/channels/{c}/speak");
-    } else if (!channel) {
-      throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
-    } else {
-      throw RequestError(Code::kUnauthorized,
-                         "the channel's producer token is required (Authorization: Bearer)");
-    }
-    if (!channel || !who->owns(channel->tenant()))
-      throw Error("channel '" + name + "' does not exist", ErrorCode::kNotFound);
-    return post_channel_speak(state, req, *channel, *who);
-  }
-  const Principal who = state.auth.identify(req, target);
-  if (who.viewer) throw RequestError(Code::kForbidden, "a viewer token cannot call " + target.path);
-  if (!tail.empty() || !channel || !who.owns(channel->tenant()))
-    throw Error("not found: " + target.path, ErrorCode::kNotFound);
-  if (req.method() != http::verb::get && req.method() != http::verb::head)
-    throw RequestError(Code::kMethod, "/api/channels/{c} takes GET");
-  who.require(kScopeChannelsSubscribe, "GET /api/channels/{c}");
-  return json_response(state, req, http::status::ok,
-                       {{"channel", channel->name()},
-                        {"subscribers", channel->total_subscribers()},
-                        {"local_subscribers", channel->subscribers()}});
 }
 
 }  // namespace facecast::server

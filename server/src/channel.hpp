@@ -21,7 +21,7 @@
 
 #include "beast.hpp"
 #include "speak_queue.hpp"
-#include "state.hpp"
+#include "stream_services.hpp"
 
 namespace facecast::server {
 
@@ -41,8 +41,8 @@ class ChannelMember {
 
 class Channel : public StreamSink, public std::enable_shared_from_this<Channel> {
  public:
-  Channel(std::shared_ptr<State> state, net::any_io_executor strand, std::string name,
-          std::string producer_token, std::string tenant = "default");
+  Channel(std::shared_ptr<const StreamServices> services, net::any_io_executor strand,
+          std::string name, std::string producer_token, std::string tenant = "default");
 
   const std::string& name() const noexcept { return name_; }
   /// Whose channel (ServerOptions::Channel::tenant): other tenants' keys cannot use it.
@@ -75,7 +75,7 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   // StreamSink (on the strand)
   std::uint32_t send(OutMessage message) override;
   bool media_full() override { return false; }  // each subscriber drops for itself
-  double send_ahead() const override { return state_->options.channel_tick; }
+  double send_ahead() const override { return services_->options.channel_tick; }
   void send_error(const std::optional<std::string>& id, const Problem& problem) override;
 
  private:
@@ -85,7 +85,7 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   void presence_changed();
   void maybe_idle();
 
-  std::shared_ptr<State> state_;
+  std::shared_ptr<const StreamServices> services_;
   net::any_io_executor strand_;
   std::string name_, token_, tenant_;
   std::shared_ptr<SpeakQueue> queue_;
@@ -107,16 +107,13 @@ class Channel : public StreamSink, public std::enable_shared_from_this<Channel> 
   std::uint32_t idle_count_ = 0;
 };
 
-/// Prometheus lines: facecast_channel_subscribers{channel="show"} per channel.
-std::string channel_metrics(const ChannelRegistry& channels);
-
 /// The id of a channel's idle-life streams (between utterances).
 inline constexpr std::string_view kIdleId = "~idle";
 
 /// The configured channels (ServerOptions::channels); the set is fixed at start.
 class ChannelRegistry {
  public:
-  ChannelRegistry(const std::shared_ptr<State>& state, net::io_context& io);
+  ChannelRegistry(const std::shared_ptr<const StreamServices>& services, net::io_context& io);
   /// Null when there is no channel `name`.
   std::shared_ptr<Channel> find(std::string_view name) const;
   const std::vector<std::shared_ptr<Channel>>& all() const { return channels_; }
@@ -127,5 +124,8 @@ class ChannelRegistry {
  private:
   std::vector<std::shared_ptr<Channel>> channels_;
 };
+
+/// Prometheus lines: facecast_channel_subscribers{channel="show"} per channel.
+std::string channel_metrics(const ChannelRegistry& channels);
 
 }  // namespace facecast::server

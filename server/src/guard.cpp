@@ -2,8 +2,8 @@
 
 #include <boost/asio/ip/address.hpp>
 
+#include "responses.hpp"
 #include "routes.hpp"
-#include "state.hpp"
 
 namespace facecast::server {
 namespace {
@@ -75,11 +75,10 @@ bool host_allowed(const ServerOptions& o, std::string_view host) {
   return false;
 }
 
-bool origin_ok(const State& state, const Request& req) {
+bool origin_ok(const ServerOptions& options, const Request& req) {
   if (!req.count(http::field::origin)) return true;  // not a browser
   const std::string_view origin = req[http::field::origin];
-  if (listed(state.options.allowed_origins, origin) || listed(state.options.cors_origins, origin))
-    return true;
+  if (listed(options.allowed_origins, origin) || listed(options.cors_origins, origin)) return true;
   const std::string_view host = req[http::field::host];
   if (host.empty()) return false;
   for (const std::string_view scheme : {"http://", "https://"}) {
@@ -91,13 +90,13 @@ bool origin_ok(const State& state, const Request& req) {
   return false;
 }
 
-std::optional<Problem> check_request_header(const State& state, const Request& req) {
+std::optional<Problem> check_request_header(const ServerOptions& options, const Request& req) {
   const std::string_view host = req[http::field::host];
-  if (!host_allowed(state.options, host))
+  if (!host_allowed(options, host))
     return Problem{
         Code::kForbidden,
         "host '" + std::string(host.substr(0, 200)) + "' is not served here (allowed_hosts)", 421};
-  if (state_changing(req.method()) && !origin_ok(state, req))
+  if (state_changing(req.method()) && !origin_ok(options, req))
     return Problem{Code::kForbidden,
                    "origin '" + std::string(req[http::field::origin].substr(0, 200)) +
                        "' may not change anything here (allowed_origins, cors_origins)",
@@ -134,11 +133,11 @@ void add_cors(const ServerOptions& o, const Request& req, http::response_header<
   res.set(http::field::vary, "Origin");
 }
 
-http::message_generator preflight(State& state, const Request& req) {
-  const std::string origin = cors_origin(state.options, req);
+http::message_generator preflight(const Responses& reply, const Request& req) {
+  const std::string origin = cors_origin(reply.options(), req);
   if (origin.empty()) {
-    return error_response(
-        state, req.version(), req.keep_alive(),
+    return reply.error(
+        req.version(), req.keep_alive(),
         Problem{Code::kForbidden,
                 req.count(http::field::origin)
                     ? "origin '" + std::string(req[http::field::origin].substr(0, 200)) +
@@ -154,8 +153,7 @@ http::message_generator preflight(State& state, const Request& req) {
   res.set(http::field::access_control_allow_headers, "Authorization, Content-Type");
   res.set(http::field::access_control_max_age, "600");
   res.keep_alive(req.keep_alive());
-  state.metrics.http_responses_by_code[204].fetch_add(1);
-  return http::message_generator(std::move(res));
+  return reply.finish(std::move(res));
 }
 
 }  // namespace facecast::server

@@ -23,19 +23,19 @@
 
 namespace facecast::server {
 
-struct State;
+class Responses;
 
 /// The Host, Origin and Content-Type checks of a request header: the problem, or nullopt.
-std::optional<Problem> check_request_header(const State& state, const Request& req);
+std::optional<Problem> check_request_header(const ServerOptions& options, const Request& req);
 /// Whether a Host header value ("name", "name:port", "[::1]:port") is one this server answers to.
 bool host_allowed(const ServerOptions& options, std::string_view host);
 /// True when a browser Origin may open a WebSocket or change state (no Origin: not a browser).
-bool origin_ok(const State& state, const Request& req);
+bool origin_ok(const ServerOptions& options, const Request& req);
 /// The Origin of `req` when cors_origins lists it, else "".
 std::string cors_origin(const ServerOptions& options, const Request& req);
 /// Access-Control-Allow-Origin (and Vary: Origin) on an answer to a listed origin.
 void add_cors(const ServerOptions& options, const Request& req, http::response_header<>& response);
 /// OPTIONS: 204 with the CORS headers for a listed origin, 403 without them otherwise.
-http::message_generator preflight(State& state, const Request& req);
+http::message_generator preflight(const Responses& reply, const Request& req);
 
 }  // namespace facecast::server

@@ -6,6 +6,7 @@
 #include "guard.hpp"
 #include "log.hpp"
 #include "routes.hpp"
+#include "services.hpp"
 #include "websocket_session.hpp"
 
 namespace facecast::server {
@@ -34,29 +35,29 @@ bool header_lists(std::string_view value, std::string_view token) {
 
 }  // namespace
 
-HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<State> state,
+HttpSession::HttpSession(tcp::socket&& socket, std::shared_ptr<Services> services,
                          std::unique_ptr<ConnectionSlot> slot, std::uint64_t id,
                          std::string refused)
     : stream_(std::move(socket)),
-      state_(std::move(state)),
+      services_(std::move(services)),
       slot_(std::move(slot)),
       id_(id),
       conn_("c" + std::to_string(id)),
       remote_(endpoint_string(stream_.socket())),
       refused_(std::move(refused)) {
-  state_->metrics.http_connections.fetch_add(1);
+  services_->metrics.http_connections.fetch_add(1);
 }
 
 HttpSession::~HttpSession() {
-  state_->metrics.http_connections.fetch_sub(1);
-  if (!upgraded_) state_->remove_session(id_);
+  services_->metrics.http_connections.fetch_sub(1);
+  if (!upgraded_) services_->sessions.remove(id_);
 }
 
 void HttpSession::run() {
-  state_->add_session(id_, weak_from_this());
+  services_->sessions.add(id_, weak_from_this());
   if (!refused_.empty()) {
     // Over a connection limit: answered at once, before anything is read, and closed.
-    state_->metrics.connections_refused_total.fetch_add(1);
+    services_->metrics.connections_refused_total.fetch_add(1);
     net::dispatch(stream_.get_executor(), [self = shared_from_this()] {
       self->fail(Problem{Code::kUnavailable, self->refused_, 503}, false);
     });
@@ -79,7 +80,7 @@ void HttpSession::do_read() {
   parser_->header_limit(16 * 1024);
   // The limit depends on the route, known once the header is read (on_header sets it).
   parser_->body_limit(boost::none);
-  stream_.expires_after(from_seconds(state_->options.http_timeout));
+  stream_.expires_after(from_seconds(services_->options.http_timeout));
   http::async_read_header(stream_, buffer_, *parser_,
                           beast::bind_front_handler(&HttpSession::on_header, shared_from_this()));
 }
@@ -102,10 +103,10 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
     return;
   }
   started_ = Clock::now();
-  state_->metrics.http_requests_total.fetch_add(1);
+  services_->metrics.http_requests_total.fetch_add(1);
   auto& req = parser_->get();
   // Host, Origin and Content-Type (guard.hpp): refused before the body is read.
-  if (const auto problem = check_request_header(*state_, req)) {
+  if (const auto problem = check_request_header(services_->options, req)) {
     fail(*problem, false);
     return;
   }
@@ -113,7 +114,7 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
     upgrade();
     return;
   }
-  const std::size_t limit = body_limit(*state_, req);
+  const std::size_t limit = body_limit(services_->options, req);
   if (parser_->content_length() || parser_->chunked()) {
     if (parser_->content_length() && *parser_->content_length() > limit) {
       fail(Problem{Code::kLimit,
@@ -126,7 +127,7 @@ void HttpSession::on_header(beast::error_code ec, std::size_t) {
     parser_->body_limit(limit);
     // The body's bytes count against max_body_memory until it has been answered.
     const std::size_t bytes = parser_->content_length() ? *parser_->content_length() : limit;
-    if (bytes > 0 && !(body_hold_ = state_->body_memory.reserve(bytes))) {
+    if (bytes > 0 && !(body_hold_ = services_->body_memory.reserve(bytes))) {
       fail(Problem{Code::kUnavailable,
                    "the server holds too many request bodies now (max_body_memory); retry later",
                    503},
@@ -157,7 +158,7 @@ void HttpSession::on_body(beast::error_code ec, std::size_t) {
   if (ec == http::error::body_limit) {
     fail(Problem{Code::kLimit,
                  "request body is over the limit of " +
-                     std::to_string(body_limit(*state_, parser_->get())) + " bytes",
+                     std::to_string(body_limit(services_->options, parser_->get())) + " bytes",
                  413},
          false);
     return;
@@ -179,8 +180,9 @@ void HttpSession::upgrade() {
     fail(Problem{code, std::move(message), status ? status : http_status(code)}, false);
   };
   if (target.path != "/ws") return refuse(Code::kNotFound, "WebSocket endpoint is /ws");
-  if (state_->stopping) return refuse(Code::kUnavailable, "the server is shutting down");
-  if (!origin_ok(*state_, req))
+  if (services_->sessions.stopping)
+    return refuse(Code::kUnavailable, "the server is shutting down");
+  if (!origin_ok(services_->options, req))
     return refuse(
         Code::kForbidden,
         "origin '" + std::string(req[http::field::origin].substr(0, 200)) + "' is not allowed");
@@ -188,9 +190,9 @@ void HttpSession::upgrade() {
   // "facecast.token" alone, in the first message.
   std::optional<Principal> who;
   try {
-    if (!state_->auth.enabled() || Auth::credential(req, target) ||
+    if (!services_->auth.enabled() || Auth::credential(req, target) ||
         !Auth::offers_first_message(req)) {
-      who = state_->auth.identify(req, target);
+      who = services_->auth.identify(req, target);
       if (!who->can(kScopeSpeak) && !who->can(kScopeChannelsSubscribe) &&
           !who->can(kScopeChannelsProduce))
         throw RequestError(Code::kForbidden,
@@ -211,31 +213,31 @@ void HttpSession::upgrade() {
     beast::error_code ec;
     const auto peer = stream_.socket().remote_endpoint(ec);
     const std::string client =
-        ec ? "" : state_->addresses.client(peer.address(), req["X-Forwarded-For"]);
-    if (!client.empty() && !(slot_->address = state_->addresses.hold(client))) {
-      state_->metrics.connections_refused_total.fetch_add(1);
+        ec ? "" : services_->addresses.client(peer.address(), req["X-Forwarded-For"]);
+    if (!client.empty() && !(slot_->address = services_->addresses.hold(client))) {
+      services_->metrics.connections_refused_total.fetch_add(1);
       return refuse(Code::kUnavailable,
                     "too many connections from " + client + " (max_connections_per_address)");
     }
   }
   upgraded_ = true;
-  state_->remove_session(id_);
-  auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), state_, std::move(slot_),
-                                               id_, remote_);
+  services_->sessions.remove(id_);
+  auto ws = std::make_shared<WebSocketSession>(stream_.release_socket(), services_,
+                                               std::move(slot_), id_, remote_);
   ws->run(parser_->release(), subprotocol, std::move(who));
 }
 
 void HttpSession::handle() {
   Request req = parser_->release();
-  const bool keep_alive = req.keep_alive() && !state_->stopping;
+  const bool keep_alive = req.keep_alive() && !services_->sessions.stopping;
   log::debug("http_request", {{"conn", conn_},
                               {"method", std::string(req.method_string())},
                               {"target", loggable_target(req.target())},
                               log::Field::if_set("forwarded_for", req["X-Forwarded-For"])});
   if (is_heavy(req)) {
-    net::post(state_->workers, [self = shared_from_this(), req = std::move(req), keep_alive,
-                                hold = std::move(body_hold_)]() mutable {
-      auto res = handle_request(*self->state_, std::move(req));
+    net::post(services_->workers, [self = shared_from_this(), req = std::move(req), keep_alive,
+                                   hold = std::move(body_hold_)]() mutable {
+      auto res = handle_request(*self->services_, std::move(req));
       hold.reset();
       net::post(self->stream_.get_executor(), [self, res = std::move(res), keep_alive]() mutable {
         self->send(std::move(res), keep_alive);
@@ -243,7 +245,7 @@ void HttpSession::handle() {
     });
     return;
   }
-  send(handle_request(*state_, std::move(req)), keep_alive);
+  send(handle_request(*services_, std::move(req)), keep_alive);
   body_hold_.reset();
 }
 
@@ -255,11 +257,11 @@ void HttpSession::fail(const Problem& problem, bool keep_alive) {
                              {"status", problem.status},
                              {"message", problem.message},
                              log::Field::if_set("forwarded_for", forwarded)});
-  send(error_response(*state_, version, keep_alive, problem), keep_alive);
+  send(services_->responses.error(version, keep_alive, problem), keep_alive);
 }
 
 void HttpSession::send(http::message_generator message, bool keep_alive) {
-  stream_.expires_after(from_seconds(state_->options.http_timeout));
+  stream_.expires_after(from_seconds(services_->options.http_timeout));
   beast::async_write(
       stream_, std::move(message),
       beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), keep_alive));
@@ -267,14 +269,14 @@ void HttpSession::send(http::message_generator message, bool keep_alive) {
 
 void HttpSession::on_write(bool keep_alive, beast::error_code ec, std::size_t) {
   if (started_.time_since_epoch().count()) {
-    state_->metrics.http_request_seconds.observe(seconds(Clock::now() - started_));
+    services_->metrics.http_request_seconds.observe(seconds(Clock::now() - started_));
   }
   if (ec) {
     log::debug("http_write_failed", {{"conn", conn_}, {"error", ec.message()}});
     do_close();
     return;
   }
-  if (!keep_alive || state_->stopping) {
+  if (!keep_alive || services_->sessions.stopping) {
     do_close();
     return;
   }

@@ -8,13 +8,17 @@
 #include <optional>
 
 #include "beast.hpp"
-#include "state.hpp"
+#include "facecast/server/protocol.hpp"
+#include "peer_limits.hpp"
+#include "sessions.hpp"
 
 namespace facecast::server {
 
+struct Services;
+
 class HttpSession : public std::enable_shared_from_this<HttpSession>, public Closable {
  public:
-  HttpSession(tcp::socket&& socket, std::shared_ptr<State> state,
+  HttpSession(tcp::socket&& socket, std::shared_ptr<Services> services,
               std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, std::string refused);
   ~HttpSession();
   void run();
@@ -33,7 +37,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession>, public Clo
   void drain(std::size_t total);
 
   beast::tcp_stream stream_;
-  std::shared_ptr<State> state_;
+  std::shared_ptr<Services> services_;
   std::unique_ptr<ConnectionSlot> slot_;
   std::uint64_t id_;
   std::string conn_, remote_;

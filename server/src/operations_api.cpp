@@ -1,4 +1,4 @@
-#include "operations_api.hpp"
+#include "api.hpp"
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -44,18 +44,19 @@ void RendererCache::drop(const std::string& id) {
   std::erase_if(entries_, [&](const auto& e) { return std::get<0>(e.first) == id; });
 }
 
-http::message_generator delete_rig(State& state, const Request& req, const std::string& id) {
-  if (id == state.options.default_rig)
+http::message_generator RigApi::delete_rig(const Request& req, const std::string& id) {
+  if (id == s_.options.default_rig)
     throw RequestError(Code::kForbidden,
                        "rig '" + id + "' is the server's default_rig and cannot be deleted");
-  if (!state.rigs.remove(id)) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
-  state.renderers.drop(id);
-  return json_response(state, req, http::status::ok, {{"deleted", id}});
+  if (!s_.rigs.remove(id)) throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
+  s_.rendering.renderers.drop(id);
+  return reply_.json(req, http::status::ok, {{"deleted", id}});
 }
 
-http::message_generator delete_job(State& state, const Request& req, const std::string& id) {
-  if (!state.jobs.remove(id)) throw Error("job '" + id + "' does not exist", ErrorCode::kNotFound);
-  return json_response(state, req, http::status::ok, {{"deleted", id}});
+http::message_generator delete_job(const Responses& reply, Jobs& jobs, const Request& req,
+                                   const std::string& id) {
+  if (!jobs.remove(id)) throw Error("job '" + id + "' does not exist", ErrorCode::kNotFound);
+  return reply.json(req, http::status::ok, {{"deleted", id}});
 }
 
 }  // namespace facecast::server

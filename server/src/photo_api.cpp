@@ -1,6 +1,6 @@
 // POST /api/photo (an avatar from photos, a job) and POST /api/photo/landmarks (the 68 points of a
 // photo, answered at once): rigbuild/photo_avatar.hpp behind HTTP.
-#include "photo_api.hpp"
+#include "api.hpp"
 
 #include <chrono>
 #include <map>
@@ -78,7 +78,7 @@ json points_json(const rigbuild::PhotoLandmarks& m) {
 
 }  // namespace
 
-Jobs::Work photo_work(State& state, const json& body, const std::string& tenant) {
+Jobs::Work RigApi::photo_work(const json& body, const std::string& tenant) {
   if (!body.is_object()) throw Error("body: expected a JSON object");
   std::string name = "Photo avatar";
   RigOwner owner{tenant, false};
@@ -102,8 +102,8 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
   }
   if (!front) throw Error("front: missing (the front photo, base64 JPEG or PNG)");
   auto photos = std::make_shared<std::vector<render::Image>>();
-  photos->push_back(photo_field(*front, "front", state.options.decode));
-  if (side) photos->push_back(photo_field(*side, "side", state.options.decode));
+  photos->push_back(photo_field(*front, "front", s_.options.decode));
+  if (side) photos->push_back(photo_field(*side, "side", s_.options.decode));
   const rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
   const std::filesystem::path tmpl_path = rigbuild::photo_template_path(opt, "");
   const std::string template_id = opt.template_path.empty() ? rigbuild::kShippedTemplateId : "";
@@ -111,7 +111,7 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
                              {"front", std::to_string((*photos)[0].width) + "x" +
                                            std::to_string((*photos)[0].height)},
                              {"side", photos->size() > 1}});
-  return [&state, photos, opt, tmpl_path, template_id, name, owner](JobContext& ctx) -> json {
+  return [this, photos, opt, tmpl_path, template_id, name, owner](JobContext& ctx) -> json {
     const auto t0 = std::chrono::steady_clock::now();
     ctx.progress("template", 0.0);
     const auto tmpl = photo_template(tmpl_path);
@@ -119,10 +119,10 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
         *tmpl, (*photos)[0], photos->size() > 1 ? &(*photos)[1] : nullptr, opt, ctx.progress_fn());
     ctx.progress("storing", 1.0);
     const std::string glb = rig::glb_bytes(avatar.rig);
-    check_disk_quota(state, owner.tenant, glb.size());
+    storage_.check_quota(owner.tenant, glb.size());
     const std::string id =
-        state.rigs.add(name, template_id, avatar.rig, glb, avatar.report, {}, {}, owner);
-    state.metrics.rig_build_seconds.observe(
+        s_.rigs.add(name, template_id, avatar.rig, glb, avatar.report, {}, {}, owner);
+    s_.metrics.rig_build_seconds.observe(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return {{"rig", id},
             {"url", "/api/rigs/" + id + ".glb"},
@@ -131,18 +131,17 @@ Jobs::Work photo_work(State& state, const json& body, const std::string& tenant)
   };
 }
 
-http::message_generator post_photo(State& state, const Request& req, const std::string& tenant) {
-  const json body = parse_object(req, state.limits.max_json_depth);
-  check_disk_quota(state, tenant);
-  const std::string job = state.jobs.submit("photo", photo_work(state, body, tenant), body, tenant);
+http::message_generator RigApi::post_photo(const Request& req, const std::string& tenant) {
+  const json body = parse_object(req, s_.options.max_json_depth);
+  storage_.check_quota(tenant);
+  const std::string job = jobs_.submit("photo", photo_work(body, tenant), body, tenant);
   log::info("photo_job", {{"job", job}});
-  return json_response(state, req, http::status::accepted,
-                       {{"job", job}, {"url", "/api/jobs/" + job}});
+  return reply_.json(req, http::status::accepted, {{"job", job}, {"url", "/api/jobs/" + job}});
 }
 
-http::message_generator post_photo_landmarks(State& state, const Request& req) {
-  const json body = parse_object(req, state.limits.max_json_depth);
-  const auto job = state.jobs.hold("photo landmarks");
+http::message_generator RigApi::post_photo_landmarks(const Request& req) {
+  const json body = parse_object(req, s_.options.max_json_depth);
+  const auto job = jobs_.hold("photo landmarks");
   const json* image = nullptr;
   for (const auto& [k, v] : body.items()) {
     if (k == "photo")
@@ -151,16 +150,16 @@ http::message_generator post_photo_landmarks(State& state, const Request& req) {
       throw Error("body: unknown field '" + k + "'");
   }
   if (!image) throw Error("photo: missing (base64 JPEG or PNG)");
-  const render::Image photo = photo_field(*image, "photo", state.options.decode);
+  const render::Image photo = photo_field(*image, "photo", s_.options.decode);
   const rigbuild::PhotoLandmarks marks =
       rigbuild::detect_photo_landmarks(photo, "photo", rigbuild::load_photo_options());
-  return json_response(state, req, http::status::ok,
-                       {{"width", photo.width},
-                        {"height", photo.height},
-                        {"points", points_json(marks)},
-                        {"faces", marks.faces},
-                        {"box", marks.box},
-                        {"note", marks.note}});
+  return reply_.json(req, http::status::ok,
+                     {{"width", photo.width},
+                      {"height", photo.height},
+                      {"points", points_json(marks)},
+                      {"faces", marks.faces},
+                      {"box", marks.box},
+                      {"note", marks.note}});
 }
 
 }  // namespace facecast::server

@@ -97,7 +97,7 @@ void RedisBus::stop() {
     client_.command({"DEL", key("instance:" + instance_)});
   } catch (const std::exception&) {
   }
-  channels_.reset();  // the channels hold the State that holds this bus
+  channels_.reset();  // the channels hold the services that hold this bus
 }
 
 // One line when Redis becomes unreachable, one when it answers again.

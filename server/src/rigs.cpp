@@ -178,6 +178,13 @@ std::optional<RigInfo> RigRegistry::find(const std::string& id) const {
   return it->second;
 }
 
+RigInfo RigRegistry::existing(const std::string& id) const {
+  const std::string rig = resolve(id);
+  auto info = find(rig);
+  if (!info) throw Error("rig '" + rig + "' does not exist", ErrorCode::kNotFound);
+  return std::move(*info);
+}
+
 std::string RigRegistry::resolve(const std::string& id) const {
   return id.empty() ? default_rig_ : id;
 }

@@ -20,6 +20,7 @@
 
 #include "facecast/anim/animation.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/render/video.hpp"
 #include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/virtual_edges.hpp"
@@ -65,6 +66,8 @@ class RigRegistry {
   std::optional<RigInfo> find(const std::string& id) const;
   /// `id`, or the default rig for "".
   std::string resolve(const std::string& id) const;
+  /// The rig `id` (resolved); throws Error (not found) naming it when there is none.
+  RigInfo existing(const std::string& id) const;
   /// Parses and prepares a rig once; throws Error(kNotFound) for an unknown id.
   std::shared_ptr<const LoadedRig> load(const std::string& id);
 
@@ -143,6 +146,19 @@ class RendererCache {
   std::mutex mutex_;
   std::map<std::tuple<std::string, int, int>, Entry> entries_;
   unsigned long long clock_ = 0;
+};
+
+/// Everything the server draws with: the settings of every render and video
+/// (configs/render/render.json) and the renderers of streams and channels.
+struct Rendering {
+  Rendering(int max_renderers, int contexts)
+      : options(render::load_render_options()),
+        video(render::load_video_options()),
+        renderers(max_renderers, contexts, options) {}
+
+  const render::RenderOptions options;  // camera, background, MSAA
+  const render::VideoOptions video;     // the "video" section: ffmpeg, encoder
+  RendererCache renderers;
 };
 
 }  // namespace facecast::server

@@ -11,9 +11,8 @@
 #include "facecast/core/subprocess.hpp"
 #include "guard.hpp"
 #include "log.hpp"
-#include "operations_api.hpp"
-#include "photo_api.hpp"
 #include "route_table.hpp"
+#include "services.hpp"
 
 namespace facecast::server {
 namespace {
@@ -92,37 +91,8 @@ std::optional<std::time_t> parse_http_date(std::string_view s) {
 
 namespace {
 
-void count_status(State& state, unsigned status) {
-  if (status >= 100 && status < state.metrics.http_responses_by_code.size())
-    state.metrics.http_responses_by_code[status].fetch_add(1);
-}
-
-template <class Body>
-http::message_generator finish(State& state, http::response<Body>&& res) {
-  count_status(state, res.result_int());
-  res.set(http::field::server, "facecast");
-  res.prepare_payload();
-  return http::message_generator(std::move(res));
-}
-
-}  // namespace
-
-http::message_generator json_response(State& state, const Request& req, http::status status,
-                                      const json& body) {
-  http::response<http::string_body> res{status, req.version()};
-  res.set(http::field::content_type, "application/json");
-  res.set(http::field::cache_control, "no-store");
-  res.keep_alive(req.keep_alive());
-  add_cors(state.options, req, res);
-  if (req.method() != http::verb::head)
-    res.body() = body.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
-  return finish(state, std::move(res));
-}
-
-namespace {
-
 // A file on disk with ETag / Last-Modified and conditional GET.
-http::message_generator send_path(State& state, const Request& req, const fs::path& path,
+http::message_generator send_path(const Responses& reply, const Request& req, const fs::path& path,
                                   std::string_view content_type, std::string_view cache) {
   std::error_code ec;
   const auto size = fs::file_size(path, ec);
@@ -155,12 +125,12 @@ http::message_generator send_path(State& state, const Request& req, const fs::pa
     res.set(http::field::cache_control, cache);
     res.set("X-Content-Type-Options", "nosniff");
     res.keep_alive(req.keep_alive());
-    add_cors(state.options, req, res);
+    add_cors(reply.options(), req, res);
   };
   if (not_modified) {
     http::response<http::empty_body> res{http::status::not_modified, req.version()};
     headers(res);
-    count_status(state, 304);
+    reply.count(304);
     res.set(http::field::server, "facecast");
     return http::message_generator(std::move(res));
   }
@@ -169,7 +139,7 @@ http::message_generator send_path(State& state, const Request& req, const fs::pa
     headers(res);
     res.set(http::field::content_type, content_type);
     res.content_length(size);
-    count_status(state, 200);
+    reply.count(200);
     res.set(http::field::server, "facecast");
     return http::message_generator(std::move(res));
   }
@@ -182,7 +152,7 @@ http::message_generator send_path(State& state, const Request& req, const fs::pa
                                       std::make_tuple(http::status::ok, req.version())};
   headers(res);
   res.set(http::field::content_type, content_type);
-  return finish(state, std::move(res));
+  return reply.finish(std::move(res));
 }
 
 void require_method(const Request& req, std::initializer_list<http::verb> allowed) {
@@ -206,15 +176,15 @@ const std::regex kRig("/api/rigs/([A-Za-z0-9_.-]{1,64})");
 const std::regex kJobFile("/api/jobs/(j[0-9a-f]{1,24})/(video\\.mp4)");
 
 // The built-in avatar's GLB, made in memory.
-http::message_generator send_builtin_glb(State& state, const Request& req) {
-  const auto bytes = state.rigs.builtin_glb();
+http::message_generator send_builtin_glb(Services& services, const Request& req) {
+  const auto bytes = services.rigs.builtin_glb();
   const std::string etag = "\"default-" FACECAST_VERSION "-" + std::to_string(bytes->size()) + "\"";
   if (req[http::field::if_none_match] == etag) {
     http::response<http::empty_body> res{http::status::not_modified, req.version()};
     res.set(http::field::etag, etag);
     res.keep_alive(req.keep_alive());
-    add_cors(state.options, req, res);
-    count_status(state, 304);
+    add_cors(services.options, req, res);
+    services.responses.count(304);
     return http::message_generator(std::move(res));
   }
   http::response<http::string_body> res{http::status::ok, req.version()};
@@ -222,22 +192,23 @@ http::message_generator send_builtin_glb(State& state, const Request& req) {
   res.set(http::field::etag, etag);
   res.set(http::field::cache_control, "no-cache");
   res.keep_alive(req.keep_alive());
-  add_cors(state.options, req, res);
+  add_cors(services.options, req, res);
   if (req.method() == http::verb::head) {
     res.content_length(bytes->size());
-    count_status(state, 200);
+    services.responses.count(200);
     return http::message_generator(std::move(res));
   }
   res.body() = *bytes;
-  return finish(state, std::move(res));
+  return services.responses.finish(std::move(res));
 }
 
 // A rig's GLB or virtual edges: without a key when the rig is public (built-in rigs are), so that
 // viewers' browsers can load it; else rigs:read and a rig the caller may use.
-RigInfo readable_rig(State& state, const Request& req, const Target& t, const std::string& id) {
-  const auto info = state.rigs.find(id);
+RigInfo readable_rig(Services& services, const Request& req, const Target& t,
+                     const std::string& id) {
+  const auto info = services.rigs.find(id);
   if (info && info->is_public) return *info;
-  const Principal who = state.auth.identify(req, t);
+  const Principal who = services.auth.identify(req, t);
   who.require(kScopeRigsRead, "GET " + t.path);
   if (!info || !rig_usable(who, *info))
     throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
@@ -245,16 +216,16 @@ RigInfo readable_rig(State& state, const Request& req, const Target& t, const st
 }
 
 // A stored rig the caller may change (its tenant's; admins: any); 404 otherwise.
-void check_rig_owned(State& state, const Principal& who, const std::string& id) {
-  const auto info = state.rigs.find(id);
+void check_rig_owned(Services& services, const Principal& who, const std::string& id) {
+  const auto info = services.rigs.find(id);
   if (!info || (!info->builtin && !who.owns(info->tenant)))
     throw Error("rig '" + id + "' does not exist", ErrorCode::kNotFound);
 }
 
 // A job the caller may see: its tenant's (admins: any; else 404), with the scope of its kind
 // (render jobs: render; rig builds, landmarks, photos: rigs:write).
-void check_job(State& state, const Principal& who, const std::string& id) {
-  const auto kt = state.jobs.kind_and_tenant(id);
+void check_job(Services& services, const Principal& who, const std::string& id) {
+  const auto kt = services.jobs.kind_and_tenant(id);
   if (!kt || !who.owns(kt->second))
     throw Error("job '" + id + "' does not exist", ErrorCode::kNotFound);
   who.require(kt->first == "render" ? kScopeRender : kScopeRigsWrite, kt->first + " jobs");
@@ -262,95 +233,98 @@ void check_job(State& state, const Principal& who, const std::string& id) {
 
 // Every /api path but /api/channels (channel.cpp): the caller is identified first (401), then
 // each route asks for its scope (403) and sees only its tenant's things (404).
-http::message_generator api(State& state, Request& req, const Target& t) {
+http::message_generator api(Services& services, Request& req, const Target& t) {
   std::smatch m;
   const std::string& path = t.path;
   if (std::regex_match(path, m, kRigGlb)) {
     require_method(req, {http::verb::get, http::verb::head});
-    const RigInfo info = readable_rig(state, req, t, m[1]);
-    if (!info.builtin || !state.rigs.glb_path(info.id).empty())
-      return send_path(state, req, state.rigs.glb_path(info.id), "model/gltf-binary", "no-cache");
-    return send_builtin_glb(state, req);
+    const RigInfo info = readable_rig(services, req, t, m[1]);
+    if (!info.builtin || !services.rigs.glb_path(info.id).empty())
+      return send_path(services.responses, req, services.rigs.glb_path(info.id),
+                       "model/gltf-binary", "no-cache");
+    return send_builtin_glb(services, req);
   }
   if (std::regex_match(path, m, kRigEdges)) {
     require_method(req, {http::verb::get, http::verb::head});
-    const RigInfo info = readable_rig(state, req, t, m[1]);
+    const RigInfo info = readable_rig(services, req, t, m[1]);
     if (!info.virtual_edges)
       throw Error("rig '" + info.id + "' has no virtual edges", ErrorCode::kNotFound);
-    return send_path(state, req, state.rigs.virtual_edges_path(info.id), "application/json",
-                     "no-cache");
+    return send_path(services.responses, req, services.rigs.virtual_edges_path(info.id),
+                     "application/json", "no-cache");
   }
-  const Principal who = state.auth.identify(req, t);
+  const Principal who = services.auth.identify(req, t);
   if (who.viewer)
     throw RequestError(Code::kForbidden,
                        "a viewer token cannot call " + path + " (it subscribes or speaks on /ws)");
   if (path == "/api/rigs") {
     if (req.method() == http::verb::post) {
       who.require(kScopeRigsWrite, "POST /api/rigs");
-      return post_rig(state, req, t, who);
+      return services.rig_api.post_rig(req, t, who);
     }
     require_method(req, {http::verb::get, http::verb::head, http::verb::post});
     who.require(kScopeRigsRead, "GET /api/rigs");
     json rigs = json::array();
-    for (const auto& r : state.rigs.list())
+    for (const auto& r : services.rigs.list())
       if (rig_listed(who, r)) rigs.push_back(r.to_json());
-    return json_response(state, req, http::status::ok,
-                         {{"rigs", rigs},
-                          {"default", state.options.default_rig},
-                          {"pose", pose_json(state.options.pose)}});
+    return services.responses.json(req, http::status::ok,
+                                   {{"rigs", rigs},
+                                    {"default", services.options.default_rig},
+                                    {"pose", pose_json(services.options.pose)}});
   }
   if (path == "/api/tokens") {
     require_method(req, {http::verb::post});
-    return post_token(state, req, who);
+    return services.access.post_token(req, who);
   }
   if (path == "/api/photo") {
     require_method(req, {http::verb::post});
     who.require(kScopeRigsWrite, "POST /api/photo");
-    return post_photo(state, req, who.tenant);
+    return services.rig_api.post_photo(req, who.tenant);
   }
   if (path == "/api/photo/landmarks") {
     require_method(req, {http::verb::post});
     who.require(kScopeRigsWrite, "POST /api/photo/landmarks");
-    return post_photo_landmarks(state, req);
+    return services.rig_api.post_photo_landmarks(req);
   }
   if (path == "/api/landmarks") {
     require_method(req, {http::verb::post});
     who.require(kScopeRigsWrite, "POST /api/landmarks");
-    return post_landmarks(state, req, who);
+    return services.rig_api.post_landmarks(req, who);
   }
   if (path == "/api/render") {
     require_method(req, {http::verb::post});
     who.require(kScopeRender, "POST /api/render");
-    return post_render(state, req, who);
+    return services.rig_api.post_render(req, who);
   }
   if (path == "/api/audio") {
     require_method(req, {http::verb::post});
     who.require(kScopeSpeak, "POST /api/audio");
-    return post_audio(state, req, who.tenant);
+    return post_audio(services.responses, services.jobs, services.speech.uploads(), req,
+                      who.tenant);
   }
   if (std::regex_match(path, m, kJob)) {
     require_method(req, {http::verb::get, http::verb::head, http::verb::delete_});
-    check_job(state, who, m[1]);
-    if (req.method() == http::verb::delete_) return delete_job(state, req, m[1]);
-    const auto job = state.jobs.get(m[1]);
+    check_job(services, who, m[1]);
+    if (req.method() == http::verb::delete_)
+      return delete_job(services.responses, services.jobs, req, m[1]);
+    const auto job = services.jobs.get(m[1]);
     if (!job) throw Error("job '" + std::string(m[1]) + "' does not exist", ErrorCode::kNotFound);
-    return json_response(state, req, http::status::ok, *job);
+    return services.responses.json(req, http::status::ok, *job);
   }
   if (std::regex_match(path, m, kRig) && !path.ends_with(".glb")) {
     require_method(req, {http::verb::delete_, http::verb::patch});
     who.require(kScopeRigsWrite, std::string(req.method_string()) + " /api/rigs/{id}");
-    check_rig_owned(state, who, m[1]);
-    if (req.method() == http::verb::patch) return patch_rig(state, req, m[1]);
-    return delete_rig(state, req, m[1]);
+    check_rig_owned(services, who, m[1]);
+    if (req.method() == http::verb::patch) return services.rig_api.patch_rig(req, m[1]);
+    return services.rig_api.delete_rig(req, m[1]);
   }
   if (std::regex_match(path, m, kJobFile)) {
     require_method(req, {http::verb::get, http::verb::head});
-    check_job(state, who, m[1]);
-    const auto file = state.jobs.file(m[1], m[2]);
+    check_job(services, who, m[1]);
+    const auto file = services.jobs.file(m[1], m[2]);
     if (!file)
       throw Error("job '" + std::string(m[1]) + "' has no " + std::string(m[2]) + " (yet)",
                   ErrorCode::kNotFound);
-    return send_path(state, req, *file, mime_type(m[2].str()), "no-cache");
+    return send_path(services.responses, req, *file, mime_type(m[2].str()), "no-cache");
   }
   throw Error("no API endpoint " + path, ErrorCode::kNotFound);
 }
@@ -398,14 +372,14 @@ std::string loggable_target(std::string_view target) {
   return out;
 }
 
-std::size_t body_limit(const State& state, const Request& req) {
+std::size_t body_limit(const ServerOptions& options, const Request& req) {
   if (req.method() == http::verb::post) {
     const auto t = parse_target(req.target());
     if (t.path == "/api/rigs" || t.path == "/api/render" || t.path == "/api/audio" ||
         t.path == "/api/photo" || t.path == "/api/photo/landmarks")
-      return state.options.max_upload;
+      return options.max_upload;
   }
-  return state.options.max_body;
+  return options.max_body;
 }
 
 bool is_heavy(const Request& req) {
@@ -415,52 +389,42 @@ bool is_heavy(const Request& req) {
          req.target().starts_with("/api?");
 }
 
-http::message_generator error_response(State& state, unsigned version, bool keep_alive,
-                                       const Problem& problem, const Request* req) {
-  http::response<http::string_body> res{static_cast<http::status>(problem.status), version};
-  res.set(http::field::content_type, "application/json");
-  res.set(http::field::cache_control, "no-store");
-  if (problem.status == 401) res.set(http::field::www_authenticate, "Bearer");
-  res.keep_alive(keep_alive);
-  if (req) add_cors(state.options, *req, res);
-  res.body() = error_body(problem) + "\n";
-  return finish(state, std::move(res));
-}
-
-http::message_generator handle_request(State& state, Request&& req) {
+http::message_generator handle_request(Services& services, Request&& req) {
   try {
     const Target t = parse_target(req.target());
     if (!t.valid) throw Error("bad request target");
     const std::string& path = t.path;
-    if (req.method() == http::verb::options) return preflight(state, req);  // CORS (guard.hpp)
+    if (req.method() == http::verb::options)
+      return preflight(services.responses, req);  // CORS (guard.hpp)
     if (path == "/healthz") {
       require_method(req, {http::verb::get, http::verb::head});
-      return json_response(state, req, http::status::ok,
-                           {{"status", state.stopping ? "stopping" : "ok"},
-                            {"uptime", state.uptime()},
-                            {"version", FACECAST_VERSION}});
+      return services.responses.json(req, http::status::ok,
+                                     {{"status", services.sessions.stopping ? "stopping" : "ok"},
+                                      {"uptime", services.sessions.uptime()},
+                                      {"version", FACECAST_VERSION}});
     }
     if (path == "/readyz") {
       require_method(req, {http::verb::get, http::verb::head});
-      const bool ready = state.ready && !state.stopping;
-      return json_response(state, req, ready ? http::status::ok : http::status::service_unavailable,
-                           {{"status", ready            ? "ready"
-                                       : state.stopping ? "draining"
-                                                        : "starting"}});
+      const bool ready = services.sessions.ready && !services.sessions.stopping;
+      return services.responses.json(req,
+                                     ready ? http::status::ok : http::status::service_unavailable,
+                                     {{"status", ready                        ? "ready"
+                                                 : services.sessions.stopping ? "draining"
+                                                                              : "starting"}});
     }
     if (path == "/metrics") {
       require_method(req, {http::verb::get, http::verb::head});
       // With keys: a key with the metrics (or admin) scope, e.g. Prometheus' bearer credentials.
-      state.auth.identify(req, t).require(kScopeMetrics, "GET /metrics");
+      services.auth.identify(req, t).require(kScopeMetrics, "GET /metrics");
       http::response<http::string_body> res{http::status::ok, req.version()};
       res.set(http::field::content_type, "text/plain; version=0.0.4; charset=utf-8");
       res.set(http::field::cache_control, "no-store");
       res.keep_alive(req.keep_alive());
       if (req.method() != http::verb::head) {
-        res.body() = state.metrics.render();
-        if (state.channels) res.body() += channel_metrics(*state.channels);
+        res.body() = services.metrics.render();
+        if (services.channels) res.body() += channel_metrics(*services.channels);
       }
-      return finish(state, std::move(res));
+      return services.responses.finish(std::move(res));
     }
     if (path == "/ws") {
       throw RequestError(Code::kInvalidInput,
@@ -472,33 +436,33 @@ http::message_generator handle_request(State& state, Request&& req) {
       res.set(http::field::content_type, "application/json");
       res.set(http::field::cache_control, "no-cache");
       res.keep_alive(req.keep_alive());
-      add_cors(state.options, req, res);
+      add_cors(services.options, req, res);
       if (req.method() != http::verb::head) res.body() = openapi_document();
-      return finish(state, std::move(res));
+      return services.responses.finish(std::move(res));
     }
-    if (path.starts_with("/api/channels/")) return channel_api(state, req, t);
-    if (path == "/api" || path.starts_with("/api/")) return api(state, req, t);
+    if (path.starts_with("/api/channels/")) return channel_api(services, req, t);
+    if (path == "/api" || path.starts_with("/api/")) return api(services, req, t);
     require_method(req, {http::verb::get, http::verb::head});
     if (path.starts_with("/vendor/three/"))
-      return serve_file(state, req, state.three_root,
+      return serve_file(services.responses, req, services.web.three,
                         path.substr(std::string_view("/vendor/three/").size()));
     if (path.starts_with("/vendor/facecast/"))
-      return serve_file(state, req, state.client_root,
+      return serve_file(services.responses, req, services.web.client,
                         path.substr(std::string_view("/vendor/facecast/").size()));
     if (path.starts_with("/vendor/three-vrm/"))
-      return serve_file(state, req, state.three_vrm_root,
+      return serve_file(services.responses, req, services.web.three_vrm,
                         path.substr(std::string_view("/vendor/three-vrm/").size()));
-    return serve_file(state, req, state.web_root, path.substr(1));
+    return serve_file(services.responses, req, services.web.web, path.substr(1));
   } catch (...) {
     const Problem p = describe(std::current_exception());
     if (p.status >= 500)
       log::error("http_error", {{"target", loggable_target(req.target())}, {"error", p.message}});
-    auto res = error_response(state, req.version(), req.keep_alive(), p, &req);
+    auto res = services.responses.error(req.version(), req.keep_alive(), p, &req);
     return res;
   }
 }
 
-http::message_generator serve_file(State& state, const Request& req, const fs::path& root,
+http::message_generator serve_file(const Responses& reply, const Request& req, const fs::path& root,
                                    std::string_view rel) {
   // Every segment must be a plain name: no "..", no ".", no hidden files, no backslashes.
   fs::path relative;
@@ -530,7 +494,7 @@ http::message_generator serve_file(State& state, const Request& req, const fs::p
                               canonical.end());
   if (r != canonical_root.end() || !fs::is_regular_file(canonical, ec))
     throw Error("not found: /" + std::string(rel), ErrorCode::kNotFound);
-  return send_path(state, req, canonical, mime_type(canonical.string()), "no-cache");
+  return send_path(reply, req, canonical, mime_type(canonical.string()), "no-cache");
 }
 
 std::string_view mime_type(std::string_view path) {

@@ -29,18 +29,18 @@ std::string kbps(int k) {
 
 }  // namespace
 
-RtmpOutput::RtmpOutput(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
-                       ServerOptions::Rtmp settings)
-    : state_(std::move(state)),
+RtmpOutput::RtmpOutput(std::shared_ptr<const StreamServices> services,
+                       std::shared_ptr<Channel> channel, ServerOptions::Rtmp settings)
+    : services_(std::move(services)),
       channel_(std::move(channel)),
       settings_(std::move(settings)),
-      member_id_(state_->next_connection.fetch_add(1)),
+      member_id_(services_->sessions.new_connection_id()),
       clock_start_(Clock::now()) {}
 
-std::shared_ptr<RtmpOutput> RtmpOutput::start(std::shared_ptr<State> state,
+std::shared_ptr<RtmpOutput> RtmpOutput::start(std::shared_ptr<const StreamServices> services,
                                               std::shared_ptr<Channel> channel,
                                               const ServerOptions::Rtmp& settings) {
-  auto out = std::make_shared<RtmpOutput>(std::move(state), std::move(channel), settings);
+  auto out = std::make_shared<RtmpOutput>(std::move(services), std::move(channel), settings);
   out->channel_->subscribe(out->member_id_, out->weak_from_this());
   out->thread_ = std::thread([self = out.get()] { self->run(); });
   log::info("rtmp_start",
@@ -159,8 +159,10 @@ RtmpOutput::Pose RtmpOutput::sample(double t, std::int64_t first, std::size_t co
 
 render::Image RtmpOutput::render(const Pose& pose, double time) {
   try {
-    const auto rig = state_->rigs.load(pose.rig.empty() ? state_->options.default_rig : pose.rig);
-    const auto renderer = state_->renderers.get(*rig, settings_.width, settings_.height);
+    const auto rig =
+        services_->rigs.load(pose.rig.empty() ? services_->options.default_rig : pose.rig);
+    const auto renderer =
+        services_->rendering.renderers.get(*rig, settings_.width, settings_.height);
     const std::size_t n = rig->mapping.shape_names().size();
     std::vector<float> v = pose.values;
     v.resize(n + rig::BodyPose::kChannels.size(), 0.0f);
@@ -248,7 +250,7 @@ bool RtmpOutput::spawn() {
   const auto& r = settings_;
   const std::string fps = std::to_string(r.fps);
   std::vector<std::string> args = {
-      state_->video_options.ffmpeg, "-hide_banner", "-loglevel", "warning",
+      services_->rendering.video.ffmpeg, "-hide_banner", "-loglevel", "warning",
       // Input 0: the pictures, raw RGB at the output rate.
       "-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size",
       std::to_string(r.width) + "x" + std::to_string(r.height), "-framerate", fps, "-probesize",
@@ -263,7 +265,7 @@ bool RtmpOutput::spawn() {
       "-maxrate", kbps(r.video_kbps), "-bufsize", kbps(2 * r.video_kbps), "-c:a", "aac", "-b:a",
       kbps(r.audio_kbps), "-ar", std::to_string(kRate), "-f", "flv", r.url};
   const std::string log_path =
-      (state_->options.data / ("rtmp-" + channel_->name() + ".log")).string();
+      (services_->options.data / ("rtmp-" + channel_->name() + ".log")).string();
   const int log_fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   const ChildFd log = log_fd >= 0 ? ChildFd{1, ChildFd::Kind::kFd, log_fd} : ChildFd{1};
   ChildFd log_err = log;
@@ -298,11 +300,12 @@ void RtmpOutput::end_ffmpeg() {
   ffmpeg_.reset();
 }
 
-std::vector<std::shared_ptr<RtmpOutput>> start_rtmp_outputs(const std::shared_ptr<State>& state) {
+std::vector<std::shared_ptr<RtmpOutput>> start_rtmp_outputs(
+    const std::shared_ptr<const StreamServices>& services, const ChannelRegistry& channels) {
   std::vector<std::shared_ptr<RtmpOutput>> out;
-  for (const auto& [name, settings] : state->options.rtmp) {
-    if (const auto channel = state->channels->find(name))
-      out.push_back(RtmpOutput::start(state, channel, settings));
+  for (const auto& [name, settings] : services->options.rtmp) {
+    if (const auto channel = channels.find(name))
+      out.push_back(RtmpOutput::start(services, channel, settings));
   }
   return out;
 }

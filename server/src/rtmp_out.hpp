@@ -33,7 +33,7 @@ namespace facecast::server {
 class RtmpOutput final : public ChannelMember, public std::enable_shared_from_this<RtmpOutput> {
  public:
   /// Subscribes to `channel` and starts publishing to settings.url.
-  static std::shared_ptr<RtmpOutput> start(std::shared_ptr<State> state,
+  static std::shared_ptr<RtmpOutput> start(std::shared_ptr<const StreamServices> services,
                                            std::shared_ptr<Channel> channel,
                                            const ServerOptions::Rtmp& settings);
   ~RtmpOutput() override;
@@ -47,7 +47,7 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
   static constexpr double kRestartSeconds = 2.0;
   static constexpr double kStallSeconds = 5.0;  // ffmpeg not reading this long: restarted
 
-  RtmpOutput(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
+  RtmpOutput(std::shared_ptr<const StreamServices> services, std::shared_ptr<Channel> channel,
              ServerOptions::Rtmp settings);
 
  private:
@@ -77,7 +77,7 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
   void end_ffmpeg();
   bool write_all(int fd, const void* data, std::size_t size);
 
-  std::shared_ptr<State> state_;
+  std::shared_ptr<const StreamServices> services_;
   std::shared_ptr<Channel> channel_;
   ServerOptions::Rtmp settings_;
   std::uint64_t member_id_;
@@ -96,6 +96,7 @@ class RtmpOutput final : public ChannelMember, public std::enable_shared_from_th
 };
 
 /// Starts the RTMP outputs of the configured channels (ServerOptions::rtmp).
-std::vector<std::shared_ptr<RtmpOutput>> start_rtmp_outputs(const std::shared_ptr<State>& state);
+std::vector<std::shared_ptr<RtmpOutput>> start_rtmp_outputs(
+    const std::shared_ptr<const StreamServices>& services, const ChannelRegistry& channels);
 
 }  // namespace facecast::server

@@ -15,8 +15,8 @@
 #include "http_session.hpp"
 #include "log.hpp"
 #include "rtmp_out.hpp"
+#include "services.hpp"
 #include "speech.hpp"
-#include "state.hpp"
 #include "storage.hpp"
 #include "vmc_out.hpp"
 
@@ -36,12 +36,12 @@ void raise_file_limit() {
 
 struct Server::Impl {
   explicit Impl(ServerOptions options);
-  // The channels hold the State: drop them (no thread runs any more) so that it can go.
+  // The channels hold the services: drop them (no thread runs any more) so that they can go.
   ~Impl() {
     rtmp.clear();  // each stops (idempotent) and lets go of its channel
     vmc.clear();
-    if (state && state->redis) state->redis->stop();
-    if (state) state->channels.reset();
+    if (services && services->redis) services->redis->stop();
+    if (services) services->channels.reset();
   }
 
   void do_accept();
@@ -51,7 +51,7 @@ struct Server::Impl {
   void begin_drain();
   void check_drain();
 
-  std::shared_ptr<State> state;
+  std::shared_ptr<Services> services;
   net::io_context ioc;
   net::executor_work_guard<net::io_context::executor_type> work;
   tcp::acceptor acceptor;
@@ -82,20 +82,21 @@ Server::Impl::Impl(ServerOptions options)
   log::set_level(options.log_level);
   raise_file_limit();
   sweep_leftovers(options);  // before anything opens or lists the data folder
-  state = std::make_shared<State>(std::move(options));
-  state->channels = std::make_shared<ChannelRegistry>(state, ioc);
-  rtmp = start_rtmp_outputs(state);
-  vmc = start_vmc_mirrors(state);
-  if (state->redis) {
-    State* s = state.get();  // the bus and the jobs stop before the State goes
-    state->redis->start(state->channels,
-                        [s](const std::string& dead) { s->jobs.requeue_instance(dead); });
-    state->jobs.start(
+  services = std::make_shared<Services>(std::move(options));
+  const auto streams = share(services, services->streams);
+  services->channels = std::make_shared<ChannelRegistry>(streams, ioc);
+  rtmp = start_rtmp_outputs(streams, *services->channels);
+  vmc = start_vmc_mirrors(streams, *services->channels);
+  if (services->redis) {
+    Services* s = services.get();  // the bus and the jobs stop before the services go
+    services->redis->start(services->channels,
+                           [s](const std::string& dead) { s->jobs.requeue_instance(dead); });
+    services->jobs.start(
         [s](const std::string& kind, const nlohmann::json& payload, const std::string& tenant) {
-          return job_work(*s, kind, payload, tenant);
+          return s->rig_api.job_work(kind, payload, tenant);
         });
   }
-  const auto& o = state->options;
+  const auto& o = services->options;
   beast::error_code ec;
   const std::string host = o.host == "localhost" ? "127.0.0.1" : o.host;
   const auto address = net::ip::make_address(host, ec);
@@ -117,7 +118,7 @@ Server::Impl::Impl(ServerOptions options)
 
 // Folder scans run on the worker pool, never on the I/O threads.
 void Server::Impl::maintain() {
-  net::post(state->workers, [s = state] { expire_rigs(*s); });
+  net::post(services->workers, [s = services] { s->storage.expire_rigs(); });
   maintenance_timer.expires_after(std::chrono::minutes(10));
   maintenance_timer.async_wait([this](beast::error_code ec) {
     if (!ec && !shutting_down && !draining) maintain();
@@ -141,26 +142,27 @@ void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
     do_accept();
     return;
   }
-  auto& o = state->options;
+  auto& o = services->options;
   set_cloexec(socket.native_handle());
   socket.set_option(tcp::no_delay(true), ec);
   if (o.send_buffer > 0) socket.set_option(net::socket_base::send_buffer_size(o.send_buffer), ec);
-  const long open = state->connections.fetch_add(1) + 1;
-  auto slot = std::make_unique<ConnectionSlot>(&state->connections);
-  state->metrics.connections_total.fetch_add(1);
-  const std::uint64_t id = state->next_connection.fetch_add(1);
+  const long open = services->sessions.connections.fetch_add(1) + 1;
+  auto slot = std::make_unique<ConnectionSlot>(&services->sessions.connections);
+  services->metrics.connections_total.fetch_add(1);
+  const std::uint64_t id = services->sessions.new_connection_id();
   std::string refused;  // answered with 503 and closed when set
   if (open > o.max_connections) {
     refused = "too many connections (max_connections)";
   } else if (const auto peer = socket.remote_endpoint(ec);
-             !ec && !state->addresses.trusted(peer.address())) {
+             !ec && !services->addresses.trusted(peer.address())) {
     // A trusted proxy's connections are counted per client at the request (http_session.cpp).
-    slot->address = state->addresses.hold(peer.address().to_string());
+    slot->address = services->addresses.hold(peer.address().to_string());
     if (!slot->address)
       refused = "too many connections from " + peer.address().to_string() +
                 " (max_connections_per_address)";
   }
-  std::make_shared<HttpSession>(std::move(socket), state, std::move(slot), id, std::move(refused))
+  std::make_shared<HttpSession>(std::move(socket), services, std::move(slot), id,
+                                std::move(refused))
       ->run();
   do_accept();
 }
@@ -168,15 +170,15 @@ void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
 void Server::Impl::begin_shutdown() {
   if (shutting_down) return;
   shutting_down = true;
-  state->stopping = true;
-  log::info("shutdown", {{"connections", state->connections.load()}});
+  services->sessions.stopping = true;
+  log::info("shutdown", {{"connections", services->sessions.connections.load()}});
   beast::error_code ec;
   acceptor.close(ec);
   signals.cancel(ec);
-  state->shut_down_sessions();
-  state->channels->close_all();
+  services->sessions.shut_down_all();
+  services->channels->close_all();
   // Jobs: cancel in the background so that the I/O keeps closing sockets meanwhile.
-  jobs_stopper = std::thread([s = state, rtmp = rtmp, vmc = vmc] {
+  jobs_stopper = std::thread([s = services, rtmp = rtmp, vmc = vmc] {
     for (const auto& r : rtmp) r->stop();
     for (const auto& v : vmc) v->stop();
     s->jobs.shutdown();  // with Redis: running jobs go back to the queue
@@ -184,7 +186,7 @@ void Server::Impl::begin_shutdown() {
   });
   shutdown_deadline = std::chrono::steady_clock::now() +
                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                          std::chrono::duration<double>(state->options.shutdown_timeout));
+                          std::chrono::duration<double>(services->options.shutdown_timeout));
   check_shutdown();
 }
 
@@ -193,22 +195,22 @@ void Server::Impl::begin_shutdown() {
 void Server::Impl::begin_drain() {
   if (shutting_down || draining) return;
   draining = true;
-  state->stopping = true;
-  log::info("draining", {{"streams", state->metrics.active_streams.load()},
-                         {"timeout_s", state->options.drain_timeout}});
+  services->sessions.stopping = true;
+  log::info("draining", {{"streams", services->metrics.active_streams.load()},
+                         {"timeout_s", services->options.drain_timeout}});
   beast::error_code ec;
   acceptor.close(ec);
-  state->channels->stop_idle();
-  drain_deadline = std::chrono::steady_clock::now() + from_seconds(state->options.drain_timeout);
+  services->channels->stop_idle();
+  drain_deadline = std::chrono::steady_clock::now() + from_seconds(services->options.drain_timeout);
   check_drain();
 }
 
 void Server::Impl::check_drain() {
   if (shutting_down) return;
-  const bool done =
-      state->metrics.active_streams.load() == 0 && state->metrics.speak_queue_depth.load() == 0;
+  const bool done = services->metrics.active_streams.load() == 0 &&
+                    services->metrics.speak_queue_depth.load() == 0;
   if (done || std::chrono::steady_clock::now() >= drain_deadline) {
-    if (!done) log::warn("drain_timeout", {{"streams", state->metrics.active_streams.load()}});
+    if (!done) log::warn("drain_timeout", {{"streams", services->metrics.active_streams.load()}});
     begin_shutdown();
     return;
   }
@@ -219,9 +221,10 @@ void Server::Impl::check_drain() {
 }
 
 void Server::Impl::check_shutdown() {
-  const bool idle = state->connections.load() == 0;
+  const bool idle = services->sessions.connections.load() == 0;
   if (idle || std::chrono::steady_clock::now() >= shutdown_deadline) {
-    if (!idle) log::warn("shutdown_forced", {{"connections", state->connections.load()}});
+    if (!idle)
+      log::warn("shutdown_forced", {{"connections", services->sessions.connections.load()}});
     work.reset();
     ioc.stop();
     return;
@@ -242,7 +245,7 @@ unsigned short Server::port() const {
 }
 
 std::string Server::url() const {
-  const auto& host = impl_->state->options.host;
+  const auto& host = impl_->services->options.host;
   const bool v6 = host.find(':') != std::string::npos;
   return "http://" + (v6 ? "[" + host + "]" : host) + ":" + std::to_string(port());
 }
@@ -271,28 +274,28 @@ void Server::start() {
     if (impl_->started) return;
     impl_->started = true;
   }
-  const auto& o = impl_->state->options;
+  const auto& o = impl_->services->options;
   log::info("listening", {{"url", url()},
                           {"io_threads", o.io_threads},
                           {"workers", o.workers},
                           {"data", o.data.string()},
-                          {"web", impl_->state->web_root.string()},
+                          {"web", impl_->services->web.web.string()},
                           {"token", !o.token.empty()},
-                          {"keys", impl_->state->auth.keys() != nullptr}});
+                          {"keys", impl_->services->auth.keys() != nullptr}});
   net::dispatch(impl_->acceptor.get_executor(), [this] { impl_->do_accept(); });
   // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
   // loaded once here rather than during the first client's speak.
-  net::post(impl_->state->workers, [s = impl_->state] {
+  net::post(impl_->services->workers, [s = impl_->services] {
     const auto t0 = std::chrono::steady_clock::now();
     try {
       SpeakRequest r;
       r.text = "你好, hello.";
       r.audio = false;
       r.timing = viseme::Timing::kModel;
-      (void)prepare_speech(*s, r, 1);
+      (void)s->speech.prepare(r, 1);
       r.audio = true;
       r.timing = viseme::Timing::kTts;
-      (void)prepare_speech(*s, r, 1);
+      (void)s->speech.prepare(r, 1);
       log::info(
           "warm",
           {{"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
@@ -300,7 +303,7 @@ void Server::start() {
     } catch (const std::exception& e) {
       log::warn("warm_up_failed", {{"error", e.what()}});
     }
-    s->ready = true;
+    s->sessions.ready = true;
   });
   for (int i = 0; i < o.io_threads; ++i) {
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });
@@ -333,8 +336,8 @@ void Server::wait() {
   for (auto& t : threads) t.join();
   if (threads.empty()) return;
   if (impl_->jobs_stopper.joinable()) impl_->jobs_stopper.join();
-  impl_->state->jobs.shutdown();
-  impl_->state->workers.join();
+  impl_->services->jobs.shutdown();
+  impl_->services->workers.join();
   log::info("stopped", {});
 }
 

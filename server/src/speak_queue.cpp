@@ -25,22 +25,22 @@ struct SpeakQueue::Item {
   int spoken = 0;  // pieces prepared so far
 };
 
-SpeakQueue::SpeakQueue(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
-                       std::string conn, std::uint64_t conn_id)
-    : state_(std::move(state)),
+SpeakQueue::SpeakQueue(std::shared_ptr<const StreamServices> services, net::any_io_executor strand,
+                       StreamSink& sink, std::string conn, std::uint64_t conn_id)
+    : services_(std::move(services)),
       strand_(std::move(strand)),
       sink_(sink),
       conn_(std::move(conn)),
       conn_id_(conn_id),
-      waiting_(state_->metrics.speak_queue_depth),
-      tokens_(state_->options.speak_burst) {}
+      waiting_(services_->metrics.speak_queue_depth),
+      tokens_(services_->options.speak_burst) {}
 
 SpeakQueue::~SpeakQueue() {
   close();
 }
 
 void SpeakQueue::take_tokens(Clock::time_point now) {
-  const auto& o = state_->options;
+  const auto& o = services_->options;
   tokens_ = std::min<double>(o.speak_burst,
                              tokens_ + seconds(now - tokens_at_) * o.speak_per_minute / 60.0);
   tokens_at_ = now;
@@ -54,10 +54,10 @@ void SpeakQueue::take_tokens(Clock::time_point now) {
 
 void SpeakQueue::speak(SpeakRequest&& request) {
   const auto now = Clock::now();
-  if (state_->stopping)
+  if (services_->sessions.stopping)
     throw RequestError(Code::kUnavailable, "speak: the server is shutting down (draining)");
   take_tokens(now);
-  if (const auto n = queued(); static_cast<int>(n) >= state_->options.max_queued_speaks) {
+  if (const auto n = queued(); static_cast<int>(n) >= services_->options.max_queued_speaks) {
     throw RequestError(Code::kLimit, "speak: " + std::to_string(n) +
                                          " utterances are playing or queued (max_queued_speaks)");
   }
@@ -65,15 +65,16 @@ void SpeakQueue::speak(SpeakRequest&& request) {
   if ((active_ && active_->id() == request.id) ||
       std::any_of(pending_.begin(), pending_.end(), same_id))
     throw Error("id: '" + request.id + "' is already playing or queued");
-  const std::string rig = state_->existing_rig(request.rig).id;
-  if (!request.vmc.empty() && !state_->options.vmc_targets.contains(request.vmc))
+  const std::string rig = services_->rigs.existing(request.rig).id;
+  if (!request.vmc.empty() && !services_->options.vmc_targets.contains(request.vmc))
     throw Error("vmc: '" + request.vmc + "' is not one of the server's vmc_targets");
   tokens_ -= 1.0;
 
   auto item = std::make_shared<Item>();
   item->request = std::move(request);
   item->received = now;
-  item->seed = state_->next_stream.load() ^ static_cast<std::uint32_t>(conn_id_ * 2654435761u);
+  item->seed =
+      services_->sessions.peek_stream_id() ^ static_cast<std::uint32_t>(conn_id_ * 2654435761u);
   pending_.push_back(item);
   waiting_.set(static_cast<long>(pending_.size()));
   log::info("speak", {{"conn", conn_},
@@ -84,7 +85,7 @@ void SpeakQueue::speak(SpeakRequest&& request) {
                       {"audio", item->request.audio},
                       {"queued", queued() - 1}});
   if (item->request.more) {
-    item->text.emplace(state_->options.max_text, state_->options.max_piece);
+    item->text.emplace(services_->options.max_text, services_->options.max_piece);
     for (auto& piece : item->text->add(*item->request.text, "text"))
       item->pieces.push_back(std::move(piece));
     item->request.text->clear();
@@ -148,12 +149,12 @@ void SpeakQueue::remove(std::deque<std::shared_ptr<Item>>::iterator it) {
 // Prepares `request` on the worker pool; `done` gets the result (or the problem) on the strand.
 void SpeakQueue::prepare(const std::shared_ptr<Item>& item, SpeakRequest request,
                          std::uint32_t seed, Done done) {
-  net::post(state_->workers,
+  net::post(services_->workers,
             [self = shared_from_this(), item, request = std::move(request), seed, done] {
               std::shared_ptr<PreparedSpeech> prepared;
               std::optional<Problem> problem;
               try {
-                prepared = prepare_speech(*self->state_, request, seed);
+                prepared = self->services_->speech.prepare(request, seed);
               } catch (...) {
                 problem = describe(std::current_exception());
               }
@@ -196,9 +197,9 @@ void SpeakQueue::start_next() {
   std::shared_ptr<VmcTee> tee;
   if (!item->request.vmc.empty())
     tee = std::make_shared<VmcTee>(strand_, sink_,
-                                   state_->options.vmc_targets.at(item->request.vmc), conn_);
+                                   services_->options.vmc_targets.at(item->request.vmc), conn_);
   active_ = std::make_shared<StreamPacer>(
-      state_, strand_, tee ? static_cast<StreamSink&>(*tee) : sink_, conn_, item->request,
+      services_, strand_, tee ? static_cast<StreamSink&>(*tee) : sink_, conn_, item->request,
       std::move(item->prepared), asked_at, [this, tee] { on_stream_end(); }, open);
   active_->start();
   if (!open || active_item_ != item) return;

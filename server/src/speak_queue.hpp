@@ -19,8 +19,8 @@ namespace facecast::server {
 class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
  public:
   /// `sink` gets every message until close(); `conn` names the connection in logs.
-  SpeakQueue(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
-             std::string conn, std::uint64_t conn_id);
+  SpeakQueue(std::shared_ptr<const StreamServices> services, net::any_io_executor strand,
+             StreamSink& sink, std::string conn, std::uint64_t conn_id);
   ~SpeakQueue();
 
   /// Queues an utterance. Throws RequestError (rate_limited, limit) or Error (a duplicate id, an
@@ -61,7 +61,7 @@ class SpeakQueue : public std::enable_shared_from_this<SpeakQueue> {
   void remove(std::deque<std::shared_ptr<Item>>::iterator it);
   std::size_t queued() const { return pending_.size() + (active_ ? 1 : 0); }
 
-  std::shared_ptr<State> state_;
+  std::shared_ptr<const StreamServices> services_;
   net::any_io_executor strand_;
   StreamSink& sink_;
   std::string conn_;

@@ -37,9 +37,19 @@ void check_length(const viseme::Utterance& u, double max_seconds) {
 
 }  // namespace
 
-viseme::Options speech_options(const State& state, viseme::LangMode lang, viseme::Timing timing,
-                               const std::string& voice, double rate) {
-  viseme::Options o = state.viseme_options;
+Speech::Speech(RigRegistry& rigs, RendererCache& renderers, Metrics& metrics,
+               AudioUploadOptions uploads, double max_utterance_seconds)
+    : rigs_(rigs),
+      renderers_(renderers),
+      metrics_(metrics),
+      viseme_(viseme::load_options()),
+      anim_(anim::load_anim_options()),
+      uploads_(std::move(uploads)),
+      max_utterance_seconds_(max_utterance_seconds) {}
+
+viseme::Options Speech::options(viseme::LangMode lang, viseme::Timing timing,
+                                const std::string& voice, double rate) const {
+  viseme::Options o = viseme_;
   o.lang = lang;
   o.timing = timing;
   o.en_voice = voice;
@@ -47,20 +57,19 @@ viseme::Options speech_options(const State& state, viseme::LangMode lang, viseme
   return o;
 }
 
-std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest& r,
-                                               std::uint32_t seed) {
+std::shared_ptr<PreparedSpeech> Speech::prepare(const SpeakRequest& r, std::uint32_t seed) {
   const auto t0 = std::chrono::steady_clock::now();
   auto p = std::make_shared<PreparedSpeech>();
-  p->rig = state.rigs.load(r.rig);
-  const viseme::Options vo = speech_options(state, r.lang, r.timing, r.voice, r.rate);
+  p->rig = rigs_.load(r.rig);
+  const viseme::Options vo = options(r.lang, r.timing, r.voice, r.rate);
   viseme::Utterance u;
   if (!r.audio_id.empty()) {
-    const auto audio = state.audio_uploads.get(r.audio_id);
+    const auto audio = uploads_.get(r.audio_id);
     if (!audio)
       throw Error("audio_id '" + r.audio_id + "': no such upload (POST /api/audio; uploads expire)",
                   ErrorCode::kNotFound);
-    u = r.text ? viseme::align(*r.text, *audio, vo, state.audio_uploads.align_options())
-               : viseme::lipsync(*audio, vo, state.audio_uploads.lipsync_options());
+    u = r.text ? viseme::align(*r.text, *audio, vo, uploads_.align_options())
+               : viseme::lipsync(*audio, vo, uploads_.lipsync_options());
   } else if (r.text) {
     u = viseme::analyze(*r.text, vo);
   } else {
@@ -68,8 +77,8 @@ std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest&
                                   r.timestamps->phones, "timestamps");
     if (!r.timestamps->text.empty()) u.text = r.timestamps->text;
   }
-  check_length(u, state.options.max_utterance_seconds);
-  anim::AnimOptions ao = state.anim_options;
+  check_length(u, max_utterance_seconds_);
+  anim::AnimOptions ao = anim_;
   ao.idle = r.idle;
   ao.seed = seed;
   p->performance.emplace(u, p->rig->mapping, ao);
@@ -81,19 +90,19 @@ std::shared_ptr<PreparedSpeech> prepare_speech(State& state, const SpeakRequest&
     p->pcm = std::move(u.pcm);
     p->sample_rate = u.sample_rate;
   }
-  if (r.output == Output::kFrames) p->renderer = state.renderers.get(*p->rig, r.width, r.height);
-  state.metrics.analysis_seconds.observe(
+  if (r.output == Output::kFrames) p->renderer = renderers_.get(*p->rig, r.width, r.height);
+  metrics_.analysis_seconds.observe(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   return p;
 }
 
-std::shared_ptr<PreparedSpeech> prepare_idle(State& state, const SpeakRequest& r, double seconds,
-                                             std::uint32_t seed) {
+std::shared_ptr<PreparedSpeech> Speech::prepare_idle(const SpeakRequest& r, double seconds,
+                                                     std::uint32_t seed) {
   auto p = std::make_shared<PreparedSpeech>();
-  p->rig = state.rigs.load(r.rig);
+  p->rig = rigs_.load(r.rig);
   viseme::Utterance u;  // no phones: the performance is idle life over `seconds`
   u.duration = seconds;
-  anim::AnimOptions ao = state.anim_options;
+  anim::AnimOptions ao = anim_;
   ao.idle = true;
   ao.seed = seed;
   ao.tail = 0;

@@ -31,18 +31,18 @@ double unix_now() {
 
 }  // namespace
 
-std::uint64_t tenant_disk_usage(State& state, const std::string& tenant) {
+std::uint64_t Storage::tenant_usage(const std::string& tenant) const {
   std::uint64_t total = 0;
-  for (const RigInfo& r : state.rigs.list())
-    if (!r.builtin && r.tenant == tenant) total += size_of(state.rigs.glb_path(r.id).parent_path());
-  for (const fs::path& f : state.jobs.tenant_files(tenant)) total += size_of(f);
+  for (const RigInfo& r : rigs_.list())
+    if (!r.builtin && r.tenant == tenant) total += size_of(rigs_.glb_path(r.id).parent_path());
+  for (const fs::path& f : jobs_.tenant_files(tenant)) total += size_of(f);
   return total;
 }
 
-void check_disk_quota(State& state, const std::string& tenant, std::uint64_t adding) {
-  const std::uint64_t quota = state.options.tenant_disk_quota;
+void Storage::check_quota(const std::string& tenant, std::uint64_t adding) const {
+  const std::uint64_t quota = options_.tenant_disk_quota;
   if (quota == 0) return;
-  const std::uint64_t used = tenant_disk_usage(state, tenant);
+  const std::uint64_t used = tenant_usage(tenant);
   // Something to add must fit; a job asked for (nothing known yet) needs room left.
   if (adding > 0 ? used + adding <= quota : used < quota) return;
   throw RequestError(Code::kLimit,
@@ -52,16 +52,16 @@ void check_disk_quota(State& state, const std::string& tenant, std::uint64_t add
                      413);
 }
 
-int expire_rigs(State& state) {
-  const double retention = state.options.rig_retention;
+int Storage::expire_rigs() {
+  const double retention = options_.rig_retention;
   if (retention <= 0) return 0;
   const double before = unix_now() - retention;
   int removed = 0;
-  for (const RigInfo& r : state.rigs.list()) {
-    if (r.builtin || r.id == state.options.default_rig || r.created <= 0 || r.created >= before)
+  for (const RigInfo& r : rigs_.list()) {
+    if (r.builtin || r.id == options_.default_rig || r.created <= 0 || r.created >= before)
       continue;
     try {
-      if (state.rigs.remove(r.id)) {
+      if (rigs_.remove(r.id)) {
         ++removed;
         log::info("rig_expired", {{"rig", r.id}, {"tenant", r.tenant}});
       }

@@ -5,20 +5,33 @@
 #include <cstdint>
 #include <string>
 
-#include "state.hpp"
+#include "facecast/server/options.hpp"
+#include "jobs.hpp"
+#include "rigs.hpp"
 
 namespace facecast::server {
 
-/// Bytes `tenant`'s stored rigs and job files take (a folder scan and a job query: call it off
-/// the I/O threads).
-std::uint64_t tenant_disk_usage(State& state, const std::string& tenant);
+class Storage {
+ public:
+  Storage(const ServerOptions& options, RigRegistry& rigs, Jobs& jobs)
+      : options_(options), rigs_(rigs), jobs_(jobs) {}
 
-/// Throws RequestError (limit, 413) when `tenant` would store more than tenant_disk_quota with
-/// `adding` more bytes; nothing when the quota is 0 (off).
-void check_disk_quota(State& state, const std::string& tenant, std::uint64_t adding = 0);
+  /// Bytes `tenant`'s stored rigs and job files take (a folder scan and a job query: call it off
+  /// the I/O threads).
+  std::uint64_t tenant_usage(const std::string& tenant) const;
 
-/// Removes the stored rigs created more than rig_retention seconds ago (not the built-in ones,
-/// not the server's default_rig); nothing when rig_retention is 0. Returns how many.
-int expire_rigs(State& state);
+  /// Throws RequestError (limit, 413) when `tenant` would store more than tenant_disk_quota with
+  /// `adding` more bytes; nothing when the quota is 0 (off).
+  void check_quota(const std::string& tenant, std::uint64_t adding = 0) const;
+
+  /// Removes the stored rigs created more than rig_retention seconds ago (not the built-in ones,
+  /// not the server's default_rig); nothing when rig_retention is 0. Returns how many.
+  int expire_rigs();
+
+ private:
+  const ServerOptions& options_;
+  RigRegistry& rigs_;
+  Jobs& jobs_;
+};
 
 }  // namespace facecast::server

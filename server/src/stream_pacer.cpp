@@ -15,12 +15,12 @@ constexpr double kSlack = 0.0005;
 
 }  // namespace
 
-StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor strand,
-                         StreamSink& sink, std::string conn, SpeakRequest request,
-                         std::shared_ptr<PreparedSpeech> prepared, Clock::time_point asked_at,
-                         std::function<void()> on_end, bool open)
-    : state_(std::move(state)),
-      o_(state_->options),
+StreamPacer::StreamPacer(std::shared_ptr<const StreamServices> services,
+                         net::any_io_executor strand, StreamSink& sink, std::string conn,
+                         SpeakRequest request, std::shared_ptr<PreparedSpeech> prepared,
+                         Clock::time_point asked_at, std::function<void()> on_end, bool open)
+    : services_(std::move(services)),
+      o_(services_->options),
       strand_(std::move(strand)),
       timer_(strand_),
       sink_(&sink),
@@ -29,8 +29,8 @@ StreamPacer::StreamPacer(std::shared_ptr<State> state, net::any_io_executor stra
       p_(std::move(prepared)),
       asked_at_(asked_at),
       on_end_(std::move(on_end)),
-      playing_(state_->metrics.active_streams),
-      stream_(state_->next_stream.fetch_add(1)),
+      playing_(services_->metrics.active_streams),
+      stream_(services_->sessions.new_stream_id()),
       fps_(request_.fps),
       frames_mode_(request_.output == Output::kFrames),
       names_(static_cast<int>(p_->rig->mapping.shape_names().size())),
@@ -71,7 +71,7 @@ void StreamPacer::start() {
   if (stopped_) return;
   start_ = Clock::now();
   playing_.set(1);
-  state_->metrics.streams_total.fetch_add(1);
+  services_->metrics.streams_total.fetch_add(1);
   log::info("stream_start", {{"conn", conn_},
                              {"id", request_.id},
                              {"stream", stream_},
@@ -211,7 +211,7 @@ void StreamPacer::send_audio(double horizon) {
         audio_message(stream_, static_cast<std::uint32_t>(audio_next_), p_->sample_rate,
                       pcm.data() + audio_next_, n));
     sink_->send(OutMessage{std::move(msg), OutKind::kAudio, stream_, 0});
-    state_->metrics.audio_samples_sent_total.fetch_add(n);
+    services_->metrics.audio_samples_sent_total.fetch_add(n);
     audio_next_ += n;
   }
 }
@@ -238,7 +238,7 @@ void StreamPacer::send_weights(double horizon) {
         sink_->send(OutMessage{std::move(msg), OutKind::kWeights, stream_, count});
     sent_ += static_cast<int>(count - dropped);
     dropped_ += static_cast<int>(dropped);
-    state_->metrics.frames_dropped.weights.fetch_add(dropped);
+    services_->metrics.frames_dropped.weights.fetch_add(dropped);
     if (stopped_) return;
   }
 }
@@ -246,7 +246,7 @@ void StreamPacer::send_weights(double horizon) {
 void StreamPacer::count_first_frame() {
   if (first_sent_) return;
   first_sent_ = true;
-  state_->metrics.time_to_first_frame_seconds.observe(seconds(Clock::now() - asked_at_));
+  services_->metrics.time_to_first_frame_seconds.observe(seconds(Clock::now() - asked_at_));
 }
 
 // Starts the renders of the frames due by `elapsed`, skipping those nobody would see in time.
@@ -280,7 +280,7 @@ void StreamPacer::skip_frame() {
   }
   ++dropped_;
   ++next_frame_;
-  state_->metrics.frames_dropped.frames.fetch_add(1);
+  services_->metrics.frames_dropped.frames.fetch_add(1);
 }
 
 // Renders `frame` on the worker pool; on_rendered gets the JPEG message on the strand.
@@ -291,25 +291,26 @@ void StreamPacer::render(int frame) {
   const rig::BodyPose head = rig::BodyPose::from_channels(std::span(values).subspan(n));
   values.resize(n);  // the renderer takes the shapes, and the body pose apart
   in_flight_.push_back(Render{frame, false, nullptr});
-  net::post(state_->workers, [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
-                              values = std::move(values), head, springs = step_springs(frame, head),
-                              stream = stream_, frame, fps = fps_, quality = o_.jpeg_quality] {
-    std::shared_ptr<const std::string> msg;
-    std::optional<Problem> problem;
-    try {
-      const auto t0 = Clock::now();
-      const render::Image image = renderer->render(values, head, springs);
-      const std::string jpeg = render::encode_jpeg(image, quality);
-      msg = std::make_shared<const std::string>(
-          jpeg_message(stream, static_cast<std::uint32_t>(frame), fps, jpeg));
-      self->state_->metrics.render_seconds.observe(seconds(Clock::now() - t0));
-    } catch (...) {
-      problem = describe(std::current_exception());
-    }
-    net::post(strand, [self, frame, msg = std::move(msg), problem] {
-      self->on_rendered(frame, msg, problem);
-    });
-  });
+  net::post(services_->workers,
+            [self = shared_from_this(), strand = strand_, renderer = p_->renderer,
+             values = std::move(values), head, springs = step_springs(frame, head),
+             stream = stream_, frame, fps = fps_, quality = o_.jpeg_quality] {
+              std::shared_ptr<const std::string> msg;
+              std::optional<Problem> problem;
+              try {
+                const auto t0 = Clock::now();
+                const render::Image image = renderer->render(values, head, springs);
+                const std::string jpeg = render::encode_jpeg(image, quality);
+                msg = std::make_shared<const std::string>(
+                    jpeg_message(stream, static_cast<std::uint32_t>(frame), fps, jpeg));
+                self->services_->metrics.render_seconds.observe(seconds(Clock::now() - t0));
+              } catch (...) {
+                problem = describe(std::current_exception());
+              }
+              net::post(strand, [self, frame, msg = std::move(msg), problem] {
+                self->on_rendered(frame, msg, problem);
+              });
+            });
 }
 
 void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> message,
@@ -328,7 +329,7 @@ void StreamPacer::on_rendered(int frame, std::shared_ptr<const std::string> mess
     if (!r.message) continue;
     if (sink_->media_full()) {
       ++dropped_;
-      state_->metrics.frames_dropped.frames.fetch_add(1);
+      services_->metrics.frames_dropped.frames.fetch_add(1);
       continue;
     }
     count_first_frame();
@@ -378,8 +379,8 @@ void StreamPacer::frame_values(int frame, std::vector<float>& out) {
 
 void StreamPacer::finish() {
   // Counted before the client can see the end (its next request may read the metrics).
-  state_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
-  if (cancelling_) state_->metrics.streams_cancelled_total.fetch_add(1);
+  services_->metrics.frames_sent.of(frames_mode_).fetch_add(static_cast<std::uint64_t>(sent_));
+  if (cancelling_) services_->metrics.streams_cancelled_total.fetch_add(1);
   const StreamEnd end{request_.id, stream_, sent_, dropped_, cancelling_};
   auto end_message = OutMessage::control(stream_end_message(end));
   end_message.boundary = Boundary::kEnd;

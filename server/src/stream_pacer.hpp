@@ -26,7 +26,7 @@
 #include "clock.hpp"
 #include "out_queue.hpp"
 #include "speech.hpp"
-#include "state.hpp"
+#include "stream_services.hpp"
 
 namespace facecast::server {
 
@@ -52,9 +52,10 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   /// `asked_at`: when the utterance was asked for or reached the front of its queue, the later
   /// (time to first frame counts from there). `on_end` runs after `stream_end` was queued.
   /// `open`: incremental text; append() adds pieces until close_text().
-  StreamPacer(std::shared_ptr<State> state, net::any_io_executor strand, StreamSink& sink,
-              std::string conn, SpeakRequest request, std::shared_ptr<PreparedSpeech> prepared,
-              Clock::time_point asked_at, std::function<void()> on_end, bool open = false);
+  StreamPacer(std::shared_ptr<const StreamServices> services, net::any_io_executor strand,
+              StreamSink& sink, std::string conn, SpeakRequest request,
+              std::shared_ptr<PreparedSpeech> prepared, Clock::time_point asked_at,
+              std::function<void()> on_end, bool open = false);
 
   const std::string& id() const noexcept { return request_.id; }
 
@@ -97,7 +98,7 @@ class StreamPacer : public std::enable_shared_from_this<StreamPacer> {
   void count_first_frame();
   void finish();
 
-  std::shared_ptr<State> state_;
+  std::shared_ptr<const StreamServices> services_;
   const ServerOptions& o_;
   net::any_io_executor strand_;
   net::steady_timer timer_;

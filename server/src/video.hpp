@@ -7,7 +7,7 @@
 
 #include "facecast/viseme/options.hpp"
 #include "jobs.hpp"
-#include "state.hpp"
+#include "stream_services.hpp"
 
 namespace facecast::server {
 
@@ -25,6 +25,7 @@ struct VideoRequest {
 /// Runs in a job; the MP4 goes to <data>/renders/<job>.mp4 (written under a temporary name) and is
 /// registered as
 /// the job's "video.mp4". Returns {url, frames, fps, duration, size}.
-nlohmann::json render_video(State& state, const VideoRequest& request, JobContext& ctx);
+nlohmann::json render_video(const StreamServices& services, const VideoRequest& request,
+                            JobContext& ctx);
 
 }  // namespace facecast::server

@@ -5,14 +5,14 @@
 #include "facecast/rig/motion.hpp"
 #include "facecast/server/protocol.hpp"
 #include "log.hpp"
-#include "state.hpp"
+#include "stream_services.hpp"
 
 namespace facecast::server {
 
-std::shared_ptr<VmcMirror> VmcMirror::start(std::shared_ptr<State> state,
+std::shared_ptr<VmcMirror> VmcMirror::start(std::shared_ptr<const StreamServices> services,
                                             std::shared_ptr<Channel> channel,
                                             const ServerOptions::Channel::Vmc& settings) {
-  auto out = std::make_shared<VmcMirror>(std::move(state), std::move(channel), settings);
+  auto out = std::make_shared<VmcMirror>(std::move(services), std::move(channel), settings);
   out->channel_->subscribe(out->member_id_, out->weak_from_this());
   out->thread_ = std::thread([self = out.get()] { self->run(); });
   log::info(
@@ -45,11 +45,11 @@ void send_vmc_frame(const std::vector<std::unique_ptr<VmcSender>>& senders,
   }
 }
 
-VmcMirror::VmcMirror(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
-                     const ServerOptions::Channel::Vmc& settings)
-    : state_(std::move(state)),
+VmcMirror::VmcMirror(std::shared_ptr<const StreamServices> services,
+                     std::shared_ptr<Channel> channel, const ServerOptions::Channel::Vmc& settings)
+    : services_(std::move(services)),
       channel_(std::move(channel)),
-      member_id_(state_->next_connection.fetch_add(1)) {
+      member_id_(services_->sessions.new_connection_id()) {
   senders_ = vmc_senders(settings, label_);  // label_ is declared after senders_
 }
 
@@ -166,12 +166,13 @@ void VmcTee::arm() {
   });
 }
 
-std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(const std::shared_ptr<State>& state) {
+std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(
+    const std::shared_ptr<const StreamServices>& services, const ChannelRegistry& channels) {
   std::vector<std::shared_ptr<VmcMirror>> out;
-  for (const auto& ch : state->options.channels)
+  for (const auto& ch : services->options.channels)
     if (ch.vmc && !ch.vmc->targets.empty())
-      if (const auto channel = state->channels->find(ch.name))
-        out.push_back(VmcMirror::start(state, channel, *ch.vmc));
+      if (const auto channel = channels.find(ch.name))
+        out.push_back(VmcMirror::start(services, channel, *ch.vmc));
   return out;
 }
 

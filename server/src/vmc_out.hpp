@@ -56,10 +56,10 @@ class VmcMirror final : public ChannelMember, public std::enable_shared_from_thi
  public:
   /// Subscribes to `channel` and starts the sending thread; throws Error for a target that does
   /// not resolve.
-  static std::shared_ptr<VmcMirror> start(std::shared_ptr<State> state,
+  static std::shared_ptr<VmcMirror> start(std::shared_ptr<const StreamServices> services,
                                           std::shared_ptr<Channel> channel,
                                           const ServerOptions::Channel::Vmc& settings);
-  VmcMirror(std::shared_ptr<State> state, std::shared_ptr<Channel> channel,
+  VmcMirror(std::shared_ptr<const StreamServices> services, std::shared_ptr<Channel> channel,
             const ServerOptions::Channel::Vmc& settings);
   ~VmcMirror() override;
 
@@ -70,7 +70,7 @@ class VmcMirror final : public ChannelMember, public std::enable_shared_from_thi
  private:
   void run();
 
-  std::shared_ptr<State> state_;
+  std::shared_ptr<const StreamServices> services_;
   std::shared_ptr<Channel> channel_;
   std::uint64_t member_id_;
   std::vector<std::unique_ptr<VmcSender>> senders_;
@@ -112,6 +112,7 @@ class VmcTee final : public StreamSink, public std::enable_shared_from_this<VmcT
 };
 
 /// Starts the VMC mirrors of the configured channels (ServerOptions::Channel::vmc).
-std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(const std::shared_ptr<State>& state);
+std::vector<std::shared_ptr<VmcMirror>> start_vmc_mirrors(
+    const std::shared_ptr<const StreamServices>& services, const ChannelRegistry& channels);
 
 }  // namespace facecast::server

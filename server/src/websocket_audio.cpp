@@ -7,6 +7,7 @@
 #include "access.hpp"
 #include "live_audio.hpp"
 #include "log.hpp"
+#include "services.hpp"
 #include "websocket_session.hpp"
 
 namespace facecast::server {
@@ -27,7 +28,7 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
     return;
   }
   try {
-    authorize_live_audio(*state_, *who_);
+    services_->access.authorize_live_audio(*who_);
     AudioChunk c = read_audio_chunk(bytes);
     if (c.first == 0 && audio_) end_audio();
     if (!audio_) {
@@ -43,12 +44,12 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
     const double audio_end =
         static_cast<double>(audio_->received + c.samples.size()) / c.sample_rate;
     const double elapsed = seconds(Clock::now() - audio_->opened);
-    if (audio_end > elapsed + state_->options.live_audio_ahead) {
+    if (audio_end > elapsed + services_->options.live_audio_ahead) {
       char buf[200];
       std::snprintf(buf, sizeof buf,
                     "audio chunk: it ends %.2f s into the stream, %.2f s after it opened; audio "
                     "may run at most live_audio_ahead (%g s) ahead of real time",
-                    audio_end, elapsed, state_->options.live_audio_ahead);
+                    audio_end, elapsed, services_->options.live_audio_ahead);
       throw RequestError(Code::kRateLimited, buf);
     }
     audio_->received += c.samples.size();
@@ -69,18 +70,19 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
 // The stream's engine is made on its strand (loading the rig may take a while); its stream_start
 // comes back to the connection before any of its weights.
 void WebSocketSession::open_audio(int rate) {
-  const std::uint32_t stream = state_->next_stream.fetch_add(1);
-  audio_ = std::make_unique<LiveAudio>(net::make_strand(state_->workers));
+  const std::uint32_t stream = services_->sessions.new_stream_id();
+  audio_ = std::make_unique<LiveAudio>(net::make_strand(services_->workers));
   audio_->stream = stream;
   audio_->id = "audio-" + std::to_string(stream);
   audio_->rate = rate;
   net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, stream, rate,
                              id = audio_->id] {
     const viseme::VisemeSet set =
-        self->state_->viseme_options.set.value_or(viseme::VisemeSet::kOculus);
+        self->services_->speech.viseme_options().set.value_or(viseme::VisemeSet::kOculus);
     try {
-      engine->lipsync.emplace(self->state_->rigs.load(""), self->state_->anim_options,
-                              lipsync_options(), set, rate, kLiveFps);
+      engine->lipsync.emplace(self->services_->rigs.load(""),
+                              self->services_->speech.anim_options(), lipsync_options(), set, rate,
+                              kLiveFps);
     } catch (...) {
       const Problem problem = describe(std::current_exception());
       net::post(self->ws_.get_executor(), [self, id, problem] { self->send_error(id, problem); });

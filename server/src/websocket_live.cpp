@@ -3,6 +3,7 @@
 // end / cancel addressed to a channel (forwarded to its strand) or to this connection's queue.
 #include "live_audio.hpp"
 #include "log.hpp"
+#include "services.hpp"
 #include "websocket_session.hpp"
 
 namespace facecast::server {
@@ -24,7 +25,7 @@ const std::string& channel_of(const ClientMessage& m) {
 }  // namespace
 
 std::shared_ptr<Channel> WebSocketSession::channel_named(const std::string& name) const {
-  auto c = state_->channels ? state_->channels->find(name) : nullptr;
+  auto c = services_->channels ? services_->channels->find(name) : nullptr;
   if (!c) throw Error("channel: '" + name + "' does not exist", ErrorCode::kNotFound);
   return c;
 }

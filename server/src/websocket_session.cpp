@@ -7,34 +7,36 @@
 #include "facecast/core/json_limits.hpp"
 #include "live_audio.hpp"
 #include "log.hpp"
+#include "services.hpp"
 
 namespace facecast::server {
 
-WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<State> state,
+WebSocketSession::WebSocketSession(tcp::socket&& socket, std::shared_ptr<Services> services,
                                    std::unique_ptr<ConnectionSlot> slot, std::uint64_t id,
                                    std::string remote)
     : ws_(std::move(socket)),
-      state_(std::move(state)),
+      services_(std::move(services)),
       slot_(std::move(slot)),
-      open_(state_->metrics.ws_connections, 1),
+      open_(services_->metrics.ws_connections, 1),
       id_(id),
       conn_("c" + std::to_string(id)),
       remote_(std::move(remote)),
-      queue_(state_->metrics.write_queue_depth, state_->options.write_queue),
-      message_tokens_(state_->options.message_burst),
-      speaks_(std::make_shared<SpeakQueue>(state_, ws_.get_executor(), *this, conn_, id_)),
+      queue_(services_->metrics.write_queue_depth, services_->options.write_queue),
+      message_tokens_(services_->options.message_burst),
+      speaks_(std::make_shared<SpeakQueue>(share(services_, services_->streams), ws_.get_executor(),
+                                           *this, conn_, id_)),
       watchdog_(ws_.get_executor()),
       close_timer_(ws_.get_executor()) {}
 
 WebSocketSession::~WebSocketSession() {
   speaks_->close();
   leave_channel();
-  state_->remove_session(id_);
+  services_->sessions.remove(id_);
 }
 
 void WebSocketSession::run(Request request, bool subprotocol, std::optional<Principal> who) {
   who_ = std::move(who);
-  const auto& o = state_->options;
+  const auto& o = services_->options;
   beast::get_lowest_layer(ws_).expires_never();  // the websocket has its own timeouts
   websocket::stream_base::timeout t{};
   t.handshake_timeout = from_seconds(o.ws_handshake_timeout);
@@ -53,7 +55,7 @@ void WebSocketSession::run(Request request, bool subprotocol, std::optional<Prin
   ws_.next_layer().limit_control_bytes(o.max_control_bytes);
   ws_.read_message_max(o.max_message);
   ws_.auto_fragment(false);
-  state_->add_session(id_, weak_from_this());
+  services_->sessions.add(id_, weak_from_this());
   ws_.async_accept(request,
                    beast::bind_front_handler(&WebSocketSession::on_accept, shared_from_this()));
 }
@@ -77,7 +79,7 @@ void WebSocketSession::on_accept(beast::error_code ec) {
     return;
   }
   accepted_ = true;
-  if (state_->stopping) {
+  if (services_->sessions.stopping) {
     close_with(websocket::close_code::going_away, "server shutting down");
     return;
   }
@@ -90,7 +92,7 @@ void WebSocketSession::on_accept(beast::error_code ec) {
     send_hello();
   } else {
     // Authentication in the first message: until then nothing else is read, nothing is sent.
-    close_timer_.expires_after(from_seconds(state_->options.ws_handshake_timeout));
+    close_timer_.expires_after(from_seconds(services_->options.ws_handshake_timeout));
     close_timer_.async_wait([self = shared_from_this()](beast::error_code e) {
       if (!e && !self->who_)
         self->close_with(websocket::close_code::policy_error, "authenticate first");
@@ -102,13 +104,13 @@ void WebSocketSession::on_accept(beast::error_code ec) {
 void WebSocketSession::send_hello() {
   // The rig ids this caller may use: built-in and its tenant's (a viewer token: its own rig).
   std::vector<std::string> rigs;
-  for (const auto& r : state_->rigs.list()) {
+  for (const auto& r : services_->rigs.list()) {
     const bool shown = !who_->viewer       ? rig_listed(*who_, r)
                        : who_->rig.empty() ? r.builtin
                                            : r.id == who_->rig;
     if (shown) rigs.push_back(r.id);
   }
-  send(OutMessage::control(hello_message("facecast " FACECAST_VERSION, rigs, state_->options)));
+  send(OutMessage::control(hello_message("facecast " FACECAST_VERSION, rigs, services_->options)));
 }
 
 void WebSocketSession::authenticate(std::string_view text) {
@@ -119,7 +121,7 @@ void WebSocketSession::authenticate(std::string_view text) {
         !j["token"].is_string())
       throw RequestError(Code::kUnauthorized,
                          "the first message must be {\"type\": \"auth\", \"token\": ...}");
-    Principal who = state_->auth.identify(j["token"].get<std::string>());
+    Principal who = services_->auth.identify(j["token"].get<std::string>());
     if (!who.can(kScopeSpeak) && !who.can(kScopeChannelsSubscribe) &&
         !who.can(kScopeChannelsProduce))
       throw RequestError(Code::kForbidden,
@@ -144,23 +146,24 @@ void WebSocketSession::do_read() {
 void WebSocketSession::on_read(beast::error_code ec, std::size_t) {
   if (ec) {
     if (ec == websocket::error::message_too_big) {
-      log::warn("ws_message_too_big", {{"conn", conn_}, {"limit", state_->options.max_message}});
+      log::warn("ws_message_too_big", {{"conn", conn_}, {"limit", services_->options.max_message}});
     } else if (ws_.next_layer().control_overflow()) {
       // Pings whose pongs the peer does not read: the socket is closed (no close frame fits).
       log::warn("ws_control_overflow",
-                {{"conn", conn_}, {"limit", state_->options.max_control_bytes}});
+                {{"conn", conn_}, {"limit", services_->options.max_control_bytes}});
       beast::error_code ignored;
       beast::get_lowest_layer(ws_).socket().close(ignored);
     }
     on_closed();
     return;
   }
-  state_->metrics.ws_messages_received_total.fetch_add(1);
+  services_->metrics.ws_messages_received_total.fetch_add(1);
   if (!take_message_token()) {
     char reason[64];
     std::snprintf(reason, sizeof reason, "more than %g messages per second",
-                  state_->options.messages_per_second);
-    log::warn("ws_message_rate", {{"conn", conn_}, {"limit", state_->options.messages_per_second}});
+                  services_->options.messages_per_second);
+    log::warn("ws_message_rate",
+              {{"conn", conn_}, {"limit", services_->options.messages_per_second}});
     buffer_.consume(buffer_.size());
     close_with(websocket::close_code::policy_error, reason);
     do_read();  // until the close handshake ends
@@ -184,7 +187,7 @@ void WebSocketSession::on_read(beast::error_code ec, std::size_t) {
 
 // The message rate limit: a token bucket of message_burst refilled at messages_per_second.
 bool WebSocketSession::take_message_token() {
-  const auto& o = state_->options;
+  const auto& o = services_->options;
   const auto now = Clock::now();
   message_tokens_ = std::min<double>(
       o.message_burst, message_tokens_ + seconds(now - message_tokens_at_) * o.messages_per_second);
@@ -199,15 +202,16 @@ void WebSocketSession::handle_text(std::string_view text) {
   if (!who_) return authenticate(text);
   std::string id;
   try {
-    ClientMessage m = parse_client_message(text, state_->limits, &id);
-    authorize_message(*state_, *who_, m);  // scope, tenant, a viewer token's channel or rig
+    ClientMessage m = parse_client_message(text, services_->limits, &id);
+    services_->access.authorize_message(*who_,
+                                        m);  // scope, tenant, a viewer token's channel or rig
     if (route_live(m)) return;
     if (auto* speak = std::get_if<SpeakRequest>(&m)) {
       speaks_->speak(std::move(*speak));
     } else if (auto* cancel = std::get_if<CancelRequest>(&m)) {
       speaks_->cancel(*cancel);
     } else if (auto* ping = std::get_if<PingRequest>(&m)) {
-      send(OutMessage::control(pong_message(ping->t, state_->uptime())));
+      send(OutMessage::control(pong_message(ping->t, services_->sessions.uptime())));
     }
   } catch (...) {
     send_error(id.empty() ? std::nullopt : std::optional<std::string>(id),
@@ -225,7 +229,7 @@ std::uint32_t WebSocketSession::send(OutMessage message) {
 
 std::uint32_t WebSocketSession::enqueue(OutMessage message) {
   if (closing_ || closed_) return 0;
-  const int limit = state_->options.write_queue;
+  const int limit = services_->options.write_queue;
   if (!message.media()) {
     // Control messages are never dropped, but a client that sends requests without reading the
     // answers must not grow the queue without bound.
@@ -248,7 +252,7 @@ bool WebSocketSession::media_full() {
 }
 
 void WebSocketSession::send_error(const std::optional<std::string>& id, const Problem& problem) {
-  state_->metrics.protocol_errors_total.fetch_add(1);
+  services_->metrics.protocol_errors_total.fetch_add(1);
   log::info("ws_error", {{"conn", conn_},
                          {"id", id ? *id : std::string("null")},
                          {"code", to_string(problem.code)},
@@ -290,7 +294,7 @@ void WebSocketSession::on_write(beast::error_code ec, std::size_t bytes) {
 
 void WebSocketSession::wrote(std::size_t bytes) {
   queue_.finish_write();
-  state_->metrics.ws_bytes_sent_total.fetch_add(bytes);
+  services_->metrics.ws_bytes_sent_total.fetch_add(bytes);
   if (queue_.empty()) stalled_since_.reset();
 }
 
@@ -300,7 +304,7 @@ void WebSocketSession::wrote(std::size_t bytes) {
 void WebSocketSession::mark_stalled() {
   if (stalled_since_) return;
   stalled_since_ = Clock::now();
-  watchdog_.expires_at(*stalled_since_ + from_seconds(state_->options.slow_client_grace));
+  watchdog_.expires_at(*stalled_since_ + from_seconds(services_->options.slow_client_grace));
   watchdog_.async_wait([self = shared_from_this()](beast::error_code ec) {
     if (!ec) self->on_watchdog();
   });
@@ -308,7 +312,7 @@ void WebSocketSession::mark_stalled() {
 
 void WebSocketSession::on_watchdog() {
   if (!stalled_since_ || closing_ || closed_) return;
-  const auto deadline = *stalled_since_ + from_seconds(state_->options.slow_client_grace);
+  const auto deadline = *stalled_since_ + from_seconds(services_->options.slow_client_grace);
   if (Clock::now() + std::chrono::milliseconds(1) < deadline) {
     watchdog_.expires_at(deadline);
     watchdog_.async_wait([self = shared_from_this()](beast::error_code ec) {
@@ -320,11 +324,11 @@ void WebSocketSession::on_watchdog() {
 }
 
 void WebSocketSession::close_slow_client() {
-  state_->metrics.slow_clients_closed_total.fetch_add(1);
+  services_->metrics.slow_clients_closed_total.fetch_add(1);
   log::warn("slow_client", {{"conn", conn_},
                             {"remote", remote_},
                             {"queued", queue_.size()},
-                            {"grace_s", state_->options.slow_client_grace}});
+                            {"grace_s", services_->options.slow_client_grace}});
   close_with(websocket::close_code::policy_error, "slow client: messages not read");
 }
 
@@ -342,7 +346,7 @@ void WebSocketSession::close_with(websocket::close_code code, const char* reason
         if (ec) log::debug("ws_close_failed", {{"conn", self->conn_}, {"error", ec.message()}});
       });
   // A peer that reads nothing never lets the close frame out: end it the hard way.
-  close_timer_.expires_after(from_seconds(state_->options.close_timeout));
+  close_timer_.expires_after(from_seconds(services_->options.close_timeout));
   close_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
     if (ec || self->closed_) return;
     log::info("ws_close_timeout", {{"conn", self->conn_}});
@@ -359,7 +363,7 @@ void WebSocketSession::on_closed() {
   close_timer_.cancel();
   const auto reason = ws_.reason();
   log::info("ws_closed", {{"conn", conn_}, {"code", static_cast<int>(reason.code)}});
-  state_->remove_session(id_);
+  services_->sessions.remove(id_);
 }
 
 }  // namespace facecast::server

@@ -14,15 +14,18 @@
 #include <optional>
 #include <string>
 
+#include "auth.hpp"
 #include "beast.hpp"
 #include "channel.hpp"
 #include "clock.hpp"
 #include "frame_stream.hpp"
 #include "out_queue.hpp"
+#include "sessions.hpp"
 #include "speak_queue.hpp"
-#include "state.hpp"
 
 namespace facecast::server {
+
+struct Services;
 
 struct LiveAudio;
 
@@ -31,7 +34,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
                          public StreamSink,
                          public ChannelMember {
  public:
-  WebSocketSession(tcp::socket&& socket, std::shared_ptr<State> state,
+  WebSocketSession(tcp::socket&& socket, std::shared_ptr<Services> services,
                    std::unique_ptr<ConnectionSlot> slot, std::uint64_t id, std::string remote);
   ~WebSocketSession();
 
@@ -83,7 +86,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void on_closed();
 
   websocket::stream<FrameStream> ws_;
-  std::shared_ptr<State> state_;
+  std::shared_ptr<Services> services_;
   std::unique_ptr<ConnectionSlot> slot_;
   GaugeShare open_;  // ws_connections: 1
   std::uint64_t id_;
