@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "facecast/core/error.hpp"
+#include "parallel.hpp"
 #include "stages.hpp"
 
 namespace facecast::rigbuild {
@@ -120,6 +121,7 @@ TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig
 
 BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
                       const ProgressFn& progress) {
+  const OpenMpWithinBudget omp_threads;  // Eigen's and CHOLMOD's regions, within the budget
   const auto t_start = Clock::now();
   check_inputs(tmpl, target, options);
   BuildResult r;

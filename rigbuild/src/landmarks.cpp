@@ -23,6 +23,7 @@
 #include "geometry.hpp"
 #include "landmark_views.hpp"
 #include "lid_margins.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -460,6 +461,7 @@ Points landmark_bias(const rig::Rig& tmpl, const Points& reference, const Landma
 
 AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                          const LandmarkOptions& options) {
+  const OpenMpWithinBudget omp_threads;  // Eigen's regions, within the budget
   AutoMarkers out;
   if (const auto known = known_landmarks(tmpl)) {
     out.template_vertices = *known;

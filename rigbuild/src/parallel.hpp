@@ -1,8 +1,10 @@
 #pragma once
 // Work over the cores with plain threads, private to rigbuild. An exception thrown by a worker is
 // rethrown on the calling thread after every worker has stopped. Under a ThreadBudget
-// (facecast/rigbuild/threads.hpp) a loop runs on the calling thread plus the threads it could
-// borrow; a loop started inside a loop's worker runs on that worker.
+// (facecast/core/threads.hpp) a loop runs on the calling thread plus the threads it could borrow;
+// a loop started inside a loop's worker runs on that worker. OpenMP's regions (CHOLMOD's, and
+// Eigen's large products: rigbuild compiles with OpenMP) follow the budget through OpenMpThreads
+// and OpenMpWithinBudget.
 #include <algorithm>
 #include <cstddef>
 #include <exception>
@@ -10,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "facecast/rigbuild/threads.hpp"
+#include "facecast/core/threads.hpp"
 
 namespace facecast::rigbuild {
 
@@ -54,6 +56,22 @@ class OpenMpThreads {
  private:
   int previous_;
   std::optional<WorkerLease> lease_;
+};
+
+/// Opened by the entry points that run a whole operation (build_rig, auto_markers,
+/// avatar_from_photos): under a budget, the OpenMP regions started on the calling thread get one
+/// thread, the caller's own that the budget already counts, unless OpenMpThreads lends them more;
+/// without one, changes nothing. OpenMP's thread count is the calling thread's own setting; the
+/// scope gives back the one it found.
+class OpenMpWithinBudget {
+ public:
+  OpenMpWithinBudget();
+  ~OpenMpWithinBudget();
+  OpenMpWithinBudget(const OpenMpWithinBudget&) = delete;
+  OpenMpWithinBudget& operator=(const OpenMpWithinBudget&) = delete;
+
+ private:
+  int previous_;
 };
 
 /// Runs fn(w) for w in [0, workers): w = 0 on the calling thread, the others on new threads.

@@ -11,6 +11,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
+#include "parallel.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -202,6 +203,7 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
 PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& front,
                                const render::Image* side, const PhotoOptions& options,
                                const ProgressFn& progress) {
+  const OpenMpWithinBudget omp_threads;  // Eigen's and CHOLMOD's regions, within the budget
   const auto t0 = std::chrono::steady_clock::now();
   PhotoAvatar out;
   nlohmann::json timing;

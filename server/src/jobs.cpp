@@ -330,7 +330,7 @@ void Jobs::run(Job& job) {
   nlohmann::json result;
   std::optional<Problem> error;
   try {
-    const rigbuild::ThreadBudgetScope threads(budget_);  // parallel loops stay within job_workers
+    const ThreadBudgetScope threads(budget_);  // parallel loops stay within job_workers
     result = job.work(ctx);
   } catch (...) {
     error = describe(std::current_exception());

@@ -4,7 +4,8 @@
 // Records are kept in a JobStore (SQLite) when one is given: a restart keeps finished jobs and
 // marks the ones it interrupted as failed; ended jobs and their files (videos) are removed after
 // the retention time. Shutdown cancels: the next progress report of a running job throws, queued
-// jobs fail at once. The rig builds of all jobs share a ThreadBudget of `threads` threads.
+// jobs fail at once. All jobs share a ThreadBudget of `threads` threads: a running job holds one,
+// and the parallel loops of its work (rig builds) borrow from the rest.
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -21,7 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facecast/core/progress.hpp"
-#include "facecast/rigbuild/threads.hpp"
+#include "facecast/core/threads.hpp"
 #include "job_store.hpp"
 #include "metrics.hpp"
 #include "redis_client.hpp"
@@ -131,7 +132,7 @@ class Jobs {
   std::unique_ptr<JobStore> store_;
   std::unique_ptr<RedisJobQueue> redis_;
   Factory factory_;
-  rigbuild::ThreadBudget budget_;
+  ThreadBudget budget_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::map<std::string, std::shared_ptr<Job>> jobs_;

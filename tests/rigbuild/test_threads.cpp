@@ -1,5 +1,6 @@
-// ThreadBudget: the parallel loops of rig builds that hold one budget run on at most its threads
-// together (the server's job_workers), nested loops run inline, OpenMP regions are lent threads.
+// Under a ThreadBudget (facecast/core/threads.hpp) the parallel loops of rig builds that hold one
+// budget run on at most its threads together (the server's job_workers), nested loops run inline,
+// OpenMP regions get one thread unless lent more, and a rig build keeps to that.
 #include <omp.h>
 
 #include <algorithm>
@@ -8,9 +9,12 @@
 #include <chrono>
 #include <thread>
 
-#include "facecast/rigbuild/threads.hpp"
+#include "facecast/core/threads.hpp"
+#include "facecast/rig/rig.hpp"
+#include "facecast/rigbuild/build.hpp"
 #include "parallel.hpp"
 
+using namespace facecast;
 using namespace facecast::rigbuild;
 
 namespace {
@@ -29,6 +33,48 @@ struct Concurrency {
     --now;
   }
 };
+
+// A flat n x n grid and a shape that lifts one corner: a rig build with little work.
+rig::Rig lifted_grid(int n) {
+  rig::Rig r;
+  r.positions.resize(n * n, 3);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) r.positions.row(y * n + x) << float(x), float(y), 0.0f;
+  r.triangles.resize(2 * (n - 1) * (n - 1), 3);
+  int t = 0;
+  for (int y = 0; y + 1 < n; ++y) {
+    for (int x = 0; x + 1 < n; ++x) {
+      const int a = y * n + x;
+      r.triangles.row(t++) << a, a + 1, a + n + 1;
+      r.triangles.row(t++) << a, a + n + 1, a + n;
+    }
+  }
+  r.triangle_material.assign(static_cast<std::size_t>(t), 0);
+  r.materials.push_back(rig::Material::solid("skin", {1, 1, 1, 1}));
+  r.normals = rig::vertex_normals(r.positions, r.triangles);
+  rig::Positions d = rig::Positions::Zero(n * n, 3);
+  d(n * n - 1, 2) = 0.3f;
+  r.shapes.push_back(rig::Blendshape::from_dense("corner", d));
+  return r;
+}
+
+// The most OpenMP threads that the calling thread's regions could get at any progress report of
+// a rig build made here (reports from the build's workers are not this thread's setting).
+int openmp_threads_during_build() {
+  const rig::Rig tmpl = lifted_grid(8);
+  rig::Rig target = tmpl;
+  target.shapes.clear();
+  target.positions *= 1.3f;
+  BuildOptions opt;
+  opt.virtual_edges = VirtualEdgeMode::kOff;
+  const auto caller = std::this_thread::get_id();
+  int most = 0;
+  const auto r = build_rig(tmpl, target, opt, [&](std::string_view, double) {
+    if (std::this_thread::get_id() == caller) most = std::max(most, omp_get_max_threads());
+  });
+  CHECK(r.rig.shapes.size() == 1);
+  return most;
+}
 
 }  // namespace
 
@@ -74,6 +120,7 @@ TEST_CASE("a thread budget bounds the threads of the parallel loops that hold it
   SECTION("OpenMP regions started under a budget get what it can lend") {
     ThreadBudget budget(2);
     const ThreadBudgetScope scope(budget);
+    const OpenMpWithinBudget operation;  // as build_rig opens one
     CHECK(omp_get_max_threads() == 1);
     int team = 0;
     {
@@ -89,6 +136,23 @@ TEST_CASE("a thread budget bounds the threads of the parallel loops that hold it
     CHECK(team <= 2);
     CHECK(budget.available() == 1);  // the lent thread is back; the scope holds one
   }
+}
+
+TEST_CASE("a rig build under a budget runs its OpenMP regions on its own thread", "[threads]") {
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(3);  // this thread's setting, whatever the machine's cores
+  SECTION("under a budget") {
+    ThreadBudget budget(2);
+    const ThreadBudgetScope scope(budget);
+    CHECK(openmp_threads_during_build() == 1);
+    CHECK(omp_get_max_threads() == 3);  // given back
+    CHECK(budget.available() == 1);
+  }
+  SECTION("without one") {
+    CHECK(openmp_threads_during_build() == 3);
+    CHECK(omp_get_max_threads() == 3);
+  }
+  omp_set_num_threads(before);
 }
 
 TEST_CASE("without a budget, loops use the cores and errors reach the caller", "[threads]") {

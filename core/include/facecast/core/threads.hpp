@@ -1,12 +1,14 @@
 #pragma once
-// How many threads a rig build may use. By default the build's parallel loops take one thread per
-// core; a program that shares the machine (the server: live streams run beside rig builds) gives
-// the builds a ThreadBudget, and every parallel loop started on a thread that holds the budget
-// borrows its extra threads from it, so that all the builds holding one budget together run on at
-// most `threads` threads (each build's own thread counts as one).
+// How many threads a program's heavy work may use. By default parallel loops take one thread per
+// core; a program that shares the machine (the server: live streams run beside its jobs) gives its
+// work a ThreadBudget, and every parallel loop started on a thread that holds the budget borrows
+// its extra threads from it, so that all the work holding one budget together runs on at most
+// `threads` threads (each holder's own thread counts as one). The loops read
+// current_thread_budget() where they start (rigbuild's parallel loops, and its OpenMP regions:
+// rigbuild/src/parallel.hpp); the budget itself knows nothing of them.
 #include <atomic>
 
-namespace facecast::rigbuild {
+namespace facecast {
 
 class ThreadBudget {
  public:
@@ -25,9 +27,9 @@ class ThreadBudget {
   std::atomic<unsigned> free_;
 };
 
-/// For its lifetime, the calling thread runs rig-build work under `budget`: the scope takes one
-/// thread from the budget (the caller's own; it waits for one when all are taken) and the
-/// parallel loops started on this thread borrow the rest. Scopes do not nest on one thread.
+/// For its lifetime, the calling thread runs its work under `budget`: the scope takes one thread
+/// from the budget (the caller's own; it waits for one when all are taken) and the parallel loops
+/// started on this thread borrow the rest. Scopes do not nest on one thread.
 class ThreadBudgetScope {
  public:
   explicit ThreadBudgetScope(ThreadBudget& budget);
@@ -37,10 +39,9 @@ class ThreadBudgetScope {
 
  private:
   ThreadBudget& budget_;
-  int previous_omp_threads_;
 };
 
 /// The budget the calling thread runs under (nullptr: none, one thread per core).
 ThreadBudget* current_thread_budget() noexcept;
 
-}  // namespace facecast::rigbuild
+}  // namespace facecast
