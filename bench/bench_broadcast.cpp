@@ -9,13 +9,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
-#include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
-#include <boost/beast/websocket.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -28,13 +27,13 @@
 
 #include "bench_broadcast_raw.hpp"
 #include "facecast/server/protocol.hpp"
+#include "ws_client.hpp"
 
 namespace bench {
 namespace {
 
 namespace net = boost::asio;
 namespace beast = boost::beast;
-namespace websocket = beast::websocket;
 using tcp = net::ip::tcp;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
@@ -71,35 +70,16 @@ const char* kLines[] = {
     "Thank you for watching, and remember to share the stream with your friends.",
 };
 
-// One subscriber; the producer is a subscriber that also speaks after each stream_end.
-class Viewer : public std::enable_shared_from_this<Viewer> {
+// The producer: a subscriber of the channel (it measures its own frames as the others do) that
+// speaks the next utterance after each stream_end until stop_at.
+class Producer : public fctest::AsyncWsClient {
  public:
-  Viewer(net::io_context& ioc, const BroadcastArgs& a, unsigned short port, bool producer)
-      : ws_(net::make_strand(ioc)), a_(a), port_(port), producer_(producer) {}
-  void start() {
-    beast::get_lowest_layer(ws_).async_connect(
-        tcp::endpoint(net::ip::make_address("127.0.0.1"), port_),
-        [self = shared_from_this()](beast::error_code ec) {
-          if (ec) return self->fail("connect: " + ec.message());
-          self->ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& r) {
-            r.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
-          }));
-          self->ws_.async_handshake("127.0.0.1", "/ws", [self](beast::error_code e) {
-            if (e) return self->fail("handshake: " + e.message());
-            json sub = {{"type", "subscribe"}, {"channel", self->a_.channel}};
-            self->write(sub.dump());
-            if (self->producer_)
-              self->write(json{
-                  {"type", "produce"}, {"channel", self->a_.channel}, {"token", self->a_.token}}
-                              .dump());
-            self->read();
-          });
-        });
-  }
+  Producer(net::io_context& ioc, const BroadcastArgs& a, unsigned short port)
+      : AsyncWsClient(ioc, {.port = port}), a_(a) {}
   void speak_now(Clock::time_point stop_at) {
-    net::post(ws_.get_executor(), [self = shared_from_this(), stop_at] {
-      self->stop_at_ = stop_at;
-      self->speak();
+    net::post(executor(), [this, self = shared_from_this(), stop_at] {
+      stop_at_ = stop_at;
+      speak();
     });
   }
   std::atomic<bool> subscribed{false}, failed{false};
@@ -109,81 +89,58 @@ class Viewer : public std::enable_shared_from_this<Viewer> {
   std::atomic<bool> finished{false};
 
  private:
-  void write(std::string text) {
-    out_.push_back(std::move(text));
-    if (out_.size() == 1) do_write();
-  }
-  void do_write() {
-    ws_.text(true);
-    ws_.async_write(net::buffer(out_.front()),
-                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
-                      if (ec) return self->fail("write: " + ec.message());
-                      self->out_.erase(self->out_.begin());
-                      if (!self->out_.empty()) self->do_write();
-                    });
+  void on_open() override {
+    send(json{{"type", "subscribe"}, {"channel", a_.channel}}.dump());
+    send(json{{"type", "produce"}, {"channel", a_.channel}, {"token", a_.token}}.dump());
   }
   void speak() {
     if (Clock::now() >= stop_at_) {
       finished = true;
       return;
     }
-    write(json{{"type", "speak"},
-               {"id", "b" + std::to_string(++n_)},
-               {"channel", a_.channel},
-               {"fps", a_.fps},
-               {"audio", true},
-               {"text", kLines[n_ % 4]}}
-              .dump());
+    send(json{{"type", "speak"},
+              {"id", "b" + std::to_string(++n_)},
+              {"channel", a_.channel},
+              {"fps", a_.fps},
+              {"audio", true},
+              {"text", kLines[n_ % 4]}}
+             .dump());
   }
-  void read() {
-    ws_.async_read(buf_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
-      if (ec) return self->fail("read: " + ec.message());
-      self->on_message(Clock::now());
-      self->buf_.consume(self->buf_.size());
-      self->read();
-    });
-  }
-  void on_message(Clock::time_point now) {
-    const auto data = buf_.data();
-    const std::string_view msg(static_cast<const char*>(data.data()), data.size());
-    if (ws_.got_text()) {
+  void on_message(const Message& m) override {
+    if (m.text) {
       // The type without parsing: a stream_start carries the whole utterance timeline, and 10,000
       // parses of it would make the load generator, not the server, late.
-      const auto at = msg.find("\"type\":\"");
-      const std::string_view type =
-          at == std::string_view::npos ? "" : msg.substr(at + 8, msg.find('"', at + 8) - at - 8);
+      const auto at = m.data.find("\"type\":\"");
+      const std::string_view type = at == std::string_view::npos
+                                        ? ""
+                                        : m.data.substr(at + 8, m.data.find('"', at + 8) - at - 8);
       if (type == "subscribed") subscribed = true;
-      if (type == "stream_start") start_ = now;  // lead: the server's default, 0.1 s
+      if (type == "stream_start") start_ = m.at;  // lead: the server's default, 0.1 s
       if (type == "stream_end") {
         ++streams;
         // The next utterance once the run started; idle-life streams (between utterances, and
         // while the subscribers connect) are not the producer's.
-        if (producer_ && stop_at_ != Clock::time_point{} &&
-            msg.find(R"("id":"~idle")") == std::string_view::npos)
+        if (stop_at_ != Clock::time_point{} &&
+            m.data.find(R"("id":"~idle")") == std::string_view::npos)
           speak();
       }
-      if (type == "error" && producer_ && error.empty()) error = std::string(msg);
+      if (type == "error" && error.empty()) error = std::string(m.data);
       return;
     }
-    const auto h = facecast::server::read_header(msg);
+    const auto h = facecast::server::read_header(m.data);
     if (h.kind != facecast::server::MediaKind::kWeights) return;
     for (std::uint32_t k = 0; k < h.count; ++k) {
-      const double late = secs(now - start_) - std::max(0.0, h.pts + k / a_.fps - lead_);
+      const double late = secs(m.at - start_) - std::max(0.0, h.pts + k / a_.fps - lead_);
       ++frames;
       on_time += late <= 0.050;
       if ((frames & 15) == 0) lateness.push_back(static_cast<float>(late));  // 1 in 16 kept
     }
   }
-  void fail(const std::string& why) {
-    if (!failed.exchange(true)) error = why;
+  void on_error(const std::string& what) override {
+    if (!failed.exchange(true)) error = what;
   }
 
-  websocket::stream<beast::tcp_stream> ws_;
   const BroadcastArgs& a_;
-  unsigned short port_;
-  bool producer_;
-  beast::flat_buffer buf_;
-  std::vector<std::string> out_;
   Clock::time_point start_, stop_at_;
   double lead_ = 0.1;
   int n_ = 0;
@@ -249,7 +206,7 @@ void run_broadcast(const BroadcastArgs& a, unsigned short port, pid_t pid) {
   // The subscribers' reader threads run from the first connection on (bench_broadcast_raw.hpp).
   RawSubscribers subs(port, a.channel, std::max(1, a.client_threads), a.fps, lead);
   net::io_context ioc;
-  auto producer = std::make_shared<Viewer>(ioc, a, port, true);
+  auto producer = std::make_shared<Producer>(ioc, a, port);
   auto work = net::make_work_guard(ioc);
   std::thread producer_thread([&] { ioc.run(); });
   net::post(ioc, [producer] { producer->start(); });

@@ -8,11 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/websocket.hpp>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -28,13 +24,12 @@
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "serve_process.hpp"
+#include "ws_client.hpp"
 
 namespace {
 
 namespace net = boost::asio;
 namespace beast = boost::beast;
-namespace websocket = beast::websocket;
-using tcp = net::ip::tcp;
 using Clock = std::chrono::steady_clock;
 constexpr int kRate = 16000, kChunk = 320;  // 20 ms
 
@@ -45,51 +40,43 @@ struct Shared {
   std::atomic<int> errors{0}, ended{0};
 };
 
-class Client : public std::enable_shared_from_this<Client> {
+// One client: streams `chunks` chunks of the speech from `offset` on, one every 20 ms (the next
+// once the previous is written), and closes at stream_end.
+class Client : public fctest::AsyncWsClient {
  public:
   Client(net::io_context& ioc, unsigned short port, Shared& s, std::size_t offset, int chunks)
-      : ws_(net::make_strand(ioc)),
-        timer_(ws_.get_executor()),
-        port_(port),
+      // A live audio client sends small messages: no Nagle delay (browsers do the same).
+      : AsyncWsClient(ioc, {.port = port, .no_delay = true}),
+        timer_(executor()),
         s_(s),
         offset_(offset),
         chunks_(chunks) {}
-  void start() {
-    beast::get_lowest_layer(ws_).async_connect(
-        tcp::endpoint(net::ip::make_address("127.0.0.1"), port_),
-        [self = shared_from_this()](beast::error_code ec) {
-          if (ec) return self->fail("connect");
-          // A live audio client sends small messages: no Nagle delay (browsers do the same).
-          beast::get_lowest_layer(self->ws_).socket().set_option(tcp::no_delay(true), ec);
-          self->ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& r) {
-            r.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
-          }));
-          self->ws_.async_handshake("127.0.0.1", "/ws", [self](beast::error_code e) {
-            if (e) return self->fail("handshake");
-            self->read();
-            self->next_ = Clock::now();
-            self->send();
-          });
-        });
-  }
 
  private:
-  void send() {
+  void on_open() override {
+    next_ = Clock::now();
+    send_chunk();
+  }
+  void on_sent() override {
+    writing_ = false;
+    send_chunk();
+  }
+  void send_chunk() {
     if (sent_ == chunks_ || writing_) return;
     const auto now = Clock::now();
     if (now < next_) {
       timer_.expires_at(next_);
-      timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
-        if (!ec) self->send();
+      timer_.async_wait([this, self = shared_from_this()](beast::error_code ec) {
+        if (!ec) send_chunk();
       });
       return;
     }
     const bool last = sent_ + 1 == chunks_;
-    out_.assign(24 + 2 * kChunk, '\0');
-    out_[0] = 4, out_[1] = 1, out_[2] = last ? 1 : 0;
+    std::string out(24 + 2 * kChunk, '\0');
+    out[0] = 4, out[1] = 1, out[2] = last ? 1 : 0;
     const auto put = [&](std::size_t at, std::uint32_t v) {
       for (int k = 0; k < 4; ++k)
-        out_[at + static_cast<std::size_t>(k)] = static_cast<char>(v >> (8 * k));
+        out[at + static_cast<std::size_t>(k)] = static_cast<char>(v >> (8 * k));
     };
     put(4, kRate);
     put(8, static_cast<std::uint32_t>(sent_ * kChunk));
@@ -97,68 +84,45 @@ class Client : public std::enable_shared_from_this<Client> {
     for (int i = 0; i < kChunk; ++i) {
       const auto v = static_cast<std::uint16_t>(
           s_.pcm[(offset_ + static_cast<std::size_t>(sent_ * kChunk + i)) % s_.pcm.size()]);
-      out_[24 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v & 0xff);
-      out_[25 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v >> 8);
+      out[24 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v & 0xff);
+      out[25 + 2 * static_cast<std::size_t>(i)] = static_cast<char>(v >> 8);
     }
     sent_at_.push_back(now);
     ++sent_;
     next_ += std::chrono::milliseconds(20);
     writing_ = true;
-    ws_.binary(true);
-    ws_.async_write(net::buffer(out_),
-                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
-                      self->writing_ = false;
-                      if (ec) return self->fail("write");
-                      self->send();
-                    });
+    send(std::move(out), false);
   }
-  void read() {
-    ws_.async_read(buf_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
-      if (ec) return;
-      self->on_message();
-      self->buf_.consume(self->buf_.size());
-      if (!self->done_) self->read();
-    });
-  }
-  void on_message() {
-    const auto now = Clock::now();
-    const auto d = buf_.data();
-    const std::string_view m(static_cast<const char*>(d.data()), d.size());
-    if (ws_.got_text()) {
-      if (m.find("\"stream_end\"") != std::string_view::npos) {
-        done_ = true;
+  void on_message(const Message& m) override {
+    if (m.text) {
+      if (m.data.find("\"stream_end\"") != std::string_view::npos) {
         ++s_.ended;
-        ws_.async_close(websocket::close_code::normal,
-                        [self = shared_from_this()](beast::error_code) {});
-      } else if (m.find("\"error\"") != std::string_view::npos) {
-        fail(std::string(m));
+        close();
+      } else if (m.data.find("\"error\"") != std::string_view::npos) {
+        on_error(std::string(m.data));
       }
       return;
     }
-    const auto h = facecast::server::read_header(m);
+    const auto h = facecast::server::read_header(m.data);
     std::lock_guard lock(s_.mutex);
     for (std::uint32_t k = 0; k < h.count; ++k) {
       const double pts = h.pts + k / 60.0;
       const auto chunk = static_cast<std::size_t>(pts * kRate / kChunk);
       if (chunk < sent_at_.size())
-        s_.latency.push_back(std::chrono::duration<double>(now - sent_at_[chunk]).count());
+        s_.latency.push_back(std::chrono::duration<double>(m.at - sent_at_[chunk]).count());
     }
   }
-  void fail(const std::string& why) {
-    if (s_.errors++ < 3) std::fprintf(stderr, "client: %s\n", why.c_str());
+  void on_error(const std::string& what) override {
+    if (s_.errors++ < 3) std::fprintf(stderr, "client: %s\n", what.c_str());
   }
 
-  websocket::stream<beast::tcp_stream> ws_;
   net::steady_timer timer_;
-  unsigned short port_;
   Shared& s_;
   std::size_t offset_;
   int chunks_, sent_ = 0;
-  bool writing_ = false, done_ = false;
+  bool writing_ = false;
   Clock::time_point next_;
   std::vector<Clock::time_point> sent_at_;  // written and read on the client's strand
-  std::string out_;
-  beast::flat_buffer buf_;
 };
 
 // CPU seconds (user + system) a process has used so far, from /proc/<pid>/stat.

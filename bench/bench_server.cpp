@@ -21,20 +21,14 @@
 #include <algorithm>
 #include <atomic>
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
-#include <boost/asio/strand.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/websocket.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -50,15 +44,13 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
-#include "raw_client.hpp"
 #include "serve_process.hpp"
+#include "ws_client.hpp"
 
 namespace {
 
 namespace net = boost::asio;
 namespace beast = boost::beast;
-namespace websocket = beast::websocket;
-using tcp = net::ip::tcp;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
@@ -157,7 +149,8 @@ struct ClientResult {
   bool failed = false;
 };
 
-class Client : public std::enable_shared_from_this<Client> {
+// One client: speaks utterance after utterance from start_at until stop_at, then closes.
+class Client : public fctest::AsyncWsClient {
  public:
   struct Config {
     unsigned short port;
@@ -168,40 +161,22 @@ class Client : public std::enable_shared_from_this<Client> {
     std::uint32_t seed;
   };
   Client(net::io_context& ioc, Config c)
-      : ws_(net::make_strand(ioc)), timer_(ws_.get_executor()), c_(std::move(c)), rng_(c_.seed) {}
+      : AsyncWsClient(ioc, {.port = c.port}), timer_(executor()), c_(std::move(c)), rng_(c_.seed) {}
 
-  void start() {
-    beast::get_lowest_layer(ws_).async_connect(
-        tcp::endpoint(net::ip::make_address("127.0.0.1"), c_.port),
-        [self = shared_from_this()](beast::error_code ec) { self->on_connect(ec); });
-  }
   ClientResult result;
   std::atomic<bool> done{false}, failed{false};
 
  private:
-  void on_connect(beast::error_code ec) {
-    if (ec) return fail("connect: " + ec.message());
-    ws_.set_option(websocket::stream_base::decorator([](websocket::request_type& req) {
-      req.set(beast::http::field::sec_websocket_protocol, "facecast.v1");
-    }));
-    ws_.read_message_max(16u << 20);
-    ws_.async_handshake(
-        "127.0.0.1:" + std::to_string(c_.port), "/ws",
-        [self = shared_from_this()](beast::error_code e) { self->on_handshake(e); });
-  }
-  void on_handshake(beast::error_code ec) {
-    if (ec) return fail("handshake: " + ec.message());
-    read();
+  void on_open() override {
     timer_.expires_at(c_.start_at);
-    timer_.async_wait([self = shared_from_this()](beast::error_code e) {
-      if (!e) self->speak();
+    timer_.async_wait([this, self = shared_from_this()](beast::error_code e) {
+      if (!e) speak();
     });
   }
   void speak() {
     if (Clock::now() >= c_.stop_at) {
       done = true;
-      ws_.async_close(websocket::close_code::normal,
-                      [self = shared_from_this()](beast::error_code) {});
+      close();
       return;
     }
     ++n_;
@@ -209,53 +184,32 @@ class Client : public std::enable_shared_from_this<Client> {
     json j = {{"type", "speak"}, {"id", id},      {"text", kSentences[rng_() % kSentences.size()]},
               {"audio", false},  {"fps", c_.fps}, {"output", c_.output}};
     if (c_.output == "frames") j["size"] = {c_.width, c_.height};
-    out_ = j.dump();
     sent_at_ = Clock::now();
     got_first_ = false;
-    ws_.text(true);
-    ws_.async_write(net::buffer(out_),
-                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
-                      if (ec) self->fail("write: " + ec.message());
-                    });
+    send(j.dump());
   }
-  void read() {
-    ws_.async_read(buf_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
-      self->on_read(ec);
-    });
-  }
-  void on_read(beast::error_code ec) {
-    const auto now = Clock::now();
-    if (ec) {
-      if (!done) fail("read: " + ec.message());
-      return;
+  void on_message(const Message& m) override {
+    if (m.text) return on_text(json::parse(m.data), m.at);
+    if (m.data.size() < facecast::server::kHeaderSize) return;
+    const auto h = facecast::server::read_header(m.data);
+    if (!got_first_) {
+      got_first_ = true;
+      result.stats.ttff.push_back(secs(m.at - sent_at_));
     }
-    const auto data = buf_.data();
-    const std::string_view msg(static_cast<const char*>(data.data()), data.size());
-    if (ws_.got_text()) {
-      on_text(json::parse(msg), now);
-    } else if (msg.size() >= facecast::server::kHeaderSize) {
-      const auto h = facecast::server::read_header(msg);
-      if (!got_first_) {
-        got_first_ = true;
-        result.stats.ttff.push_back(secs(now - sent_at_));
-      }
-      if (h.kind == facecast::server::MediaKind::kJpeg) {
-        ++result.jpeg_frames;
-        result.jpeg_bytes += msg.size();
-        result.last_frame_at = now;
-      }
-      for (std::uint32_t k = 0; k < h.count && h.kind != facecast::server::MediaKind::kAudio; ++k) {
-        const double pts = h.pts + k / fps_;
-        // The schedule: sent at stream start + pts - lead, but not before the stream starts.
-        const double late = secs(now - stream_start_) - std::max(0.0, pts - lead_);
-        ++result.stats.frames;
-        result.stats.on_time += late <= 0.050;
-        result.stats.late_presentation += late > lead_;
-        result.stats.lateness.push_back(static_cast<float>(late));
-      }
+    if (h.kind == facecast::server::MediaKind::kJpeg) {
+      ++result.jpeg_frames;
+      result.jpeg_bytes += m.data.size();
+      result.last_frame_at = m.at;
     }
-    buf_.consume(buf_.size());
-    read();
+    for (std::uint32_t k = 0; k < h.count && h.kind != facecast::server::MediaKind::kAudio; ++k) {
+      const double pts = h.pts + k / fps_;
+      // The schedule: sent at stream start + pts - lead, but not before the stream starts.
+      const double late = secs(m.at - stream_start_) - std::max(0.0, pts - lead_);
+      ++result.stats.frames;
+      result.stats.on_time += late <= 0.050;
+      result.stats.late_presentation += late > lead_;
+      result.stats.lateness.push_back(static_cast<float>(late));
+    }
   }
   void on_text(const json& j, Clock::time_point now) {
     const std::string type = j.value("type", "");
@@ -274,18 +228,15 @@ class Client : public std::enable_shared_from_this<Client> {
       speak();
     }
   }
-  void fail(const std::string& why) {
-    if (!failed) result.stats.error_messages.push_back(why);
+  void on_error(const std::string& what) override {
+    if (!failed) result.stats.error_messages.push_back(what);
     failed = true;
     ++result.stats.errors;
   }
 
-  websocket::stream<beast::tcp_stream> ws_;
   net::steady_timer timer_;
   Config c_;
   std::mt19937 rng_;
-  beast::flat_buffer buf_;
-  std::string out_;
   int n_ = 0;
   Clock::time_point sent_at_, stream_start_;
   bool got_first_ = false;

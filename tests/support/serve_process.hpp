@@ -1,5 +1,5 @@
 #pragma once
-// `facecast serve` as a child process on a free port, for test_lifecycle and bench_server. With
+// `facecast serve` as a child process on a free port, for the server tests and the benchmarks. With
 // `--port 0` the server prints its address as the first line on stdout:
 //   facecast: listening on http://127.0.0.1:PORT
 // The child gets SIGTERM when the thread that started it ends, so it never outlives a crash.
