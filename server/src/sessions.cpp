@@ -14,11 +14,6 @@ void Sessions::remove(std::uint64_t id) {
   sessions_.erase(id);
 }
 
-std::size_t Sessions::count() {
-  std::lock_guard lock(mutex_);
-  return sessions_.size();
-}
-
 void Sessions::shut_down_all() {
   std::vector<std::shared_ptr<Closable>> live;
   {

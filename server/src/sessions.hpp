@@ -37,7 +37,6 @@ class Sessions {
 
   void add(std::uint64_t id, std::weak_ptr<Closable> session);
   void remove(std::uint64_t id);
-  std::size_t count();
   /// Asks every live session to close.
   void shut_down_all();
 
