@@ -63,8 +63,11 @@ void check_inputs(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptio
 
 }  // namespace
 
-Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
-                          std::optional<AutoMarkers>& found, const ProgressFn& progress) {
+Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
+                          const MeshParts& target_parts, const BuildOptions& options,
+                          std::optional<AutoMarkers>& found,
+                          std::optional<TemplateParts>& template_parts,
+                          const ProgressFn& progress) {
   const std::vector<MarkerPair>* markers = &options.markers;
   if (options.markers.empty()) {
     if (auto same = same_topology_correspondence(tmpl.vertex_count(), tmpl.triangles,
@@ -77,10 +80,11 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const Bu
     // Another topology without markers: automatic landmarks (docs/algorithms.md#landmarks).
     report(progress, "landmarks", 0.0);
     const auto t0 = Clock::now();
-    found = auto_markers(tmpl, target, options.landmarks);
+    found = auto_markers(tmpl, target, target_parts.components, options.landmarks);
     found->seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     markers = &found->markers;
   }
+  const TemplateParts& parts = template_parts.emplace(tmpl);
   if (options.correspondence) return *options.correspondence;
   // The middles of the lids, where the landmarks leave the registration free
   // (docs/algorithms.md#landmarks, step 7).
@@ -88,21 +92,25 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const Bu
   MarkerRefinement lid_middles;
   if (options.landmarks.lid_margins)
     lid_middles = [&](const Points& registered) {
-      return refined = with_lid_middles(tmpl, target, registered, *markers);
+      return refined =
+                 with_lid_middles(tmpl, target, target_parts.components, registered, *markers);
     };
-  Correspondence c =
-      compute_correspondence(tmpl.positions.cast<double>(), tmpl.triangles, template_parts(tmpl),
-                             target.positions.cast<double>(), target.triangles, *markers,
-                             options.registration, progress, lid_middles);
+  Correspondence c = compute_correspondence(
+      tmpl.positions.cast<double>(), tmpl.triangles, parts.mesh.components, parts.of_triangle,
+      target.positions.cast<double>(), target.triangles, target_parts.components, *markers,
+      options.registration, progress, lid_middles);
   if (found && !refined.empty()) found->markers = std::move(refined);
   return c;
 }
 
-// The correspondence (into r, with the landmarks when they were found) and, on another thread
-// meanwhile, the template's shapes and gradients, which need none (the landmarks and the
-// registration's factorizations leave a core idle much of the time).
+// The correspondence (into r, with the landmarks when they were found; into `template_parts`
+// the template's where the topologies differ) and, on another thread meanwhile, the template's
+// shapes and gradients, which need none (the landmarks and the registration's factorizations
+// leave a core idle much of the time).
 TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig& target,
+                                            const MeshParts& target_parts,
                                             const BuildOptions& options, const ProgressFn& progress,
+                                            std::optional<TemplateParts>& template_parts,
                                             BuildResult& r) {
   auto& time = r.timings;
   auto gradients = std::async(std::launch::async, [&] {
@@ -111,7 +119,7 @@ TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig
     return shapes;
   });
   r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
-    return correspond(tmpl, target, options, r.landmarks, progress);
+    return correspond(tmpl, target, target_parts, options, r.landmarks, template_parts, progress);
   });
   time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
   time.registration = r.correspondence.registration_seconds;
@@ -127,22 +135,20 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   BuildResult r;
   auto& time = r.timings;
   const Points rest = target.positions.cast<double>();
-  const Faces& faces = target.triangles;
-  const MeshParts parts(target.vertex_count(), faces);
-  const TemplateShapes source = correspond_and_differentiate(tmpl, target, options, progress, r);
-  const bool same_topology = options.markers.empty() && !r.landmarks;
+  const TargetMesh mesh(rest, target.triangles);  // its parts and edge graph, computed once
+  std::optional<TemplateParts> tmpl_parts;        // the template's, where the topologies differ
+  const TemplateShapes source =
+      correspond_and_differentiate(tmpl, target, mesh.parts, options, progress, tmpl_parts, r);
   const Moved moved = classify_motion(r.correspondence, source, options.still_tolerance);
-  const Placement placement = place_components(tmpl, rest, faces, parts, r.correspondence, source,
-                                               moved, options, same_topology);
+  const Placement placement =
+      place_components(tmpl, mesh, tmpl_parts, r.correspondence, source, moved, options);
   r.components = placement.components;
   r.fixed_vertices = placement.fixed_count();
   r.virtual_edges = timed(progress, "virtual edges", time.detect,
-                          [&] { return virtual_edges(rest, faces, options, r.ve_stats); });
-  const bool use_edges = options.virtual_edges != VirtualEdgeMode::kOff;
+                          [&] { return virtual_edges(mesh, options, r.ve_stats); });
   report(progress, "factor", 0.0);
   const Transfer transfer =
-      factor(rest, faces, r.correspondence.map,
-             use_edges ? r.virtual_edges : std::vector<VirtualEdge>{}, placement, options);
+      factor(rest, mesh.faces, r.correspondence.map, r.virtual_edges, placement, options);
   time.factor = transfer.factor_seconds();
   r.factor_nonzeros = transfer.factor_nonzeros();
   const std::vector<Points> copied = copy_motion(rest, r.correspondence, source, placement, moved);
@@ -154,15 +160,13 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   std::optional<ContactStage> contacts;
   std::vector<Points> reference;
   std::future<void> contacts_ready;
-  if (options.contacts.enabled) {
+  if (options.contacts.enabled)
     contacts_ready = std::async(std::launch::async, [&] {
       time.contacts = seconds_of([&] {
-        contacts.emplace(tmpl, source, r.correspondence.map, rest, faces, parts, placement,
-                         options.contacts);
+        contacts.emplace(tmpl, source, r.correspondence.map, mesh, placement, options.contacts);
         reference = contacts->reference(copied, moved, r.quality);
       });
     });
-  }
   std::vector<Points> solved = timed(progress, "solve", time.solve, [&] {
     return solve_shapes(transfer, rest, source.gradients, copied, edge_targets, placement, moved,
                         options.closing_rounds, progress);
@@ -171,11 +175,10 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
     report(progress, "contacts", 0.0);
     contacts_ready.get();
     r.watched_pairs = contacts->watched();
-  }
-  if (contacts)
     time.contacts +=
         seconds_of([&] { contacts->hold(transfer, reference, moved, solved, r.quality); });
-  carry_attached(placement, parts, rest, solved);  // after the contacts have placed the skin
+  }
+  carry_attached(placement, mesh.parts, rest, solved);  // after the contacts have placed the skin
   if (contacts) time.contacts += seconds_of([&] { contacts->lift_attached(solved, r.quality); });
   r.rig = with_shapes(tmpl, target, rest, solved);
   measure_gaps(r.rig, rest, solved, r.virtual_edges, edge_targets, r.quality);

@@ -30,10 +30,9 @@ std::vector<char> vertices_of(const Placement& placement, PlacedPart::Kind kind)
 }  // namespace
 
 ContactStage::ContactStage(const rig::Rig& tmpl, const TemplateShapes& source,
-                           const TriangleMap& map, const Points& rest, const Faces& faces,
-                           const MeshParts& parts, const Placement& placement,
-                           const ContactOptions& options)
-    : guard_(rest, faces, parts, rigid_vertices(placement), options.margin, options.part_margin,
+                           const TriangleMap& map, const TargetMesh& target,
+                           const Placement& placement, const ContactOptions& options)
+    : guard_(target, rigid_vertices(placement), options.margin, options.part_margin,
              vertices_of(placement, PlacedPart::Kind::kFloating),
              vertices_of(placement, PlacedPart::Kind::kAttached)),
       template_(tmpl, map, source.shapes),

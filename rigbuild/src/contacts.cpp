@@ -45,17 +45,16 @@ double corner_distance(const Points& p, const Faces& f, int a, int b) {
 
 }  // namespace
 
-ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
-                           const MeshParts& parts, const std::vector<char>& held, double margin,
+ContactGuard::ContactGuard(const TargetMesh& target, const std::vector<char>& held, double margin,
                            double part_margin, const std::vector<char>& floating,
                            const std::vector<char>& attached)
-    : rest_(target_rest), faces_(target_faces), parts_(parts), graph_(target_rest, target_faces) {
+    : rest_(target.rest), faces_(target.faces), parts_(target.parts), graph_(target.graph) {
   if (margin <= 0) margin = 0.5 * graph_.median_edge_length();
   if (part_margin <= 0) part_margin = 2 * graph_.median_edge_length();
   const auto held_corners = [&](int t) {
-    return held[static_cast<std::size_t>(target_faces(t, 0))] +
-           held[static_cast<std::size_t>(target_faces(t, 1))] +
-           held[static_cast<std::size_t>(target_faces(t, 2))];
+    return held[static_cast<std::size_t>(faces_(t, 0))] +
+           held[static_cast<std::size_t>(faces_(t, 1))] +
+           held[static_cast<std::size_t>(faces_(t, 2))];
   };
   // Candidates by their boxes, then the exact tests on all cores.
   const auto keep = [&](std::vector<std::pair<int, int>> candidates, auto&& test) {
@@ -66,25 +65,24 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
       if (kept[i]) out.push_back(candidates[i]);
     return out;
   };
-  const rig::Positions p = target_rest.cast<float>();
-  watched_ = keep(rig::near_triangle_pairs(p, target_faces, margin), [&](auto pair) {
+  const rig::Positions p = rest_.cast<float>();
+  watched_ = keep(rig::near_triangle_pairs(p, faces_, margin), [&](auto pair) {
     const auto [a, b] = pair;
-    return part_of(a) == part_of(b) && corner_distance(target_rest, target_faces, a, b) <= margin &&
-           !cross(target_rest, target_faces, a, b);  // not the neutral's own
+    return part_of(a) == part_of(b) && corner_distance(rest_, faces_, a, b) <= margin &&
+           !cross(rest_, faces_, a, b);  // not the neutral's own
   });
   // A placed triangle against a free one of the skin, in that order.
-  const int skin = parts.skin;
-  std::vector<char> placed(static_cast<std::size_t>(target_faces.rows()), 0);
-  for (Eigen::Index t = 0; t < target_faces.rows(); ++t)
+  const int skin = parts_.skin;
+  std::vector<char> placed(static_cast<std::size_t>(faces_.rows()), 0);
+  for (Eigen::Index t = 0; t < faces_.rows(); ++t)
     placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
-  auto candidates = rig::near_triangle_pairs(p, target_faces, part_margin, placed);
+  auto candidates = rig::near_triangle_pairs(p, faces_, part_margin, placed);
   for (auto& [a, b] : candidates)
     if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
   part_pairs_ = keep(std::move(candidates), [&](auto pair) {
     const auto [a, b] = pair;
     return held_corners(b) == 0 && part_of(b) == skin && part_of(a) != skin &&
-           corner_distance(target_rest, target_faces, a, b) <= part_margin &&
-           !cross(target_rest, target_faces, a, b);
+           corner_distance(rest_, faces_, a, b) <= part_margin && !cross(rest_, faces_, a, b);
   });
   placed_ = std::move(placed);
   // A floating part's triangles (a tongue): checked in each shape against every triangle near
@@ -92,32 +90,32 @@ ContactGuard::ContactGuard(const Points& target_rest, const Faces& target_faces,
   // one (an eyeball, which turns in place a little in most shapes): the placed-part pairs hold
   // the skin off it. An attached part's (lashes): lifted off what it runs into after it is
   // carried (lift_attached).
-  std::vector<signed char> round(parts.members.size(), -1);  // per part, once known
+  std::vector<signed char> round(parts_.members.size(), -1);  // per part, once known
   const auto round_at = [&](int t) {
     auto& r = round[static_cast<std::size_t>(part_of(t))];
     if (r < 0) r = on_sphere(part_of(t));
     return r == 1;
   };
   const auto all_in = [&](const std::vector<char>& vertices, int t) {
-    return !vertices.empty() && vertices[static_cast<std::size_t>(target_faces(t, 0))] &&
-           vertices[static_cast<std::size_t>(target_faces(t, 1))] &&
-           vertices[static_cast<std::size_t>(target_faces(t, 2))];
+    return !vertices.empty() && vertices[static_cast<std::size_t>(faces_(t, 0))] &&
+           vertices[static_cast<std::size_t>(faces_(t, 1))] &&
+           vertices[static_cast<std::size_t>(faces_(t, 2))];
   };
   floating_ = group([&](int t) { return all_in(floating, t) && !round_at(t); });
   attached_ = group([&](int t) { return all_in(attached, t); });
   // Which placed parts are round (see is_round): the placed-part pairs move them radially.
-  round_.assign(parts.members.size(), 0);
-  std::vector<char> seen(parts.members.size(), 0);
+  round_.assign(parts_.members.size(), 0);
+  std::vector<char> seen(parts_.members.size(), 0);
   for (const auto& pair : part_pairs_) {
     const auto c = static_cast<std::size_t>(part_of(pair.first));
     if (!std::exchange(seen[c], 1)) round_[c] = is_round(static_cast<int>(c));
   }
   // Per vertex, the watched pairs with a triangle at it (compressed rows).
-  pair_start_.assign(static_cast<std::size_t>(target_rest.rows()) + 1, 0);
+  pair_start_.assign(static_cast<std::size_t>(rest_.rows()) + 1, 0);
   const auto each_vertex = [&](auto&& f) {
     for (std::size_t i = 0; i < watched_.size(); ++i)
       for (const int t : {watched_[i].first, watched_[i].second})
-        for (int c = 0; c < 3; ++c) f(target_faces(t, c), i);
+        for (int c = 0; c < 3; ++c) f(faces_(t, c), i);
   };
   each_vertex([&](int v, std::size_t) { ++pair_start_[static_cast<std::size_t>(v) + 1]; });
   for (std::size_t v = 0; v + 1 < pair_start_.size(); ++v) pair_start_[v + 1] += pair_start_[v];

@@ -60,11 +60,11 @@ class ContactGuard {
   /// within `part_margin` (<= 0: two median edges); the triangles with all corners in `floating`
   /// (a separate part the transfer moves: a tongue; not one on a sphere, an eyeball) are checked
   /// in each shape against all near them there (the teeth, the inner lips and palate, the part
-  /// itself), those with all corners in `attached` (lashes) by lift_attached. Keeps references to
-  /// the positions, faces and parts.
-  ContactGuard(const Points& target_rest, const Faces& target_faces, const MeshParts& parts,
-               const std::vector<char>& held, double margin, double part_margin,
-               const std::vector<char>& floating = {}, const std::vector<char>& attached = {});
+  /// itself), those with all corners in `attached` (lashes) by lift_attached. Keeps a reference to
+  /// the target mesh.
+  ContactGuard(const TargetMesh& target, const std::vector<char>& held, double margin,
+               double part_margin, const std::vector<char>& floating = {},
+               const std::vector<char>& attached = {});
 
   /// Watched pairs with a vertex in `moved` that cross in `shape` (the target's positions): pairs
   /// of one part where `reference` does not cross, pairs of parts where the template does not
@@ -146,7 +146,7 @@ class ContactGuard {
   const Points& rest_;
   const Faces& faces_;
   const MeshParts& parts_;
-  MeshGraph graph_;
+  const MeshGraph& graph_;
   std::vector<std::pair<int, int>> watched_;     // of one part
   std::vector<std::pair<int, int>> part_pairs_;  // (placed triangle, free triangle)
   PartTriangles floating_, attached_;

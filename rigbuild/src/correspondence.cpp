@@ -204,18 +204,17 @@ class PartPairs {
   std::vector<char> template_paired_;
 };
 
-// The template's parts per vertex: `parts` (per triangle) when given, else its components.
-rig::Components template_labels(int vertex_count, const Faces& faces,
+// The template's parts per vertex: `parts` (per triangle) when given, else its `components`.
+rig::Components template_labels(rig::Components components, const Faces& faces,
                                 const std::vector<int>& parts) {
-  rig::Components out = rig::connected_components(vertex_count, faces);
-  if (parts.empty()) return out;
+  if (parts.empty()) return components;
   if (parts.size() != static_cast<std::size_t>(faces.rows()))
     throw Error("correspondence: one template part per triangle expected");
-  out.count = *std::max_element(parts.begin(), parts.end()) + 1;
+  components.count = *std::max_element(parts.begin(), parts.end()) + 1;
   for (Eigen::Index t = 0; t < faces.rows(); ++t) {
-    for (int k = 0; k < 3; ++k) out.label[faces(t, k)] = parts[static_cast<std::size_t>(t)];
+    for (int k = 0; k < 3; ++k) components.label[faces(t, k)] = parts[static_cast<std::size_t>(t)];
   }
-  return out;
+  return components;
 }
 
 PartPairs pair_parts(const SurfaceQuery& registered, const Faces& template_faces,
@@ -332,7 +331,27 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
                                       const ProgressFn& progress, const MarkerRefinement& refine) {
+  return compute_correspondence(
+      template_rest, template_faces,
+      rig::connected_components(static_cast<int>(template_rest.rows()), template_faces),
+      template_parts, target_rest, target_faces,
+      rig::connected_components(static_cast<int>(target_rest.rows()), target_faces), markers,
+      options, progress, refine);
+}
+
+Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+                                      const rig::Components& template_components,
+                                      const std::vector<int>& template_parts,
+                                      const Points& target_rest, const Faces& target_faces,
+                                      const rig::Components& target_components,
+                                      const std::vector<MarkerPair>& markers,
+                                      const RegistrationOptions& options,
+                                      const ProgressFn& progress, const MarkerRefinement& refine) {
   const auto t_start = std::chrono::steady_clock::now();
+  check_components(template_components, static_cast<int>(template_rest.rows()),
+                   "correspondence: template components");
+  check_components(target_components, static_cast<int>(target_rest.rows()),
+                   "correspondence: target components");
   Correspondence c;
   c.template_vertices = static_cast<int>(template_rest.rows());
   c.template_triangles = static_cast<int>(template_faces.rows());
@@ -366,13 +385,12 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
   report(progress, "triangle correspondence", 0.0);
   const SurfaceQuery reg_surface(c.registered, template_faces);
   const rig::Components sparts =
-      template_labels(c.template_vertices, template_faces, template_parts);
-  const rig::Components tparts = rig::connected_components(c.target_vertices, target_faces);
+      template_labels(template_components, template_faces, template_parts);
   const Points tgt_vn = rig::vertex_normals(target_rest, target_faces);
   const PartPairs pairs =
-      pair_parts(reg_surface, template_faces, sparts, target_rest, tgt_vn, tparts);
-  const Sides sides{c.registered, template_faces, sparts,         reg_surface, target_rest,
-                    target_faces, tparts,         target_surface, pairs};
+      pair_parts(reg_surface, template_faces, sparts, target_rest, tgt_vn, target_components);
+  const Sides sides{c.registered, template_faces,    sparts,         reg_surface, target_rest,
+                    target_faces, target_components, target_surface, pairs};
   c.map = map_triangles(sides, 0.02 * diag);
   c.vertex_map = map_vertices(sides, tgt_vn);
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

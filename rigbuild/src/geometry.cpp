@@ -4,6 +4,9 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "facecast/core/error.hpp"
 
 namespace facecast::rigbuild {
 
@@ -163,6 +166,13 @@ MeshParts::MeshParts(int vertex_count, const Faces& faces)
       skin(std::max(components.largest, 0)) {
   for (int v = 0; v < vertex_count; ++v)
     if (const int c = of(v); c >= 0) members[static_cast<std::size_t>(c)].push_back(v);
+}
+
+void check_components(const rig::Components& components, int vertex_count,
+                      const std::string& what) {
+  if (components.label.size() != static_cast<std::size_t>(vertex_count))
+    throw Error(what + ": " + std::to_string(components.label.size()) + " vertex labels for " +
+                std::to_string(vertex_count) + " vertices");
 }
 
 }  // namespace facecast::rigbuild

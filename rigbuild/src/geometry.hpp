@@ -1,18 +1,20 @@
 #pragma once
 // The rig builder's geometric toolbox, private to rigbuild: closest points on a mesh (on a
 // triangle: rig::closest_on_triangle), a point carried by a triangle, k-d trees over points, a
-// mesh's parts. The least-squares fit of point sets (procrustes) is public:
-// facecast/rigbuild/geometry.hpp.
+// mesh's parts, the target mesh a build computes once. The least-squares fit of point sets
+// (procrustes) is public: facecast/rigbuild/geometry.hpp.
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <limits>
 #include <nanoflann.hpp>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/geometry.hpp"
+#include "mesh_graph.hpp"
 
 namespace facecast::rigbuild {
 
@@ -149,5 +151,23 @@ struct MeshParts {
   int skin = 0;                           // rig::Components::largest
   int of(int vertex) const { return components.label[static_cast<std::size_t>(vertex)]; }
 };
+
+/// The target neutral with what the stages read of its mesh, computed once per build: its parts
+/// and its edge graph. Keeps references to the positions and faces.
+struct TargetMesh {
+  TargetMesh(const Points& positions, const Faces& triangles)
+      : rest(positions),
+        faces(triangles),
+        parts(static_cast<int>(positions.rows()), triangles),
+        graph(positions, triangles) {}
+  const Points& rest;  // #V by 3
+  const Faces& faces;  // #F by 3
+  MeshParts parts;
+  MeshGraph graph;
+};
+
+/// Throws naming `what` when `components` are not of a mesh with `vertex_count` vertices (a
+/// caller's precomputed rig::connected_components).
+void check_components(const rig::Components& components, int vertex_count, const std::string& what);
 
 }  // namespace facecast::rigbuild

@@ -260,6 +260,14 @@ render::Camera front_of(const rig::Rig& head) {
 
 HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& options,
                                const Points* reference, const Points* bias) {
+  return detect_landmarks(head, rig::connected_components(head.vertex_count(), head.triangles),
+                          options, reference, bias);
+}
+
+HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& comps,
+                               const LandmarkOptions& options, const Points* reference,
+                               const Points* bias) {
+  check_components(comps, head.vertex_count(), "landmarks: components");
   if (options.image_size < 64 || options.image_size > 4096)
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
                 " out of range (64..4096)");
@@ -293,7 +301,6 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& opti
   lap(time.render);
 
   const Points rest = head.positions.cast<double>();
-  const rig::Components comps = rig::connected_components(head.vertex_count(), head.triangles);
   std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
   for (int t = 0; t < head.triangle_count(); ++t)
     skin[static_cast<std::size_t>(t)] =
@@ -380,7 +387,7 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& opti
   if (reference)
     out.dropped += drop_by_similarity(*reference, options.outlier * iod, out.points, residual);
   out.dropped += drop_by_symmetry(options.symmetry * iod, residual, out.points);
-  if (reference && bias && options.lid_margins) LidMargins(head, front).snap(out.points);
+  if (reference && bias && options.lid_margins) LidMargins(head, comps, front).snap(out.points);
 
   // Each fused point's nearest skin vertex.
   for (int k = 0; k < kLandmarkCount; ++k) {
@@ -419,6 +426,16 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
 std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
                                          const Points& registered,
                                          const std::vector<MarkerPair>& markers) {
+  return with_lid_middles(tmpl, target,
+                          rig::connected_components(target.vertex_count(), target.triangles),
+                          registered, markers);
+}
+
+std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
+                                         const rig::Components& target_components,
+                                         const Points& registered,
+                                         const std::vector<MarkerPair>& markers) {
+  check_components(target_components, target.vertex_count(), "lid middles: target components");
   const auto middles = known_lid_middles(tmpl);
   if (!middles) return {};
   Points at = Points::Constant(kLandmarkCount, 3, kNaN);  // the landmarks' target vertices
@@ -428,7 +445,7 @@ std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& t
       return {};  // not (only) the automatic landmarks' pairs
     at.row(k) = target.positions.row(m.target_vertex).cast<double>();
   }
-  const LidMargins lids(target, front_of(target));
+  const LidMargins lids(target, target_components, front_of(target));
   const char* names[4] = {"lid_r_upper_mid", "lid_r_lower_mid", "lid_l_upper_mid",
                           "lid_l_lower_mid"};
   std::vector<MarkerPair> added;
@@ -461,6 +478,12 @@ Points landmark_bias(const rig::Rig& tmpl, const Points& reference, const Landma
 
 AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                          const LandmarkOptions& options) {
+  return auto_markers(tmpl, target,
+                      rig::connected_components(target.vertex_count(), target.triangles), options);
+}
+
+AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
+                         const rig::Components& target_components, const LandmarkOptions& options) {
   const OpenMpWithinBudget omp_threads;  // Eigen's regions, within the budget
   AutoMarkers out;
   if (const auto known = known_landmarks(tmpl)) {
@@ -492,7 +515,7 @@ AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                            {&out.template_timings.lift, bias_timings.lift},
                            {&out.template_timings.fuse, bias_timings.fuse}})
     *slot += add;
-  out.target = detect_landmarks(target, options, &reference, &bias);
+  out.target = detect_landmarks(target, target_components, options, &reference, &bias);
   if (out.target.views_found == 0)
     throw Error("target: no face found in its " + std::to_string(out.target.views.size()) +
                 " rendered views (a head facing +Z with +Y up is needed; or give --markers)");

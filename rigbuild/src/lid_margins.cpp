@@ -15,11 +15,11 @@ bool valid(const Points& p, int k) {
 
 }  // namespace
 
-LidMargins::LidMargins(const rig::Rig& head, const render::Camera& camera)
+LidMargins::LidMargins(const rig::Rig& head, const rig::Components& comps,
+                       const render::Camera& camera)
     : rest_(head.positions.cast<double>()),
       forward_((camera.target - camera.eye).cast<double>().normalized()),
       up_(camera.up.cast<double>()) {
-  const rig::Components comps = rig::connected_components(head.vertex_count(), head.triangles);
   std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
   for (int t = 0; t < head.triangle_count(); ++t)
     skin[static_cast<std::size_t>(t)] =

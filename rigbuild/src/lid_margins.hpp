@@ -24,8 +24,9 @@ class LidMargins {
   static constexpr std::array<Eye, 2> kEyes{Eye{39, 36, {37, 38}, {41, 40}},
                                             Eye{42, 45, {43, 44}, {47, 46}}};
 
-  // `head` seen from `camera`; its skin is its largest connected component.
-  LidMargins(const rig::Rig& head, const render::Camera& camera);
+  // `head` (with its connected components) seen from `camera`; its skin is its largest
+  // component.
+  LidMargins(const rig::Rig& head, const rig::Components& components, const render::Camera& camera);
 
   // The eye's frame from its corners in `points`; width 0 when a corner is missing.
   struct Frame {

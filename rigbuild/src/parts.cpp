@@ -11,9 +11,11 @@
 
 namespace facecast::rigbuild {
 
-std::vector<int> template_parts(const rig::Rig& tmpl) {
+namespace {
+
+// Per triangle, its component's most common material; empty with one material.
+std::vector<int> by_material(const rig::Rig& tmpl, const rig::Components& comps) {
   if (tmpl.materials.size() < 2) return {};
-  const rig::Components comps = rig::connected_components(tmpl.vertex_count(), tmpl.triangles);
   std::vector<std::map<int, int>> count(static_cast<std::size_t>(comps.count));
   for (int t = 0; t < tmpl.triangle_count(); ++t) {
     ++count[static_cast<std::size_t>(comps.label[tmpl.triangles(t, 0)])][tmpl.triangle_material[t]];
@@ -34,8 +36,6 @@ std::vector<int> template_parts(const rig::Rig& tmpl) {
   return parts;
 }
 
-namespace {
-
 Points rows(const Points& p, const std::vector<int>& vertices) {
   Points out(static_cast<Eigen::Index>(vertices.size()), 3);
   for (std::size_t i = 0; i < vertices.size(); ++i)
@@ -45,9 +45,13 @@ Points rows(const Points& p, const std::vector<int>& vertices) {
 
 }  // namespace
 
-RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateShapes& source, double tolerance) {
-  const MeshParts comps(tmpl.vertex_count(), tmpl.triangles);
-  const std::vector<int> parts = template_parts(tmpl);
+TemplateParts::TemplateParts(const rig::Rig& tmpl)
+    : mesh(tmpl.vertex_count(), tmpl.triangles), of_triangle(by_material(tmpl, mesh.components)) {}
+
+RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateParts& template_parts,
+                       const TemplateShapes& source, double tolerance) {
+  const MeshParts& comps = template_parts.mesh;
+  const std::vector<int>& parts = template_parts.of_triangle;
   const int count = comps.components.count;
   std::vector<int> material(static_cast<std::size_t>(count), -1);
   for (int t = 0; t < tmpl.triangle_count(); ++t)

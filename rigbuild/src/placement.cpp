@@ -4,7 +4,6 @@
 #include <map>
 #include <optional>
 
-#include "mesh_graph.hpp"
 #include "parallel.hpp"
 #include "stages.hpp"
 
@@ -173,11 +172,13 @@ std::vector<int> triangles_of(const Faces& faces, const MeshParts& parts, int co
 
 }  // namespace
 
-Placement place_components(const rig::Rig& tmpl, const Points& rest, const Faces& faces,
-                           const MeshParts& parts, const Correspondence& c,
-                           const TemplateShapes& source, const Moved& moved,
-                           const BuildOptions& options, bool same_topology) {
-  const auto nv = static_cast<std::size_t>(rest.rows());
+Placement place_components(const rig::Rig& tmpl, const TargetMesh& mesh,
+                           const std::optional<TemplateParts>& template_parts,
+                           const Correspondence& c, const TemplateShapes& source,
+                           const Moved& moved, const BuildOptions& options) {
+  const bool same_topology = !template_parts.has_value();
+  const MeshParts& parts = mesh.parts;
+  const auto nv = static_cast<std::size_t>(mesh.rest.rows());
   Placement p;
   p.parts_move_whole = !same_topology;
   p.role.assign(nv, Role::kFree);
@@ -191,11 +192,11 @@ Placement place_components(const rig::Rig& tmpl, const Points& rest, const Faces
   std::optional<RigidParts> rigid;
   std::optional<SurfaceQuery> skin;
   std::optional<std::vector<TemplateEye>> eyes;
-  PartContext x{rest, faces, parts, c, source, options.rigid_tolerance, nullptr, nullptr};
+  PartContext x{mesh.rest, mesh.faces, parts, c, source, options.rigid_tolerance, nullptr, nullptr};
   if (!same_topology) {
-    x.median_edge = MeshGraph(rest, faces).median_edge_length();
-    x.rigid = &rigid.emplace(rigid_parts(tmpl, source, options.rigid_tolerance));
-    x.skin = &skin.emplace(rest, faces, triangles_of(faces, parts, parts.skin));
+    x.median_edge = mesh.graph.median_edge_length();
+    x.rigid = &rigid.emplace(rigid_parts(tmpl, *template_parts, source, options.rigid_tolerance));
+    x.skin = &skin.emplace(mesh.rest, mesh.faces, triangles_of(mesh.faces, parts, parts.skin));
     x.eyes = &eyes.emplace(template_eyes(tmpl, source, *rigid, options.eye_look));
   }
   const auto fixed = [&](int v) { return p.role[static_cast<std::size_t>(v)] == Role::kFixed; };

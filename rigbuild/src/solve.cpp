@@ -1,5 +1,5 @@
-// The transfer's stages: virtual edges, the factor, every shape solved, the deltas and their
-// measures. See docs/algorithms.md#deformation-transfer and #virtual-edges.
+// The transfer's stages: the factor, every shape solved, the deltas and their measures. See
+// docs/algorithms.md#deformation-transfer and #virtual-edges.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,12 +9,6 @@
 
 namespace facecast::rigbuild {
 
-std::vector<VirtualEdge> virtual_edges(const Points& rest, const Faces& faces,
-                                       const BuildOptions& options, VirtualEdgeStats& stats) {
-  if (options.virtual_edges == VirtualEdgeMode::kFile) return options.given_edges;
-  return detect_virtual_edges(rest, faces, options.ve, &stats);
-}
-
 Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options) {
@@ -22,7 +16,7 @@ Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
   setup.target_rest = rest;
   setup.target_faces = faces;
   setup.map = map;
-  setup.virtual_edges = edges;
+  if (options.virtual_edges != VirtualEdgeMode::kOff) setup.virtual_edges = edges;
   setup.lambda = options.lambda;
   setup.dirichlet = placement.prescribed();
   setup.solver = options.solver;

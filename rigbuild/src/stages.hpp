@@ -6,7 +6,7 @@
 //   classify_motion            which target vertices each shape moves (motion.cpp)
 //   place_components           each target vertex's Role, the placed parts' rigid motions
 //                              (placement.cpp; the template's rigid parts: parts.cpp)
-//   virtual_edges              on the target neutral (solve.cpp)
+//   virtual_edges              on the target neutral (virtual_edges.cpp)
 //   factor                     the normal matrix, factored once (solve.cpp)
 //   copy_motion, edge_vectors  the template's displacement copied vertex by vertex (motion.cpp)
 //   ContactStage::reference    the copy uncrossed: what the contacts keep (contact_stage.cpp)
@@ -80,10 +80,15 @@ struct Placement {
   int fixed_count() const;
 };
 
-/// The template's parts for the correspondence: each connected component labelled by its most
-/// common material, so that all 32 teeth of the ICT FaceKit form one part. One material: empty
-/// (the components are the parts).
-std::vector<int> template_parts(const rig::Rig& tmpl);
+/// The template's parts, computed once per build where the topologies differ (the
+/// correspondence pairs them, the placement finds the rigid ones): its connected components and,
+/// per triangle, its component's most common material, so that all 32 teeth of the ICT FaceKit
+/// form one part.
+struct TemplateParts {
+  explicit TemplateParts(const rig::Rig& tmpl);
+  MeshParts mesh;
+  std::vector<int> of_triangle;  // empty with one material: the components are the parts
+};
 
 /// The template's rigid parts: connected components that every shape moves rigidly (teeth,
 /// eyeballs), those of one template part that move together joined -- the ICT's 16 upper teeth
@@ -92,7 +97,8 @@ struct RigidParts {
   std::vector<int> of_vertex;                   // per template vertex: its rigid part, or -1
   std::vector<std::vector<Similarity>> motion;  // per part, per shape
 };
-RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateShapes& source, double tolerance);
+RigidParts rigid_parts(const rig::Rig& tmpl, const TemplateParts& parts,
+                       const TemplateShapes& source, double tolerance);
 
 /// A sphere fitted to the rows of `p` (algebraic least squares) and the RMS of |p - centre| -
 /// radius.
@@ -122,23 +128,26 @@ std::vector<TemplateEye> template_eyes(const rig::Rig& tmpl, const TemplateShape
                                        const RigidParts& rigid, const EyeLookOptions& look);
 
 /// Another topology without markers: `found` gets the automatic landmarks' markers
-/// (BuildOptions::auto_landmarks).
-Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
-                          std::optional<AutoMarkers>& found, const ProgressFn& progress);
+/// (BuildOptions::auto_landmarks). Another topology: `template_parts` gets the template's parts.
+Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
+                          const MeshParts& target_parts, const BuildOptions& options,
+                          std::optional<AutoMarkers>& found,
+                          std::optional<TemplateParts>& template_parts, const ProgressFn& progress);
 TemplateShapes template_shapes(const rig::Rig& tmpl);
 /// A vertex moves when the point it maps to moves at least still_tolerance * the template's
 /// bounding-box diagonal.
 Moved classify_motion(const Correspondence& c, const TemplateShapes& source,
                       double still_tolerance);
-/// `same_topology`: the correspondence is vertex to vertex.
-Placement place_components(const rig::Rig& tmpl, const Points& rest, const Faces& faces,
-                           const MeshParts& parts, const Correspondence& c,
-                           const TemplateShapes& source, const Moved& moved,
-                           const BuildOptions& options, bool same_topology);
+/// `template_parts`: the template's where the topologies differ; none: the same topology (the
+/// correspondence is vertex to vertex).
+Placement place_components(const rig::Rig& tmpl, const TargetMesh& mesh,
+                           const std::optional<TemplateParts>& template_parts,
+                           const Correspondence& c, const TemplateShapes& source,
+                           const Moved& moved, const BuildOptions& options);
 /// Detected (kAuto, and kOff for the report's measure) or given (kFile).
-std::vector<VirtualEdge> virtual_edges(const Points& rest, const Faces& faces,
-                                       const BuildOptions& options, VirtualEdgeStats& stats);
-/// `edges` empty: none in the system.
+std::vector<VirtualEdge> virtual_edges(const TargetMesh& target, const BuildOptions& options,
+                                       VirtualEdgeStats& stats);
+/// The virtual edges are in the system unless options.virtual_edges is kOff.
 Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options);
@@ -179,8 +188,7 @@ class ContactStage {
  public:
   /// Keeps references to its arguments.
   ContactStage(const rig::Rig& tmpl, const TemplateShapes& source, const TriangleMap& map,
-               const Points& rest, const Faces& faces, const MeshParts& parts,
-               const Placement& placement, const ContactOptions& options);
+               const TargetMesh& target, const Placement& placement, const ContactOptions& options);
   /// Per shape, the reference: the copy moved out of the placed parts and smoothed where it
   /// crosses itself, where the template does not. Fills the quality's copy and part crossings.
   std::vector<Points> reference(const std::vector<Points>& copied, const Moved& moved,

@@ -10,6 +10,7 @@
 #include "geometry.hpp"
 #include "mesh_graph.hpp"
 #include "parallel.hpp"
+#include "stages.hpp"
 
 namespace facecast::rigbuild {
 
@@ -101,22 +102,19 @@ class LocalGeodesic {
   std::vector<int> touched_;
 };
 
-}  // namespace
-
-std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces& faces,
-                                              const VirtualEdgeOptions& options,
-                                              VirtualEdgeStats* stats) {
-  const auto t0 = std::chrono::steady_clock::now();
+// detect_virtual_edges on a mesh whose edge graph and connected components are known;
+// stats->seconds count from t0.
+std::vector<VirtualEdge> detect(const Points& points, const MeshGraph& graph,
+                                const rig::Components& comps, const VirtualEdgeOptions& options,
+                                VirtualEdgeStats* stats, std::chrono::steady_clock::time_point t0) {
   if (options.f < 2.0)
     throw Error("--ve-f must be at least 2 (got " + std::to_string(options.f) + ")");
   if (options.per_vertex < 1) throw Error("--ve-per-vertex must be at least 1");
-  const MeshGraph graph(points, faces);
   const int n = static_cast<int>(points.rows());
   const double d = options.d > 0 ? options.d : estimate_from(graph, points);
   const double spacing = options.spacing > 0 ? options.spacing : 0.5 * graph.median_edge_length();
 
   const PointIndex tree(points);
-  const rig::Components comps = rig::connected_components(n, faces);
 
   // Per vertex: its `per_vertex` shortest qualifying partners on its own surface, and as many in
   // other parts. The two kinds of gap are kept apart through the density control too: a lid
@@ -201,6 +199,24 @@ std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces&
     stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return edges;
+}
+
+}  // namespace
+
+std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces& faces,
+                                              const VirtualEdgeOptions& options,
+                                              VirtualEdgeStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  return detect(points, MeshGraph(points, faces),
+                rig::connected_components(static_cast<int>(points.rows()), faces), options, stats,
+                t0);
+}
+
+std::vector<VirtualEdge> virtual_edges(const TargetMesh& target, const BuildOptions& options,
+                                       VirtualEdgeStats& stats) {
+  if (options.virtual_edges == VirtualEdgeMode::kFile) return options.given_edges;
+  return detect(target.rest, target.graph, target.parts.components, options.ve, &stats,
+                std::chrono::steady_clock::now());
 }
 
 }  // namespace facecast::rigbuild

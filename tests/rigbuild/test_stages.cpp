@@ -6,6 +6,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/rigbuild/correspondence.hpp"
 #include "facecast/rigbuild/geometry.hpp"
+#include "facecast/rigbuild/landmarks.hpp"
 #include "stages.hpp"  // private to rigbuild: the stages of build_rig
 
 using namespace facecast;
@@ -111,6 +112,20 @@ TEST_CASE("markers parsed from JSON name the value and the pair in errors", "[ri
   CHECK(ok[2].name == "pair2");
 }
 
+TEST_CASE("connected components given for another mesh are rejected naming the input",
+          "[rigbuild][errors]") {
+  const rig::Rig r = skin_and_tooth();
+  const Points rest = r.positions.cast<double>();
+  const rig::Components own = rig::connected_components(10, r.triangles);
+  rig::Components other;
+  other.label.assign(5, 0);
+  CHECK_THROWS_WITH(compute_correspondence(rest, r.triangles, own, {}, rest, r.triangles, other, {},
+                                           RegistrationOptions{}),
+                    "correspondence: target components: 5 vertex labels for 10 vertices");
+  CHECK_THROWS_WITH(with_lid_middles(r, r, other, rest, {}),
+                    "lid middles: target components: 5 vertex labels for 10 vertices");
+}
+
 TEST_CASE("placement: still vertices stay, a part the template moves rigidly is rigid",
           "[rigbuild][stages]") {
   rig::Rig tmpl = skin_and_tooth();
@@ -119,15 +134,14 @@ TEST_CASE("placement: still vertices stay, a part the template moves rigidly is 
   for (int v = 6; v < 10; ++v) d(v, 1) = 0.3f;  // the tooth moves as a whole
   tmpl.shapes.push_back(rig::Blendshape::from_dense("s", d));
   const Points rest = tmpl.positions.cast<double>();
-  const MeshParts parts(10, tmpl.triangles);
-  CHECK(parts.skin == 0);
+  const TargetMesh mesh(rest, tmpl.triangles);
+  CHECK(mesh.parts.skin == 0);
   const Correspondence c = identity_correspondence(10, tmpl.triangles);
   const TemplateShapes source = template_shapes(tmpl);
   const Moved moved = classify_motion(c, source, 1e-4);
   CHECK(moved[0] == std::vector<char>{0, 0, 1, 0, 0, 0, 1, 1, 1, 1});
   const BuildOptions options;
-  const Placement p =
-      place_components(tmpl, rest, tmpl.triangles, parts, c, source, moved, options, true);
+  const Placement p = place_components(tmpl, mesh, std::nullopt, c, source, moved, options);
   CHECK(p.role[0] == Role::kFixed);
   CHECK(p.role[2] == Role::kFree);
   CHECK(p.role[7] == Role::kRigid);

@@ -116,6 +116,14 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
                                       const RegistrationOptions& options,
                                       const ProgressFn& progress = {},
                                       const MarkerRefinement& refine = {});
+/// The same with both meshes' connected components (rig::connected_components) given, for a
+/// caller that has them already (build_rig computes each mesh's once).
+Correspondence compute_correspondence(
+    const Points& template_rest, const Faces& template_faces,
+    const rig::Components& template_components, const std::vector<int>& template_parts,
+    const Points& target_rest, const Faces& target_faces, const rig::Components& target_components,
+    const std::vector<MarkerPair>& markers, const RegistrationOptions& options,
+    const ProgressFn& progress = {}, const MarkerRefinement& refine = {});
 
 /// Binary cache with a header that records the mesh sizes; load checks them.
 void save_correspondence(const std::filesystem::path& path, const Correspondence& c);

@@ -82,6 +82,11 @@ struct HeadLandmarks {
 /// options.lid_margins) the lid points move onto the target's lid margins seen from the front.
 HeadLandmarks detect_landmarks(const rig::Rig& head, const LandmarkOptions& options,
                                const Points* reference = nullptr, const Points* bias = nullptr);
+/// The same with the head's connected components (rig::connected_components) given: its skin is
+/// the largest.
+HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& components,
+                               const LandmarkOptions& options, const Points* reference = nullptr,
+                               const Points* bias = nullptr);
 
 /// Where dlib puts a landmark on a render and where the template's own landmark vertex is differ
 /// by a convention (the brows of a bald grey head, the lid margins): per landmark, the
@@ -114,6 +119,11 @@ std::optional<std::array<int, 4>> known_lid_middles(const rig::Rig& rig);
 std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
                                          const Points& registered,
                                          const std::vector<MarkerPair>& markers);
+/// The same with the target's connected components (rig::connected_components) given.
+std::vector<MarkerPair> with_lid_middles(const rig::Rig& tmpl, const rig::Rig& target,
+                                         const rig::Components& target_components,
+                                         const Points& registered,
+                                         const std::vector<MarkerPair>& markers);
 
 /// The template's landmarks as marker pairs with the target's detected ones ("dlib_NN"), the
 /// landmarks dropped on either side left out. Throws Error when fewer than 8 remain.
@@ -131,6 +141,9 @@ struct AutoMarkers {
 };
 AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
                          const LandmarkOptions& options);
+/// The same with the target's connected components (rig::connected_components) given.
+AutoMarkers auto_markers(const rig::Rig& tmpl, const rig::Rig& target,
+                         const rig::Components& target_components, const LandmarkOptions& options);
 
 /// The marker JSON format of ../shared/data/markers (index_base 0; read_markers reads it).
 /// Atomic.
