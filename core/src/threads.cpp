@@ -27,6 +27,11 @@ ThreadBudgetScope::ThreadBudgetScope(ThreadBudget& budget) : budget_(budget) {
   t_budget = &budget_;
 }
 
+ThreadBudgetScope::ThreadBudgetScope(ThreadBudget& budget, std::adopt_lock_t) noexcept
+    : budget_(budget) {
+  t_budget = &budget_;
+}
+
 ThreadBudgetScope::~ThreadBudgetScope() {
   t_budget = nullptr;
   budget_.release(1);

@@ -113,7 +113,7 @@ TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig
                                             std::optional<TemplateParts>& template_parts,
                                             BuildResult& r) {
   auto& time = r.timings;
-  auto gradients = std::async(std::launch::async, [&] {
+  auto gradients = async_within_budget([&] {
     TemplateShapes shapes;
     time.gradients = seconds_of([&] { shapes = template_shapes(tmpl); });
     return shapes;
@@ -156,12 +156,13 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
                                                         r.virtual_edges, options.gap_scale_limit);
   r.quality.resize(source.size());
   // The contacts' reference needs no solved shape: it is made on another thread while the solve,
-  // mostly CHOLMOD's back-substitutions on one core, runs on this one.
+  // mostly CHOLMOD's back-substitutions on one core, runs on this one (under a budget with no
+  // thread to lend, after the solve on this one).
   std::optional<ContactStage> contacts;
   std::vector<Points> reference;
   std::future<void> contacts_ready;
   if (options.contacts.enabled)
-    contacts_ready = std::async(std::launch::async, [&] {
+    contacts_ready = async_within_budget([&] {
       time.contacts = seconds_of([&] {
         contacts.emplace(tmpl, source, r.correspondence.map, mesh, placement, options.contacts);
         reference = contacts->reference(copied, moved, r.quality);

@@ -272,7 +272,7 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& comp
     throw Error("landmarks: image_size " + std::to_string(options.image_size) +
                 " out of range (64..4096)");
   // dlib's models are read (once per process) while the views are set up.
-  auto models = std::async(std::launch::async, [&] {
+  auto models = async_within_budget([&] {
     face_detector();
     return &shape_predictor(options.predictor);
   });

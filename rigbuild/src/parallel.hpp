@@ -8,8 +8,11 @@
 #include <algorithm>
 #include <cstddef>
 #include <exception>
+#include <future>
+#include <mutex>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "facecast/core/threads.hpp"
@@ -103,6 +106,27 @@ void parallel_for(Index n, Fn&& fn) {
   parallel_workers(workers, [&](unsigned w) {
     for (Index i = static_cast<Index>(w); i < n; i += static_cast<Index>(workers)) fn(i);
   });
+}
+
+/// Starts `fn` on another thread, as std::async does, when that stays within the calling thread's
+/// budget: without a budget, or with a thread it lends (the new thread then holds it and runs under
+/// the budget, its OpenMP regions as OpenMpWithinBudget sets them). When the budget has none free,
+/// `fn` is deferred: it runs on the calling thread when its result is asked for.
+template <typename Fn>
+std::future<std::invoke_result_t<Fn&>> async_within_budget(Fn fn) {
+  ThreadBudget* budget = current_thread_budget();
+  if (!budget) return std::async(std::launch::async, std::move(fn));
+  if (budget->acquire(1) == 0) return std::async(std::launch::deferred, std::move(fn));
+  try {
+    return std::async(std::launch::async, [budget, fn = std::move(fn)]() mutable {
+      const ThreadBudgetScope scope(*budget, std::adopt_lock);
+      const OpenMpWithinBudget openmp;
+      return fn();
+    });
+  } catch (...) {  // no thread could be started: the lent one goes back
+    budget->release(1);
+    throw;
+  }
 }
 
 }  // namespace facecast::rigbuild

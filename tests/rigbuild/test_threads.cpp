@@ -1,6 +1,7 @@
 // Under a ThreadBudget (facecast/core/threads.hpp) the parallel loops of rig builds that hold one
 // budget run on at most its threads together (the server's job_workers), nested loops run inline,
-// OpenMP regions get one thread unless lent more, and a rig build keeps to that.
+// OpenMP regions get one thread unless lent more, the work a build starts beside its own thread
+// runs on a lent thread or later on its own, and a rig build keeps to that.
 #include <omp.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <thread>
+#include <tuple>
 
 #include "facecast/core/threads.hpp"
 #include "facecast/rig/rig.hpp"
@@ -153,6 +155,39 @@ TEST_CASE("a rig build under a budget runs its OpenMP regions on its own thread"
     CHECK(omp_get_max_threads() == 3);
   }
   omp_set_num_threads(before);
+}
+
+TEST_CASE("work started beside a build's own stays within its budget", "[threads]") {
+  const auto caller = std::this_thread::get_id();
+  SECTION("a budget with a thread to lend: the work runs on another thread that holds it") {
+    ThreadBudget budget(2);
+    const ThreadBudgetScope scope(budget);
+    auto work = async_within_budget([&] {
+      return std::make_tuple(std::this_thread::get_id(), current_thread_budget(),
+                             budget.available());
+    });
+    const auto [where, under, left] = work.get();
+    CHECK(where != caller);
+    CHECK(under == &budget);
+    CHECK(left == 0);
+    CHECK(budget.available() == 1);  // given back when it ended
+  }
+  SECTION("a budget with none free: the work runs on the caller when its result is asked for") {
+    ThreadBudget budget(1);
+    const ThreadBudgetScope scope(budget);
+    bool ran = false;
+    auto work = async_within_budget([&] {
+      ran = true;
+      return std::this_thread::get_id();
+    });
+    CHECK_FALSE(ran);
+    CHECK(work.get() == caller);
+    CHECK(budget.available() == 0);  // the caller's own
+  }
+  SECTION("no budget: another thread, as std::async") {
+    auto work = async_within_budget([] { return std::this_thread::get_id(); });
+    CHECK(work.get() != caller);
+  }
 }
 
 TEST_CASE("without a budget, loops use the cores and errors reach the caller", "[threads]") {

@@ -7,6 +7,7 @@
 // current_thread_budget() where they start (rigbuild's parallel loops, and its OpenMP regions:
 // rigbuild/src/parallel.hpp); the budget itself knows nothing of them.
 #include <atomic>
+#include <mutex>
 
 namespace facecast {
 
@@ -33,6 +34,9 @@ class ThreadBudget {
 class ThreadBudgetScope {
  public:
   explicit ThreadBudgetScope(ThreadBudget& budget);
+  /// Adopts a thread the caller already took from `budget` (acquire(1) returned 1): the scope
+  /// gives it back at its end.
+  ThreadBudgetScope(ThreadBudget& budget, std::adopt_lock_t) noexcept;
   ~ThreadBudgetScope();
   ThreadBudgetScope(const ThreadBudgetScope&) = delete;
   ThreadBudgetScope& operator=(const ThreadBudgetScope&) = delete;
