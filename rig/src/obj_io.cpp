@@ -11,7 +11,6 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
-#include <thread>
 #include <unordered_map>
 
 #include "decode_budget.hpp"
@@ -19,6 +18,7 @@
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
+#include "facecast/core/threads.hpp"
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rest_pose.hpp"
 #include "facecast/rig/rig_io.hpp"
@@ -417,33 +417,17 @@ Rig read_obj_shapes(const std::filesystem::path& neutral, const std::filesystem:
   }
   std::sort(files.begin(), files.end());
 
-  // Shape files are independent: parse them on all cores.
+  // Shape files are independent: parse them on the cores (within the caller's thread budget).
   std::vector<Blendshape> shapes(files.size());
-  std::vector<std::exception_ptr> errors(files.size());
-  const unsigned workers = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(),
-                                                           static_cast<unsigned>(files.size())));
-  std::vector<std::thread> pool;
-  for (unsigned w = 0; w < workers; ++w) {
-    pool.emplace_back([&, w] {
-      for (std::size_t i = w; i < files.size(); i += workers) {
-        try {
-          Positions p = read_obj_positions(files[i]);
-          if (p.rows() != rig.positions.rows()) {
-            throw Error(files[i].string() + ": " + std::to_string(p.rows()) +
-                        " vertices, but the neutral has " + std::to_string(rig.positions.rows()));
-          }
-          p -= rig.positions;
-          shapes[i] = Blendshape::from_dense(files[i].stem().string(), p);
-        } catch (...) {
-          errors[i] = std::current_exception();
-        }
-      }
-    });
-  }
-  for (auto& t : pool) t.join();
-  for (auto& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
+  parallel_for(files.size(), [&](std::size_t i) {
+    Positions p = read_obj_positions(files[i]);
+    if (p.rows() != rig.positions.rows()) {
+      throw Error(files[i].string() + ": " + std::to_string(p.rows()) +
+                  " vertices, but the neutral has " + std::to_string(rig.positions.rows()));
+    }
+    p -= rig.positions;
+    shapes[i] = Blendshape::from_dense(files[i].stem().string(), p);
+  });
   rig.shapes = std::move(shapes);
   return rig;
 }
