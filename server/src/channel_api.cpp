@@ -1,14 +1,12 @@
 // The channels' HTTP API: GET /api/channels/{c} and POST /api/channels/{c}/speak.
+#include <future>
+
 #include "access.hpp"
 #include "channel.hpp"
 #include "routes.hpp"
 #include "services.hpp"
 
-#include <future>
-
 namespace facecast::server {
-
-// --------------------------------------------------------------------------------------
 
 namespace {
 

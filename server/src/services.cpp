@@ -1,7 +1,6 @@
 #include "services.hpp"
 
 #include "facecast/core/config.hpp"
-#include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "log.hpp"
 
