@@ -3,22 +3,34 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# What building and serving need (scripts/run.sh installs only these: the first page comes sooner).
 packages=(
   build-essential cmake ninja-build pkg-config git ccache
   libboost1.81-dev libeigen3-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev libsuitesparse-dev libopenblas0-serial catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev
   libopenimageio-dev libpng-dev libwebp-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
-  nodejs chromium fonts-wqy-microhei fonts-dejavu-core
+  fonts-dejavu-core
   libmeshoptimizer-dev libdraco-dev libdlib-dev libdlib-data
-  libfftw3-dev libsndfile1-dev festival festvox-kallpc16k flite sox
-  libsqlite3-dev nginx libnginx-mod-rtmp
-  libhiredis-dev redis-server
+  libfftw3-dev libsndfile1-dev
+  libsqlite3-dev libhiredis-dev libjwt-dev libssl-dev liblo-dev
+  nodejs
+)
+# What the tests and benchmarks add: the browser, other synthesizers, the RTMP and Redis servers
+# they start, clang for the fuzzers, the Python client.
+test_packages=(
+  chromium fonts-wqy-microhei
+  festival festvox-kallpc16k flite sox
+  nginx libnginx-mod-rtmp redis-server
   clang libclang-rt-14-dev
-  libjwt-dev libssl-dev
-  liblo-dev
   python3-websockets
 )
+serve=0
+case ${1:-} in
+  --serve) serve=1 ;;
+  "") packages+=("${test_packages[@]}") ;;
+  *) echo "usage: scripts/install-deps.sh [--serve]" >&2; exit 2 ;;
+esac
 # Debian's npm conflicts with a nodejs that already bundles npm (the NodeSource build does).
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 
@@ -33,6 +45,19 @@ if ((${#missing[@]})); then
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
+# Node packages (versions pinned in package-lock.json): serving needs three.js and three-vrm (the
+# page's dependencies); the tests' tools are devDependencies.
+npm_ci() {
+  npm ci --no-audit --no-fund --loglevel=error "$@"
+  touch node_modules/.installed"${1:+-serve}"
+}
+if ((serve)); then
+  [ -f node_modules/.installed ] || [ -f node_modules/.installed-serve ] &&
+    [ ! package-lock.json -nt node_modules/.package-lock.json ] || npm_ci --omit=dev
+  exit 0
+fi
+[ -f node_modules/.installed ] && [ ! package-lock.json -nt node_modules/.package-lock.json ] || npm_ci
+
 # scikit-image's public-domain test photos (astronaut.png, for the photo-avatar tests): the package
 # cannot be installed (its scipy pulls an older Boost), so its .deb is unpacked into a fixed folder.
 skimage_dir=/opt/facecast-testdata/python3-skimage
@@ -43,11 +68,4 @@ if [ ! -f "$skimage_dir/usr/lib/python3/dist-packages/skimage/data/astronaut.png
   mkdir -p "$skimage_dir"
   dpkg-deb -x "$tmp"/python3-skimage_*.deb "$skimage_dir"
   rm -rf "$tmp"
-fi
-
-# Node tools for the web client and its tests (versions pinned in package-lock.json).
-if [ -f package-lock.json ]; then
-  if [ ! -d node_modules ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then
-    npm ci --no-audit --no-fund --loglevel=error
-  fi
 fi

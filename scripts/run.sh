@@ -4,7 +4,7 @@
 # http://127.0.0.1:8080 (configs/server.json; extra arguments go to `facecast serve`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/install-deps.sh
+scripts/install-deps.sh --serve
 # Only what serving needs: the executable (with the lexicon and lip-sync templates it reads);
 # scripts/test.sh builds the tests and benchmarks.
 scripts/build.sh build --target=facecast
