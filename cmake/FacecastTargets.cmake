@@ -6,6 +6,11 @@ target_compile_options(facecast_options INTERFACE -Wall -Wextra -Wpedantic -Wsha
 if(FACECAST_WERROR)
   target_compile_options(facecast_options INTERFACE -Werror)
 endif()
+if(CMAKE_UNITY_BUILD)
+  # In a unity build every source is an included file, so GCC takes a class in one .cpp holding a
+  # type from that file's anonymous namespace for a header's (it is not: the batch is one file).
+  target_compile_options(facecast_options INTERFACE $<$<CXX_COMPILER_ID:GNU>:-Wno-subobject-linkage>)
+endif()
 
 if(FACECAST_SANITIZE AND FACECAST_TSAN)
   message(FATAL_ERROR "FACECAST_SANITIZE and FACECAST_TSAN cannot be combined")

@@ -18,7 +18,7 @@ struct VariantArgs {
   std::optional<float> face_width, jaw_length, lip_thickness, eye_size, nose_length;
 };
 
-struct CheckArgs {
+struct AvatarCheckArgs {
   std::uint64_t seed = 0;
 };
 
@@ -125,7 +125,7 @@ void add_avatar_commands(CLI::App& app) {
     write_avatar(p, var->out);
   });
 
-  auto chk = std::make_shared<CheckArgs>();
+  auto chk = std::make_shared<AvatarCheckArgs>();
   auto* c = avatar->add_subcommand(
       "check",
       "Check the generated avatar for self-intersections (neutral, each shape, animated pairs)");

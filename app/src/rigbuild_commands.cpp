@@ -209,11 +209,11 @@ void run_build(BuildArgs& a) {
       r.timings.contacts);
 }
 
-struct CheckArgs {
+struct RigCheckArgs {
   std::string rig, truth, reference;
 };
 
-void run_check(const CheckArgs& a) {
+void run_check(const RigCheckArgs& a) {
   const rig::Rig rig = rig::load_rig(a.rig);
   nlohmann::json j;
   j["rig"] = a.rig;
@@ -334,7 +334,7 @@ void add_rig_build_commands(CLI::App& rig) {
   });
   b->callback([a] { run_build(*a); });
 
-  auto c = std::make_shared<CheckArgs>();
+  auto c = std::make_shared<RigCheckArgs>();
   auto* ck = rig.add_subcommand(
       "check", "Report per-shape measures of a rig, and errors against ground truth");
   ck->add_option("rig", c->rig, "Rig (GLB)")->required()->check(CLI::ExistingFile);

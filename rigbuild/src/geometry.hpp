@@ -5,6 +5,7 @@
 // (procrustes) is public: facecast/rigbuild/geometry.hpp.
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <nanoflann.hpp>
@@ -19,6 +20,11 @@
 namespace facecast::rigbuild {
 
 using rig::closest_on_triangle;
+
+/// Whether row k of `p` holds a point: a NaN row marks one that is not there (a dropped landmark).
+inline bool has_point(const Points& p, int k) {
+  return std::isfinite(p(k, 0));
+}
 
 /// Where `point` goes when it moves with the triangle with corners t from `rest` to `now` as it
 /// sat on it at rest: its closest point on the triangle follows the triangle, its offset from

@@ -122,10 +122,6 @@ double median(std::vector<double> v) {
   return 0.5 * (*mid + *std::max_element(v.begin(), mid));
 }
 
-bool valid(const Points& p, int k) {
-  return std::isfinite(p(k, 0));
-}
-
 // Drops, one at a time (the worst first), the points farther than `limit` from the reference
 // after the similarity fit; fills `residual` from the last fit.
 int drop_by_similarity(const Points& reference, double limit, Points& points,
@@ -134,7 +130,7 @@ int drop_by_similarity(const Points& reference, double limit, Points& points,
   for (;;) {
     std::vector<int> both;
     for (int k = 0; k < kLandmarkCount; ++k)
-      if (valid(points, k) && valid(reference, k)) both.push_back(k);
+      if (has_point(points, k) && has_point(reference, k)) both.push_back(k);
     if (both.size() < 4) return dropped;
     Points from(static_cast<Eigen::Index>(both.size()), 3), to(from.rows(), 3);
     for (std::size_t i = 0; i < both.size(); ++i) {
@@ -165,7 +161,7 @@ int drop_by_symmetry(double limit, const std::vector<double>& residual, Points& 
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
   std::vector<std::array<int, 2>> pairs;
   for (const auto& [r, l] : kMirror) {
-    if (!valid(points, r) || !valid(points, l)) continue;
+    if (!has_point(points, r) || !has_point(points, l)) continue;
     n += (points.row(l) - points.row(r)).transpose().normalized();
     pairs.push_back({r, l});
   }
@@ -195,7 +191,7 @@ double eye_opening(const Points& reference) {
   double sum = 0;
   int n = 0;
   for (auto [upper, lower] : {std::pair{37, 41}, {38, 40}, {43, 47}, {44, 46}}) {
-    if (!valid(reference, upper) || !valid(reference, lower)) continue;
+    if (!has_point(reference, upper) || !has_point(reference, lower)) continue;
     sum += (reference.row(upper) - reference.row(lower)).norm();
     ++n;
   }
@@ -213,7 +209,7 @@ void apply_bias(const Points& reference, const Points& bias, double eye_limit, P
   const double opening = eye_opening(reference);
   std::vector<int> both;
   for (int k = 0; k < kLandmarkCount; ++k)
-    if (valid(points, k) && valid(reference, k)) both.push_back(k);
+    if (has_point(points, k) && has_point(reference, k)) both.push_back(k);
   if (both.size() < 4) return;
   Points from(static_cast<Eigen::Index>(both.size()), 3), to(from.rows(), 3);
   for (std::size_t i = 0; i < both.size(); ++i) {
@@ -222,7 +218,7 @@ void apply_bias(const Points& reference, const Points& bias, double eye_limit, P
   }
   const Similarity s = procrustes(from, to, true);
   for (int k = 0; k < kLandmarkCount; ++k)
-    if (valid(points, k) && valid(bias, k) &&
+    if (has_point(points, k) && has_point(bias, k) &&
         !(k >= 36 && k <= 47 && opening > 0 && bias.row(k).norm() > eye_limit * opening))
       points.row(k) += (s.scale * s.R * bias.row(k).transpose()).transpose();
 }
@@ -379,7 +375,7 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& comp
   out.points = fuse(out.views, lifted, options.contour_yaw);
   out.vertex.fill(-1);
 
-  const double iod = valid(out.points, 36) && valid(out.points, 45)
+  const double iod = has_point(out.points, 36) && has_point(out.points, 45)
                          ? (out.points.row(36) - out.points.row(45)).norm()
                          : 0.25 * diagonal;
   std::vector<double> residual;
@@ -391,7 +387,7 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& comp
 
   // Each fused point's nearest skin vertex.
   for (int k = 0; k < kLandmarkCount; ++k) {
-    if (!valid(out.points, k)) continue;
+    if (!has_point(out.points, k)) continue;
     double best = std::numeric_limits<double>::infinity();
     for (int v = 0; v < head.vertex_count(); ++v) {
       if (comps.label[static_cast<std::size_t>(v)] != comps.largest) continue;
@@ -472,7 +468,7 @@ Points landmark_bias(const rig::Rig& tmpl, const Points& reference, const Landma
   if (timings) *timings = found.timings;
   Points bias = reference - found.points;
   for (int k = 0; k < kLandmarkCount; ++k)
-    if (!valid(bias, k)) bias.row(k).setZero();
+    if (!has_point(bias, k)) bias.row(k).setZero();
   return bias;
 }
 

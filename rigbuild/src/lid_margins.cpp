@@ -7,13 +7,6 @@
 #include "geometry.hpp"
 
 namespace facecast::rigbuild {
-namespace {
-
-bool valid(const Points& p, int k) {
-  return std::isfinite(p(k, 0));
-}
-
-}  // namespace
 
 LidMargins::LidMargins(const rig::Rig& head, const rig::Components& comps,
                        const render::Camera& camera)
@@ -38,7 +31,7 @@ LidMargins::LidMargins(const rig::Rig& head, const rig::Components& comps,
 
 LidMargins::Frame LidMargins::frame(const Points& points, const Eye& e) const {
   Frame f;
-  if (!valid(points, e.inner) || !valid(points, e.outer)) return f;
+  if (!has_point(points, e.inner) || !has_point(points, e.outer)) return f;
   // In the image plane: a corner deeper than the other must not turn depth into "along".
   const Eigen::Vector3d a = points.row(e.outer).transpose(), b = points.row(e.inner).transpose();
   const Eigen::Vector3d across = (b - a) - (b - a).dot(forward_) * forward_;
@@ -90,7 +83,7 @@ void LidMargins::snap(Points& points) const {
     if (f.width <= 0) continue;
     for (int side : {1, -1})
       for (int k : side > 0 ? e.upper : e.lower) {
-        if (!valid(points, k)) continue;
+        if (!has_point(points, k)) continue;
         if (const int v = margin(f, side, points.row(k).transpose()); v >= 0)
           points.row(k) = rest_.row(v);
       }

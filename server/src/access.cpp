@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "channel.hpp"
+#include "clock.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/json_limits.hpp"
 #include "log.hpp"
@@ -136,8 +137,7 @@ http::message_generator Access::post_token(const Request& req, const Principal& 
     throw Error("scope: '" + scope_name + "' is not channels:subscribe or speak");
   }
   const std::string token = auth_.mint(who, scope, channel, rig, ttl);
-  const double now =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const double now = unix_now();
   out["token"] = token;
   out["scope"] = scope_name;
   out["tenant"] = who.tenant;

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "clock.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/server/protocol.hpp"
@@ -23,10 +24,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kIssuer = "facecast";
-
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 [[noreturn]] void unauthorized(const std::string& why) {
   throw RequestError(Code::kUnauthorized, why);

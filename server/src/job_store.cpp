@@ -10,11 +10,11 @@ namespace {
 
 using nlohmann::json;
 
-constexpr const char* kColumns =
+constexpr const char* kJobColumns =
     "id, kind, state, stage, progress, result, error_code, error_message, error_status, files, "
     "created, finished, seconds, tenant";
 
-JobRecord read_row(const Statement& s) {
+JobRecord read_job(const Statement& s) {
   JobRecord r;
   r.id = s.column_text(0);
   r.kind = s.column_text(1);
@@ -133,7 +133,7 @@ void JobStore::put(const JobRecord& r) {
 
 std::vector<JobRecord> JobStore::query(const char* where, const std::string& arg,
                                        double number) const {
-  const std::string sql = std::string("SELECT ") + kColumns + " FROM jobs WHERE " + where;
+  const std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE " + where;
   std::lock_guard lock(mutex_);
   Statement s(db_, sql.c_str(), file_);
   if (sqlite3_bind_parameter_count(s.get()) >= 1) {
@@ -144,7 +144,7 @@ std::vector<JobRecord> JobStore::query(const char* where, const std::string& arg
   }
   std::vector<JobRecord> out;
   int rc;
-  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s));
+  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_job(s));
   if (rc != SQLITE_DONE)
     throw Error(file_.string() + ": " + sqlite3_errmsg(db_), ErrorCode::kInternal);
   return out;

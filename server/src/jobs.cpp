@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <chrono>
 
+#include "clock.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/random.hpp"
 #include "facecast/server/protocol.hpp"
@@ -15,10 +16,6 @@ namespace facecast::server {
 namespace {
 
 constexpr std::size_t kKeepFinished = 256;  // ended jobs kept in memory (the store keeps all)
-
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 void remove_files(const JobRecord& r) {
   for (const auto& [name, path] : r.files) {

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <regex>
 
+#include "clock.hpp"
 #include "facecast/core/error.hpp"
 #include "sqlite_statement.hpp"
 
@@ -35,10 +36,6 @@ constexpr std::string_view kKeyPrefix = "fc_";
 constexpr std::size_t kIdLength = 12;      // hex digits
 constexpr std::size_t kSecretLength = 64;  // hex digits: 256 bits
 
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 std::string to_hex(const unsigned char* bytes, std::size_t n) {
   static const char* hex = "0123456789abcdef";
   std::string out;
@@ -56,9 +53,9 @@ bool is_hex(std::string_view s) {
   return true;
 }
 
-constexpr const char* kColumns = "id, tenant, scopes, created, last_used, revoked";
+constexpr const char* kKeyColumns = "id, tenant, scopes, created, last_used, revoked";
 
-KeyInfo read_row(const Statement& s) {
+KeyInfo read_key(const Statement& s) {
   KeyInfo k;
   k.id = s.column_text(0);
   k.tenant = s.column_text(1);
@@ -213,11 +210,12 @@ CreatedKey KeyStore::create(const std::string& tenant, std::uint32_t scopes) {
 
 std::vector<KeyInfo> KeyStore::list() const {
   std::lock_guard lock(mutex_);
-  Statement s(db_, (std::string("SELECT ") + kColumns + " FROM api_keys ORDER BY created").c_str(),
+  Statement s(db_,
+              (std::string("SELECT ") + kKeyColumns + " FROM api_keys ORDER BY created").c_str(),
               file_);
   std::vector<KeyInfo> out;
   int rc;
-  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s));
+  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_key(s));
   if (rc != SQLITE_DONE)
     throw Error(file_.string() + ": " + sqlite3_errmsg(db_), ErrorCode::kInternal);
   return out;
@@ -235,11 +233,11 @@ bool KeyStore::revoke(const std::string& id) {
 
 std::optional<KeyInfo> KeyStore::find(const std::string& id) const {
   std::lock_guard lock(mutex_);
-  Statement s(db_, (std::string("SELECT ") + kColumns + " FROM api_keys WHERE id = ?1").c_str(),
+  Statement s(db_, (std::string("SELECT ") + kKeyColumns + " FROM api_keys WHERE id = ?1").c_str(),
               file_);
   s.text(1, id);
   const int rc = sqlite3_step(s.get());
-  if (rc == SQLITE_ROW) return read_row(s);
+  if (rc == SQLITE_ROW) return read_key(s);
   if (rc != SQLITE_DONE)
     throw Error(file_.string() + ": " + sqlite3_errmsg(db_), ErrorCode::kInternal);
   return std::nullopt;
@@ -259,12 +257,13 @@ std::optional<KeyInfo> KeyStore::verify(std::string_view key) {
   {
     Statement s(
         db_,
-        (std::string("SELECT ") + kColumns + ", secret_sha256 FROM api_keys WHERE id = ?1").c_str(),
+        (std::string("SELECT ") + kKeyColumns + ", secret_sha256 FROM api_keys WHERE id = ?1")
+            .c_str(),
         file_);
     s.text(1, id);
     const int rc = sqlite3_step(s.get());
     if (rc == SQLITE_ROW) {
-      info = read_row(s);
+      info = read_key(s);
       stored = s.column_text(6);
     } else if (rc != SQLITE_DONE) {
       throw Error(file_.string() + ": " + sqlite3_errmsg(db_), ErrorCode::kInternal);

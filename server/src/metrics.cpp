@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "clock.hpp"
+
 namespace facecast::server {
 namespace {
 
@@ -93,8 +95,7 @@ Metrics::Metrics()
       render_seconds({0.002, 0.005, 0.01, 0.015, 0.02, 0.03, 0.05, 0.1, 0.25}),
       rig_build_seconds({1, 5, 10, 30, 60, 120, 300, 600, 1800}),
       video_render_seconds({1, 5, 10, 30, 60, 120, 300, 600}),
-      start_time(std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-                     .count()) {}
+      start_time(unix_now()) {}
 
 std::string Metrics::render() const {
   std::string out;

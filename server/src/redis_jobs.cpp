@@ -3,6 +3,7 @@
 #include <chrono>
 #include <thread>
 
+#include "clock.hpp"
 #include "facecast/core/error.hpp"
 #include "jobs.hpp"
 #include "log.hpp"
@@ -156,14 +157,6 @@ int RedisJobQueue::requeue_instance(const std::string& instance) {
 
 // ---- Jobs with Redis ---------------------------------------------------------------------------
 
-namespace {
-
-double unix_seconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
-
 std::string Jobs::redis_submit(const std::string& kind, const json& payload,
                                const std::string& tenant) {
   expire();
@@ -182,7 +175,7 @@ std::string Jobs::redis_submit(const std::string& kind, const json& payload,
   r.id = redis_->new_id();
   r.kind = kind;
   r.tenant = tenant;
-  r.created = unix_seconds();
+  r.created = unix_now();
   redis_->submit(r, payload);
   log::info("job_queued", {{"job", r.id}, {"kind", kind}, {"queue", "redis"}});
   return r.id;
@@ -241,7 +234,7 @@ std::shared_ptr<Jobs::Job> Jobs::redis_take(RedisClient& client) {
   } catch (...) {
     job->record.state = "failed";
     job->record.error = describe(std::current_exception());
-    job->record.finished = unix_seconds();
+    job->record.finished = unix_now();
     redis_->finish(job->record);
     metrics_.jobs_failed_total.fetch_add(1);
     return nullptr;

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <regex>
 
+#include "clock.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/error.hpp"
@@ -282,10 +283,6 @@ std::string RigRegistry::new_id() {
   return "r" + random_hex(8);  // 64 bits from the kernel (core/random.hpp)
 }
 
-static double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 void RigRegistry::store(const RigInfo& info,
                         const std::vector<std::pair<std::string, std::string>>& files,
                         const nlohmann::json& meta,
@@ -330,7 +327,7 @@ std::string RigRegistry::add(const std::string& name, const std::string& templat
   info.shapes = rig.shape_names();
   info.vertices = rig.vertex_count();
   info.virtual_edges = !edges.empty();
-  info.created = now_seconds();
+  info.created = unix_now();
   store(info, {{"rig.glb", glb}, {"report.json", report.dump(2) + "\n"}},
         {{"id", info.id},
          {"name", name},
@@ -358,7 +355,7 @@ std::string RigRegistry::import(const std::string& name, const std::string& byte
   info.shapes = view.rig.shape_names();
   info.vertices = view.rig.vertex_count();
   info.imported = true;
-  info.created = now_seconds();
+  info.created = unix_now();
   info.tenant = owner.tenant;
   info.is_public = owner.is_public;
   store(info, {{"rig.glb", bytes}},

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "clock.hpp"
 #include "log.hpp"
 
 namespace facecast::server {
@@ -23,10 +24,6 @@ std::string megabytes(std::uint64_t bytes) {
   char out[32];
   std::snprintf(out, sizeof out, "%.1f MB", static_cast<double>(bytes) / 1e6);
   return out;
-}
-
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace

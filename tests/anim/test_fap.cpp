@@ -20,7 +20,7 @@ namespace {
 
 // The ICT FaceKit as the rig builder ships it (all 68 landmarks stored), with its 52 ARKit shapes
 // only: the face an ARKit-driven player has.
-const rig::Rig& face() {
+const rig::Rig& ict_face() {
   static const rig::Rig rig = [] {
     rig::Rig r = rig::load_rig(facecast::test::source_dir() / "rigbuild/data/ict_facekit.glb");
     const auto arkit = arkit_shape_names();
@@ -35,15 +35,15 @@ const rig::Rig& face() {
 
 const FapRig& avatar_fap() {
   static const FapRig rig = [] {
-    const auto landmarks = rigbuild::known_landmarks(face());
+    const auto landmarks = rigbuild::known_landmarks(ict_face());
     REQUIRE(landmarks);
-    return FapRig(face(), *landmarks);
+    return FapRig(ict_face(), *landmarks);
   }();
   return rig;
 }
 
 int shape(const std::string& name) {
-  const int s = face().find_shape(name);
+  const int s = ict_face().find_shape(name);
   REQUIRE(s >= 0);
   return s;
 }
@@ -73,7 +73,7 @@ std::string mask_line(std::initializer_list<int> faps) {
 FapMotion drive_avatar(const std::string& file) {
   const std::string path = (facecast::test::source_dir() / "tests/anim/data").string() + "/" + file;
   return FapMotion(parse_fap(read_file(path), path), avatar_fap(),
-                   Mapping::for_rig(face().shape_names()));
+                   Mapping::for_rig(ict_face().shape_names()));
 }
 
 std::vector<float> weights_at(const FapMotion& m, int frame, rig::BodyPose* head = nullptr) {
@@ -175,7 +175,7 @@ TEST_CASE("FAP units and directions measured on a rig's feature points", "[anim]
 TEST_CASE("a performance written as FAPs and read back moves the mouth and eyes alike",
           "[anim][fap]") {
   const FapRig& r = avatar_fap();
-  const Mapping mapping = Mapping::for_rig(face().shape_names());
+  const Mapping mapping = Mapping::for_rig(ict_face().shape_names());
   viseme::Options o = viseme::load_options();
   const auto u = viseme::analyze(
       "(joy, 40, 0.5) Papa made a big apple pie, maybe more. Mother baked bread for the whole "
@@ -193,7 +193,7 @@ TEST_CASE("a performance written as FAPs and read back moves the mouth and eyes 
   CHECK_FALSE(read.frames[10].mask[22]);  // yaw_l_eyeball: not measured
 
   const FapMotion back(read, r, mapping);
-  const std::size_t n = face().shapes.size();
+  const std::size_t n = ict_face().shapes.size();
   std::vector<float> a(n), b(n);
   std::vector<double> jaw_a, jaw_b, blink_a, blink_b;
   double head_error = 0;

@@ -11,8 +11,6 @@ using namespace facecast::rig;
 
 namespace {
 
-constexpr float kDeg = 3.14159265f / 180.0f;
-
 // Appends a box from lo to hi, each vertex skinned by `skin(position)` -> (joint a, joint b, t):
 // weight 1 - t on a, t on b.
 template <class Skin>

@@ -10,6 +10,9 @@
 
 namespace facecast::test {
 
+/// One degree in radians (the humanoid tests turn bones by degrees).
+constexpr float kDeg = 3.14159265f / 180.0f;
+
 rig::Rig humanoid(float droop, const char* left = "mixamorig:LeftArm",
                   const char* right = "mixamorig:RightArm");
 

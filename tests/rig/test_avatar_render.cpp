@@ -29,7 +29,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path work_dir() {
+fs::path render_dir() {
   const fs::path dir = facecast::test::build_dir() / "tests/rig" / "avatar-render";
   fs::create_directories(dir);
   return dir;
@@ -48,7 +48,7 @@ render::Image front(const rig::Rig& rig) {
 rig::Rig edited(const std::string& name, void (*edit)(tinygltf::Model&)) {
   rig::AvatarDocument doc = rig::AvatarDocument::parse(test::test_avatar_glb(), name);
   edit(doc.model());
-  const fs::path path = work_dir() / name;
+  const fs::path path = render_dir() / name;
   doc.write_glb(path);
   return rig::load_rig(path);
 }
@@ -118,7 +118,7 @@ render::Image render_cli(const fs::path& rig, const std::string& name, const std
 }  // namespace
 
 TEST_CASE("a WebP-textured avatar renders like its PNG-textured original", "[rig][gltf][texture]") {
-  const fs::path dir = work_dir();
+  const fs::path dir = render_dir();
   write_file_atomic(dir / "base.glb", test::test_avatar_glb());
   const fs::path webp = dir / "webp.glb";
   const std::string cmd = facecast::test::source_dir().string() +
@@ -153,7 +153,7 @@ TEST_CASE("a WebP-textured avatar renders like its PNG-textured original", "[rig
 TEST_CASE("KTX2 textures: the fallback when optional, one line naming the conversion otherwise",
           "[rig][gltf][texture]") {
   const rig::Rig base = rig::load_rig([] {
-    const fs::path p = work_dir() / "base.glb";
+    const fs::path p = render_dir() / "base.glb";
     write_file_atomic(p, test::test_avatar_glb());
     return p;
   }());
@@ -219,7 +219,7 @@ TEST_CASE("unlit and emissive-strength materials", "[rig][gltf][texture]") {
 
 TEST_CASE("OBJ texture coordinates have v = 0 at the image's bottom", "[rig][obj][texture]") {
   // A quad facing +Z textured with an image red on top, blue below; its top vertices at v = 1.
-  const fs::path dir = work_dir() / "obj";
+  const fs::path dir = render_dir() / "obj";
   fs::create_directories(dir);
   render::Image tex{8, 8, 4, {}};
   for (int y = 0; y < 8; ++y)
@@ -245,7 +245,7 @@ TEST_CASE("OBJ texture coordinates have v = 0 at the image's bottom", "[rig][obj
 
 TEST_CASE("the CLI's render draws every mesh of the avatar, framed face, bust or full",
           "[rig][gltf][render]") {
-  const fs::path dir = work_dir() / "scene";
+  const fs::path dir = render_dir() / "scene";
   fs::create_directories(dir);
   write_file_atomic(dir / "avatar.glb", test::test_avatar_glb());
   const auto render_framed = [&](const std::string& framing) {
@@ -275,7 +275,7 @@ TEST_CASE("the CLI's render draws every mesh of the avatar, framed face, bust or
 }
 
 TEST_CASE("an avatar saved in T-pose renders standing with its arms down", "[rig][gltf][render]") {
-  const fs::path dir = work_dir() / "pose";
+  const fs::path dir = render_dir() / "pose";
   fs::create_directories(dir);
   rig::write_glb(dir / "tpose.glb", test::humanoid(0));
   const Extent rest = covered(render_cli(dir / "tpose.glb", "rest", "--framing full"));

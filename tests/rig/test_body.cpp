@@ -12,7 +12,7 @@ using namespace facecast::rig;
 
 namespace {
 
-constexpr float kDeg = 3.14159265f / 180.0f;
+using facecast::test::kDeg;
 
 // The humanoid standing at rest, and where its joints go in `pose`.
 struct Posed {

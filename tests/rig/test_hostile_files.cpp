@@ -72,7 +72,7 @@ int attribute(const Glb& g, const char* name) {
   return g.doc["meshes"][0]["primitives"][0]["attributes"][name].get<int>();
 }
 
-std::string error_of(const Glb& g) {
+std::string glb_error(const Glb& g) {
   try {
     (void)parse_glb(g.join(), "upload.glb");
   } catch (const Error& e) {
@@ -93,7 +93,8 @@ TEST_CASE("TEXCOORD_0 with fewer elements than POSITION is an error, not an over
           "[rig][glb][errors]") {
   Glb g = small_glb();
   g.doc["accessors"][attribute(g, "TEXCOORD_0")]["count"] = 1;
-  CHECK(error_of(g) == "upload.glb meshes[0].primitives[0] TEXCOORD_0: 1 elements for 4 positions");
+  CHECK(glb_error(g) ==
+        "upload.glb meshes[0].primitives[0] TEXCOORD_0: 1 elements for 4 positions");
 }
 
 TEST_CASE("indices out of the file's arrays are errors naming what is missing",
@@ -101,34 +102,34 @@ TEST_CASE("indices out of the file's arrays are errors naming what is missing",
   SECTION("a buffer view that does not exist") {
     Glb g = small_glb();
     g.doc["accessors"][attribute(g, "POSITION")]["bufferView"] = 99;
-    CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
+    CHECK_THAT(glb_error(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
   }
   SECTION("a buffer that does not exist") {
     Glb g = small_glb();
     g.doc["bufferViews"][0]["buffer"] = 7;
-    CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
+    CHECK_THAT(glb_error(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
   }
   SECTION("an index accessor that does not exist") {
     Glb g = small_glb();
     g.doc["meshes"][0]["primitives"][0]["indices"] = 1000;
-    CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
+    CHECK_THAT(glb_error(g), Catch::Contains("upload.glb") && !Catch::Contains("_M_range_check"));
   }
 }
 
 TEST_CASE("a huge declared count is refused before anything is allocated", "[rig][glb][errors]") {
   Glb g = small_glb();
   g.doc["accessors"][attribute(g, "POSITION")]["count"] = 4000000000u;
-  CHECK_THAT(error_of(g), Catch::Contains("upload.glb"));
+  CHECK_THAT(glb_error(g), Catch::Contains("upload.glb"));
   Glb h = small_glb();
   h.doc["bufferViews"][0]["byteLength"] = 1u << 30;
-  CHECK_THAT(error_of(h), Catch::Contains("upload.glb"));
+  CHECK_THAT(glb_error(h), Catch::Contains("upload.glb"));
 }
 
 TEST_CASE("a GLB does not read local files through its URIs", "[rig][glb][errors]") {
   Glb g = small_glb();
   g.doc["buffers"].push_back({{"uri", "/etc/hostname"}, {"byteLength", 4}});
   g.doc["bufferViews"].push_back({{"buffer", 1}, {"byteOffset", 0}, {"byteLength", 4}});
-  CHECK_THAT(error_of(g), Catch::Contains("upload.glb") && Catch::Contains("/etc/hostname"));
+  CHECK_THAT(glb_error(g), Catch::Contains("upload.glb") && Catch::Contains("/etc/hostname"));
 }
 
 TEST_CASE("an OBJ whose material name is not UTF-8 is an error, not a failed GLB write",
@@ -178,8 +179,8 @@ TEST_CASE("compressed data that declares more than the file can hold is refused 
     g.doc["buffers"].push_back(
         {{"byteLength", 1ull << 40},
          {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
-    CHECK_THAT(error_of(g), Catch::Contains("upload.glb buffers[1]: meshopt fallback buffer of "
-                                            "1099511627776 bytes is over the budget of"));
+    CHECK_THAT(glb_error(g), Catch::Contains("upload.glb buffers[1]: meshopt fallback buffer of "
+                                             "1099511627776 bytes is over the budget of"));
   }
   SECTION("a meshopt view whose count overruns its target") {
     Glb g = small_glb();
@@ -189,7 +190,7 @@ TEST_CASE("compressed data that declares more than the file can hold is refused 
                                                {"byteStride", 12},
                                                {"count", 4000000000u},
                                                {"mode", "ATTRIBUTES"}}}};
-    CHECK_THAT(error_of(g), Catch::Contains("upload.glb bufferViews[0]"));
+    CHECK_THAT(glb_error(g), Catch::Contains("upload.glb bufferViews[0]"));
   }
   SECTION("a Draco primitive whose data is not a Draco stream") {
     Glb g = small_glb();
@@ -197,7 +198,7 @@ TEST_CASE("compressed data that declares more than the file can hold is refused 
     g.doc["accessors"][p["indices"].get<int>()]["count"] = 3000000000u;
     p["extensions"] = {
         {"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", {{"POSITION", 0}}}}}};
-    CHECK(error_of(g) ==
+    CHECK(glb_error(g) ==
           "upload.glb meshes[0].primitives[0]: Draco header has no DRACO signature "
           "(at byte 0)");
   }
@@ -208,6 +209,6 @@ TEST_CASE("compressed data that declares more than the file can hold is refused 
     g.doc["bufferViews"].push_back(json::parse(
         R"({"buffer": 1, "byteLength": 48, "extensions": {"EXT_meshopt_compression":
             {"buffer": 0, "byteLength": 16, "byteStride": 12, "count": 4, "mode": "ATTRIBUTES"}}})"));
-    CHECK_THAT(error_of(g), Catch::Contains("meshopt data cannot be decoded"));
+    CHECK_THAT(glb_error(g), Catch::Contains("meshopt data cannot be decoded"));
   }
 }

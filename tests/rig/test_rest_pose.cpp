@@ -14,8 +14,8 @@ using namespace facecast::rig;
 
 namespace {
 
-constexpr float kDeg = 3.14159265f / 180.0f;
 using facecast::test::humanoid;
+using facecast::test::kDeg;
 
 Eigen::Vector3f extent(const Rig& r) {
   return r.positions.colwise().maxCoeff() - r.positions.colwise().minCoeff();

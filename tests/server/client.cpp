@@ -96,6 +96,12 @@ HttpResponse http_request(unsigned short port, http::verb method, const std::str
   return out;
 }
 
+unsigned short free_port() {
+  net::io_context io;
+  tcp::acceptor a(io, {net::ip::make_address("127.0.0.1"), 0});
+  return a.local_endpoint().port();
+}
+
 std::string raw_request(unsigned short port, const std::string& bytes, double timeout) {
   net::io_context ioc;
   beast::tcp_stream stream(ioc);

@@ -67,6 +67,12 @@ HttpResponse http_request(unsigned short port, http::verb method, const std::str
 /// requests and targets that an HTTP library would normalise).
 std::string raw_request(unsigned short port, const std::string& bytes, double timeout = 10);
 
+/// A loopback port nothing listens on now (the kernel's pick, released again).
+unsigned short free_port();
+
+/// The producer token of the channel "show" that the channel tests configure.
+inline const char* const kProducerToken = "producer-secret-1";
+
 class WsClient {
  public:
   struct Options {

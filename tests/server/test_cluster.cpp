@@ -30,14 +30,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-const char* kToken = "producer-secret-1";
-
-unsigned short free_port() {
-  net::io_context io;
-  tcp::acceptor a(io, {net::ip::make_address("127.0.0.1"), 0});
-  return a.local_endpoint().port();
-}
-
 bool accepts(unsigned short port) {
   net::io_context io;
   tcp::socket s(io);
@@ -216,7 +208,7 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
   const nlohmann::json config = {
       {"redis", {{"url", "redis://127.0.0.1:" + std::to_string(redis_port)}, {"heartbeat", 0.5}}},
       {"shared_dir", (dir / "shared").string()},
-      {"channels", {{"show", {{"producer_token", kToken}}}}},
+      {"channels", {{"show", {{"producer_token", kProducerToken}}}}},
       {"channel_idle", 0},
       {"presence_interval", 0.2},
       {"job_workers", 1},
@@ -252,7 +244,8 @@ TEST_CASE("two instances behind nginx share channels and jobs through Redis", "[
 
   auto producer = std::make_unique<WsClient>(a->port());
   REQUIRE(producer->read_json(10)["type"] == "hello");
-  producer->send(nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kToken}});
+  producer->send(
+      nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kProducerToken}});
   CHECK(wait_for(*producer, "producing")["channel"] == "show");
   every_frame_everywhere(*producer, subs, "u1", dir);
 

@@ -17,10 +17,8 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-const char* kToken = "producer-secret-1";
-
 void with_channel(ServerOptions& o) {
-  o.channels.push_back({"show", kToken});
+  o.channels.push_back({"show", kProducerToken});
   o.presence_interval = 0.2;
   o.channel_idle = 0;  // idle-life streams have their own test
 }
@@ -55,7 +53,7 @@ std::unique_ptr<WsClient> subscriber(unsigned short port, WsClient::Options opti
 std::unique_ptr<WsClient> producer(unsigned short port) {
   auto c = std::make_unique<WsClient>(port);
   REQUIRE(c->read_json(10)["type"] == "hello");
-  c->send(nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kToken}});
+  c->send(nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kProducerToken}});
   CHECK(wait_for(*c, "producing")["channel"] == "show");
   return c;
 }
@@ -151,10 +149,10 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
   const std::string body = R"({"id": "h1", "text": "A word from the newsroom, and then more."})";
   CHECK(http_request(s.port(), http::verb::post, "/api/channels/show/speak", body).status == 401);
   CHECK(http_request(s.port(), http::verb::post, "/api/channels/nope/speak", body,
-                     {{"Authorization", std::string("Bearer ") + kToken}})
+                     {{"Authorization", std::string("Bearer ") + kProducerToken}})
             .status == 404);
   const auto posted = http_request(s.port(), http::verb::post, "/api/channels/show/speak", body,
-                                   {{"Authorization", std::string("Bearer ") + kToken}});
+                                   {{"Authorization", std::string("Bearer ") + kProducerToken}});
   REQUIRE(posted.status == 202);
   CHECK(posted.json()["id"] == "h1");
   // A late joiner gets the stream from the current frame on.
@@ -306,7 +304,7 @@ TEST_CASE("incremental text fed in 3-word pieces has no gaps", "[ws][incremental
 
 TEST_CASE("a channel plays idle life between utterances and gives way to speech", "[ws][channel]") {
   TestServer s([](ServerOptions& o) {
-    o.channels.push_back({"show", kToken});
+    o.channels.push_back({"show", kProducerToken});
     o.channel_idle = 1.5;
   });
   auto viewer = subscriber(s.port());

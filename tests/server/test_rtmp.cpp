@@ -25,7 +25,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* kToken = "producer-secret-1";
 constexpr double kFps = 25;
 
 // nginx with the RTMP module, recording every stream of application "live" into `dir`/rec and
@@ -80,12 +79,6 @@ class Nginx {
  private:
   pid_t pid_ = -1;
 };
-
-unsigned short free_port() {
-  boost::asio::io_context io;
-  boost::asio::ip::tcp::acceptor a(io, {boost::asio::ip::make_address("127.0.0.1"), 0});
-  return a.local_endpoint().port();
-}
 
 std::string run(const std::string& command) {
   std::string out;
@@ -202,7 +195,7 @@ TEST_CASE("a channel publishes RTMP (H.264 + AAC) with the mouth in sync with th
   };
   {
     TestServer s([&](ServerOptions& o) {
-      o.channels.push_back({"show", kToken});
+      o.channels.push_back({"show", kProducerToken});
       o.channel_idle = 0;  // the face rests between utterances
       ServerOptions::Rtmp r;
       r.url = "rtmp://127.0.0.1:" + std::to_string(port) + "/live/show";
@@ -223,7 +216,7 @@ TEST_CASE("a channel publishes RTMP (H.264 + AAC) with the mouth in sync with th
          "the market stayed open until midnight, and the weather will be calm tomorrow."}};
     const auto posted =
         http_request(s.port(), http::verb::post, "/api/channels/show/speak", body.dump(),
-                     {{"Authorization", std::string("Bearer ") + kToken}});
+                     {{"Authorization", std::string("Bearer ") + kProducerToken}});
     REQUIRE(posted.status == 202);
     sent = collect(c, "ten");
     std::this_thread::sleep_for(std::chrono::seconds(2));  // the delay and a little rest after

@@ -5,17 +5,14 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/viseme.hpp"
+#include "viseme_names.hpp"
 
 using namespace facecast;
 using namespace facecast::viseme;
 
-namespace {
+using facecast::test::visemes;
 
-std::string visemes(const Utterance& u) {
-  std::string s;
-  for (const auto& v : u.visemes) s += (s.empty() ? "" : " ") + v.viseme;
-  return s;
-}
+namespace {
 
 std::string oculus(const char* text) {
   Options o;

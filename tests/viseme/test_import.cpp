@@ -5,8 +5,11 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/import.hpp"
+#include "viseme_names.hpp"
 
 using namespace facecast::viseme;
+
+using facecast::test::visemes;
 
 namespace {
 
@@ -17,12 +20,6 @@ Utterance load(TimestampFormat f, const char* file, VisemeSet set,
   Options o;
   o.set = set;
   return import_timestamps(f, facecast::read_file(path), o, phones, path);
-}
-
-std::string visemes(const Utterance& u) {
-  std::string s;
-  for (const auto& v : u.visemes) s += (s.empty() ? "" : " ") + v.viseme;
-  return s;
 }
 
 std::string error_of(TimestampFormat f, const std::string& content,
