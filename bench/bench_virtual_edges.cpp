@@ -14,7 +14,7 @@ using namespace facecast;
 using namespace facecast::rigbuild;
 
 namespace {
-void subdivide(Points& p, Faces& f) {
+void subdivide(Points& p, Triangles& f) {
   std::map<std::pair<int, int>, int> mid;
   std::vector<Eigen::RowVector3d> extra;
   auto midpoint = [&](int a, int b) {
@@ -24,7 +24,7 @@ void subdivide(Points& p, Faces& f) {
     if (fresh) extra.push_back(0.5 * (p.row(a) + p.row(b)));
     return it->second;
   };
-  Faces out(4 * f.rows(), 3);
+  Triangles out(4 * f.rows(), 3);
   for (Eigen::Index t = 0; t < f.rows(); ++t) {
     const int a = f(t, 0), b = f(t, 1), c = f(t, 2);
     const int ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
@@ -45,7 +45,7 @@ int main(int argc, char** argv) try {
   const auto dir = facecast::test::test_data_dir() / "ict-facekit/FaceXModel";
   const rig::Rig rig = rig::read_obj(dir / "generic_neutral_mesh.obj");
   Points p = rig.positions.cast<double>();
-  Faces f = rig.triangles;
+  Triangles f = rig.triangles;
   VirtualEdgeStats base;
   const auto e0 = detect_virtual_edges(p, f, {}, &base);
   std::printf("%ld vertices: %zu virtual edges in %.3f s (d=%.4f)\n", static_cast<long>(p.rows()),

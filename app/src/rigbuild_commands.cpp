@@ -145,7 +145,7 @@ void run_build(BuildArgs& a) {
     int i = -1, j = -1;
     if (std::sscanf(a.ve_pair.c_str(), "%d,%d", &i, &j) != 2)
       throw Error("--ve-pair: expected I,J");
-    opt.ve.d = rigbuild::ve_distance_from_pair(target.positions.cast<double>(), i, j);
+    opt.ve.d = rigbuild::ve_distance_from_pair(rig::to_points(target.positions), i, j);
   }
   const auto r = rigbuild::build_rig(tmpl, target, opt, terminal_progress());
   if (!cache.empty() && !opt.correspondence) rigbuild::save_correspondence(cache, r.correspondence);
@@ -230,8 +230,8 @@ void run_check(const RigCheckArgs& a) {
   if (!a.reference.empty()) {
     reference = rig::load_rig(a.reference);
     const auto same = rigbuild::same_topology_correspondence(
-        reference->vertex_count(), rigbuild::Faces(reference->triangles), rig.vertex_count(),
-        rigbuild::Faces(rig.triangles));
+        reference->vertex_count(), rig::Triangles(reference->triangles), rig.vertex_count(),
+        rig::Triangles(rig.triangles));
     if (!same)
       throw Error(a.reference + ": --template must have the rig's topology (" +
                   std::to_string(rig.vertex_count()) + " vertices, " +

@@ -96,8 +96,8 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
                  with_lid_middles(tmpl, target, target_parts.components, registered, *markers);
     };
   Correspondence c = compute_correspondence(
-      tmpl.positions.cast<double>(), tmpl.triangles, parts.mesh.components, parts.of_triangle,
-      target.positions.cast<double>(), target.triangles, target_parts.components, *markers,
+      rig::to_points(tmpl.positions), tmpl.triangles, parts.mesh.components, parts.of_triangle,
+      rig::to_points(target.positions), target.triangles, target_parts.components, *markers,
       options.registration, progress, lid_middles);
   if (found && !refined.empty()) found->markers = std::move(refined);
   return c;
@@ -134,7 +134,7 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   check_inputs(tmpl, target, options);
   BuildResult r;
   auto& time = r.timings;
-  const Points rest = target.positions.cast<double>();
+  const Points rest = rig::to_points(target.positions);
   const TargetMesh mesh(rest, target.triangles);  // its parts and edge graph, computed once
   std::optional<TemplateParts> tmpl_parts;        // the template's, where the topologies differ
   const TemplateShapes source =

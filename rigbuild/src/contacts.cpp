@@ -14,7 +14,7 @@
 namespace facecast::rigbuild {
 namespace {
 
-bool cross(const Points& p, const Faces& f, int a, int b) {
+bool cross(const Points& p, const Triangles& f, int a, int b) {
   const auto corner = [&](int t, int c) -> Eigen::Vector3d { return p.row(f(t, c)).transpose(); };
   // Most watched pairs are apart: their boxes do not even overlap.
   const auto box = [&](int t) {
@@ -29,7 +29,7 @@ bool cross(const Points& p, const Faces& f, int a, int b) {
 
 // The smallest distance from a corner of either triangle to the other triangle (close to the
 // triangles' distance; edge-to-edge closeness across a sliver is missed, which a margin absorbs).
-double corner_distance(const Points& p, const Faces& f, int a, int b) {
+double corner_distance(const Points& p, const Triangles& f, int a, int b) {
   double best = std::numeric_limits<double>::max();
   for (const auto& [from, to] : {std::pair{a, b}, std::pair{b, a}}) {
     const Eigen::Vector3d t0 = p.row(f(to, 0)).transpose(), t1 = p.row(f(to, 1)).transpose(),
@@ -65,7 +65,7 @@ ContactGuard::ContactGuard(const TargetMesh& target, const std::vector<char>& he
       if (kept[i]) out.push_back(candidates[i]);
     return out;
   };
-  const rig::Positions p = rest_.cast<float>();
+  const rig::Positions p = rig::to_positions(rest_);
   watched_ = keep(rig::near_triangle_pairs(p, faces_, margin), [&](auto pair) {
     const auto [a, b] = pair;
     return part_of(a) == part_of(b) && corner_distance(rest_, faces_, a, b) <= margin &&
@@ -244,7 +244,7 @@ ContactGuard::PartTriangles ContactGuard::group(const std::function<bool(int)>& 
     if (i == 0 || part_of(g.triangles[i]) != part_of(g.triangles[i - 1]))
       g.start.push_back(static_cast<int>(i));
   g.start.push_back(static_cast<int>(g.triangles.size()));
-  const auto near = rig::near_triangle_pairs(rest_.cast<float>(), faces_, 0.0, g.member);
+  const auto near = rig::near_triangle_pairs(rig::to_positions(rest_), faces_, 0.0, g.member);
   std::vector<char> crossing(near.size());
   parallel_for(near.size(), [&](std::size_t i) {
     crossing[i] = cross(rest_, faces_, near[i].first, near[i].second);
@@ -276,7 +276,7 @@ std::vector<std::pair<int, int>> ContactGuard::crossings_of(const Points& shape,
            displaced[static_cast<std::size_t>(faces_(t, 1))] ||
            displaced[static_cast<std::size_t>(faces_(t, 2))];
   };
-  const rig::Positions p = shape.cast<float>();
+  const rig::Positions p = rig::to_positions(shape);
   // Per part, a prefilter: the other triangles whose boxes meet the part's box in this
   // shape (only moving ones when the part itself stays), then the box pairs among those (a
   // bounding-volume hierarchy over the part and what lies around it).
@@ -295,7 +295,7 @@ std::vector<std::pair<int, int>> ContactGuard::crossings_of(const Points& shape,
           box_of(t).intersects(around))
         local.push_back(t);
     if (local.size() == own && !part_moves) continue;
-    Faces sub(static_cast<Eigen::Index>(local.size()), 3);
+    Triangles sub(static_cast<Eigen::Index>(local.size()), 3);
     for (std::size_t k = 0; k < local.size(); ++k)
       sub.row(static_cast<Eigen::Index>(k)) = faces_.row(local[k]);
     std::vector<char> from(local.size(), 0);

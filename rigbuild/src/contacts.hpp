@@ -144,7 +144,7 @@ class ContactGuard {
   bool wrong_side(const Points& reference, const Contact& c) const;
   Eigen::RowVector3d centre_of(const Points& p, int part) const;
   const Points& rest_;
-  const Faces& faces_;
+  const Triangles& faces_;
   const MeshParts& parts_;
   const MeshGraph& graph_;
   std::vector<std::pair<int, int>> watched_;     // of one part

@@ -124,7 +124,7 @@ RegistrationSystem registration_system(const Points& x0, const MeshGraph& graph,
 // (normals within 90 degrees, not on the target's boundary, within max_distance of the target's
 // diagonal). From `start` (when given): one step at the last w_C (the markers added there are few,
 // and near where the registration already put them).
-Points register_template(const Points& x0, const Faces& faces, const MeshGraph& graph,
+Points register_template(const Points& x0, const Triangles& faces, const MeshGraph& graph,
                          const std::vector<MarkerPair>& markers, const Points& marker_targets,
                          const SurfaceQuery& target, double max_dist,
                          const RegistrationOptions& options, const ProgressFn& progress,
@@ -205,7 +205,7 @@ class PartPairs {
 };
 
 // The template's parts per vertex: `parts` (per triangle) when given, else its `components`.
-rig::Components template_labels(rig::Components components, const Faces& faces,
+rig::Components template_labels(rig::Components components, const Triangles& faces,
                                 const std::vector<int>& parts) {
   if (parts.empty()) return components;
   if (parts.size() != static_cast<std::size_t>(faces.rows()))
@@ -217,7 +217,7 @@ rig::Components template_labels(rig::Components components, const Faces& faces,
   return components;
 }
 
-PartPairs pair_parts(const SurfaceQuery& registered, const Faces& template_faces,
+PartPairs pair_parts(const SurfaceQuery& registered, const Triangles& template_faces,
                      const rig::Components& template_parts, const Points& target_rest,
                      const Points& target_normals, const rig::Components& target_parts) {
   const int nt = static_cast<int>(target_rest.rows());
@@ -250,11 +250,11 @@ PartPairs pair_parts(const SurfaceQuery& registered, const Faces& template_faces
 // points in the part pairs only, with normals within 90 degrees (any normal when none has).
 struct Sides {
   const Points& template_at;  // the registered template
-  const Faces& template_faces;
+  const Triangles& template_faces;
   const rig::Components& template_parts;
   const SurfaceQuery& template_surface;
   const Points& target_rest;
-  const Faces& target_faces;
+  const Triangles& target_faces;
   const rig::Components& target_parts;
   const SurfaceQuery& target_surface;
   const PartPairs& pairs;
@@ -325,9 +325,9 @@ std::vector<SurfacePoint> map_vertices(const Sides& s, const Points& target_norm
 
 }  // namespace
 
-Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+Correspondence compute_correspondence(const Points& template_rest, const Triangles& template_faces,
                                       const std::vector<int>& template_parts,
-                                      const Points& target_rest, const Faces& target_faces,
+                                      const Points& target_rest, const Triangles& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
                                       const ProgressFn& progress, const MarkerRefinement& refine) {
@@ -339,10 +339,10 @@ Correspondence compute_correspondence(const Points& template_rest, const Faces& 
       options, progress, refine);
 }
 
-Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+Correspondence compute_correspondence(const Points& template_rest, const Triangles& template_faces,
                                       const rig::Components& template_components,
                                       const std::vector<int>& template_parts,
-                                      const Points& target_rest, const Faces& target_faces,
+                                      const Points& target_rest, const Triangles& target_faces,
                                       const rig::Components& target_components,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,

@@ -39,10 +39,6 @@ Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::R
   return on_now + (point - on_rest) * turn.transpose();
 }
 
-double diagonal(const Points& p) {
-  return p.rows() ? (p.colwise().maxCoeff() - p.colwise().minCoeff()).norm() : 0.0;
-}
-
 Points Similarity::apply(const Points& p) const {
   return ((scale * p) * R.transpose()).rowwise() + t.transpose();
 }
@@ -69,14 +65,7 @@ Similarity procrustes(const Points& from, const Points& to, bool with_scale) {
   return s;
 }
 
-Points centroids(const Points& p, const Faces& f) {
-  Points c(f.rows(), 3);
-  for (Eigen::Index t = 0; t < f.rows(); ++t)
-    c.row(t) = (p.row(f(t, 0)) + p.row(f(t, 1)) + p.row(f(t, 2))) / 3.0;
-  return c;
-}
-
-std::vector<char> silhouette(const rig::Positions& p, const rig::Triangles& tris,
+std::vector<char> silhouette(const rig::Positions& p, const Triangles& tris,
                              const Eigen::Vector3d& towards, const std::vector<char>& keep) {
   std::vector<unsigned char> facing(static_cast<std::size_t>(p.rows()), 0);
   for (Eigen::Index f = 0; f < tris.rows(); ++f) {
@@ -92,15 +81,6 @@ std::vector<char> silhouette(const rig::Positions& p, const rig::Triangles& tris
   return out;
 }
 
-Points face_normals(const Points& p, const Faces& f) {
-  Points n(f.rows(), 3);
-  for (Eigen::Index t = 0; t < f.rows(); ++t) {
-    const Eigen::Vector3d a = p.row(f(t, 0)), b = p.row(f(t, 1)), c = p.row(f(t, 2));
-    n.row(t) = (b - a).cross(c - a).normalized().transpose();
-  }
-  return n;
-}
-
 namespace {
 
 // The rows of per-triangle values `all` at `triangles` (all of them when empty).
@@ -114,7 +94,7 @@ Points rows_at(Points all, const std::vector<int>& triangles) {
 
 }  // namespace
 
-SurfaceQuery::SurfaceQuery(const Points& p, const Faces& f, std::vector<int> triangles)
+SurfaceQuery::SurfaceQuery(const Points& p, const Triangles& f, std::vector<int> triangles)
     : p_(p),
       f_(f),
       triangles_(std::move(triangles)),
@@ -160,7 +140,7 @@ bool SurfaceQuery::on_boundary(const Hit& hit) const {
   return false;
 }
 
-MeshParts::MeshParts(int vertex_count, const Faces& faces)
+MeshParts::MeshParts(int vertex_count, const Triangles& faces)
     : components(rig::connected_components(vertex_count, faces)),
       members(static_cast<std::size_t>(components.count)),
       skin(std::max(components.largest, 0)) {

@@ -19,7 +19,10 @@
 
 namespace facecast::rigbuild {
 
+using rig::centroids;
 using rig::closest_on_triangle;
+using rig::diagonal;
+using rig::face_normals;
 
 /// Whether row k of `p` holds a point: a NaN row marks one that is not there (a dropped landmark).
 inline bool has_point(const Points& p, int k) {
@@ -32,17 +35,10 @@ inline bool has_point(const Points& p, int k) {
 Eigen::RowVector3d carried(const Points& rest, const Points& now, const Eigen::RowVector3d& point,
                            const std::array<int, 3>& t);
 
-/// The length of the diagonal of the points' bounding box (0 for no points).
-double diagonal(const Points& p);
-
 /// Per vertex: on the silhouette seen from `towards`: a vertex of a triangle facing that way and
 /// of one facing away. Only the triangles `keep` selects count (all when it is empty).
-std::vector<char> silhouette(const rig::Positions& p, const rig::Triangles& tris,
+std::vector<char> silhouette(const rig::Positions& p, const Triangles& tris,
                              const Eigen::Vector3d& towards, const std::vector<char>& keep = {});
-
-/// Per triangle (#F by 3): its centroid; its unit normal.
-Points centroids(const Points& p, const Faces& f);
-Points face_normals(const Points& p, const Faces& f);
 
 /// Rows of a #N by 3 matrix as a nanoflann point cloud.
 struct PointRows {
@@ -100,7 +96,7 @@ class SurfaceQuery {
  public:
   /// Over every triangle of (p, f), or only over `triangles` when given. Keeps references to p
   /// and f.
-  SurfaceQuery(const Points& p, const Faces& f, std::vector<int> triangles = {});
+  SurfaceQuery(const Points& p, const Triangles& f, std::vector<int> triangles = {});
 
   struct Hit {
     int triangle = -1;  // -1: none found
@@ -141,7 +137,7 @@ class SurfaceQuery {
   void consider(const Eigen::Vector3d& q, int triangle, Hit& best) const;
   bool on_boundary(const Hit& hit) const;
   const Points& p_;
-  const Faces& f_;
+  const Triangles& f_;
   std::vector<int> triangles_;  // the triangle of each centroid; empty: all, in order
   PointIndex centroids_;
   Points normals_;                             // per centroid, its triangle's unit normal
@@ -151,7 +147,7 @@ class SurfaceQuery {
 /// A mesh's connected components and their vertices; the skin is the largest
 /// (rig::Components::largest), the others are parts: teeth, eyeballs, lashes, a tongue.
 struct MeshParts {
-  MeshParts(int vertex_count, const Faces& faces);
+  MeshParts(int vertex_count, const Triangles& faces);
   rig::Components components;             // per vertex its component, -1 in no triangle
   std::vector<std::vector<int>> members;  // per component its vertices, ascending
   int skin = 0;                           // rig::Components::largest
@@ -161,13 +157,13 @@ struct MeshParts {
 /// The target neutral with what the stages read of its mesh, computed once per build: its parts
 /// and its edge graph. Keeps references to the positions and faces.
 struct TargetMesh {
-  TargetMesh(const Points& positions, const Faces& triangles)
+  TargetMesh(const Points& positions, const Triangles& triangles)
       : rest(positions),
         faces(triangles),
         parts(static_cast<int>(positions.rows()), triangles),
         graph(positions, triangles) {}
-  const Points& rest;  // #V by 3
-  const Faces& faces;  // #F by 3
+  const Points& rest;      // #V by 3
+  const Triangles& faces;  // #F by 3
   MeshParts parts;
   MeshGraph graph;
 };

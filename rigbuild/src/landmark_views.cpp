@@ -51,7 +51,7 @@ render::Camera orbit(const render::Camera& camera, double yaw_deg) {
   return c;
 }
 
-SkinBuffer::SkinBuffer(const Points& rest, const Faces& faces, const std::vector<char>& skin,
+SkinBuffer::SkinBuffer(const Points& rest, const Triangles& faces, const std::vector<char>& skin,
                        const render::Camera& camera, int size, double depth_tolerance)
     : rest_(rest), faces_(faces), size_(size), tolerance_(depth_tolerance) {
   const Eigen::Matrix4d mvp = render::view_projection(camera, 1.0);

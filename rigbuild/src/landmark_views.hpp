@@ -30,7 +30,7 @@ render::Camera orbit(const render::Camera& camera, double yaw_deg);
 /// Per pixel of a square view: the nearest skin triangle and depths. Skin: `skin[t]` true.
 class SkinBuffer {
  public:
-  SkinBuffer(const Points& rest, const Faces& faces, const std::vector<char>& skin,
+  SkinBuffer(const Points& rest, const Triangles& faces, const std::vector<char>& skin,
              const render::Camera& camera, int size, double depth_tolerance);
   /// The skin point that the pixel position `at` (dlib's convention: pixel centres at whole
   /// numbers) shows: at `at` itself, or when the skin there is hidden (an eyeball, the far side
@@ -40,7 +40,7 @@ class SkinBuffer {
 
  private:
   const Points& rest_;
-  const Faces& faces_;
+  const Triangles& faces_;
   int size_;
   double tolerance_;
   Eigen::Matrix4d inverse_;  // of projection * view

@@ -296,7 +296,7 @@ HeadLandmarks detect_landmarks(const rig::Rig& head, const rig::Components& comp
   render::Renderer renderer(neutral, ro);
   lap(time.render);
 
-  const Points rest = head.positions.cast<double>();
+  const Points rest = rig::to_points(head.positions);
   std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));
   for (int t = 0; t < head.triangle_count(); ++t)
     skin[static_cast<std::size_t>(t)] =

@@ -10,7 +10,7 @@ namespace facecast::rigbuild {
 
 LidMargins::LidMargins(const rig::Rig& head, const rig::Components& comps,
                        const render::Camera& camera)
-    : rest_(head.positions.cast<double>()),
+    : rest_(rig::to_points(head.positions)),
       forward_((camera.target - camera.eye).cast<double>().normalized()),
       up_(camera.up.cast<double>()) {
   std::vector<char> skin(static_cast<std::size_t>(head.triangle_count()));

@@ -14,7 +14,7 @@ namespace facecast::rigbuild {
 
 class MeshGraph {
  public:
-  MeshGraph(const Points& points, const Faces& faces) {
+  MeshGraph(const Points& points, const Triangles& faces) {
     const int n = static_cast<int>(points.rows());
     std::vector<std::pair<int, int>> e;
     e.reserve(static_cast<std::size_t>(faces.rows()) * 6);

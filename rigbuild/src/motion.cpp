@@ -10,7 +10,7 @@ namespace facecast::rigbuild {
 
 TemplateShapes template_shapes(const rig::Rig& tmpl) {
   TemplateShapes s;
-  s.rest = tmpl.positions.cast<double>();
+  s.rest = rig::to_points(tmpl.positions);
   s.faces = tmpl.triangles;
   const auto rest_inv = rest_frames_inverse(s.rest, s.faces, "template");
   s.shapes.resize(tmpl.shapes.size());

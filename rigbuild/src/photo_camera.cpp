@@ -129,7 +129,7 @@ render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& po
                              int height) {
   // A narrow perspective camera far away approximates the orthographic projection: the photo's
   // centre pixel back-projected at the head's mean depth is the target.
-  const Eigen::Vector3d centre = positions.cast<double>().colwise().mean().transpose();
+  const Eigen::Vector3d centre = rig::to_points(positions).colwise().mean().transpose();
   const double z0 = camera.depth(centre);
   const Eigen::Vector3d target =
       camera.R.transpose() * Eigen::Vector3d((0.5 * (width - 1) - camera.t.x()) / camera.s,
@@ -142,7 +142,7 @@ render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& po
   out.eye = (target + distance * camera.towards()).cast<float>();
   out.up = camera.R.row(1).transpose().cast<float>();
   const double depth =
-      (positions.cast<double>().rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
+      (rig::to_points(positions).rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
   out.near_plane = static_cast<float>(std::max(1e-3, distance - 2 * depth));
   out.far_plane = static_cast<float>(distance + 2 * depth);
   return out;

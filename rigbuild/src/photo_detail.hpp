@@ -35,7 +35,7 @@ struct DepthBuffer {
   static constexpr float kEmpty = -std::numeric_limits<float>::max();  // no triangle there
   int w = 0, h = 0;
   std::vector<float> depth;  // w * h, rows from the top
-  DepthBuffer(const rig::Positions& positions, const rig::Triangles& triangles,
+  DepthBuffer(const rig::Positions& positions, const Triangles& triangles,
               const OrthoCamera& camera, int width, int height);
   /// Depth z at the pixel nearest `at` is not behind the mesh by more than `tolerance`.
   bool visible(const Eigen::Vector2d& at, double z, double tolerance) const;

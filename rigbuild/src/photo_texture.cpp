@@ -104,7 +104,7 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
 
 }  // namespace
 
-DepthBuffer::DepthBuffer(const rig::Positions& p, const rig::Triangles& tri, const OrthoCamera& cam,
+DepthBuffer::DepthBuffer(const rig::Positions& p, const Triangles& tri, const OrthoCamera& cam,
                          int w_, int h_)
     : w(w_), h(h_), depth(static_cast<std::size_t>(w_) * h_, kEmpty) {
   std::vector<Eigen::Vector2d> px(static_cast<std::size_t>(p.rows()));

@@ -38,7 +38,7 @@ const char* placement_name(PlacedPart::Kind kind) {
 // What a placed part needs from the rest of the build.
 struct PartContext {
   const Points& rest;
-  const Faces& faces;
+  const Triangles& faces;
   const MeshParts& parts;
   const Correspondence& c;
   const TemplateShapes& source;
@@ -163,7 +163,7 @@ PlacedPart place_part(const PartContext& x, int component) {
   return part;
 }
 
-std::vector<int> triangles_of(const Faces& faces, const MeshParts& parts, int component) {
+std::vector<int> triangles_of(const Triangles& faces, const MeshParts& parts, int component) {
   std::vector<int> out;
   for (Eigen::Index t = 0; t < faces.rows(); ++t)
     if (parts.of(faces(t, 0)) == component) out.push_back(static_cast<int>(t));

@@ -9,7 +9,7 @@
 
 namespace facecast::rigbuild {
 
-Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
+Transfer factor(const Points& rest, const Triangles& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options) {
   TransferSetup setup;
@@ -111,7 +111,7 @@ rig::Rig with_shapes(const rig::Rig& tmpl, const rig::Rig& target, const Points&
   rig.shapes.clear();
   const float keep = static_cast<float>(1e-7 * diagonal(rest));
   for (std::size_t k = 0; k < solved.size(); ++k) {
-    const rig::Positions d = (solved[k] - rest).cast<float>();
+    const rig::Positions d = rig::to_positions(solved[k] - rest);
     rig.shapes.push_back(rig::Blendshape::from_dense(tmpl.shapes[k].name, d, keep));
   }
   return rig;
@@ -128,7 +128,7 @@ void measure_gaps(const rig::Rig& built, const Points& rest, const std::vector<P
     q.shape = built.shapes[k].name;
     q.max_displacement = built.shapes[k].max_displacement();
     q.min_gap = ne ? std::numeric_limits<double>::max() : 0.0;
-    const rig::Positions d = (solved[k] - rest).cast<float>();
+    const rig::Positions d = rig::to_positions(solved[k] - rest);
     for (std::size_t i = 0; i < ne; ++i) {
       const auto& ve = edges[i];
       const double neutral = (rest.row(ve.a) - rest.row(ve.b)).norm();

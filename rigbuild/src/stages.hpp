@@ -29,7 +29,7 @@ namespace facecast::rigbuild {
 /// The template's side: rest positions and, per shape, positions and deformation gradients.
 struct TemplateShapes {
   Points rest;
-  Faces faces;
+  Triangles faces;
   std::vector<Points> shapes;
   std::vector<Gradients> gradients;
   std::size_t size() const { return shapes.size(); }
@@ -148,7 +148,7 @@ Placement place_components(const rig::Rig& tmpl, const TargetMesh& mesh,
 std::vector<VirtualEdge> virtual_edges(const TargetMesh& target, const BuildOptions& options,
                                        VirtualEdgeStats& stats);
 /// The virtual edges are in the system unless options.virtual_edges is kOff.
-Transfer factor(const Points& rest, const Faces& faces, const TriangleMap& map,
+Transfer factor(const Points& rest, const Triangles& faces, const TriangleMap& map,
                 const std::vector<VirtualEdge>& edges, const Placement& placement,
                 const BuildOptions& options);
 /// Per shape: the target neutral plus the template's displacement copied vertex by vertex (in the

@@ -174,7 +174,7 @@ std::string compact_glb_bytes(const rig::Rig& rig, const std::vector<rig::Positi
   Packer p;
   json attributes;
   const Eigen::Matrix<double, Eigen::Dynamic, 3> centred =
-      rig.positions.cast<double>().rowwise() - centre;
+      rig::to_points(rig.positions).rowwise() - centre;
   attributes["POSITION"] = p.vec3_short(centred, scale);
   std::vector<std::int8_t> normals(static_cast<std::size_t>(nv) * 4, 0);
   for (int v = 0; v < nv; ++v)

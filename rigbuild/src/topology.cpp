@@ -6,7 +6,7 @@
 
 namespace facecast::rigbuild {
 
-Correspondence identity_correspondence(int vertex_count, const Faces& faces) {
+Correspondence identity_correspondence(int vertex_count, const Triangles& faces) {
   Correspondence c;
   c.template_vertices = c.target_vertices = vertex_count;
   c.template_triangles = c.target_triangles = static_cast<int>(faces.rows());
@@ -16,11 +16,12 @@ Correspondence identity_correspondence(int vertex_count, const Faces& faces) {
   return c;
 }
 
-std::optional<std::vector<int>> match_triangle_order(const Faces& tmpl, const Faces& target) {
+std::optional<std::vector<int>> match_triangle_order(const Triangles& tmpl,
+                                                     const Triangles& target) {
   if (tmpl.rows() != target.rows()) return std::nullopt;
   // A triangle's key: its corners rotated so the smallest comes first (keeps the orientation).
   using Key = std::array<int, 3>;
-  const auto key = [](const Faces& f, Eigen::Index t) {
+  const auto key = [](const Triangles& f, Eigen::Index t) {
     Key k{f(t, 0), f(t, 1), f(t, 2)};
     std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
     return k;
@@ -45,9 +46,9 @@ std::optional<std::vector<int>> match_triangle_order(const Faces& tmpl, const Fa
 }
 
 std::optional<Correspondence> same_topology_correspondence(int template_vertices,
-                                                           const Faces& template_faces,
+                                                           const Triangles& template_faces,
                                                            int target_vertices,
-                                                           const Faces& target_faces) {
+                                                           const Triangles& target_faces) {
   if (template_vertices != target_vertices) return std::nullopt;
   if (template_faces == target_faces) return identity_correspondence(target_vertices, target_faces);
   const auto order = match_triangle_order(template_faces, target_faces);

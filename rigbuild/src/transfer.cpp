@@ -36,7 +36,7 @@ Eigen::Matrix3d frame(const Eigen::Vector3d& v1, const Eigen::Vector3d& v2,
 }
 }  // namespace
 
-std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Faces& faces,
+std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Triangles& faces,
                                                  const char* what) {
   std::vector<Eigen::Matrix3d> out(static_cast<std::size_t>(faces.rows()));
   for (Eigen::Index t = 0; t < faces.rows(); ++t) {
@@ -55,7 +55,7 @@ std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Faces
 }
 
 void source_gradients(const std::vector<Eigen::Matrix3d>& rest_inverse, const Points& deformed,
-                      const Faces& faces, Gradients& out) {
+                      const Triangles& faces, Gradients& out) {
   out.resize(rest_inverse.size());
   for (Eigen::Index t = 0; t < faces.rows(); ++t) {
     const Eigen::Matrix3d Vt =

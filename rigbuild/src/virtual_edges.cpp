@@ -21,7 +21,7 @@ double estimate_from(const MeshGraph& g, const Points& points) {
 }
 }  // namespace
 
-double estimate_ve_distance(const Points& points, const Faces& faces) {
+double estimate_ve_distance(const Points& points, const Triangles& faces) {
   return estimate_from(MeshGraph(points, faces), points);
 }
 
@@ -203,7 +203,7 @@ std::vector<VirtualEdge> detect(const Points& points, const MeshGraph& graph,
 
 }  // namespace
 
-std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces& faces,
+std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Triangles& faces,
                                               const VirtualEdgeOptions& options,
                                               VirtualEdgeStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();

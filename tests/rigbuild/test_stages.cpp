@@ -72,7 +72,7 @@ TEST_CASE("a sphere fit finds an eyeball's centre and radius", "[rigbuild][geome
 }
 
 TEST_CASE("the triangle-order matcher pairs equal triangles once each", "[rigbuild][geometry]") {
-  Faces a(3, 3), b(3, 3);
+  Triangles a(3, 3), b(3, 3);
   a << 0, 1, 2, 0, 1, 2, 2, 3, 1;  // a triangle twice
   b << 1, 2, 0, 3, 1, 2, 2, 0, 1;  // rotated corners, another order
   const auto order = match_triangle_order(a, b);

@@ -173,7 +173,7 @@ TEST_CASE("broken rig-build inputs are rejected with a clear error", "[rigbuild]
 }
 
 TEST_CASE("the same triangles in another order are the same topology", "[rigbuild][transfer]") {
-  Faces a(3, 3), b(3, 3), flipped(3, 3);
+  Triangles a(3, 3), b(3, 3), flipped(3, 3);
   a << 0, 1, 2, 1, 3, 2, 2, 3, 4;
   b << 3, 4, 2, 0, 1, 2, 3, 2, 1;        // permuted, corners rotated
   flipped << 0, 2, 1, 1, 3, 2, 2, 3, 4;  // one triangle reversed: another surface

@@ -12,14 +12,9 @@
 #include <utility>
 #include <vector>
 
-namespace facecast::rig {
+#include "facecast/rig/mesh.hpp"
 
-/// #V by 3 positions (or normals, or deltas), row-major so the rows are packed xyz triples.
-using Positions = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
-/// #V by 2 texture coordinates.
-using UVs = Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>;
-/// #F by 3 vertex indices, counter-clockwise seen from outside.
-using Triangles = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
+namespace facecast::rig {
 
 /// An image a material samples, as stored in the file: encoded PNG, JPEG or WebP bytes (the
 /// renderer decodes them; KTX2 it refuses), with its sampler's wrap and filter modes.
@@ -195,28 +190,5 @@ struct Rig {
   /// problem.
   void validate(std::string_view what = "rig") const;
 };
-
-/// Connected components of the mesh (vertices joined by triangle edges). The largest is the skin
-/// of a head (the face); the others are its parts: teeth, eyeballs, lashes, a tongue. This is the
-/// one place that decides it.
-struct Components {
-  std::vector<int> label;  // #V, component of each vertex; -1 for a vertex in no triangle
-  int count = 0;
-  int largest = -1;  // the component with the most vertices (the first of equal ones); -1: none
-};
-Components connected_components(int vertex_count, const Triangles& triangles);
-
-/// Area-weighted unit vertex normals; a vertex in no (or only degenerate) triangles gets +Z.
-Positions vertex_normals(const Positions& positions, const Triangles& triangles);
-/// The same, written into `normals` (resized) so a per-frame caller can reuse the memory.
-void vertex_normals(const Positions& positions, const Triangles& triangles, Positions& normals);
-/// The same in double precision (the rig builder's geometry).
-using PositionsD = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-PositionsD vertex_normals(const PositionsD& positions, const Triangles& triangles);
-
-/// Closest point to p on triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5);
-/// returns barycentric weights of a, b, c.
-Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                    const Eigen::Vector3d& b, const Eigen::Vector3d& c);
 
 }  // namespace facecast::rig

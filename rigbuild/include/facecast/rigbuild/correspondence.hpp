@@ -83,20 +83,21 @@ struct Correspondence {
 };
 
 /// Same topology: triangle t <-> t, vertex v <-> v.
-Correspondence identity_correspondence(int vertex_count, const Faces& faces);
+Correspondence identity_correspondence(int vertex_count, const Triangles& faces);
 
 /// When `target` holds the triangles of `tmpl` in another order (a GLB groups triangles by
 /// material, so a user's material split reorders them), per target triangle the template triangle
 /// with the same corners in the same cyclic order, each template triangle once; nullopt when the
 /// triangles differ.
-std::optional<std::vector<int>> match_triangle_order(const Faces& tmpl, const Faces& target);
+std::optional<std::vector<int>> match_triangle_order(const Triangles& tmpl,
+                                                     const Triangles& target);
 
 /// Same vertices and the same triangles, maybe in another order (match_triangle_order): vertex
 /// v <-> v, each target triangle <-> its template triangle. nullopt when the topologies differ.
 std::optional<Correspondence> same_topology_correspondence(int template_vertices,
-                                                           const Faces& template_faces,
+                                                           const Triangles& template_faces,
                                                            int target_vertices,
-                                                           const Faces& target_faces);
+                                                           const Triangles& target_faces);
 
 /// Puts the target's triangles (with their materials and groups) in the template's order when
 /// they are the template's triangles in another order (match_triangle_order); false, and the
@@ -109,21 +110,24 @@ bool reorder_triangles_like(const rig::Rig& tmpl, rig::Rig& target);
 /// replace `markers`, and the registration goes on from there, one step at the last of
 /// options.closest_weights (the lids' middles, docs/algorithms.md#landmarks, step 7).
 using MarkerRefinement = std::function<std::vector<MarkerPair>(const Points& registered)>;
-Correspondence compute_correspondence(const Points& template_rest, const Faces& template_faces,
+Correspondence compute_correspondence(const Points& template_rest, const Triangles& template_faces,
                                       const std::vector<int>& template_parts,
-                                      const Points& target_rest, const Faces& target_faces,
+                                      const Points& target_rest, const Triangles& target_faces,
                                       const std::vector<MarkerPair>& markers,
                                       const RegistrationOptions& options,
                                       const ProgressFn& progress = {},
                                       const MarkerRefinement& refine = {});
 /// The same with both meshes' connected components (rig::connected_components) given, for a
 /// caller that has them already (build_rig computes each mesh's once).
-Correspondence compute_correspondence(
-    const Points& template_rest, const Faces& template_faces,
-    const rig::Components& template_components, const std::vector<int>& template_parts,
-    const Points& target_rest, const Faces& target_faces, const rig::Components& target_components,
-    const std::vector<MarkerPair>& markers, const RegistrationOptions& options,
-    const ProgressFn& progress = {}, const MarkerRefinement& refine = {});
+Correspondence compute_correspondence(const Points& template_rest, const Triangles& template_faces,
+                                      const rig::Components& template_components,
+                                      const std::vector<int>& template_parts,
+                                      const Points& target_rest, const Triangles& target_faces,
+                                      const rig::Components& target_components,
+                                      const std::vector<MarkerPair>& markers,
+                                      const RegistrationOptions& options,
+                                      const ProgressFn& progress = {},
+                                      const MarkerRefinement& refine = {});
 
 /// Binary cache with a header that records the mesh sizes; load checks them.
 void save_correspondence(const std::filesystem::path& path, const Correspondence& c);

@@ -1,11 +1,14 @@
 #pragma once
-// The rig builder's mesh types and the least-squares fit of one point set onto another.
+// The least-squares fit of one point set onto another.
 #include <Eigen/Core>
+
+#include "facecast/rig/mesh.hpp"
 
 namespace facecast::rigbuild {
 
-using Points = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;  // #V by 3
-using Faces = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;      // #F by 3
+// The mesh vocabulary is rig's (facecast/rig/mesh.hpp); the builder computes in Points.
+using rig::Points;
+using rig::Triangles;
 
 /// x -> scale * R x + t (a rigid motion when scale is 1).
 struct Similarity {

@@ -30,12 +30,12 @@ using Gradients = std::vector<Eigen::Matrix3d>;  // one per triangle
 
 /// The inverse rest frames V^-1 of a mesh's triangles (with the fourth vertex). Throws Error naming
 /// the first triangle whose area is zero.
-std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Faces& faces,
+std::vector<Eigen::Matrix3d> rest_frames_inverse(const Points& rest, const Triangles& faces,
                                                  const char* what);
 
 /// Per-triangle deformation gradients S_t = V~ V^-1 of `deformed` against the rest frames.
 void source_gradients(const std::vector<Eigen::Matrix3d>& rest_inverse, const Points& deformed,
-                      const Faces& faces, Gradients& out);
+                      const Triangles& faces, Gradients& out);
 
 /// A virtual edge between two target vertices.
 struct VirtualEdge {
@@ -61,7 +61,7 @@ enum class SolverKind { kCholmod, kEigenLDLT };
 
 struct TransferSetup {
   Points target_rest;  // the target neutral
-  Faces target_faces;
+  Triangles target_faces;
   TriangleMap map;
   std::vector<VirtualEdge> virtual_edges;
   double lambda = 1.0;         // weight of the virtual-edge term

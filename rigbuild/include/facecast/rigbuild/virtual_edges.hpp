@@ -36,9 +36,9 @@ struct VirtualEdgeStats {
 
 /// d from the mesh: a multiple of the median edge length, bounded by a fraction of the bounding box
 /// diagonal, so the threshold spans the thin gaps of a face at any resolution.
-double estimate_ve_distance(const Points& points, const Faces& faces);
+double estimate_ve_distance(const Points& points, const Triangles& faces);
 
-std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Faces& faces,
+std::vector<VirtualEdge> detect_virtual_edges(const Points& points, const Triangles& faces,
                                               const VirtualEdgeOptions& options,
                                               VirtualEdgeStats* stats = nullptr);
 
