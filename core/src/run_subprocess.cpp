@@ -15,7 +15,7 @@
 
 namespace facecast {
 
-using Clock = std::chrono::steady_clock;
+using std::chrono::steady_clock;
 
 std::string RunResult::last_error_line() const {
   std::string line;
@@ -53,7 +53,7 @@ std::string RunResult::describe() const {
 }
 
 RunResult run_subprocess(const std::vector<std::string>& argv, const RunOptions& o) {
-  const auto t0 = Clock::now();
+  const auto t0 = steady_clock::now();
   int input_fd = -1;
   if (!o.input_file.empty()) {
     input_fd = ::open(o.input_file.c_str(), O_RDONLY | O_CLOEXEC);
@@ -81,20 +81,20 @@ RunResult run_subprocess(const std::vector<std::string>& argv, const RunOptions&
   r.program = child->program();
   r.timeout = o.timeout;
   // "No limit" (and NaN) as about four months.
-  const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(
+  const auto deadline = t0 + std::chrono::duration_cast<steady_clock::duration>(
                                  std::chrono::duration<double>(o.timeout < 1e7 ? o.timeout : 1e7));
   if (!o.input.empty()) {
     // Input and outputs together; the time left bounds the writing.
-    const double left = std::chrono::duration<double>(deadline - Clock::now()).count();
+    const double left = std::chrono::duration<double>(deadline - steady_clock::now()).count();
     child->write(0, o.input, std::max(0.0, left));
   }
-  const double left = std::chrono::duration<double>(deadline - Clock::now()).count();
+  const double left = std::chrono::duration<double>(deadline - steady_clock::now()).count();
   r.status = child->finish(std::max(0.0, left));
   r.output_limited = child->overflowed(1);
   r.out = child->output(1);
   r.err = child->output(2);
   if (r.err.size() > o.max_error) r.err.erase(0, r.err.size() - o.max_error);
-  r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.seconds = std::chrono::duration<double>(steady_clock::now() - t0).count();
   return r;
 }
 
