@@ -10,10 +10,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string dump(const json& j) {
-  return j.dump(-1, ' ', false, json::error_handler_t::replace);
-}
-
 const std::string& string_field(const json& v, std::string_view field) {
   if (!v.is_string()) throw Error(std::string(field) + ": expected a string");
   return v.get_ref<const std::string&>();
@@ -103,28 +99,28 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const j
 
 std::string subscribed_message(const std::string& channel, long subscribers,
                                const std::optional<std::string>& playing) {
-  return dump({{"type", "subscribed"},
-               {"channel", channel},
-               {"subscribers", subscribers},
-               {"playing", playing ? json(*playing) : json(nullptr)}});
+  return message_text({{"type", "subscribed"},
+                       {"channel", channel},
+                       {"subscribers", subscribers},
+                       {"playing", playing ? json(*playing) : json(nullptr)}});
 }
 
 std::string presence_message(const std::string& channel, long subscribers) {
-  return dump({{"type", "presence"}, {"channel", channel}, {"subscribers", subscribers}});
+  return message_text({{"type", "presence"}, {"channel", channel}, {"subscribers", subscribers}});
 }
 
 std::string segment_message(const SegmentInfo& s, const json& utterance) {
-  return dump({{"type", "segment"},
-               {"id", s.id},
-               {"stream", s.stream},
-               {"index", s.index},
-               {"start", s.start},
-               {"duration", s.duration},
-               {"first_frame", s.first_frame},
-               {"end_frame", s.end_frame},
-               {"first_sample", s.first_sample},
-               {"end_sample", s.end_sample},
-               {"utterance", utterance}});
+  return message_text({{"type", "segment"},
+                       {"id", s.id},
+                       {"stream", s.stream},
+                       {"index", s.index},
+                       {"start", s.start},
+                       {"duration", s.duration},
+                       {"first_frame", s.first_frame},
+                       {"end_frame", s.end_frame},
+                       {"first_sample", s.first_sample},
+                       {"end_sample", s.end_sample},
+                       {"utterance", utterance}});
 }
 
 std::string open_stream_start(const std::string& stream_start) {
@@ -134,15 +130,15 @@ std::string open_stream_start(const std::string& stream_start) {
   j["speech_duration"] = nullptr;
   if (j["audio"].is_object()) j["audio"]["samples"] = nullptr;
   j["open"] = true;
-  return dump(j);
+  return message_text(j);
 }
 
 std::string producing_message(const std::string& channel) {
-  return dump({{"type", "producing"}, {"channel", channel}});
+  return message_text({{"type", "producing"}, {"channel", channel}});
 }
 
 std::string unsubscribed_message(const std::string& channel) {
-  return dump({{"type", "unsubscribed"}, {"channel", channel}});
+  return message_text({{"type", "unsubscribed"}, {"channel", channel}});
 }
 
 }  // namespace facecast::server

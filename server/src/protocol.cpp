@@ -37,10 +37,6 @@ std::uint64_t get_u64(const char* p) noexcept {
   return v;
 }
 
-std::string dump(const json& j) {
-  return j.dump(-1, ' ', false, json::error_handler_t::replace);
-}
-
 std::string with_header(const MediaHeader& h, std::size_t payload) {
   std::string out(kHeaderSize + payload, '\0');
   write_header(h, out.data());
@@ -376,23 +372,23 @@ ClientMessage parse_client_message(std::string_view text, const ProtocolLimits& 
 
 std::string hello_message(std::string_view server, const std::vector<std::string>& rigs,
                           const ServerOptions& o) {
-  return dump({{"type", "hello"},
-               {"protocol", kSubprotocol},
-               {"server", server},
-               {"rigs", rigs},
-               {"default_rig", o.default_rig},
-               {"limits",
-                {{"max_text", o.max_text},
-                 {"max_message", o.max_message},
-                 {"speak_per_minute", o.speak_per_minute},
-                 {"speak_burst", o.speak_burst},
-                 {"max_queued_speaks", o.max_queued_speaks},
-                 {"max_fps", o.max_fps},
-                 {"max_frame_side", o.max_frame_side},
-                 {"max_utterance_seconds", o.max_utterance_seconds},
-                 {"messages_per_second", o.messages_per_second},
-                 {"message_burst", o.message_burst}}},
-               {"lead", o.lead}});
+  return message_text({{"type", "hello"},
+                       {"protocol", kSubprotocol},
+                       {"server", server},
+                       {"rigs", rigs},
+                       {"default_rig", o.default_rig},
+                       {"limits",
+                        {{"max_text", o.max_text},
+                         {"max_message", o.max_message},
+                         {"speak_per_minute", o.speak_per_minute},
+                         {"speak_burst", o.speak_burst},
+                         {"max_queued_speaks", o.max_queued_speaks},
+                         {"max_fps", o.max_fps},
+                         {"max_frame_side", o.max_frame_side},
+                         {"max_utterance_seconds", o.max_utterance_seconds},
+                         {"messages_per_second", o.messages_per_second},
+                         {"message_burst", o.message_burst}}},
+                       {"lead", o.lead}});
 }
 
 std::string stream_start_message(const StreamStart& s, const std::vector<std::string>& names,
@@ -405,45 +401,46 @@ std::string stream_start_message(const StreamStart& s, const std::vector<std::st
              {"channels", 1},
              {"samples", s.samples}};
   }
-  return dump({{"type", "stream_start"},
-               {"id", s.id},
-               {"stream", s.stream},
-               {"output", frames ? "frames" : "weights"},
-               {"fps", s.fps},
-               {"frames", s.frames},
-               {"duration", s.duration},
-               {"speech_duration", s.speech_duration},
-               {"names", names},
-               {"extra", rig::BodyPose::kChannels},
-               {"audio", audio},
-               {"size", frames ? json{s.width, s.height} : json(nullptr)},
-               {"rig", s.rig},
-               {"lead", s.lead},
-               {"utterance", utterance}});
+  return message_text({{"type", "stream_start"},
+                       {"id", s.id},
+                       {"stream", s.stream},
+                       {"output", frames ? "frames" : "weights"},
+                       {"fps", s.fps},
+                       {"frames", s.frames},
+                       {"duration", s.duration},
+                       {"speech_duration", s.speech_duration},
+                       {"names", names},
+                       {"extra", rig::BodyPose::kChannels},
+                       {"audio", audio},
+                       {"size", frames ? json{s.width, s.height} : json(nullptr)},
+                       {"rig", s.rig},
+                       {"lead", s.lead},
+                       {"utterance", utterance}});
 }
 
 std::string stream_end_message(const StreamEnd& e) {
-  return dump({{"type", "stream_end"},
-               {"id", e.id},
-               {"stream", e.stream ? json(*e.stream) : json(nullptr)},
-               {"frames", e.frames},
-               {"dropped", e.dropped},
-               {"cancelled", e.cancelled}});
+  return message_text({{"type", "stream_end"},
+                       {"id", e.id},
+                       {"stream", e.stream ? json(*e.stream) : json(nullptr)},
+                       {"frames", e.frames},
+                       {"dropped", e.dropped},
+                       {"cancelled", e.cancelled}});
 }
 
 std::string pong_message(const json& t, double server_time) {
-  return dump({{"type", "pong"}, {"t", t}, {"server_time", server_time}});
+  return message_text({{"type", "pong"}, {"t", t}, {"server_time", server_time}});
 }
 
 std::string error_message(const std::optional<std::string>& id, const Problem& problem) {
-  return dump({{"type", "error"},
-               {"id", id ? json(*id) : json(nullptr)},
-               {"code", to_string(problem.code)},
-               {"message", problem.message}});
+  return message_text({{"type", "error"},
+                       {"id", id ? json(*id) : json(nullptr)},
+                       {"code", to_string(problem.code)},
+                       {"message", problem.message}});
 }
 
 std::string error_body(const Problem& problem) {
-  return dump({{"error", {{"code", to_string(problem.code)}, {"message", problem.message}}}});
+  return message_text(
+      {{"error", {{"code", to_string(problem.code)}, {"message", problem.message}}}});
 }
 
 // ---- binary media
@@ -537,6 +534,10 @@ std::size_t frame_header(std::array<std::uint8_t, 10>& out, bool text, std::size
   out[1] = 127;
   for (int i = 0; i < 8; ++i) out[2 + i] = static_cast<std::uint8_t>(size >> (56 - 8 * i));
   return 10;
+}
+
+std::string message_text(const json& j) {
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 }  // namespace facecast::server

@@ -154,6 +154,9 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const n
 /// A channel name: 1-64 of A-Z a-z 0-9 _ - . (throws Error naming `field`).
 std::string check_channel_name(const nlohmann::json& v, std::string_view field);
 
+/// A message as compact JSON text; text that is not UTF-8 is replaced, never thrown on.
+std::string message_text(const nlohmann::json& j);
+
 // ---- server -> client -------------------------------------------------------------------------
 // Every JSON message the server sends is built here (docs/protocol.md, "Server -> client").
 
