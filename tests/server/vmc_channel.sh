@@ -16,7 +16,7 @@ JSON
   "$facecast" serve --config "$tmp/server.json" --port 0 --data "$tmp/data" >"$tmp/serve.out" 2>"$tmp/serve.err" &
   pid=$!
   trap 'kill $pid 2>/dev/null || true' EXIT
-  for _ in $(seq 100); do grep -q "listening on" "$tmp/serve.out" && break; sleep 0.1; done
+  for _ in $(seq 600); do grep -q "listening on" "$tmp/serve.out" && break; sleep 0.1; done
   url=$(sed -n 's/^facecast: listening on //p' "$tmp/serve.out")
   [[ -n $url ]] || { echo "serve did not start: $(cat "$tmp/serve.err")"; exit 1; }
   python3 - "$url" <<'PY'
