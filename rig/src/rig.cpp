@@ -2,9 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
-
-#include <Eigen/Geometry>
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/utf8.hpp"
