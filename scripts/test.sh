@@ -23,15 +23,35 @@ labels=() tsan_cases=()
 ((fast)) && labels=(-LE slow) tsan_cases=("~[slow]")
 (cd build && ctest --output-on-failure -j2 "${labels[@]}")
 if ((sanitize)); then
-  scripts/build.sh build-asan -DFACECAST_SANITIZE=ON -DFACECAST_BUILD_BENCH=OFF
+  # Both sanitizer trees at -O1: instrumented code at -O3 took four times the compiler time
+  # (docs/benchmarks.md#build-time).
+  o1=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG"
+    -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF)
+  scripts/build.sh build-asan -DFACECAST_SANITIZE=ON "${o1[@]}"
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   (cd build-asan && ctest --output-on-failure -j2 -LE slow)
   # ThreadSanitizer on the multi-threaded part: the server and its tests only (--fast: not the slow).
-  scripts/build.sh build-tsan --target=test_server -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_TSAN=ON \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF
+  scripts/build.sh build-tsan --target=test_server -DFACECAST_TSAN=ON "${o1[@]}"
   # test_server runs outside ctest here: the shared data comes through the same fixture first.
   (cd build-tsan && ctest -R '^extract_shared_data$' --output-on-failure >/dev/null)
-  TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp" \
-    build-tsan/tests/server/test_server "${tsan_cases[@]}"
+  # One process per core, each half the cases (balanced by the Release run's times); a process
+  # stops at its first report, and its log is printed when it fails.
+  export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp"
+  rm -rf build-tsan/split
+  build-tsan/tests/server/test_server --list-test-names-only "${tsan_cases[@]}" |
+    python3 scripts/split_cases.py build/Testing/Temporary/CTestCostData.txt "$(nproc)" build-tsan/split
+  pids=()
+  for f in build-tsan/split/cases-*.txt; do
+    build-tsan/tests/server/test_server -f "$f" >"${f%.txt}.log" 2>&1 &
+    pids+=($!)
+  done
+  failed=0
+  for i in "${!pids[@]}"; do
+    wait "${pids[$i]}" && continue
+    failed=1
+    tail -n 300 "build-tsan/split/cases-$i.log" >&2
+  done
+  ((failed == 0)) || { echo "ThreadSanitizer: the server tests failed (build-tsan/split/*.log)" >&2; exit 1; }
+  grep -h "test cases" build-tsan/split/cases-*.log
   scripts/fuzz.sh "${FACECAST_FUZZ_SECONDS:-30}"
 fi

@@ -54,6 +54,9 @@ struct Server::Impl {
   std::shared_ptr<Services> services;
   net::io_context ioc;
   net::executor_work_guard<net::io_context::executor_type> work;
+  // The accept loop, signals, timers and stop() run on this strand: the flags below, the acceptor
+  // and the timers are never touched by two I/O threads at once.
+  net::strand<net::io_context::executor_type> control;
   tcp::acceptor acceptor;
   net::signal_set signals;
   net::steady_timer shutdown_timer;
@@ -64,7 +67,7 @@ struct Server::Impl {
   std::thread jobs_stopper;  // cancels jobs and ends the RTMP outputs during shutdown
   std::vector<std::shared_ptr<RtmpOutput>> rtmp;  // channels published as live video
   std::vector<std::shared_ptr<VmcMirror>> vmc;    // channels mirrored to VMC receivers
-  bool shutting_down = false;                     // on the io_context
+  bool shutting_down = false;                     // on `control`
   bool draining = false;
   std::chrono::steady_clock::time_point drain_deadline;
   std::mutex mutex;
@@ -74,10 +77,11 @@ struct Server::Impl {
 Server::Impl::Impl(ServerOptions options)
     : ioc(options.io_threads),
       work(net::make_work_guard(ioc)),
-      acceptor(net::make_strand(ioc)),
-      signals(ioc),
-      shutdown_timer(ioc),
-      maintenance_timer(ioc) {
+      control(net::make_strand(ioc)),
+      acceptor(control),
+      signals(control),
+      shutdown_timer(control),
+      maintenance_timer(control) {
   validate(options);
   log::set_level(options.log_level);
   raise_file_limit();
@@ -135,7 +139,7 @@ void Server::Impl::on_accept(beast::error_code ec, tcp::socket socket) {
     log::warn("accept_failed", {{"error", ec.message()}});
     if (ec == net::error::no_descriptors || ec == net::error::no_buffer_space) {
       // Out of descriptors: back off a little instead of spinning.
-      auto t = std::make_shared<net::steady_timer>(ioc, std::chrono::milliseconds(50));
+      auto t = std::make_shared<net::steady_timer>(control, std::chrono::milliseconds(50));
       t->async_wait([this, t](beast::error_code) { do_accept(); });
       return;
     }
@@ -282,7 +286,7 @@ void Server::start() {
                           {"web", impl_->services->web.web.string()},
                           {"token", !o.token.empty()},
                           {"keys", impl_->services->auth.keys() != nullptr}});
-  net::dispatch(impl_->acceptor.get_executor(), [this] { impl_->do_accept(); });
+  net::dispatch(impl_->control, [this] { impl_->do_accept(); });
   // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
   // loaded once here rather than during the first client's speak.
   net::post(impl_->services->workers, [s = impl_->services] {
@@ -316,7 +320,7 @@ void Server::run() {
 }
 
 void Server::stop() {
-  net::post(impl_->ioc, [this] { impl_->begin_shutdown(); });
+  net::post(impl_->control, [this] { impl_->begin_shutdown(); });
   {
     std::lock_guard lock(impl_->mutex);
     if (!impl_->started) {
