@@ -13,6 +13,10 @@
 
 namespace facecast::rigbuild {
 
+std::string landmark_name(int k) {
+  return (k < 10 ? "dlib_0" : "dlib_") + std::to_string(k);
+}
+
 LandmarkOptions load_landmark_options() {
   ConfigReader c = ConfigReader::open(config_path("rigbuild/landmarks.json"));
   LandmarkOptions o;

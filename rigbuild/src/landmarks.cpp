@@ -409,9 +409,7 @@ std::vector<MarkerPair> landmark_markers(const std::array<int, kLandmarkCount>& 
     const int a = template_vertices[static_cast<std::size_t>(k)];
     const int b = target.vertex[static_cast<std::size_t>(k)];
     if (a < 0 || b < 0) continue;
-    char name[16];
-    std::snprintf(name, sizeof name, "dlib_%02d", k);
-    out.push_back({name, a, b});
+    out.push_back({landmark_name(k), a, b});
   }
   if (out.size() < 8)
     throw Error("landmarks: only " + std::to_string(out.size()) +

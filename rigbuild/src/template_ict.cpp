@@ -2,7 +2,6 @@
 // parts kept, ARKit names, baked visemes, landmarks, materials.
 #include <algorithm>
 #include <array>
-#include <cstdio>
 #include <map>
 
 #include "facecast/avatar/avatar.hpp"
@@ -163,13 +162,11 @@ rig::Rig ict_template_rig(const std::filesystem::path& dir) {
       indices["idx_to_landmark_verts"].size() != kLandmarkCount)
     throw Error(indices_path.string() + ": idx_to_landmark_verts: expected 68 vertex indices");
   for (int k = 0; k < kLandmarkCount; ++k) {
-    char name[16];
-    std::snprintf(name, sizeof name, "dlib_%02d", k);
     const int v = indices["idx_to_landmark_verts"][static_cast<std::size_t>(k)].get<int>();
     if (v < 0 || v >= kDropFirst)
       throw Error(indices_path.string() + ": idx_to_landmark_verts[" + std::to_string(k) +
                   "]: not a face vertex");
-    ict.landmarks.push_back({name, v});
+    ict.landmarks.push_back({landmark_name(k), v});
   }
   std::vector<bool> keep(static_cast<std::size_t>(ict.vertex_count()), true);
   std::fill(keep.begin() + kDropFirst, keep.begin() + kDropEnd, false);

@@ -155,8 +155,7 @@ TEST_CASE("a mesh that is not a head: no face found, said in one line", "[rigbui
   box.normals = rig::vertex_normals(box.positions, box.triangles);
   rig::Rig tmpl = box;
   tmpl.landmarks.clear();
-  for (int k = 0; k < kLandmarkCount; ++k)
-    tmpl.landmarks.push_back({"dlib_" + std::string(k < 10 ? "0" : "") + std::to_string(k), 0});
+  for (int k = 0; k < kLandmarkCount; ++k) tmpl.landmarks.push_back({landmark_name(k), 0});
   const LandmarkOptions options = load_landmark_options();
   REQUIRE(known_landmarks(tmpl));
   try {

@@ -27,6 +27,9 @@ namespace facecast::rigbuild {
 /// 27-35 nose, 36-47 eyes, 48-67 lips. "_r" is the subject's right (-x).
 inline constexpr int kLandmarkCount = 68;
 
+/// The name a rig stores landmark k under, and marker files use: "dlib_00".."dlib_67".
+std::string landmark_name(int k);
+
 /// Defaults mirrored in configs/rigbuild/landmarks.json (load_landmark_options).
 struct LandmarkOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
