@@ -35,7 +35,7 @@ if ((sanitize)); then
   # test_server runs outside ctest here: the shared data comes through the same fixture first.
   (cd build-tsan && ctest -R '^extract_shared_data$' --output-on-failure >/dev/null)
   # One process per core, each half the cases (balanced by the Release run's times); a process
-  # stops at its first report, and its log is printed when it fails.
+  # stops at its first report, and its log (each case's seconds, -d yes) is printed when it fails.
   export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/server/tsan.supp"
   rm -rf build-tsan/split
   mkdir -p build-tsan/split
@@ -47,7 +47,7 @@ if ((sanitize)); then
     <build-tsan/split/names
   pids=()
   for f in build-tsan/split/cases-*.txt; do
-    build-tsan/tests/server/test_server -f "$f" >"${f%.txt}.log" 2>&1 &
+    build-tsan/tests/server/test_server -f "$f" -d yes >"${f%.txt}.log" 2>&1 &
     pids+=($!)
   done
   failed=0

@@ -127,6 +127,53 @@ TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig
   return gradients.get();
 }
 
+namespace {
+
+// What every shape's solve starts from: the target's rest positions, the template's motion copied
+// onto it, and the virtual edges' target vectors.
+struct SolveInputs {
+  const Points& rest;
+  const std::vector<Points>& copied;
+  const std::vector<Points>& edge_targets;
+};
+
+// The solve, then the contacts and the attached parts. The contacts' reference needs no solved
+// shape: it is made on another thread while the solve, mostly CHOLMOD's back-substitutions on one
+// core, runs on this one (under a budget with no thread to lend, after the solve on this one).
+std::vector<Points> solve_and_hold(const rig::Rig& tmpl, const TemplateShapes& source,
+                                   const TargetMesh& mesh, const Placement& placement,
+                                   const Moved& moved, const Transfer& transfer,
+                                   const SolveInputs& in, const BuildOptions& options,
+                                   const ProgressFn& progress, BuildResult& r) {
+  auto& time = r.timings;
+  std::optional<ContactStage> contacts;
+  std::vector<Points> reference;
+  std::future<void> contacts_ready;
+  if (options.contacts.enabled)
+    contacts_ready = async_within_budget([&] {
+      time.contacts = seconds_of([&] {
+        contacts.emplace(tmpl, source, r.correspondence.map, mesh, placement, options.contacts);
+        reference = contacts->reference(in.copied, moved, r.quality);
+      });
+    });
+  std::vector<Points> solved = timed(progress, "solve", time.solve, [&] {
+    return solve_shapes(transfer, in.rest, source.gradients, in.copied, in.edge_targets, placement,
+                        moved, options.closing_rounds, progress);
+  });
+  if (contacts_ready.valid()) {
+    report(progress, "contacts", 0.0);
+    contacts_ready.get();
+    r.watched_pairs = contacts->watched();
+    time.contacts +=
+        seconds_of([&] { contacts->hold(transfer, reference, moved, solved, r.quality); });
+  }
+  carry_attached(placement, mesh.parts, in.rest, solved);  // after the contacts placed the skin
+  if (contacts) time.contacts += seconds_of([&] { contacts->lift_attached(solved, r.quality); });
+  return solved;
+}
+
+}  // namespace
+
 BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
                       const ProgressFn& progress) {
   const OpenMpWithinBudget omp_threads;  // Eigen's and CHOLMOD's regions, within the budget
@@ -155,32 +202,9 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   const std::vector<Points> edge_targets = edge_vectors(rest, r.correspondence, source, copied,
                                                         r.virtual_edges, options.gap_scale_limit);
   r.quality.resize(source.size());
-  // The contacts' reference needs no solved shape: it is made on another thread while the solve,
-  // mostly CHOLMOD's back-substitutions on one core, runs on this one (under a budget with no
-  // thread to lend, after the solve on this one).
-  std::optional<ContactStage> contacts;
-  std::vector<Points> reference;
-  std::future<void> contacts_ready;
-  if (options.contacts.enabled)
-    contacts_ready = async_within_budget([&] {
-      time.contacts = seconds_of([&] {
-        contacts.emplace(tmpl, source, r.correspondence.map, mesh, placement, options.contacts);
-        reference = contacts->reference(copied, moved, r.quality);
-      });
-    });
-  std::vector<Points> solved = timed(progress, "solve", time.solve, [&] {
-    return solve_shapes(transfer, rest, source.gradients, copied, edge_targets, placement, moved,
-                        options.closing_rounds, progress);
-  });
-  if (contacts_ready.valid()) {
-    report(progress, "contacts", 0.0);
-    contacts_ready.get();
-    r.watched_pairs = contacts->watched();
-    time.contacts +=
-        seconds_of([&] { contacts->hold(transfer, reference, moved, solved, r.quality); });
-  }
-  carry_attached(placement, mesh.parts, rest, solved);  // after the contacts have placed the skin
-  if (contacts) time.contacts += seconds_of([&] { contacts->lift_attached(solved, r.quality); });
+  const std::vector<Points> solved =
+      solve_and_hold(tmpl, source, mesh, placement, moved, transfer, {rest, copied, edge_targets},
+                     options, progress, r);
   r.rig = with_shapes(tmpl, target, rest, solved);
   measure_gaps(r.rig, rest, solved, r.virtual_edges, edge_targets, r.quality);
   time.total = std::chrono::duration<double>(Clock::now() - t_start).count();
