@@ -15,8 +15,12 @@ targets=("$@")
 
 build_args=()
 for t in "${targets[@]}"; do build_args+=(--target="$t"); done
+# At -O1 with line tables, as the other sanitizer trees (scripts/test.sh): less compiler time than
+# RelWithDebInfo's -O2 -g (docs/benchmarks.md#build-time); each target runs for a fixed time.
 CC=clang CXX=clang++ scripts/build.sh build-fuzz "${build_args[@]}" -DFACECAST_FUZZ=ON \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFACECAST_BUILD_BENCH=OFF -DFACECAST_BUILD_TESTS=OFF
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
+  -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF \
+  -DFACECAST_BUILD_TESTS=OFF
 
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

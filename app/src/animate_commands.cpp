@@ -245,7 +245,7 @@ void add_animate_commands(CLI::App& app) {
     const std::vector<std::string> shapes = rig    ? rig->shape_names()
                                             : take ? anim::arkit_shape_names()
                                             : a->rig.empty()
-                                                ? avatar::default_avatar().shape_names()
+                                                ? avatar::avatar_shape_names()  // not generated
                                                 : rig::load_rig(a->rig).shape_names();
     std::optional<anim::FapRig> fap_measured;
     if (rig) fap_measured.emplace(fap_rig(*rig));

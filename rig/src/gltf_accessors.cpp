@@ -136,6 +136,23 @@ std::vector<std::uint32_t> sparse_indices(const tinygltf::Model& m, const tinygl
   return out;
 }
 
+// Every element of an accessor through put(element, component, bytes): the dense part from its
+// buffer view (when it has one), then the sparse substitutions at their indices.
+template <typename Put>
+void read_accessor(const tinygltf::Model& m, const tinygltf::Accessor& a, const Span& span,
+                   std::size_t csize, int comps, const std::string& what, Put put) {
+  if (span.data) read_elements(span, csize, comps, put);
+  if (!a.sparse.isSparse) return;
+  const auto idx = sparse_indices(m, a, what);
+  const std::size_t stride = csize * static_cast<std::size_t>(comps);
+  const Span values =
+      span_of(m, a.sparse.values.bufferView, static_cast<std::size_t>(a.sparse.values.byteOffset),
+              idx.size(), stride, stride, what + " sparse");
+  if (!values.data) throw Error(what + ": sparse values without a buffer view");
+  read_elements(values, csize, comps,
+                [&](std::size_t i, int c, const unsigned char* p) { put(idx[i], c, p); });
+}
+
 }  // namespace
 
 const tinygltf::Accessor& accessor_at(const tinygltf::Model& m, int index,
@@ -159,18 +176,7 @@ FloatRows read_floats(const tinygltf::Model& m, int index, int comps, const std:
   const auto put = [&](std::size_t i, int c, const unsigned char* p) {
     out(static_cast<Eigen::Index>(i), c) = component(p, a.componentType, a.normalized);
   };
-  if (span.data) read_elements(span, csize, comps, put);
-  if (a.sparse.isSparse) {
-    const auto idx = sparse_indices(m, a, what);
-    Span values =
-        span_of(m, a.sparse.values.bufferView, static_cast<std::size_t>(a.sparse.values.byteOffset),
-                idx.size(), csize * static_cast<std::size_t>(comps),
-                csize * static_cast<std::size_t>(comps), what + " sparse");
-    if (!values.data) throw Error(what + ": sparse values without a buffer view");
-    read_elements(values, csize, comps, [&](std::size_t i, int c, const unsigned char* p) {
-      out(static_cast<Eigen::Index>(idx[i]), c) = component(p, a.componentType, a.normalized);
-    });
-  }
+  read_accessor(m, a, span, csize, comps, what, put);
   if (!out.allFinite()) throw Error(what + ": non-finite value");
   return out;
 }
@@ -196,19 +202,7 @@ std::vector<std::uint32_t> read_uints(const tinygltf::Model& m, int index, int c
     out[i * static_cast<std::size_t>(comps) + static_cast<std::size_t>(c)] =
         uint_component(p, type);
   };
-  if (span.data) read_elements(span, csize, comps, put);
-  if (a.sparse.isSparse) {
-    const auto idx = sparse_indices(m, a, what);
-    Span values =
-        span_of(m, a.sparse.values.bufferView, static_cast<std::size_t>(a.sparse.values.byteOffset),
-                idx.size(), csize * static_cast<std::size_t>(comps),
-                csize * static_cast<std::size_t>(comps), what + " sparse");
-    if (!values.data) throw Error(what + ": sparse values without a buffer view");
-    read_elements(values, csize, comps, [&](std::size_t i, int c, const unsigned char* p) {
-      out[idx[i] * static_cast<std::size_t>(comps) + static_cast<std::size_t>(c)] =
-          uint_component(p, type);
-    });
-  }
+  read_accessor(m, a, span, csize, comps, what, put);
   return out;
 }
 
