@@ -59,8 +59,7 @@ struct HeadSdf {
   // Whether an ellipsoid's value at p is surely >= d + k, where smin(d, value, k) is d itself:
   // with k0 = |q/r| >= |q| / r_max > 1 and k1 = |q/r^2| <= k0 / r_min, sd_ellipsoid's
   // k0 (k0 - 1) / k1 >= (|q| / r_max - 1) r_min; the margin covers float rounding. Skipping such
-  // parts gives the same bits and a third of the generator's time (most points are far from most
-  // parts).
+  // parts gives the same bits, and most points are far from most parts.
   static bool beyond(float d, const V3& p, const V3& c, const V3& r, float k) {
     const float q = (p - c).norm(), r_max = r.maxCoeff();
     return q > r_max && (q / r_max - 1.0f) * r.minCoeff() > d + k + 1e-3f * (1.0f + std::abs(d));
