@@ -29,11 +29,11 @@ endif()
 
 # facecast_library(<module> SOURCES ... [DEPS ...] [PRIVATE_DEPS ...] [HOT])
 # One library per top-level folder: public headers in <module>/include, private code in <module>/src.
-# HOT: compute that most tests run through (the built-in avatar's generator: about 1 s in Release,
-# 10 s in the ASan+UBSan tree, in every test that starts a server), compiled at -O2 in the
-# sanitizer trees (built at -O1) and without UBSan's checks (ASan's stay; whole-program ASan is
-# what keeps Eigen's allocations compatible): its input is a handful of bounded parameters, never
-# outside bytes, and UBSan's checks of its float math took two thirds of that time (9.8 -> 3.6 s).
+# HOT: compute that most tests run through (the built-in avatar's generator, in every test that
+# starts a server), compiled at -O2 in the sanitizer trees (built at -O1) and without UBSan's
+# checks (ASan's stay; whole-program ASan is what keeps Eigen's allocations compatible): its input
+# is a handful of bounded parameters, never outside bytes, and UBSan's checks of its float math
+# took two thirds of its time there (docs/benchmarks.md#build-time).
 function(facecast_library name)
   cmake_parse_arguments(ARG "HOT" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(facecast_${name} ${ARG_SOURCES})
