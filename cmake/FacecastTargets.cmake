@@ -27,15 +27,20 @@ if(FACECAST_TSAN)
   add_link_options(-fsanitize=thread)
 endif()
 
-# facecast_library(<module> SOURCES ... [DEPS ...] [PRIVATE_DEPS ...] [HOT])
+# facecast_library(<module> SOURCES ... [DEPS ...] [PRIVATE_DEPS ...] [HOT] [FORK_JOIN])
 # One library per top-level folder: public headers in <module>/include, private code in <module>/src.
 # HOT: compute that most tests run through (the built-in avatar's generator, in every test that
 # starts a server), compiled at -O2 in the sanitizer trees (built at -O1) and without UBSan's
 # checks (ASan's stay; whole-program ASan is what keeps Eigen's allocations compatible): its input
 # is a handful of bounded parameters, never outside bytes, and UBSan's checks of its float math
 # took two thirds of its time there (docs/benchmarks.md#build-time).
+# FORK_JOIN: numeric work whose only threads are fork-join loops (each task writes its own outputs,
+# every future is joined before the call returns; locks are pthread's, which ThreadSanitizer
+# intercepts anyway), compiled without ThreadSanitizer's instrumentation in its tree: that stage
+# checks the server's concurrency, and the instrumented rig builds and photo fits its cases run took
+# half of it (docs/benchmarks.md#build-time).
 function(facecast_library name)
-  cmake_parse_arguments(ARG "HOT" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "HOT;FORK_JOIN" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(facecast_${name} ${ARG_SOURCES})
   add_library(facecast::${name} ALIAS facecast_${name})
   target_include_directories(facecast_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
@@ -46,6 +51,9 @@ function(facecast_library name)
   endif()
   if(ARG_HOT AND FACECAST_SANITIZE)
     target_compile_options(facecast_${name} PRIVATE -fno-sanitize=undefined)
+  endif()
+  if(ARG_FORK_JOIN AND FACECAST_TSAN)
+    target_compile_options(facecast_${name} PRIVATE -fno-sanitize=thread)
   endif()
 endfunction()
 

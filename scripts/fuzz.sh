@@ -4,11 +4,13 @@
 # inputs (tests/fuzz/regressions/<target>/: inputs that once found a bug). Any crash, sanitizer
 # report, leak, timeout or out-of-memory fails the run and leaves the input in build-fuzz/findings/.
 # Targets run side by side, one per core.
-# Usage: scripts/fuzz.sh [SECONDS_PER_TARGET (default 30)] [TARGET ...]
+# Usage: scripts/fuzz.sh [SECONDS_PER_TARGET (default 30) | --build-only] [TARGET ...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-30}
 shift || true
+build_only=0
+[ "$seconds" = --build-only ] && build_only=1
 targets=("$@")
 ((${#targets[@]})) || targets=(fuzz_protocol fuzz_import fuzz_text fuzz_glb fuzz_gltf fuzz_obj fuzz_fap
   fuzz_image)
@@ -21,6 +23,7 @@ CC=clang CXX=clang++ scripts/build.sh build-fuzz "${build_args[@]}" -DFACECAST_F
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
   -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DFACECAST_BUILD_BENCH=OFF \
   -DFACECAST_BUILD_TESTS=OFF
+((build_only)) && exit 0
 
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

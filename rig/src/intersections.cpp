@@ -298,7 +298,8 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
 
 std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
                                                      const Triangles& triangles, double margin,
-                                                     const std::vector<char>& from) {
+                                                     const std::vector<char>& from,
+                                                     const std::function<bool(int, int)>& wanted) {
   const int nf = static_cast<int>(triangles.rows());
   std::vector<Box> boxes(static_cast<std::size_t>(nf));
   const float pad = static_cast<float>(0.5 * margin);
@@ -321,7 +322,8 @@ std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           if (triangles(f, i) == triangles(g, j)) return;
-      out.emplace_back(std::min(f, g), std::max(f, g));
+      const int a = std::min(f, g), b = std::max(f, g);
+      if (!wanted || wanted(a, b)) out.emplace_back(a, b);
     });
   }
   std::sort(out.begin(), out.end());

@@ -66,9 +66,10 @@ ContactGuard::ContactGuard(const TargetMesh& target, const std::vector<char>& he
     return out;
   };
   const rig::Positions p = rig::to_positions(rest_);
-  watched_ = keep(rig::near_triangle_pairs(p, faces_, margin), [&](auto pair) {
+  const auto one_part = [&](int a, int b) { return part_of(a) == part_of(b); };
+  watched_ = keep(rig::near_triangle_pairs(p, faces_, margin, {}, one_part), [&](auto pair) {
     const auto [a, b] = pair;
-    return part_of(a) == part_of(b) && corner_distance(rest_, faces_, a, b) <= margin &&
+    return corner_distance(rest_, faces_, a, b) <= margin &&
            !cross(rest_, faces_, a, b);  // not the neutral's own
   });
   // A placed triangle against a free one of the skin, in that order.
@@ -76,13 +77,16 @@ ContactGuard::ContactGuard(const TargetMesh& target, const std::vector<char>& he
   std::vector<char> placed(static_cast<std::size_t>(faces_.rows()), 0);
   for (Eigen::Index t = 0; t < faces_.rows(); ++t)
     placed[static_cast<std::size_t>(t)] = held_corners(static_cast<int>(t)) == 3;
-  auto candidates = rig::near_triangle_pairs(p, faces_, part_margin, placed);
+  const auto placed_free = [&](int a, int b) {  // (placed, free skin) in either order
+    if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
+    return held_corners(b) == 0 && part_of(b) == skin && part_of(a) != skin;
+  };
+  auto candidates = rig::near_triangle_pairs(p, faces_, part_margin, placed, placed_free);
   for (auto& [a, b] : candidates)
     if (!placed[static_cast<std::size_t>(a)]) std::swap(a, b);
   part_pairs_ = keep(std::move(candidates), [&](auto pair) {
     const auto [a, b] = pair;
-    return held_corners(b) == 0 && part_of(b) == skin && part_of(a) != skin &&
-           corner_distance(rest_, faces_, a, b) <= part_margin && !cross(rest_, faces_, a, b);
+    return corner_distance(rest_, faces_, a, b) <= part_margin && !cross(rest_, faces_, a, b);
   });
   placed_ = std::move(placed);
   // A floating part's triangles (a tongue): checked in each shape against every triangle near

@@ -111,7 +111,9 @@ ReferenceCrossings::ReferenceCrossings(const rig::Rig& reference, const Triangle
     : reference_(reference),
       map_(map),
       rings_(rings),
-      adjacency_(static_cast<std::size_t>(reference.vertex_count())) {
+      adjacency_(static_cast<std::size_t>(reference.vertex_count())),
+      touching_(map.sources.size()),
+      touching_made_(std::make_unique<std::once_flag[]>(map.sources.size())) {
   triangles_at_.resize(adjacency_.size());
   for (int t = 0; t < reference.triangle_count(); ++t)
     for (int c = 0; c < 3; ++c) {
@@ -121,15 +123,19 @@ ReferenceCrossings::ReferenceCrossings(const rig::Rig& reference, const Triangle
     }
 }
 
-bool ReferenceCrossings::crosses_at(const Points& positions, int a, int b) const {
-  const auto touching = [&](int built) {
-    std::vector<int> tris;
+const std::vector<int>& ReferenceCrossings::touching(int built) const {
+  const auto i = static_cast<std::size_t>(built);
+  std::call_once(touching_made_[i], [&] {
+    std::vector<int>& tris = touching_[i];
     for (const int v : around(built))
       for (const int t : triangles_at_[static_cast<std::size_t>(v)]) tris.push_back(t);
     std::sort(tris.begin(), tris.end());
     tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
-    return tris;
-  };
+  });
+  return touching_[i];
+}
+
+bool ReferenceCrossings::crosses_at(const Points& positions, int a, int b) const {
   const auto& f = reference_.triangles;
   const auto corner = [&](int t, int c) -> Eigen::Vector3d {
     return positions.row(f(t, c)).transpose();

@@ -68,7 +68,7 @@ TEST_CASE("mesh self-intersections skip neighbours and honour ignore", "[rig][in
   CHECK(find_intersections(p, t).count == 0);
 }
 
-TEST_CASE("ICT FaceKit: intersection check is fast and stable", "[rig][intersections]") {
+TEST_CASE("ICT FaceKit: intersection check is fast and stable", "[rig][intersections][realtime]") {
   const auto dir = facecast::test::ict_dir();
   if (!facecast::test::require_data(dir / "generic_neutral_mesh.obj")) return;
   const Rig rig = read_obj(dir / "generic_neutral_mesh.obj");

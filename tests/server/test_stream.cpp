@@ -157,7 +157,7 @@ TEST_CASE("speak streams paced weights with audio", "[ws][stream]") {
   CHECK(metric_value(m, "facecast_frames_sent_total{output=\"weights\"}") == frames);
 }
 
-TEST_CASE("speak streams JPEG frames", "[ws][stream][frames]") {
+TEST_CASE("speak streams JPEG frames", "[ws][stream][frames][realtime]") {
   TestServer s;
   WsClient c(s.port());
   hello(c);
@@ -212,7 +212,7 @@ TEST_CASE("speak streams JPEG frames", "[ws][stream][frames]") {
 }
 
 TEST_CASE("a VRM's spring bones swing in frames, the same in every stream of one timeline",
-          "[ws][stream][frames][spring]") {
+          "[ws][stream][frames][spring][realtime]") {
   TestServer s;
   // The code-made humanoid with a lock of hair before its face, with and without its springs; the
   // lock falls from its rest shape to the side under a gravity along +X, swinging for a while.

@@ -43,10 +43,11 @@ IntersectionReport find_intersections(const Positions& positions, const Triangle
 
 /// Pairs (a, b), a < b, of triangles that share no vertex and whose bounding boxes come within
 /// `margin` of each other: the places where a deformation could make the surface cross itself.
-/// With `from` (one flag per triangle), only the pairs with a flagged triangle.
-std::vector<std::pair<int, int>> near_triangle_pairs(const Positions& positions,
-                                                     const Triangles& triangles, double margin,
-                                                     const std::vector<char>& from = {});
+/// With `from` (one flag per triangle), only the pairs with a flagged triangle; with `wanted`,
+/// only the pairs it accepts (asked as each pair is found, before the list is sorted).
+std::vector<std::pair<int, int>> near_triangle_pairs(
+    const Positions& positions, const Triangles& triangles, double margin,
+    const std::vector<char>& from = {}, const std::function<bool(int, int)>& wanted = {});
 
 /// An `ignore` predicate for the rig's triangle groups: skips pairs with one triangle in group
 /// `first` and the other in group `second` of each entry (names from rig.groups; a missing name

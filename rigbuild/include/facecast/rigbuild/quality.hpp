@@ -3,6 +3,8 @@
 // reference rig.
 #include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -75,11 +77,16 @@ class ReferenceCrossings {
 
  private:
   std::vector<int> around(int built_triangle) const;
+  const std::vector<int>& touching(int built_triangle) const;
   const rig::Rig& reference_;
   const TriangleMap& map_;
   int rings_;
   std::vector<std::vector<int>> adjacency_;
   std::vector<std::vector<int>> triangles_at_;  // per reference vertex
+  // Per built triangle, the reference triangles at around()'s vertices (sorted), made when first
+  // asked (from any thread): the same for every shape, and asked for in every shape.
+  mutable std::vector<std::vector<int>> touching_;
+  mutable std::unique_ptr<std::once_flag[]> touching_made_;
 };
 
 /// `reference` may be null (no split: every pair counts as fresh). `map` gives, per built
