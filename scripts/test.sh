@@ -21,15 +21,18 @@ done
 stage() { echo "[$(date +%T)] $*"; }
 # The next tree compiles in the background at the lowest CPU priority while this tree's tests run
 # (they wait on sockets, subprocesses and real time for much of it): it takes only what they leave
-# idle. Its output goes to DIR/build.log, printed if it fails; its own process group, so that an
-# exit stops all of it.
+# idle. Its output goes to DIR/build.log, printed if it fails. It runs as a process group of its
+# own (job control, set -m), so that an exit stops all of it, but in this session: with the
+# scheduler's autogroups a new session would be weighed equally with the tests, whatever its nice.
 background=() background_log=
 build_behind() {
   mkdir -p "$1"
   background_log=$1/build.log
   shift
-  setsid nice -n 19 "$@" >"$background_log" 2>&1 &
+  set -m
+  nice -n 19 "$@" </dev/null >"$background_log" 2>&1 &
   background=($!)
+  set +m
 }
 await_build() {
   ((${#background[@]})) || return 0
