@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # One command from a fresh Debian 12 machine (as root) to a passing test suite: installs
-# dependencies, builds (Release), and runs every test once: the fast ones under AddressSanitizer +
+# dependencies, builds (Release), and runs the fast tests under AddressSanitizer +
 # UndefinedBehaviorSanitizer (build-asan/), the slow ones and the checks of pace and time (label
-# realtime) in Release; then every server test, slow ones too, under ThreadSanitizer (build-tsan/,
+# realtime, also run instrumented) in Release; then every server test, slow ones too, under ThreadSanitizer (build-tsan/,
 # only the server and what it links; the checks of real-time behaviour are left out there), and
 # every libFuzzer target for 30 s from its seed corpus (scripts/fuzz.sh, clang). With
 # --no-sanitize, every test in Release.
@@ -45,8 +45,8 @@ stage install
 scripts/install-deps.sh
 stage "Release build"
 scripts/build.sh build
-# Release runs what the ASan+UBSan tree does not: the slow tests and the checks of pace and time
-# (label realtime); without the sanitizers, every test. The rest run once, instrumented.
+# Release runs the slow tests, which the ASan+UBSan tree leaves out, and the checks of pace and
+# time (label realtime), which hold only uninstrumented; without the sanitizers, every test.
 labels=() tsan_cases=()
 if ((sanitize)); then
   labels=(-L 'slow|realtime')
