@@ -122,6 +122,7 @@ PhotoOptions load_photo_options() {
       .read("box_steps", o.box_steps)
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
+      .read("estimate_noise", o.estimate_noise)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -247,6 +248,10 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
       {"coefficients",
        std::vector<double>(out.fit.coefficients.data(),
                            out.fit.coefficients.data() + out.fit.coefficients.size())},
+      {"coefficient_sd",
+       std::vector<double>(out.fit.coefficient_sd.data(),
+                           out.fit.coefficient_sd.data() + out.fit.coefficient_sd.size())},
+      {"landmark_noise", out.fit.noise},
       {"rbf_rms_move", out.fit.moved_rms},
       {"texture",
        {{"width", texture.width}, {"height", texture.height}, {"coverage", out.texture_coverage}}},

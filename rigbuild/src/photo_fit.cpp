@@ -292,10 +292,13 @@ void fit_camera(const rig::Positions& positions, const Eigen::VectorXd& c, View&
 // point only moves along its normal n_j (it slides along the outline), n_o = `outline_noise`.
 // `scatter` (optional), per photo: its weighted landmark residuals' sum of squares and their
 // redundancy (their count less what the parameters absorb, tr(H^-1 J_v^T J_v)), before the step:
-// the variance components that set the side photo's noise (fit_shape).
+// the variance components that set the side photo's noise (fit_shape). `sd` (optional): the
+// coefficients' posterior standard deviations, sqrt(diag(noise^2 H^-1)) over the modes (the data
+// terms and the prior, both in units of `noise`), at the step's start.
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
                        double iod, double noise, double outline_noise,
-                       std::vector<Eigen::Vector2d>* scatter = nullptr) {
+                       std::vector<Eigen::Vector2d>* scatter = nullptr,
+                       Eigen::VectorXd* sd = nullptr) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
   const Eigen::Index n = K + 6 * static_cast<Eigen::Index>(views.size());
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
@@ -370,6 +373,11 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
     scatter->clear();
     for (std::size_t vi = 0; vi < views.size(); ++vi)
       scatter->emplace_back(rss[vi], count[vi] - ldlt.solve(Hv[vi]).trace());
+  }
+  if (sd) {
+    const Eigen::MatrixXd covariance =
+        noise * noise * ldlt.solve(Eigen::MatrixXd::Identity(n, n)).topLeftCorner(K, K);
+    *sd = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   }
   c += dx.head(K);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
@@ -481,6 +489,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   for (std::size_t i = 0; i < views.size(); ++i)
     if (photos[i]) views[i].edges.emplace(*photos[i], 0.01 * views[i].camera.s * iod);
   const auto region = outline_region(tmpl, iod);
+  double noise = options.landmark_noise;  // the front landmarks', inter-ocular distances
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
     if (it > 0)
       for (auto& v : views) {
@@ -491,8 +500,15 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
       }
     std::vector<Eigen::Vector2d> scatter;
     for (int step = 0; step < 3; ++step)
-      gauss_newton_step(tmpl, views, fit.coefficients, iod, options.landmark_noise,
-                        options.outline_noise, step == 2 ? &scatter : nullptr);
+      gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise,
+                        step == 2 ? &scatter : nullptr, step == 2 ? &fit.coefficient_sd : nullptr);
+    if (options.estimate_noise) {
+      // The front landmarks' residuals per degree of freedom estimate their noise (the detector's
+      // scatter and its convention's offsets from the template's vertices alike): the prior holds
+      // the modes in proportion (not below landmark_noise).
+      noise =
+          std::max(options.landmark_noise, std::sqrt(scatter[0](0) / std::max(1.0, scatter[0](1))));
+    }
     if (side && options.estimate_side_noise && it > 0) {
       // Variance components: each photo's weighted residuals per degree of freedom estimate its
       // noise relative to its weight; the side's weight follows the ratio to the front's (not
@@ -510,6 +526,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
     fit.side_noise = views[1].noise;
   }
+  fit.noise = noise;
 
   const auto centres =
       calibration_moves(p, fit.coefficients, views, options.side_calibration, &fit.moved_rms);

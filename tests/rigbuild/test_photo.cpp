@@ -244,6 +244,10 @@ TEST_CASE("photo fit: exact landmarks of ICT identities give back their coeffici
               << (fit.coefficients - c).norm() / c.norm() << " (relative), shape ratio " << ratio
               << ", camera scale " << fit.front.s << " (true 12)\n";
     CHECK((fit.coefficients - c).norm() < 0.1 * c.norm());
+    // Exact points: the noise stays at its floor, and the modes are pinned down.
+    CHECK(fit.noise == Approx(opt.landmark_noise));
+    REQUIRE(fit.coefficient_sd.size() == K);
+    CHECK(fit.coefficient_sd.maxCoeff() < 0.5);
     CHECK(ratio < 0.1);
     CHECK(fit.front.s == Approx(cam.s).epsilon(0.02));
     CHECK((fit.front.R - cam.R).norm() < 0.02);
@@ -292,4 +296,39 @@ TEST_CASE("photo fit: exact front and turned side landmarks give back the identi
   CHECK(b.side->s == Approx(side.s).epsilon(0.02));
   // The side rotation is a pure turn of the front's: no pitch or roll of its own.
   CHECK(std::abs(rel(1, 1) - 1) < 1e-9);
+}
+
+TEST_CASE("photo fit as the command runs it: the detector's offsets count as noise, not identity",
+          "[photo][ict][slow]") {
+  // No detector response learned (the command has none): dlib's convention differs from the
+  // template's landmark vertices by about 4 % of the inter-ocular distance, which the fit must not
+  // explain with a large identity. The landmark noise estimated from the residuals weighs the
+  // modes' prior accordingly.
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const PhotoTemplate tmpl = load_photo_template(dir);
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  const test::PhotoShoot shoot = test::photograph(tmpl, tmpl.rig.positions, 40.0);
+  PhotoAvatar fits[2];
+  for (bool estimate : {false, true}) {
+    opt.estimate_noise = estimate;
+    fits[estimate] = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
+  }
+  const auto error = [&](const PhotoAvatar& a) {
+    return aligned_error(tmpl, a.fit.positions, tmpl.rig.positions);
+  };
+  const PhotoFit& fit = fits[1].fit;
+  std::cout << "the template's own photo: error " << error(fits[0])
+            << " cm with the noise assumed (" << opt.landmark_noise << " IOD, |c| "
+            << fits[0].fit.coefficients.norm() << "), " << error(fits[1]) << " cm estimated ("
+            << fit.noise << " IOD, |c| " << fit.coefficients.norm() << ")\n";
+  CHECK(fit.noise > 1.25 * opt.landmark_noise);
+  CHECK(fit.coefficients.norm() < 0.75 * fits[0].fit.coefficients.norm());
+  CHECK(error(fits[1]) < 0.8 * error(fits[0]));
+  REQUIRE(fit.coefficient_sd.size() == fit.coefficients.size());
+  CHECK(fit.coefficient_sd.minCoeff() > 0);
+  CHECK(fit.coefficient_sd.maxCoeff() <= 1.0);  // never wider than the prior
+  CHECK(fits[1].report["coefficient_sd"].size() == tmpl.modes.size());
+  CHECK(fits[1].report["landmark_noise"].get<double>() == Approx(fit.noise));
 }

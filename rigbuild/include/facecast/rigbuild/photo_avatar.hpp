@@ -45,6 +45,7 @@ struct PhotoOptions {
   int box_steps = 2;             // fraction of their size, in this many steps each way
   int iterations = 8;            // camera / coefficient alternations
   double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
+  bool estimate_noise = true;    // ... estimated from the residuals (landmark_noise: its floor)
   double side_noise = 1.0;       // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
@@ -129,6 +130,8 @@ struct PhotoFit {
   rig::Positions positions;        // the fitted neutral, template topology
   rig::Positions model_positions;  // the low-dimensional fit only (before the RBF)
   Eigen::VectorXd coefficients;    // identity-mode weights
+  Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
+  double noise = 0;  // the front landmarks' noise estimated (inter-ocular distances; PhotoOptions)
   OrthoCamera front;
   std::optional<OrthoCamera> side;
   std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
