@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
@@ -109,6 +110,105 @@ rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& position
     mat.base_color_texture.scale = Eigen::Vector2f(1.0f / tiles, 1.0f);
   }
   return rig;
+}
+
+nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoFit& fit,
+                          const render::Image& front) {
+  const auto material_has = [&](int f, const char* part) {
+    const auto m = static_cast<std::size_t>(
+        rig.triangle_material.empty() ? 0 : rig.triangle_material[static_cast<std::size_t>(f)]);
+    return m < rig.materials.size() && has(lower(rig.materials[m].name), part);
+  };
+  const auto at = [&](int v) -> Eigen::Vector3d {
+    return fit.positions.row(v).cast<double>().transpose();
+  };
+  nlohmann::json out = nlohmann::json::array();
+  for (int eye = 1; eye <= 2; ++eye) {
+    std::vector<int> sclera;  // the eyeball's outer shell (the cornea's bulge included)
+    for (int f = 0; f < rig.triangle_count(); ++f)
+      if (tmpl.rigid[static_cast<std::size_t>(rig.triangles(f, 0))] == eye &&
+          !material_has(f, "iris") && (material_has(f, "sclera") || material_has(f, "eyeball")))
+        sclera.push_back(f);
+    if (sclera.size() < 8) continue;
+    // The eyeball: a sphere fitted to its outer shell's vertices (|x|^2 = 2 c.x + k, least
+    // squares); it looks along +Z (heads face +Z): its axis runs through the shell's foremost
+    // vertex. The iris covers 29 degrees about the axis, the pupil 9 (an adult eye: a 24 mm ball,
+    // an 11.7 mm iris, a 4 mm pupil), whatever the template's own iris mesh looks like.
+    std::vector<int> shell;
+    for (int f : sclera)
+      for (int k = 0; k < 3; ++k) shell.push_back(rig.triangles(f, k));
+    std::sort(shell.begin(), shell.end());
+    shell.erase(std::unique(shell.begin(), shell.end()), shell.end());
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(shell.size()), 4);
+    Eigen::VectorXd rhs(A.rows());
+    int apex = shell.front();
+    for (std::size_t k = 0; k < shell.size(); ++k) {
+      const Eigen::Vector3d x = at(shell[k]);
+      A.row(static_cast<Eigen::Index>(k)) << 2 * x.transpose(), 1;
+      rhs(static_cast<Eigen::Index>(k)) = x.squaredNorm();
+      if (x.z() > at(apex).z()) apex = shell[k];
+    }
+    const Eigen::Vector3d ball = A.colPivHouseholderQr().solve(rhs).head<3>();
+    const Eigen::Vector3d axis = (at(apex) - ball).normalized();
+    if (!axis.allFinite()) continue;
+    const auto angle = [&](const Eigen::Vector3d& x) {
+      return std::acos(std::clamp((x - ball).normalized().dot(axis), -1.0, 1.0));
+    };
+    const double rim = 29 * M_PI / 180, pupil = 9 * M_PI / 180;
+    // The iris's colour where the front photo sees it: its ring's pixels (the pupil and the rim
+    // left out), the darkest quarter's (highlights, the sclera and the lids' skin left out).
+    std::vector<Eigen::Vector3d> seen;
+    if (axis.dot(fit.front.towards()) > 0.5)
+      for (int v : shell) {
+        const Eigen::Vector3d x = at(v);
+        const double a = angle(x);
+        if (a < 1.5 * pupil || a > 0.85 * rim) continue;
+        const Eigen::Vector2d px = fit.front.project(x);
+        const long u = std::lround(px.x()), w = std::lround(px.y());
+        if (u < 0 || w < 0 || u >= front.width || w >= front.height) continue;
+        Eigen::Vector3d rgb;
+        for (int c = 0; c < 3; ++c)
+          rgb(c) =
+              front.at(static_cast<int>(u), static_cast<int>(w), std::min(c, front.channels - 1));
+        seen.push_back(rgb / 255.0);
+      }
+    Eigen::Vector3d colour(0.35, 0.24, 0.16);  // sRGB: a mid brown where the photo shows none
+    const bool from_photo = seen.size() >= 8;
+    if (from_photo) {
+      std::sort(seen.begin(), seen.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+        return a.sum() < b.sum();
+      });
+      colour = seen[seen.size() / 4];
+    }
+    const std::string side = eye == 1 ? "left" : "right";
+    const auto add = [&](const std::string& name, const Eigen::Vector3d& srgb) {
+      rig::Material m = rig::Material::solid(
+          name, Eigen::Vector4f(rig::srgb_to_linear(static_cast<float>(srgb(0))),
+                                rig::srgb_to_linear(static_cast<float>(srgb(1))),
+                                rig::srgb_to_linear(static_cast<float>(srgb(2))), 1.0f));
+      m.roughness = 0.3f;
+      rig.materials.push_back(std::move(m));
+      return static_cast<int>(rig.materials.size()) - 1;
+    };
+    const int iris_material = add("photo_iris_" + side, colour),
+              pupil_material = add("photo_pupil_" + side, Eigen::Vector3d::Constant(0.02));
+    if (rig.triangle_material.empty())
+      rig.triangle_material.assign(static_cast<std::size_t>(rig.triangle_count()), 0);
+    int painted = 0;
+    for (int f : sclera) {
+      const double a = angle(
+          (at(rig.triangles(f, 0)) + at(rig.triangles(f, 1)) + at(rig.triangles(f, 2))) / 3.0);
+      if (a >= rim) continue;
+      rig.triangle_material[static_cast<std::size_t>(f)] =
+          a < pupil ? pupil_material : iris_material;
+      ++painted;
+    }
+    out.push_back({{"eye", side},
+                   {"iris_srgb", {colour(0), colour(1), colour(2)}},
+                   {"from_photo", from_photo},
+                   {"cornea_triangles", painted}});
+  }
+  return out;
 }
 
 PhotoOptions load_photo_options() {
@@ -224,6 +324,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   const render::Image texture =
       bake_photo_texture(tmpl, out.fit, front, side, options, &out.texture_coverage);
   rig::Rig head = textured_head(tmpl, out.fit.positions, texture);
+  const nlohmann::json eyes = paint_eyes(head, tmpl, out.fit, front);
   timing["texture"] = seconds_since(t);
   t = std::chrono::steady_clock::now();
   if (options.shapes && !tmpl.rig.shapes.empty()) {
@@ -253,6 +354,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                            out.fit.coefficient_sd.data() + out.fit.coefficient_sd.size())},
       {"landmark_noise", out.fit.noise},
       {"rbf_rms_move", out.fit.moved_rms},
+      {"eyes", eyes},
       {"texture",
        {{"width", texture.width}, {"height", texture.height}, {"coverage", out.texture_coverage}}},
       {"shapes", out.rig.shapes.size()},

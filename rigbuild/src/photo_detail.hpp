@@ -57,4 +57,13 @@ void for_each_skin_texel(
 rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& positions,
                        const render::Image& texture);
 
+/// The eyes of `rig` (textured_head's): the template's irises sit behind its cornea (the front
+/// bulge of the sclera's material), so a render shows white eyes. Per eye (a rigid group), the
+/// outer shell's triangles within 29 degrees of the eyeball's axis take an iris material, within
+/// 9 a pupil's (the eyeball a sphere fitted to the shell, its axis through the shell's foremost
+/// vertex); the iris's colour is the front photo's where it sees the eye, else a mid brown.
+/// Returns, per eye, what it painted (the report's "eyes").
+nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoFit& fit,
+                          const render::Image& front);
+
 }  // namespace facecast::rigbuild

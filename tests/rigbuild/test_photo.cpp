@@ -180,6 +180,31 @@ TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[phot
   std::cout << "astronaut: landmark reprojection " << 100 * reproj << " %\n";
   CHECK(reproj < 0.05);
   CHECK(a.texture_coverage > 0.3);
+  // Eyes with irises and pupils: each eye's centre (the mean of its six landmarks) renders dark,
+  // not the sclera's white, and the iris takes the photo's colour.
+  REQUIRE(a.report["eyes"].size() == 2);
+  for (int eye = 0; eye < 2; ++eye) {
+    const auto& e = a.report["eyes"][static_cast<std::size_t>(eye)];
+    CHECK(e["from_photo"].get<bool>());
+    CHECK(e["cornea_triangles"].get<int>() > 0);
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (int k = 36 + 6 * eye; k < 42 + 6 * eye; ++k)
+      centre += a.front.points[static_cast<std::size_t>(k)] / 6.0;
+    double grey = 0;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int c = 0; c < 3; ++c)
+          grey += still.at(static_cast<int>(std::lround(centre.x())) + dx,
+                           static_cast<int>(std::lround(centre.y())) + dy, c) /
+                  27.0;
+    std::cout << "astronaut: eye " << eye << " centre grey " << grey << ", iris "
+              << e["iris_srgb"].dump() << "\n";
+    CHECK(grey < 110);
+    double iris = 0;  // the astronaut's irises are brown: darker than her skin and sclera
+    for (int c = 0; c < 3; ++c)
+      iris += e["iris_srgb"][static_cast<std::size_t>(c)].get<double>() / 3;
+    CHECK(iris < 0.45);
+  }
 }
 
 TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]") {
