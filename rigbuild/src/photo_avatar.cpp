@@ -14,6 +14,7 @@
 #include "facecast/rigbuild/template.hpp"
 #include "parallel.hpp"
 #include "photo_detail.hpp"
+#include "stages.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -114,41 +115,41 @@ rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& position
 
 nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoFit& fit,
                           const render::Image& front) {
-  const auto material_has = [&](int f, const char* part) {
-    const auto m = static_cast<std::size_t>(
-        rig.triangle_material.empty() ? 0 : rig.triangle_material[static_cast<std::size_t>(f)]);
-    return m < rig.materials.size() && has(lower(rig.materials[m].name), part);
-  };
+  std::vector<char> shell_material(rig.materials.size());  // an eyeball's outer shell
+  for (std::size_t m = 0; m < rig.materials.size(); ++m) {
+    const std::string n = lower(rig.materials[m].name);
+    shell_material[m] = !has(n, "iris") && (has(n, "sclera") || has(n, "eyeball"));
+  }
   const auto at = [&](int v) -> Eigen::Vector3d {
     return fit.positions.row(v).cast<double>().transpose();
   };
   nlohmann::json out = nlohmann::json::array();
   for (int eye = 1; eye <= 2; ++eye) {
-    std::vector<int> sclera;  // the eyeball's outer shell (the cornea's bulge included)
-    for (int f = 0; f < rig.triangle_count(); ++f)
-      if (tmpl.rigid[static_cast<std::size_t>(rig.triangles(f, 0))] == eye &&
-          !material_has(f, "iris") && (material_has(f, "sclera") || material_has(f, "eyeball")))
+    std::vector<int> sclera;  // the shell's triangles (the cornea's bulge included)
+    for (int f = 0; f < rig.triangle_count(); ++f) {
+      const auto m = static_cast<std::size_t>(
+          rig.triangle_material.empty() ? 0 : rig.triangle_material[static_cast<std::size_t>(f)]);
+      if (m < shell_material.size() && shell_material[m] &&
+          tmpl.rigid[static_cast<std::size_t>(rig.triangles(f, 0))] == eye)
         sclera.push_back(f);
+    }
     if (sclera.size() < 8) continue;
-    // The eyeball: a sphere fitted to its outer shell's vertices (|x|^2 = 2 c.x + k, least
-    // squares); it looks along +Z (heads face +Z): its axis runs through the shell's foremost
-    // vertex. The iris covers 29 degrees about the axis, the pupil 9 (an adult eye: a 24 mm ball,
-    // an 11.7 mm iris, a 4 mm pupil), whatever the template's own iris mesh looks like.
+    // The eyeball: a sphere fitted to the shell's vertices; it looks along +Z (heads face +Z): its
+    // axis runs through the shell's foremost vertex. The iris covers 29 degrees about the axis,
+    // the pupil 9 (an adult eye: a 24 mm ball, an 11.7 mm iris, a 4 mm pupil), whatever the
+    // template's own iris mesh looks like.
     std::vector<int> shell;
     for (int f : sclera)
       for (int k = 0; k < 3; ++k) shell.push_back(rig.triangles(f, k));
     std::sort(shell.begin(), shell.end());
     shell.erase(std::unique(shell.begin(), shell.end()), shell.end());
-    Eigen::MatrixXd A(static_cast<Eigen::Index>(shell.size()), 4);
-    Eigen::VectorXd rhs(A.rows());
+    Points points(static_cast<Eigen::Index>(shell.size()), 3);
     int apex = shell.front();
     for (std::size_t k = 0; k < shell.size(); ++k) {
-      const Eigen::Vector3d x = at(shell[k]);
-      A.row(static_cast<Eigen::Index>(k)) << 2 * x.transpose(), 1;
-      rhs(static_cast<Eigen::Index>(k)) = x.squaredNorm();
-      if (x.z() > at(apex).z()) apex = shell[k];
+      points.row(static_cast<Eigen::Index>(k)) = at(shell[k]).transpose();
+      if (at(shell[k]).z() > at(apex).z()) apex = shell[k];
     }
-    const Eigen::Vector3d ball = A.colPivHouseholderQr().solve(rhs).head<3>();
+    const Eigen::Vector3d ball = fit_sphere(points).centre.transpose();
     const Eigen::Vector3d axis = (at(apex) - ball).normalized();
     if (!axis.allFinite()) continue;
     const auto angle = [&](const Eigen::Vector3d& x) {

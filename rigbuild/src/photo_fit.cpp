@@ -502,18 +502,18 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     for (int step = 0; step < 3; ++step)
       gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise,
                         step == 2 ? &scatter : nullptr, step == 2 ? &fit.coefficient_sd : nullptr);
+    // A photo's weighted landmark residuals per degree of freedom (variance components).
+    const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
     if (options.estimate_noise) {
       // The front landmarks' residuals per degree of freedom estimate their noise (the detector's
       // scatter and its convention's offsets from the template's vertices alike): the prior holds
       // the modes in proportion (not below landmark_noise).
-      noise =
-          std::max(options.landmark_noise, std::sqrt(scatter[0](0) / std::max(1.0, scatter[0](1))));
+      noise = std::max(options.landmark_noise, std::sqrt(variance(scatter[0])));
     }
     if (side && options.estimate_side_noise && it > 0) {
       // Variance components: each photo's weighted residuals per degree of freedom estimate its
       // noise relative to its weight; the side's weight follows the ratio to the front's (not
       // below side_noise). After the first round: its residuals are the template's misfit.
-      const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
       views[1].noise = std::max(
           options.side_noise,
           views[1].noise * std::sqrt(variance(scatter[1]) / std::max(1e-12, variance(scatter[0]))));
