@@ -1,6 +1,7 @@
 // A private speak mirrored to a VMC receiver of the server's vmc_targets allow-list: a UDP socket
 // gets one OSC bundle per frame at the frames' times; a name that is not on the list, an address,
 // frames output and a channel's speak are refused and send nothing.
+#include <atomic>
 #include <boost/asio/ip/udp.hpp>
 #include <catch2/catch.hpp>
 #include <thread>
@@ -18,15 +19,20 @@ class UdpReceiver {
  public:
   UdpReceiver() : socket_(io_, udp::endpoint(boost::asio::ip::make_address("127.0.0.1"), 0)) {
     socket_.non_blocking(true);
+    socket_.set_option(udp::socket::receive_buffer_size(1 << 20));  // (capped by rmem_max)
   }
   unsigned short port() const { return socket_.local_endpoint().port(); }
 
-  // Everything that arrives within `seconds`.
-  std::vector<std::pair<Clock::time_point, std::string>> collect(double seconds) {
+  // Everything that arrives within `seconds`, or, once `done` is set, until the socket has been
+  // quiet for half a second (a sanitizer build may send the last frames after the stream ended).
+  std::vector<std::pair<Clock::time_point, std::string>> collect(
+      double seconds, const std::atomic<bool>* done = nullptr) {
     std::vector<std::pair<Clock::time_point, std::string>> out;
     const auto until = Clock::now() + std::chrono::duration<double>(seconds);
+    auto last = Clock::now();
     std::array<char, 65536> buf;
     while (Clock::now() < until) {
+      if (done && *done && Clock::now() - last > std::chrono::milliseconds(500)) break;
       boost::system::error_code ec;
       const std::size_t n = socket_.receive(boost::asio::buffer(buf), 0, ec);
       if (ec == boost::asio::error::would_block) {
@@ -34,7 +40,8 @@ class UdpReceiver {
         continue;
       }
       if (ec) break;  // (no assertion here: it runs on a thread of its own)
-      out.emplace_back(Clock::now(), std::string(buf.data(), n));
+      last = Clock::now();
+      out.emplace_back(last, std::string(buf.data(), n));
     }
     return out;
   }
@@ -84,10 +91,12 @@ TEST_CASE("a private speak plays to a VMC receiver the server allows, and nowher
 
   // Allowed: every frame reaches the receiver as one bundle, paced over the utterance.
   std::vector<std::pair<Clock::time_point, std::string>> got;
-  std::thread listen([&] { got = receiver.collect(6); });
+  std::atomic<bool> ended{false};
+  std::thread listen([&] { got = receiver.collect(60, &ended); });
   c.send(nlohmann::json{
       {"type", "speak"}, {"id", "v1"}, {"text", "Hello, papa. Open wide."}, {"vmc", "studio"}});
   const StreamResult r = collect_stream(c, "v1", 60);
+  ended = true;
   listen.join();
   REQUIRE_FALSE(r.error);
   const auto frames = r.start["frames"].get<int>();
