@@ -50,7 +50,8 @@ void from_photo(const PhotoArgs& a) {
   if (!a.landmarks_png.empty()) render::write_image(a.landmarks_png, picture);
   std::cerr << "wrote " << a.out << ": " << avatar.rig.vertex_count() << " vertices, "
             << avatar.rig.shapes.size() << " shapes, texture coverage "
-            << static_cast<int>(100 * avatar.texture_coverage) << " %\n";
+            << static_cast<int>(100 * avatar.texture_coverage) << " % ("
+            << static_cast<int>(100 * avatar.texture_refused) << " % seen as background)\n";
 }
 
 }  // namespace

@@ -236,6 +236,7 @@ PhotoOptions load_photo_options() {
       .read("rbf_radius", o.rbf_radius)
       .read("texture_size", o.texture_size)
       .read("side_gamma", o.side_gamma)
+      .read("mask_background", o.mask_background)
       .read("shapes", o.shapes);
   if (o.min_face < 16) c.fail("min_face", "must be at least 16");
   if (o.max_side < 128) c.fail("max_side", "must be at least 128");
@@ -322,8 +323,8 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   timing["fit"] = seconds_since(t);
   report(progress, "texture", 0.25);
   t = std::chrono::steady_clock::now();
-  const render::Image texture =
-      bake_photo_texture(tmpl, out.fit, front, side, options, &out.texture_coverage);
+  const render::Image texture = bake_photo_texture(tmpl, out.fit, front, side, options,
+                                                   &out.texture_coverage, &out.texture_refused);
   rig::Rig head = textured_head(tmpl, out.fit.positions, texture);
   const nlohmann::json eyes = paint_eyes(head, tmpl, out.fit, front);
   timing["texture"] = seconds_since(t);
@@ -341,26 +342,28 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   nlohmann::json notes = nlohmann::json::array();
   for (const auto* m : {&out.front, &out.side})
     if (!m->note.empty()) notes.push_back(m->note);
-  out.report = {
-      {"front",
-       {{"landmarks", points_json(out.front)},
-        {"faces", out.front.faces},
-        {"camera", camera_json(out.fit.front)},
-        {"rms_pixels", out.fit.front_rms}}},
-      {"coefficients",
-       std::vector<double>(out.fit.coefficients.data(),
-                           out.fit.coefficients.data() + out.fit.coefficients.size())},
-      {"coefficient_sd",
-       std::vector<double>(out.fit.coefficient_sd.data(),
-                           out.fit.coefficient_sd.data() + out.fit.coefficient_sd.size())},
-      {"landmark_noise", out.fit.noise},
-      {"rbf_rms_move", out.fit.moved_rms},
-      {"eyes", eyes},
-      {"texture",
-       {{"width", texture.width}, {"height", texture.height}, {"coverage", out.texture_coverage}}},
-      {"shapes", out.rig.shapes.size()},
-      {"notes", notes},
-      {"seconds", timing}};
+  out.report = {{"front",
+                 {{"landmarks", points_json(out.front)},
+                  {"faces", out.front.faces},
+                  {"camera", camera_json(out.fit.front)},
+                  {"rms_pixels", out.fit.front_rms}}},
+                {"coefficients",
+                 std::vector<double>(out.fit.coefficients.data(),
+                                     out.fit.coefficients.data() + out.fit.coefficients.size())},
+                {"coefficient_sd", std::vector<double>(out.fit.coefficient_sd.data(),
+                                                       out.fit.coefficient_sd.data() +
+                                                           out.fit.coefficient_sd.size())},
+                {"landmark_noise", out.fit.noise},
+                {"rbf_rms_move", out.fit.moved_rms},
+                {"eyes", eyes},
+                {"texture",
+                 {{"width", texture.width},
+                  {"height", texture.height},
+                  {"coverage", out.texture_coverage},
+                  {"background_refused", out.texture_refused}}},
+                {"shapes", out.rig.shapes.size()},
+                {"notes", notes},
+                {"seconds", timing}};
   if (out.fit.side)
     out.report["side"] = {
         {"landmarks", points_json(out.side)}, {"faces", out.side.faces},

@@ -1,12 +1,16 @@
 // The photo avatar's texture: every skin texel's surface point looked up in each photo where a
 // depth test through the fitted camera shows it, the colours blended by the normal (seed 003,
 // section 5: k = |N.front| / (|N.front| + |N.side|)), the side photo colour-matched to the front
-// first, unseen texels filled from the nearest seen one. See docs/algorithms.md#photo-avatar.
+// first, unseen texels filled from the nearest seen one. Outside the face's outline only pixels of
+// the head are taken: skin-coloured, or unlike the photo's border (its background, and the clothes
+// at its bottom edge). See docs/algorithms.md#photo-avatar.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <vector>
 
 #include "facecast/core/error.hpp"
 #include "photo_detail.hpp"
@@ -47,6 +51,142 @@ Eigen::Vector3f sample(const render::Image& img, const Eigen::Vector2d& at) {
     c(k) = (1 - fy) * ((1 - fx) * img.at(x0, y0, k) + fx * img.at(x1, y0, k)) +
            fy * ((1 - fx) * img.at(x0, y1, k) + fx * img.at(x1, y1, k));
   return c;
+}
+
+// Colour coordinates that separate hue from light: log(r / g), log(b / g) and the mean level.
+Eigen::Vector3d chroma(const Eigen::Vector3f& rgb) {
+  const double r = rgb(0) + 1.0, g = rgb(1) + 1.0, b = rgb(2) + 1.0;
+  return {std::log(r / g), std::log(b / g), (r + g + b) / 3.0};
+}
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The face's skin colour, learnt from the front photo between landmarks that skin always
+// separates (jaw to nostril and to mouth corner across the cheeks, lower lip to chin, the nose's
+// ridge): per coordinate the median and a robust spread (1.4826 MAD), so that a shadow, a mole or
+// a stray landmark does not move it.
+class SkinColour {
+ public:
+  SkinColour(const render::Image& photo, const std::array<Eigen::Vector2d, kLandmarkCount>& lm) {
+    static constexpr std::array<std::pair<int, int>, 8> kAcrossSkin = {
+        {{2, 31}, {14, 35}, {4, 48}, {12, 54}, {57, 8}, {27, 30}, {3, 31}, {13, 35}}};
+    std::vector<Eigen::Vector3d> samples;
+    for (const auto& [a, b] : kAcrossSkin)
+      for (double t = 0.3; t <= 0.7 + 1e-9; t += 0.05) {
+        const Eigen::Vector2d at = lm[a] + t * (lm[b] - lm[a]);
+        if (at.x() >= 0 && at.y() >= 0 && at.x() < photo.width && at.y() < photo.height)
+          samples.push_back(chroma(sample(photo, at)));
+      }
+    if (samples.size() < 20) return;  // the face is mostly outside the photo: no model
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> v, dev;
+      for (const auto& c : samples) v.push_back(c(k));
+      centre_(k) = median(v);
+      for (double x : v) dev.push_back(std::abs(x - centre_(k)));
+      spread_(k) = 1.4826 * median(dev);
+    }
+    // Floors: skin's hue varies over a head more than over the cheeks, and its light much more.
+    spread_(0) = std::max(spread_(0), 0.05);
+    spread_(1) = std::max(spread_(1), 0.05);
+    known_ = true;
+  }
+
+  /// Within 4 spreads of the face's hue, and lit between a third and twice the face's level.
+  bool like(const Eigen::Vector3f& rgb) const {
+    if (!known_) return false;
+    const Eigen::Vector3d c = chroma(rgb);
+    return std::abs(c(0) - centre_(0)) < 4 * spread_(0) &&
+           std::abs(c(1) - centre_(1)) < 4 * spread_(1) && c(2) > centre_(2) / 3 &&
+           c(2) < 2 * centre_(2) + 10;
+  }
+
+ private:
+  Eigen::Vector3d centre_ = Eigen::Vector3d::Zero(), spread_ = Eigen::Vector3d::Ones();
+  bool known_ = false;
+};
+
+// Which pixels of one photo may colour the head. Inside the face's outline (front photo only)
+// every pixel: eyes, brows, lips and beards belong to the face. Outside
+// it (scalp, ears, neck) a pixel is refused when its colour is common on the photo's border (the
+// background, and the clothes at the bottom edge: a 16-level colour histogram of a band 2 % of the
+// photo wide, its 3 x 3 x 3 neighbourhood holding at least 1 % of the band) unless it is
+// skin-coloured; hair, unlike the border, stays.
+class PhotoRegions {
+ public:
+  PhotoRegions(const render::Image& photo, const std::vector<Eigen::Vector2d>& outline,
+               const SkinColour& skin)
+      : photo_(photo), outline_(outline), skin_(skin) {
+    const int band = std::max(2, std::min(photo.width, photo.height) / 50);
+    std::vector<double> count(kBins * kBins * kBins, 0.0);
+    double total = 0;
+    for (int y = 0; y < photo.height; ++y)
+      for (int x = 0; x < photo.width; ++x) {
+        if (x >= band && y >= band && x < photo.width - band && y < photo.height - band) continue;
+        count[bin(photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2))] += 1;
+        total += 1;
+      }
+    border_.assign(count.size(), 0);
+    for (int r = 0; r < kBins; ++r)
+      for (int g = 0; g < kBins; ++g)
+        for (int b = 0; b < kBins; ++b) {
+          double near = 0;
+          for (int dr = -1; dr <= 1; ++dr)
+            for (int dg = -1; dg <= 1; ++dg)
+              for (int db = -1; db <= 1; ++db) {
+                const int rr = r + dr, gg = g + dg, bb = b + db;
+                if (rr >= 0 && gg >= 0 && bb >= 0 && rr < kBins && gg < kBins && bb < kBins)
+                  near += count[static_cast<std::size_t>((rr * kBins + gg) * kBins + bb)];
+              }
+          border_[static_cast<std::size_t>((r * kBins + g) * kBins + b)] = near >= 0.01 * total;
+        }
+  }
+
+  bool usable(const Eigen::Vector2d& at) const {
+    if (!outline_.empty() && inside_outline(at)) return true;
+    const Eigen::Vector3f c = sample(photo_, at);
+    const auto level = [](float v) { return static_cast<int>(std::clamp(v, 0.0f, 255.0f)); };
+    return skin_.like(c) || !border_[bin(level(c(0)), level(c(1)), level(c(2)))];
+  }
+
+ private:
+  static constexpr int kBins = 16;
+  static std::size_t bin(int r, int g, int b) {
+    return static_cast<std::size_t>(((r * kBins / 256) * kBins + g * kBins / 256) * kBins +
+                                    b * kBins / 256);
+  }
+  // Even-odd rule over the outline polygon.
+  bool inside_outline(const Eigen::Vector2d& p) const {
+    bool in = false;
+    for (std::size_t i = 0, j = outline_.size() - 1; i < outline_.size(); j = i++) {
+      const Eigen::Vector2d &a = outline_[i], &b = outline_[j];
+      if ((a.y() > p.y()) != (b.y() > p.y()) &&
+          p.x() < a.x() + (p.y() - a.y()) * (b.x() - a.x()) / (b.y() - a.y()))
+        in = !in;
+    }
+    return in;
+  }
+
+  const render::Image& photo_;
+  std::vector<Eigen::Vector2d> outline_;
+  const SkinColour& skin_;
+  std::vector<char> border_;
+};
+
+// The face's outline in the front photo, from the fitted landmarks: the jaw line (0-16) drawn
+// 5 % in towards the face's centre (the fitted jaw need not be the person's: background lies just
+// outside it) and the brows (26 to 17) 10 % out (all of the brows' hair).
+std::vector<Eigen::Vector2d> face_outline(const std::array<Eigen::Vector2d, kLandmarkCount>& lm) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (int k = 0; k <= 26; ++k) centre += lm[static_cast<std::size_t>(k)] / 27.0;
+  std::vector<Eigen::Vector2d> out;
+  for (int k = 0; k <= 16; ++k)
+    out.push_back(centre + 0.95 * (lm[static_cast<std::size_t>(k)] - centre));
+  for (int k = 26; k >= 17; --k)
+    out.push_back(centre + 1.1 * (lm[static_cast<std::size_t>(k)] - centre));
+  return out;
 }
 
 // Per texel, what each photo contributes.
@@ -184,7 +324,7 @@ void for_each_skin_texel(
 
 render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                                  const render::Image& front, const render::Image* side,
-                                 const PhotoOptions& options, double* coverage) {
+                                 const PhotoOptions& options, double* coverage, double* refused) {
   const rig::Rig& rig = tmpl.rig;
   if (rig.uvs.rows() != rig.vertex_count()) throw Error("photo avatar: the template has no UVs");
   float umax = 1;
@@ -207,21 +347,41 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                          .cast<double>()
                          .norm();
   std::vector<DepthBuffer> depth;
+  std::vector<PhotoRegions> regions;
+  std::array<Eigen::Vector2d, kLandmarkCount> landmarks;
+  for (int k = 0; k < kLandmarkCount; ++k)
+    landmarks[static_cast<std::size_t>(k)] =
+        fit.front.project(fit.positions.row(fit.front_vertex[static_cast<std::size_t>(k)])
+                              .cast<double>()
+                              .transpose());
+  const SkinColour skin(front, landmarks);
+  regions.reserve(2);
   for (int k = 0; k < 2; ++k)
-    if (photos[k] && cams[k])
+    if (photos[k] && cams[k]) {
       depth.emplace_back(fit.positions, rig.triangles, *cams[k], photos[k]->width,
                          photos[k]->height);
+      // In the side photo the far half of the outline is hidden and encloses background: there
+      // every pixel is judged by its colour (the front photo sees the face's features).
+      regions.emplace_back(*photos[k],
+                           k == 0 ? face_outline(landmarks) : std::vector<Eigen::Vector2d>{}, skin);
+    }
+  std::size_t background = 0;
   for_each_skin_texel(tmpl, fit.positions, t.w, t.h, tiles,
                       [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d& nrm) {
                         t.covered[i] = 1;
+                        bool seen = false, taken = false;
                         for (std::size_t k = 0; k < depth.size(); ++k) {
                           const double facing = nrm.dot(cams[k]->towards());
                           const Eigen::Vector2d at = cams[k]->project(p);
                           if (facing <= 0 || !depth[k].visible(at, cams[k]->depth(p), 0.02 * iod))
                             continue;
+                          seen = true;
+                          if (options.mask_background && !regions[k].usable(at)) continue;
+                          taken = true;
                           t.weight[k][i] = static_cast<float>(std::pow(facing, options.side_gamma));
                           t.colour[k][i] = sample(*photos[k], at);
                         }
+                        background += seen && !taken ? 1 : 0;
                       });
   if (depth.size() > 1) match_side_colours(t);
 
@@ -237,6 +397,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
     seen += t.covered[i] ? 1 : 0;
   }
   if (coverage) *coverage = covered ? static_cast<double>(seen) / covered : 0.0;
+  if (refused) *refused = covered ? static_cast<double>(background) / covered : 0.0;
   fill_unseen(colour, done, t.w, t.h);
   render::Image out;
   out.width = t.w;

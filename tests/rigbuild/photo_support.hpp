@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "facecast/render/renderer.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
@@ -76,12 +77,15 @@ struct PhotoShoot {
 };
 
 /// The template at `positions`, textured, rendered 512 x 512 from the front and turned by `yaw`
-/// degrees (the subject's right towards the camera).
+/// degrees (the subject's right towards the camera), on the renderer's background or `background`
+/// (sRGB 0..1).
 inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const rig::Positions& positions,
-                             double yaw, int size = 512) {
+                             double yaw, int size = 512,
+                             const std::optional<Eigen::Vector3f>& background = {}) {
   static const render::Image texture = skin_texture(t);
   const rig::Rig rig = rigbuild::textured_head(t, positions, texture);
   render::RenderOptions ro;
+  if (background) ro.background = *background;
   ro.width = ro.height = size;
   ro.fov_y_deg = 3;  // a long lens: the fit's camera is scale-orthographic
   ro.contexts = 1;

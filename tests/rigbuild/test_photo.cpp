@@ -7,6 +7,7 @@
 #include <iterator>
 #include <sstream>
 
+#include "facecast/core/files.hpp"
 #include "facecast/render/renderer.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
@@ -165,6 +166,8 @@ TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[phot
   render::write_image(
       test::artifacts_dir("photo") / "astronaut.png",
       side_by_side({photo, photo_landmark_picture(photo, a.front), still, speaking}));
+  const std::string& texture = a.rig.textures.at(0).bytes;
+  write_file_atomic(test::artifacts_dir("photo") / "astronaut_texture.jpg", texture);
   // Textured from the photo: inside the face (the landmarks' box) the render's colours are the
   // photo's.
   Eigen::AlignedBox2d box;
@@ -204,6 +207,58 @@ TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[phot
     for (int c = 0; c < 3; ++c)
       iris += e["iris_srgb"][static_cast<std::size_t>(c)].get<double>() / 3;
     CHECK(iris < 0.45);
+  }
+}
+
+TEST_CASE("photo texture: no background in it, on backgrounds of four colours", "[photo][slow]") {
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  const PhotoTemplate tmpl = load_photo_template(dir);
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  opt.texture_size = 512;
+  // An identity used for nothing else; the fitted head is not the truth's, so along the outline
+  // the photos show background where the fitted head has skin.
+  const test::IctTruth truth = test::make_ict_truth(dir, 808, kSigma);
+  const std::vector<Eigen::Vector3f> backgrounds{
+      {0.16f, 0.17f, 0.20f}, {0.8f, 0.8f, 0.8f}, {0.4f, 0.6f, 0.9f}, {0.25f, 0.65f, 0.3f}};
+  for (const Eigen::Vector3f& bg : backgrounds) {
+    const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0, 512, bg);
+    const PhotoAvatar a = avatar_from_photos(tmpl, shoot.front, &shoot.side, opt);
+    const Eigen::Vector3f seen(shoot.front.at(2, 2, 0), shoot.front.at(2, 2, 1),
+                               shoot.front.at(2, 2, 2));
+    // Fraction of the skin's texels within 20 levels of the background's colour.
+    const auto background_fraction = [&](const render::Image& tex) {
+      std::size_t near = 0, total = 0;
+      for_each_skin_texel(tmpl, a.fit.positions, tex.width, tex.height, tex.width / tex.height,
+                          [&](std::size_t i, const Eigen::Vector3d&, const Eigen::Vector3d&) {
+                            Eigen::Vector3f c;
+                            for (int k = 0; k < 3; ++k)
+                              c(k) = tex.pixels[i * 3 + static_cast<std::size_t>(k)];
+                            near += (c - seen).norm() < 20 ? 1 : 0;
+                            ++total;
+                          });
+      return static_cast<double>(near) / static_cast<double>(std::max<std::size_t>(total, 1));
+    };
+    double coverage_off = 0, coverage_on = 0, refused = 0;
+    opt.mask_background = false;
+    const render::Image off =
+        bake_photo_texture(tmpl, a.fit, shoot.front, &shoot.side, opt, &coverage_off);
+    opt.mask_background = true;
+    const render::Image on =
+        bake_photo_texture(tmpl, a.fit, shoot.front, &shoot.side, opt, &coverage_on, &refused);
+    const double before = background_fraction(off), after = background_fraction(on);
+    std::cout << "background " << seen.transpose() << ": texels of its colour " << 100 * before
+              << " % -> " << 100 * after << " %; coverage " << coverage_off << " -> " << coverage_on
+              << " (refused " << refused << ")\n";
+    // What is left is inside the face: the eyes' whites (light grey) and pupils (dark).
+    CHECK(after <= 0.003);
+    CHECK(after <= 0.2 * before);
+    CHECK(coverage_on > 0.85 * coverage_off);
+    CHECK(a.report["texture"]["background_refused"].get<double>() == Approx(refused));
+    if (bg == backgrounds[2])
+      render::write_image(test::artifacts_dir("photo") / "texture_background.png",
+                          side_by_side({shoot.front, off, on}));
   }
 }
 

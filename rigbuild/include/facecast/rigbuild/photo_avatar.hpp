@@ -58,6 +58,7 @@ struct PhotoOptions {
   double rbf_radius = 1.2;          // RBF support radius, in inter-ocular distances of the template
   int texture_size = 1024;          // texture height; the width is twice (face and back of head)
   double side_gamma = 1.0;          // blend exponent on the normal's components (1: the seed's)
+  bool mask_background = true;      // outside the face, no background or clothes in the texture
   bool shapes = true;               // transfer the template's expressions onto the fitted head
   BuildOptions build;               // that transfer (configs/rigbuild/build.json)
 };
@@ -176,10 +177,12 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
                                const PhotoOptions& options, double amplitude = 2.0);
 
 /// The skin texture (2 N x N, u in [0, 2] as the template's face and back-of-head UV tiles)
-/// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo.
+/// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo;
+/// `refused` (optional): fraction seen only where a photo shows background (mask_background).
 render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                                  const render::Image& front, const render::Image* side,
-                                 const PhotoOptions& options, double* coverage = nullptr);
+                                 const PhotoOptions& options, double* coverage = nullptr,
+                                 double* refused = nullptr);
 
 struct PhotoAvatar {
   rig::Rig rig;  // textured, with the template's expressions transferred
@@ -187,6 +190,7 @@ struct PhotoAvatar {
   PhotoLandmarks front, side;
   bool has_side = false;
   double texture_coverage = 0;
+  double texture_refused = 0;  // skin texels a photo saw only as background (bake_photo_texture)
   nlohmann::json report;
 };
 
