@@ -203,10 +203,6 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
   return img;
 }
 
-void load_image_support() {
-  (void)codec();
-}
-
 bool draw_text(Image& image, int x, int y, std::string_view text, int size,
                const std::array<float, 3>& colour, const std::string& font) {
   check_image(image, "draw_text");

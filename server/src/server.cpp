@@ -12,7 +12,6 @@
 #include "channel.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/subprocess.hpp"
-#include "facecast/render/image.hpp"
 #include "http_session.hpp"
 #include "log.hpp"
 #include "rtmp_out.hpp"
@@ -288,13 +287,11 @@ void Server::start() {
                           {"token", !o.token.empty()},
                           {"keys", impl_->services->auth.keys() != nullptr}});
   net::dispatch(impl_->control, [this] { impl_->do_accept(); });
-  // Warm-up on a worker: the default rig's mapping, the Chinese lexicon, espeak-ng's voices and
-  // the image module (JPEG frames) are loaded once here rather than during the first client's
-  // speak.
+  // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
+  // loaded once here rather than during the first client's speak.
   net::post(impl_->services->workers, [s = impl_->services] {
     const auto t0 = std::chrono::steady_clock::now();
     try {
-      render::load_image_support();
       SpeakRequest r;
       r.text = "你好, hello.";
       r.audio = false;

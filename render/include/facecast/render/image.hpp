@@ -48,11 +48,6 @@ Image decode_image(std::string_view bytes, std::string_view what,
 bool draw_text(Image& image, int x, int y, std::string_view text, int size,
                const std::array<float, 3>& colour, const std::string& font = "DejaVuSans");
 
-/// Loads OpenImageIO's module now; otherwise the first image that needs it does (about 0.3 s of
-/// symbol binding): a server calls this at start, so that its first JPEG frame is not late.
-/// Throws facecast::Error when the module cannot be loaded.
-void load_image_support();
-
 struct ImageDifference {
   double mean_abs = 0;       // mean absolute channel difference, 0..255
   double fraction_over = 0;  // fraction of pixels with a channel differing by more than threshold
