@@ -1,7 +1,6 @@
 # `cmake --install build --prefix P` and the .deb (cpack -G DEB in the build folder). Layout, read
 # relative to the executable by facecast/core/install.hpp:
 #   P/bin/facecast
-#   P/lib/facecast/facecast_image_oiio.so  (OpenImageIO's side of the images, loaded on first use)
 #   P/share/facecast/configs/              (every config; the server's defaults in server.json)
 #   P/share/facecast/web/                  (the web client)
 #   P/share/facecast/clients/js/           (the JS client, served at /vendor/facecast/ for the web client)

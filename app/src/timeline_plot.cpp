@@ -1,6 +1,9 @@
 // The timeline picture: lanes of viseme events and curves, expressions, two rig weights.
 #include "facecast/app/timeline_plot.hpp"
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -8,6 +11,8 @@
 
 namespace facecast::cli {
 namespace {
+
+namespace OIIO = OIIO_NAMESPACE;
 
 constexpr int kLane = 26, kLabel = 90, kTop = 22;
 
@@ -24,26 +29,19 @@ std::array<float, 3> hue(int i) {
 }
 
 struct Canvas {
-  render::Image image;
-  Canvas(int w, int h) : image{w, h, 3, {}} {
-    image.pixels.resize(static_cast<std::size_t>(w) * h * 3);
-    rect(0, 0, w, h, {0.12f, 0.13f, 0.15f});
+  OIIO::ImageBuf buf;
+  Canvas(int w, int h) : buf(OIIO::ImageSpec(w, h, 3, OIIO::TypeDesc::FLOAT)) {
+    const float bg[3] = {0.12f, 0.13f, 0.15f};
+    OIIO::ImageBufAlgo::fill(buf, bg);
   }
-  // Fills [x0, x1) x [y0, y1), at least one pixel each way, clipped to the picture.
   void rect(int x0, int y0, int x1, int y1, const std::array<float, 3>& c) {
-    std::array<std::uint8_t, 3> bytes{};
-    for (int k = 0; k < 3; ++k)
-      bytes[k] = static_cast<std::uint8_t>(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f));
-    x1 = std::min(std::max(x1, x0 + 1), image.width);
-    y1 = std::min(std::max(y1, y0 + 1), image.height);
-    for (int y = std::max(y0, 0); y < y1; ++y)
-      for (int x = std::max(x0, 0); x < x1; ++x)
-        std::copy(bytes.begin(), bytes.end(),
-                  image.pixels.begin() + (static_cast<std::ptrdiff_t>(y) * image.width + x) * 3);
+    OIIO::ImageBufAlgo::fill(buf, c, OIIO::ROI(x0, std::max(x1, x0 + 1), y0, std::max(y1, y0 + 1)));
   }
   void text(int x, int y, const std::string& s, int size = 13) {
     // Labels are a help, not a requirement: without a usable font the picture keeps its colours.
-    (void)render::draw_text(image, x, y, s, size, {0.9f, 0.9f, 0.9f});
+    const float white[3] = {0.9f, 0.9f, 0.9f};
+    (void)OIIO::ImageBufAlgo::render_text(buf, x, y, s, size, "DejaVuSans", white);
+    (void)buf.geterror();
   }
   // A curve with values in [0, 1] drawn in a lane whose bottom is at `base`.
   void curve(const std::vector<float>& v, int x0, int base, const std::array<float, 3>& c) {
@@ -139,7 +137,14 @@ render::Image plot_timeline(const viseme::Utterance& u, const anim::Performance&
     ++lane;
   }
 
-  return std::move(cv.image);
+  render::Image out;
+  out.width = width;
+  out.height = cv.buf.spec().height;
+  out.channels = 3;
+  out.pixels.resize(static_cast<size_t>(out.width) * out.height * 3);
+  cv.buf.get_pixels(OIIO::ROI(0, out.width, 0, out.height, 0, 1, 0, 3), OIIO::TypeDesc::UINT8,
+                    out.pixels.data());
+  return out;
 }
 
 }  // namespace facecast::cli

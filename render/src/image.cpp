@@ -1,8 +1,10 @@
-// Images: PNG and WebP decoded here (libpng, libwebp), everything else through OpenImageIO in the
-// module image_codec.hpp describes, loaded on first use.
+// Images through OpenImageIO, encoded in memory (IOVecOutput) so that files are written atomically
+// and JPEG frames can be streamed.
 #include "facecast/render/image.hpp"
 
-#include <dlfcn.h>
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
 #include <png.h>
 #include <webp/decode.h>
 
@@ -12,40 +14,16 @@
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
-#include "facecast/core/install.hpp"
 #include "facecast/rig/rig.hpp"
-#include "image_codec.hpp"
 
 namespace facecast::render {
 namespace {
 
+namespace OIIO = OIIO_NAMESPACE;
+
 std::string one_line(std::string s) {
   std::replace(s.begin(), s.end(), '\n', ' ');
   return s;
-}
-
-// The OpenImageIO module: <prefix>/lib/facecast/ in an installed Facecast, else this build's
-// (FACECAST_IMAGE_MODULE, set by render/CMakeLists.txt).
-const detail::ImageCodec& codec() {
-  static const detail::ImageCodec* const loaded = [] {
-    const auto share = installed_share_dir();
-    const std::string path =
-        share.empty()
-            ? std::string(FACECAST_IMAGE_MODULE)
-            : (share.parent_path().parent_path() / "lib" / "facecast" / "facecast_image_oiio.so")
-                  .string();
-    void* module = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!module)
-      throw Error("image support (OpenImageIO) cannot be loaded: " + one_line(dlerror()),
-                  ErrorCode::kInternal);
-    using Entry = const detail::ImageCodec* (*)();
-    const auto entry = reinterpret_cast<Entry>(dlsym(module, "facecast_image_codec"));
-    const detail::ImageCodec* table = entry ? entry() : nullptr;
-    if (!table || table->version != detail::ImageCodec::kVersion)
-      throw Error(path + ": not this build's image module", ErrorCode::kInternal);
-    return table;
-  }();
-  return *loaded;
 }
 
 void check_image(const Image& image, std::string_view what) {
@@ -58,18 +36,33 @@ void check_image(const Image& image, std::string_view what) {
 std::string encode(const Image& image, const std::string& format_name, int quality,
                    bool linear_half) {
   check_image(image, format_name);
-  std::vector<float> linear;
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  auto out = OIIO::ImageOutput::create(format_name);
+  if (!out)
+    throw Error("no image writer for " + format_name + ": " + OIIO::geterror(),
+                ErrorCode::kUnsupported);
+  if (!out->supports("ioproxy"))
+    throw Error("the " + std::string(out->format_name()) + " writer cannot write to memory",
+                ErrorCode::kUnsupported);
+  OIIO::ImageSpec spec(image.width, image.height, image.channels,
+                       linear_half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
+  if (quality > 0)
+    spec.attribute("Compression", "jpeg:" + std::to_string(std::clamp(quality, 1, 100)));
+  if (!out->set_ioproxy(&proxy) || !out->open(format_name, spec))
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  bool ok = false;
   if (linear_half) {
-    linear.resize(image.pixels.size());
-    for (std::size_t i = 0; i < linear.size(); ++i)
-      linear[i] = rig::srgb_to_linear(image.pixels[i] / 255.0f);
+    std::vector<float> lin(image.pixels.size());
+    for (std::size_t i = 0; i < lin.size(); ++i)
+      lin[i] = rig::srgb_to_linear(image.pixels[i] / 255.0f);
+    ok = out->write_image(OIIO::TypeDesc::FLOAT, lin.data());
+  } else {
+    ok = out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data());
   }
-  std::string out;
-  detail::Failure failure;
-  if (!codec().encode(image, linear_half ? linear.data() : nullptr, format_name.c_str(), quality,
-                      out, failure))
-    throw Error(failure.message, failure.code);
-  return out;
+  if (!ok || !out->close())
+    throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
+  return std::string(bytes.begin(), bytes.end());
 }
 
 std::string lower_extension(const std::filesystem::path& path) {
@@ -165,6 +158,7 @@ void write_image(const std::filesystem::path& path, const Image& image, int jpeg
 Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
   const std::string name(what);
   const int max_side = limits.max_image_side;
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   // The format from the signature: the name an avatar gives an image need not have an extension.
   const bool png =
       bytes.size() >= 8 && bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8);
@@ -178,10 +172,39 @@ Image decode_image(std::string_view bytes, std::string_view what, const rig::Dec
   (void)rig::check_image(bytes, what, limits);  // the header's size, before any decoder runs
   if (webp) return decode_webp(bytes, name, max_side);
   if (png) return decode_png(bytes, name, max_side);
-  Image img;
-  detail::Failure failure;
-  if (!codec().decode(bytes, "image.jpg", max_side, img, failure))
-    throw Error(name + ": " + failure.message, failure.code);
+  OIIO::Filesystem::IOMemReader proxy(data, bytes.size());
+  OIIO::ImageSpec config;
+  const void* proxy_pointer = &proxy;  // the attribute holds the pointer's value
+  config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy_pointer);
+  const std::string file = "image.jpg";
+  auto in = OIIO::ImageInput::create(file, false, &config, &proxy);
+  if (!in)
+    throw Error(name + ": no image reader: " + one_line(OIIO::geterror()), ErrorCode::kInternal);
+  OIIO::ImageSpec spec;
+  if (!in->open(file, spec, config))
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
+  if (spec.width < 1 || spec.height < 1 || spec.width > max_side || spec.height > max_side ||
+      spec.nchannels < 1 || spec.nchannels > 4)
+    throw Error(name + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is out of range (at most " + std::to_string(max_side) + " a side)",
+                ErrorCode::kUnsupported);
+  Image img{spec.width, spec.height, 4, {}};
+  img.pixels.assign(static_cast<std::size_t>(spec.width) * spec.height * 4, 255);
+  // Read the file's channels into the first ones of RGBA; grey is expanded below. On the calling
+  // thread: renderers are made on worker threads already (and OIIO's own pool hides its writes
+  // into our buffer from ThreadSanitizer).
+  in->threads(1);
+  const OIIO::stride_t pixel = 4;
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
+    throw Error(name + ": cannot decode: " + one_line(in->geterror()));
+  if (spec.nchannels <= 2) {
+    for (std::size_t i = 0; i < img.pixels.size(); i += 4) {
+      const std::uint8_t g = img.pixels[i], a = spec.nchannels == 2 ? img.pixels[i + 1] : 255;
+      img.pixels[i + 1] = img.pixels[i + 2] = g;
+      img.pixels[i + 3] = a;
+    }
+  }
   return img;
 }
 
@@ -196,17 +219,44 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
     }
     (void)rig::check_image(head, path.string(), limits);
   }
-  Image img;
-  detail::Failure failure;
-  if (!codec().read(path.c_str(), limits.max_image_side, limits.max_image_bytes, img, failure))
-    throw Error(path.string() + ": " + failure.message, failure.code);
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in)
+    throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
+  const OIIO::ImageSpec& spec = in->spec();
+  const auto side = static_cast<long long>(limits.max_image_side);
+  if (spec.width < 1 || spec.height < 1 || spec.width > side || spec.height > side ||
+      spec.nchannels < 1 || spec.nchannels > 64 ||
+      static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+              static_cast<std::size_t>(std::max(spec.nchannels, 4)) >
+          limits.max_image_bytes)
+    throw Error(path.string() + ": image of " + std::to_string(spec.width) + "x" +
+                    std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                    " is over the image limits (max_image_side " +
+                    std::to_string(limits.max_image_side) + ", max_image_bytes " +
+                    std::to_string(limits.max_image_bytes) + ")",
+                ErrorCode::kLimit);
+  const std::size_t count = static_cast<std::size_t>(spec.width) * spec.height;
+  std::vector<std::uint8_t> raw(count * spec.nchannels);
+  if (spec.format.basetype == OIIO::TypeDesc::FLOAT ||
+      spec.format.basetype == OIIO::TypeDesc::HALF) {
+    // Linear floats (EXR): encode to sRGB.
+    std::vector<float> lin(raw.size());
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, lin.data()))
+      throw Error(path.string() + ": " + in->geterror());
+    for (std::size_t i = 0; i < lin.size(); ++i) {
+      const float c = std::clamp(lin[i], 0.0f, 1.0f);
+      const float e = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+      raw[i] = static_cast<std::uint8_t>(std::lround(e * 255.0f));
+    }
+  } else if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, raw.data())) {
+    throw Error(path.string() + ": " + in->geterror());
+  }
+  Image img{spec.width, spec.height, 3, {}};
+  img.pixels.resize(count * 3);
+  for (std::size_t p = 0; p < count; ++p)
+    for (int c = 0; c < 3; ++c)
+      img.pixels[p * 3 + c] = raw[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
   return img;
-}
-
-bool draw_text(Image& image, int x, int y, std::string_view text, int size,
-               const std::array<float, 3>& colour, const std::string& font) {
-  check_image(image, "draw_text");
-  return codec().draw_text(image, x, y, text, size, colour.data(), font.c_str());
 }
 
 ImageDifference compare_images(const Image& a, const Image& b, int threshold) {

@@ -1,10 +1,11 @@
 #include "facecast/rigbuild/picture.hpp"
 
+#include <OpenImageIO/imageio.h>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
-#include "facecast/render/image.hpp"
+#include "facecast/core/error.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -135,11 +136,22 @@ void write_views(const std::filesystem::path& png, const rig::Rig& rig,
        rig, positions, edges, marked, Eigen::Vector3f(lo_all.x(), origin.y(), hi_all.z()), scale,
        options.see_through);
 
-  render::Image image{cv.w, cv.h, 3, std::vector<std::uint8_t>(cv.rgb.size())};
-  for (std::size_t i = 0; i < image.pixels.size(); ++i)
-    image.pixels[i] = static_cast<std::uint8_t>(std::clamp(cv.rgb[i], 0.0f, 1.0f) * 255.0f + 0.5f);
+  std::vector<unsigned char> bytes(cv.rgb.size());
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    bytes[i] = static_cast<unsigned char>(std::clamp(cv.rgb[i], 0.0f, 1.0f) * 255.0f + 0.5f);
+  }
   if (png.has_parent_path()) std::filesystem::create_directories(png.parent_path());
-  render::write_image(png, image);  // atomic: never half a file
+  const std::string tmp = png.string() + ".tmp.png";  // written, then renamed: never half a file
+  auto out = OIIO::ImageOutput::create(tmp);
+  if (!out)
+    throw Error(png.string() + ": cannot write PNG: " + OIIO::geterror(), ErrorCode::kInternal);
+  OIIO::ImageSpec spec(cv.w, cv.h, 3, OIIO::TypeDesc::UINT8);
+  if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
+      !out->close()) {
+    std::filesystem::remove(tmp);
+    throw Error(png.string() + ": cannot write PNG: " + out->geterror(), ErrorCode::kInternal);
+  }
+  std::filesystem::rename(tmp, png);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // `cmake --install build --prefix P`, then `P/bin/facecast serve` from another folder: configs,
-// web files, three.js, three-vrm, the Chinese lexicon, the shipped template and the image module
-// come from P, found relative to the binary.
+// web files, three.js, three-vrm, the Chinese lexicon and the shipped template come from P, found
+// relative to the binary.
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
@@ -29,8 +29,7 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
        {"bin/facecast", "share/facecast/configs/server.json", "share/facecast/web/index.html",
         "share/facecast/zh_lexicon.txt", "share/facecast/node_modules/three/build/three.module.js",
         "share/facecast/node_modules/@pixiv/three-vrm/lib/three-vrm.module.js",
-        "share/facecast/deploy/nginx.conf", "lib/systemd/system/facecast.service",
-        "lib/facecast/facecast_image_oiio.so"}) {
+        "share/facecast/deploy/nginx.conf", "lib/systemd/system/facecast.service"}) {
     INFO(f);
     CHECK(fs::exists(prefix / f));
   }
@@ -100,20 +99,4 @@ TEST_CASE("an installed facecast serves from another folder", "[install]") {
   CHECK(said.find("ict_facekit.glb: the shipped template is missing") != std::string::npos);
   CHECK(said.find("give --template") != std::string::npos);
   CHECK_FALSE(fs::exists(out));
-
-  // Images go through the installed OpenImageIO module (loaded on first use): a timeline picture
-  // is drawn with it, and an install that lost it says so in one line.
-  const fs::path plot = elsewhere / "plot.png";
-  const std::string animate = "\"" + (prefix / "bin/facecast").string() +
-                              "\" animate --text Hi --out \"" + (elsewhere / "w.json").string() +
-                              "\" --plot \"" + plot.string() + "\" 2> \"" + log.string() + "\"";
-  CHECK(std::system(animate.c_str()) == 0);
-  CHECK(facecast::read_file(plot).starts_with("\x89PNG"));
-  fs::remove(prefix / "lib/facecast/facecast_image_oiio.so");
-  fs::remove(plot);
-  CHECK(std::system(animate.c_str()) != 0);
-  const std::string no_module = facecast::read_file(log);
-  INFO(no_module);
-  CHECK(no_module.find("image support (OpenImageIO) cannot be loaded") != std::string::npos);
-  CHECK_FALSE(fs::exists(plot));
 }

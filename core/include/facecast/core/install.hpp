@@ -3,7 +3,6 @@
 //   <prefix>/bin/facecast
 //   <prefix>/share/facecast/{configs, web, node_modules/three, node_modules/@pixiv/three-vrm,
 //                            zh_lexicon.txt, ict_facekit.glb, deploy}
-//   <prefix>/lib/facecast/facecast_image_oiio.so (render/src/image_codec.hpp)
 // found relative to the running executable, so that no source tree is needed.
 #include <filesystem>
 

@@ -1,8 +1,6 @@
 #pragma once
-// 8-bit sRGB images and their files, through OpenImageIO (loaded on first use): PNG, JPEG and EXR
-// files, JPEG and PNG encoded to memory (for streaming), reading back and comparing (golden-image
-// tests), text drawn on pictures.
-#include <array>
+// 8-bit sRGB images and their files, through OpenImageIO: PNG, JPEG and EXR files, JPEG and PNG
+// encoded to memory (for streaming), reading back and comparing (golden-image tests).
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -41,12 +39,6 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
 /// decoding. Throws facecast::Error naming `what`.
 Image decode_image(std::string_view bytes, std::string_view what,
                    const rig::DecodeLimits& limits = {});
-
-/// Draws `text` in the TrueType font `font` (found by OpenImageIO's font search) with the left end
-/// of its baseline at (x, y), blended onto the pixels. False when no font could be used (a picture
-/// keeps its other contents).
-bool draw_text(Image& image, int x, int y, std::string_view text, int size,
-               const std::array<float, 3>& colour, const std::string& font = "DejaVuSans");
 
 struct ImageDifference {
   double mean_abs = 0;       // mean absolute channel difference, 0..255
