@@ -155,4 +155,11 @@ void check_components(const rig::Components& components, int vertex_count,
                 std::to_string(vertex_count) + " vertices");
 }
 
+double median(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  if (v.size() % 2) return *mid;
+  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
+}
+
 }  // namespace facecast::rigbuild

@@ -172,4 +172,7 @@ struct TargetMesh {
 /// caller's precomputed rig::connected_components).
 void check_components(const rig::Components& components, int vertex_count, const std::string& what);
 
+/// The median of `v` (the mean of the middle two for an even count); `v` must not be empty.
+double median(std::vector<double> v);
+
 }  // namespace facecast::rigbuild

@@ -115,13 +115,6 @@ void predict(const dlib::array2d<dlib::rgb_pixel>& img, const dlib::shape_predic
                                            static_cast<double>(shape.part(k).y())};
 }
 
-double median(std::vector<double> v) {
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  if (v.size() % 2) return *mid;
-  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
-}
-
 // Drops, one at a time (the worst first), the points farther than `limit` from the reference
 // after the similarity fit; fills `residual` from the last fit.
 int drop_by_similarity(const Points& reference, double limit, Points& points,

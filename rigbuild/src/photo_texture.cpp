@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "facecast/core/error.hpp"
+#include "geometry.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -57,11 +58,6 @@ Eigen::Vector3f sample(const render::Image& img, const Eigen::Vector2d& at) {
 Eigen::Vector3d chroma(const Eigen::Vector3f& rgb) {
   const double r = rgb(0) + 1.0, g = rgb(1) + 1.0, b = rgb(2) + 1.0;
   return {std::log(r / g), std::log(b / g), (r + g + b) / 3.0};
-}
-
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 // The face's skin colour, learnt from the front photo between landmarks that skin always
@@ -360,6 +356,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
     if (photos[k] && cams[k]) {
       depth.emplace_back(fit.positions, rig.triangles, *cams[k], photos[k]->width,
                          photos[k]->height);
+      if (!options.mask_background) continue;
       // In the side photo the far half of the outline is hidden and encloses background: there
       // every pixel is judged by its colour (the front photo sees the face's features).
       regions.emplace_back(*photos[k],

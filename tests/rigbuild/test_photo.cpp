@@ -284,6 +284,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.rbf_radius == d.rbf_radius);
   CHECK(c.texture_size == d.texture_size);
   CHECK(c.side_gamma == d.side_gamma);
+  CHECK(c.mask_background == d.mask_background);
   CHECK(c.shapes == d.shapes);
 }
 
