@@ -7,7 +7,7 @@
 import { loadGlb, morphMeshes, targetNames } from './avatar.js';
 import { showAlert } from './alerts.js';
 import { authHeaders, fetchJson, keepTokenInLinks } from './api.js';
-import { fetchJob, postJson, resetSliders, shapeSliders, wireDropZone } from './rig/controls.js';
+import { postJson, resetSliders, runJob, shapeSliders, wireDropZone } from './rig/controls.js';
 import { MeshView } from './rig/mesh_view.js';
 
 const MAX_SIDE = 1280; // the server detects on at most 640 px; more only sharpens the texture
@@ -161,51 +161,11 @@ function snap() {
   setFront(toPhoto(video, video.videoWidth, video.videoHeight));
 }
 
-function setProgress(p, text) {
-  $('progress-bar').style.width = `${Math.round(Math.max(0, Math.min(1, p)) * 100)}%`;
-  if (text !== undefined) $('job-status').textContent = text;
-}
-
 async function build() {
   const body = { name: $('name').value.trim() || 'My photo avatar', front: state.front.url };
   if (state.side) body.side = state.side.url;
-  $('build').disabled = true;
-  setProgress(0, 'Uploading…');
-  try {
-    const res = await postJson('/api/photo', body);
-    state.job = { id: res.job, state: 'queued', progress: 0 };
-    $('job-id').textContent = `job ${res.job}`;
-    poll();
-  } catch (e) {
-    setProgress(0, `The build did not start: ${e.message}`);
-    error(`The build did not start: ${e.message}`, e.code);
-    $('build').disabled = false;
-  }
-}
-
-async function poll() {
-  const j = await fetchJob(state.job.id, (e) => ($('job-status').textContent = `Lost track of the job (${e.message}); retrying…`));
-  if (!j) {
-    state.polling = setTimeout(poll, 1500);
-    return;
-  }
-  state.job = j;
-  if (j.state === 'failed') {
-    const message = j.error?.message || j.error || 'unknown error';
-    setProgress(0, `Failed: ${message}`);
-    error(`The build failed: ${message}`, j.error?.code || 'build');
-    $('build').disabled = false;
-    return;
-  }
-  if (j.state === 'done') {
-    setProgress(1, `Done: rig ${j.result?.rig}`);
-    $('build').disabled = false;
-    await showResult(j.result);
-    return;
-  }
-  if (j.state === 'running') setProgress(j.progress || 0, `Building: ${j.stage || '…'} (${Math.round((j.progress || 0) * 100)}%)`);
-  else setProgress(0, 'Queued…');
-  state.polling = setTimeout(poll, 400);
+  const onChange = () => ($('build').disabled = state.job?.state === 'queued' || state.job?.state === 'running');
+  await runJob('/api/photo', body, state, { what: 'build', error, onChange, onDone: showResult });
 }
 
 async function showResult(result) {

@@ -1,5 +1,5 @@
 // Controls the rig builder and the photo page share: a file drop zone, a slider per shape, and
-// following a job (GET /api/jobs/{id}) to its end.
+// a build job started and followed (GET /api/jobs/{id}) to its end.
 
 import { fetchJson } from '../api.js';
 
@@ -41,17 +41,58 @@ export function shapeSliders(box, names, onChange) {
   }
 }
 
+function setProgress(p, text) {
+  document.getElementById('progress-bar').style.width = `${Math.round(Math.max(0, Math.min(1, p)) * 100)}%`;
+  if (text !== undefined) document.getElementById('job-status').textContent = text;
+}
+
 /**
- * The job's record, or null when the server did not answer (`onLost(error)` is told, and the
- * caller polls again later).
+ * Starts a build job (POST `url` with `body`) and follows it (GET /api/jobs/{id}) to its end on the
+ * page's progress bar and status (#progress-bar, #job-status, #job-id). `state.job` holds the job's
+ * last record (null when it did not start), `state.polling` the poll's timer. `what` names the build
+ * in messages; `error(message, code)` shows an error; `onChange()` follows every change of the job
+ * (the Build button's state); `onDone(result)` runs once it is done.
  */
-export async function fetchJob(id, onLost) {
+export async function runJob(url, body, state, { what, error, onChange, onDone }) {
+  setProgress(0, 'Uploading…');
+  document.getElementById('build').disabled = true;
   try {
-    return await fetchJson(`/api/jobs/${encodeURIComponent(id)}`);
+    const res = await postJson(url, body);
+    state.job = { id: res.job, state: 'queued', progress: 0 };
+    document.getElementById('job-id').textContent = `job ${res.job}`;
   } catch (e) {
-    onLost(e);
-    return null;
+    setProgress(0, `The build did not start: ${e.message}`);
+    error(`The build did not start: ${e.message}`, e.code);
+    state.job = null;
+    onChange();
+    return;
   }
+  const lost = (e) => (document.getElementById('job-status').textContent = `Lost track of the job (${e.message}); retrying…`);
+  const poll = async () => {
+    clearTimeout(state.polling);
+    if (!state.job) return;
+    let j;
+    try {
+      j = await fetchJson(`/api/jobs/${encodeURIComponent(state.job.id)}`);
+    } catch (e) {
+      lost(e);
+      state.polling = setTimeout(poll, 1500);
+      return;
+    }
+    state.job = j;
+    const progress = j.progress || 0;
+    if (j.state === 'failed') {
+      const message = j.error?.message || j.error || 'unknown error';
+      setProgress(0, `Failed: ${message}`);
+      error(`The ${what} failed: ${message}`, j.error?.code || 'build');
+    } else if (j.state === 'done') setProgress(1, `Done: rig ${j.result?.rig}`);
+    else if (j.state === 'running') setProgress(progress, `Building: ${j.stage || '…'} (${Math.round(progress * 100)}%)`);
+    else setProgress(0, 'Queued…');
+    onChange();
+    if (j.state === 'done') await onDone(j.result);
+    else if (j.state !== 'failed') state.polling = setTimeout(poll, 400);
+  };
+  poll();
 }
 
 /** Sets every slider of shapeSliders in `box` back to 0 (`onChange(name, 0)` for each). */
