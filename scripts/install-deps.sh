@@ -17,12 +17,12 @@ packages=(
   nodejs
 )
 # What the tests and benchmarks add: the browser, other synthesizers, the RTMP and Redis servers
-# they start, clang for the fuzzers, the Python client.
+# they start, clang for the fuzzers and the ASan+UBSan tree (with its OpenMP), the Python client.
 test_packages=(
   chromium fonts-wqy-microhei
   festival festvox-kallpc16k flite sox
   nginx libnginx-mod-rtmp redis-server
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev libomp-dev
   python3-websockets
 )
 serve=0

@@ -275,7 +275,9 @@ void validate(const ServerOptions& o) {
     for (const auto& t : vmc.targets) (void)parse_vmc_target(t, at + "targets");
     (void)parse_vmc_names(vmc.names, at + "names");
   }
-  for (const auto& [name, r] : o.rtmp) {
+  for (const auto& entry : o.rtmp) {
+    const std::string& name = entry.first;  // not a structured binding: the lambda captures it
+    const ServerOptions::Rtmp& r = entry.second;
     const std::string at = "channels." + name + ".rtmp.";
     need(std::any_of(o.channels.begin(), o.channels.end(),
                      [&](const auto& ch) { return ch.name == name; }),

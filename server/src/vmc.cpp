@@ -99,7 +99,8 @@ void VmcSender::send(std::span<const std::string> shapes, std::span<const float>
     for (const auto& s : shapes)
       impl_->wire.push_back(impl_->names == VmcNames::kVrm0 ? rig::vrm0_name(s) : s);
   }
-  lo_bundle bundle = lo_bundle_new(LO_TT_IMMEDIATE);
+  // LO_TT_IMMEDIATE without the macro's C99 compound literal (clang refuses it in C++).
+  lo_bundle bundle = lo_bundle_new(lo_timetag{0U, 1U});
   const auto add = [&](const char* path, lo_message m) { lo_bundle_add_message(bundle, path, m); };
   for (std::size_t i = 0; i < shapes.size() && i < weights.size(); ++i) {
     lo_message m = lo_message_new();

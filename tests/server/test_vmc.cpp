@@ -9,10 +9,11 @@
 #include "client.hpp"
 
 using namespace fctest;
-using Clock = std::chrono::steady_clock;
 using udp = boost::asio::ip::udp;
 
 namespace {
+
+using Clock = std::chrono::steady_clock;
 
 // Collects the datagrams sent to a loopback port, with their arrival times.
 class UdpReceiver {

@@ -14,6 +14,14 @@
 
 namespace facecast::server {
 
+/// VMC receivers: a channel's (channels.<name>.vmc) or a private speak's (vmc_targets.<name>).
+/// At namespace scope, not in ServerOptions: clang 14 takes a nested class with member
+/// initializers for one it cannot default-construct while the outer class is incomplete.
+struct VmcReceivers {
+  std::vector<std::string> targets;    // "HOST:PORT" each
+  std::string names = "perfect-sync";  // perfect-sync | vrm0 | vrm1
+};
+
 struct ServerOptions {
   // Where to listen. Any host other than a loopback address requires a key store (or `token`).
   std::string host = "127.0.0.1";
@@ -133,10 +141,7 @@ struct ServerOptions {
     std::string producer_token;
     std::string tenant = "default";  // whose channel: keys of other tenants cannot use it
     // channels.<name>.vmc: the show mirrored to VMC receivers (server/src/vmc_out.hpp).
-    struct Vmc {
-      std::vector<std::string> targets;    // "HOST:PORT" each
-      std::string names = "perfect-sync";  // perfect-sync | vrm0 | vrm1
-    };
+    using Vmc = VmcReceivers;
     std::optional<Vmc> vmc{};
   };
   std::vector<Channel> channels;
