@@ -132,9 +132,10 @@ struct ZhChar {
   std::size_t begin, end;
 };
 
-// Polyphone rules (polyphones_zh.json) for a one-character word at run[i].
+// Polyphone rules (polyphones_zh.json) for a one-character word at run[i]; inside a longer word
+// (`in_word`) only the rules marked in_words, and only to choose the tone of the word's spelling.
 std::string apply_rules(const std::vector<ZhChar>& run, std::size_t i, std::string reading,
-                        const Lexicon& lex) {
+                        const Lexicon& lex, bool in_word) {
   const auto it = tables().polyphones.find(run[i].c);
   if (it == tables().polyphones.end()) return reading;
   const auto has = [](const std::u32string& set, char32_t c) {
@@ -145,6 +146,8 @@ std::string apply_rules(const std::vector<ZhChar>& run, std::size_t i, std::stri
     if (!r.next.empty() && !(i + 1 < run.size() && has(r.next, run[i + 1].c))) continue;
     if (r.prev_repeated && !(i >= 2 && run[i - 1].c == run[i - 2].c)) continue;
     if (r.at_end && i + 1 != run.size()) continue;
+    if (in_word && !(r.in_words && toneless(r.reading) == reading && r.reading != reading))
+      continue;
     if (lex.has_reading(run[i].c, toneless(r.reading))) return r.reading;
   }
   return reading;
@@ -231,7 +234,7 @@ class Builder {
       const bool single = seg.end - seg.begin == 1;
       for (std::size_t k = seg.begin; k < seg.end; ++k) {
         std::string bare = seg.toneless[k - seg.begin];
-        if (single) bare = apply_rules(run, k, bare, lex);
+        bare = apply_rules(run, k, bare, lex, !single);
         const bool toned = !bare.empty() && bare.back() >= '1' && bare.back() <= '5';
         const bool plain = bare.empty() || toned;
         syllables[k] = {run[k].c, plain ? bare : lex.tone(run[k].c, bare, single || k > seg.begin),

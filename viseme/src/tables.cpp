@@ -194,7 +194,8 @@ void read_polyphones(Tables& t) {
         .read("prev", prev)
         .read("next", next)
         .read("prev_repeated", rule.prev_repeated)
-        .read("at_end", rule.at_end);
+        .read("at_end", rule.at_end)
+        .read("in_words", rule.in_words);
     r.reject_unknown();
     const std::u32string code_points = to_u32(ch);
     if (code_points.size() != 1) r.fail("char", "must be one character");

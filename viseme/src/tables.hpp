@@ -21,10 +21,11 @@ struct PhoneMap {
 using PhoneTable = std::unordered_map<std::string, PhoneMap>;
 
 struct PolyphoneRule {
-  std::string reading;  // toneless
+  std::string reading;  // toneless, or numbered (that tone)
   std::u32string prev, next;
   bool prev_repeated = false;
   bool at_end = false;
+  bool in_words = false;  // also inside longer words (a numbered reading: the tone only)
 };
 
 struct NumbersZh {
