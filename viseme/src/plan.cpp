@@ -292,23 +292,49 @@ double PlanUnit::seconds() const {
   return s;
 }
 
+namespace {
+
+// The first context rule of phones_espeak_en.json that matches phone i of `phones` (name, stress).
+const PhoneMap* context_map(const std::vector<std::pair<std::string, char>>& phones,
+                            std::size_t i) {
+  const auto is = [](const std::vector<std::string>& set, const std::string& name) {
+    return set.empty() || std::find(set.begin(), set.end(), name) != set.end();
+  };
+  const std::string prev = i > 0 ? phones[i - 1].first : "#";
+  const std::string next = i + 1 < phones.size() ? phones[i + 1].first : "#";
+  for (const auto& r : tables().espeak_en_context)
+    if (r.phone == phones[i].first && (!r.stress || r.stress == phones[i].second) &&
+        is(r.prev, prev) && is(r.next, next))
+      return &r.as;
+  return nullptr;
+}
+
+}  // namespace
+
 std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_phones,
                                       const Options& options) {
   const auto& t = tables();
   const double scale = t.en_reference_rate / options.rate;
-  std::vector<PlanPhone> out;
+  std::vector<std::pair<std::string, char>> known;  // name without stress marks, stress
   for (std::string name : espeak_phones) {
-    bool stressed = false;
+    char stress = '0';
     while (!name.empty() && (name[0] == '\'' || name[0] == ',')) {
-      stressed = stressed || name[0] == '\'';
+      if (stress != '1') stress = name[0] == '\'' ? '1' : '2';
       name.erase(0, 1);
     }
-    const auto it = t.espeak_en.find(name);
-    if (it == t.espeak_en.end()) continue;
-    const std::string& cls = it->second.duration_class;
-    double seconds = t.en_class_seconds.at(cls) * scale;
-    if (stressed) seconds *= t.en_stress_factor;
-    out.push_back({name, seconds, it->second});
+    if (t.espeak_en.count(name)) known.emplace_back(std::move(name), stress);
+  }
+  std::vector<PlanPhone> out;
+  for (std::size_t i = 0; i < known.size(); ++i) {
+    const PhoneMap& m = t.espeak_en.at(known[i].first);
+    double seconds = t.en_class_seconds.at(m.duration_class) * scale;
+    if (known[i].second == '1') seconds *= t.en_stress_factor;
+    PhoneMap visemes = m;
+    if (const PhoneMap* c = context_map(known, i)) {
+      visemes.oculus = c->oculus;
+      visemes.zh15 = c->zh15;
+    }
+    out.push_back({known[i].first, seconds, std::move(visemes)});
   }
   return out;
 }
