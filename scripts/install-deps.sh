@@ -17,10 +17,11 @@ packages=(
   nodejs
 )
 # What the tests and benchmarks add: the browser, other synthesizers, the RTMP and Redis servers
-# they start, clang for the fuzzers and the ASan+UBSan tree (with its OpenMP), the Python client.
+# they start, clang for the fuzzers and the ASan+UBSan tree (with its OpenMP), the Python client,
+# the CMU dictionary and a word list for the English text-accuracy test.
 test_packages=(
   chromium fonts-wqy-microhei
-  festival festvox-kallpc16k flite sox
+  festival festvox-kallpc16k flite sox festlex-cmu wamerican
   nginx libnginx-mod-rtmp redis-server
   clang libclang-rt-14-dev libomp-dev
   python3-websockets

@@ -5,7 +5,8 @@
 //       Oculus viseme error of N words sampled evenly from the CMU dictionary (festlex-cmu), the
 //       reference mapped ARPAbet -> Oculus through configs/viseme/phones_arpabet.json; with
 //       WORDLIST (e.g. /usr/share/dict/american-english from wamerican) only words in it, and
-//       OFFSET picks a different sample (use one sample to study errors, another to report)
+//       OFFSET picks a different sample (use one sample to study errors, another to report; the
+//       English context rules were learned on OFFSET 0-9 without a word list: en_eval.hpp)
 #include <algorithm>
 #include <fstream>
 #include <iomanip>
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "chars.hpp"
+#include "en_eval.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/viseme/viseme.hpp"
@@ -25,6 +27,7 @@
 
 namespace v = facecast::viseme;
 namespace d = facecast::viseme::detail;
+namespace en = facecast::test::en;
 
 namespace {
 
@@ -159,51 +162,6 @@ int eval_zh(const std::string& path) {
   return 0;
 }
 
-// Festival's CMU lexicon: ("word" pos (((ph ph) 1) ((ph) 0))) -> word -> pronunciations.
-std::map<std::string, std::vector<std::vector<std::string>>> read_cmu(const std::string& path) {
-  std::map<std::string, std::vector<std::vector<std::string>>> dict;
-  std::istringstream in(facecast::read_file(path));
-  for (std::string line; std::getline(in, line);) {
-    if (line.size() < 4 || line[0] != '(' || line[1] != '"') continue;
-    const auto q = line.find('"', 2);
-    const std::string word = line.substr(2, q - 2);
-    if (!std::all_of(word.begin(), word.end(), [](char ch) { return ch >= 'a' && ch <= 'z'; }) ||
-        word.size() < 2)
-      continue;
-    const auto body = line.find("(((", q);
-    if (body == std::string::npos) continue;
-    std::vector<std::string> phones;
-    std::string tok;
-    for (std::size_t i = body; i < line.size(); ++i) {
-      const char ch = line[i];
-      if (ch >= 'a' && ch <= 'z') {
-        tok += ch;
-      } else {
-        if (!tok.empty()) phones.push_back(tok);
-        tok.clear();
-      }
-    }
-    dict[word].push_back(phones);
-  }
-  return dict;
-}
-
-std::vector<std::string> oculus_of_arpabet(const std::vector<std::string>& phones) {
-  nlohmann::json j = nlohmann::json::array();
-  double t = 0;
-  for (const auto& p : phones) {
-    j.push_back({{"phone", p}, {"start", t}, {"end", t + 0.1}});
-    t += 0.1;
-  }
-  v::Options o;
-  o.set = v::VisemeSet::kOculus;
-  const auto u =
-      v::import_timestamps(v::TimestampFormat::kJson, j.dump(), o, v::PhoneSet::kArpabet);
-  std::vector<std::string> out;
-  for (const auto& e : u.visemes) out.push_back(e.viseme);
-  return merged(out);
-}
-
 // Substitutions / insertions / deletions between two sequences (for the confusion table).
 void count_confusions(const std::vector<std::string>& ref, const std::vector<std::string>& got,
                       std::map<std::string, int>& confusions) {
@@ -232,55 +190,28 @@ void count_confusions(const std::vector<std::string>& ref, const std::vector<std
 
 int eval_en(const std::string& path, std::size_t n, const std::string& word_list,
             std::size_t offset) {
-  const auto dict = read_cmu(path);
+  const en::Dictionary dict = en::read_cmu(path);
   std::set<std::string> allowed;
-  if (!word_list.empty()) {
-    std::istringstream wl(facecast::read_file(word_list));
-    for (std::string w; std::getline(wl, w);) allowed.insert(w);
-  }
-  std::vector<std::string> words;
-  for (const auto& [w, p] : dict)
-    if (allowed.empty() || allowed.count(w)) words.push_back(w);
+  if (!word_list.empty()) allowed = en::read_word_list(word_list);
+  const auto words = en::sample(dict, n, offset, word_list.empty() ? nullptr : &allowed);
   std::map<std::string, int> confusions;
-  const std::size_t step = std::max<std::size_t>(1, words.size() / n);
-  std::size_t ref_len = 0, errors = 0, exact = 0, count = 0;
+  en::Score total;
   std::vector<std::string> worst;
-  v::Options o;
-  o.set = v::VisemeSet::kOculus;
-  o.lang = v::LangMode::kEn;
-  for (std::size_t i = offset % step; i < words.size() && count < n; i += step, ++count) {
-    const auto u = v::analyze(words[i], o);
-    std::vector<std::string> got;
-    for (const auto& e : u.visemes)
-      if (e.viseme != "sil") got.push_back(e.viseme);
-    got = merged(got);
-    std::size_t best = SIZE_MAX, best_len = 1;
-    std::vector<std::string> best_ref;
-    for (const auto& pron : dict.at(words[i])) {
-      const auto ref = oculus_of_arpabet(pron);
-      const std::size_t e = edit_distance(ref, got);
-      if (e < best) {
-        best = e;
-        best_len = ref.size();
-        best_ref = ref;
-      }
-    }
-    count_confusions(best_ref, got, confusions);
-    ref_len += best_len;
-    errors += best;
-    exact += best == 0;
-    if (best >= 2 && worst.size() < 25) {
+  for (const auto& w : words) {
+    const en::WordScore s = en::score_word(dict, w);
+    count_confusions(s.ref, s.got, confusions);
+    total.add(s);
+    if (s.edits >= 2 && worst.size() < 25) {
       std::string r, g;
-      for (const auto& s : best_ref) r += s + " ";
-      for (const auto& s : got) g += s + " ";
-      worst.push_back(words[i] + ": ref " + r + "| got " + g);
+      for (const auto& x : s.ref) r += x + " ";
+      for (const auto& x : s.got) g += x + " ";
+      worst.push_back(w + ": ref " + r + "| got " + g);
     }
   }
-  std::cout << std::fixed << std::setprecision(2) << "English words " << count
-            << "  Oculus viseme error "
-            << 100.0 * static_cast<double>(errors) / static_cast<double>(ref_len) << "%  ("
-            << errors << " edits / " << ref_len << " reference visemes), words exact "
-            << 100.0 * static_cast<double>(exact) / static_cast<double>(count) << "%\n";
+  std::cout << std::fixed << std::setprecision(2) << "English words " << total.words
+            << "  Oculus viseme error " << total.error_percent() << "%  (" << total.edits
+            << " edits / " << total.ref_len << " reference visemes), words exact "
+            << 100.0 * static_cast<double>(total.exact) / static_cast<double>(total.words) << "%\n";
   for (const auto& w : worst) std::cout << "  " << w << '\n';
   std::vector<std::pair<int, std::string>> top;
   for (const auto& [k, c] : confusions) top.emplace_back(-c, k);

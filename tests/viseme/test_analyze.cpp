@@ -63,6 +63,14 @@ TEST_CASE("English words become Oculus viseme sequences", "[viseme][analyze]") {
   CHECK(visemes(analyze("mom", o)) == "pbm A pbm");
 }
 
+TEST_CASE("English context rules: reduced vowels and vowel pairs as the dictionary writes them",
+          "[viseme][analyze]") {
+  CHECK(oculus("area") == "E RR I aa");                               // unstressed i@ is two vowels
+  CHECK(oculus("science") == "SS aa nn SS");                          // aI@ has no r
+  CHECK(oculus("dialog") == "DD aa nn aa kk");                        // (was DD aa RR nn ...)
+  CHECK(oculus("capacity").find("SS aa DD I") != std::string::npos);  // -ity: a schwa
+}
+
 TEST_CASE("mixed Chinese and English text is one track in one set", "[viseme][analyze]") {
   const char* text = "(joy, 40, 0.5)大家好，欢迎来到 Facecast 的发布会。(surprise, 63, 0.3) Wow!";
   const Utterance u = analyze(text);

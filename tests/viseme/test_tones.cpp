@@ -54,6 +54,16 @@ TEST_CASE("one spelling with tones that depend on the word", "[viseme][tones]") 
   CHECK(lexical("干部") == "gan4 bu4");
 }
 
+TEST_CASE("polyphone tones from the word table and context rules", "[viseme][tones]") {
+  CHECK(lexical("差距") == "cha1 ju4");
+  CHECK(lexical("倒下") == "dao3 xia4");
+  CHECK(lexical("一只猫") == "yi1 zhi1 mao1");  // in_words: the measure word after a numeral
+  CHECK(lexical("只有") == "zhi3 you3");
+  CHECK(lexical("一场大雨") == "yi1 chang2 da4 yu3");
+  CHECK(lexical("数一数") == "shu3 yi5 shu3");  // A一A: the verb repeats its reading
+  CHECK(lexical("被选为") == "bei4 xuan3 wei2");
+}
+
 TEST_CASE("tone sandhi changes what is spoken, the JSON keeps lexical tones", "[viseme][tones]") {
   // Third tones: 3-3 -> 2-3 inside a prosodic word.
   CHECK(spoken("你好") == "ni2 hao3");

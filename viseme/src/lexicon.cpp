@@ -24,24 +24,6 @@ namespace {
 constexpr std::string_view kMagic = "facecast-zh-lexicon 1";
 const std::vector<std::string> kNone;
 
-std::string read_maybe_bz2(const std::filesystem::path& path) {
-  if (path.extension() != ".bz2") return read_file(path);
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw Error(path.string() + ": cannot open", ErrorCode::kNotFound);
-  int err = BZ_OK;
-  BZFILE* bz = BZ2_bzReadOpen(&err, f, 0, 0, nullptr, 0);
-  std::string out;
-  char buf[1 << 16];
-  while (err == BZ_OK) {
-    const int n = BZ2_bzRead(&err, bz, buf, sizeof buf);
-    if (n > 0) out.append(buf, static_cast<std::size_t>(n));
-  }
-  BZ2_bzReadClose(nullptr, bz);
-  std::fclose(f);
-  if (err != BZ_STREAM_END) throw Error(path.string() + ": corrupt bzip2 data");
-  return out;
-}
-
 std::vector<std::string_view> split(std::string_view s, char sep) {
   std::vector<std::string_view> out;
   std::size_t start = 0;
@@ -136,6 +118,24 @@ std::uintmax_t size_of(const std::filesystem::path& p) {
 }
 
 }  // namespace
+
+std::string read_maybe_bz2(const std::filesystem::path& path) {
+  if (path.extension() != ".bz2") return read_file(path);
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw Error(path.string() + ": cannot open", ErrorCode::kNotFound);
+  int err = BZ_OK;
+  BZFILE* bz = BZ2_bzReadOpen(&err, f, 0, 0, nullptr, 0);
+  std::string out;
+  char buf[1 << 16];
+  while (err == BZ_OK) {
+    const int n = BZ2_bzRead(&err, bz, buf, sizeof buf);
+    if (n > 0) out.append(buf, static_cast<std::size_t>(n));
+  }
+  BZ2_bzReadClose(nullptr, bz);
+  std::fclose(f);
+  if (err != BZ_STREAM_END) throw Error(path.string() + ": corrupt bzip2 data");
+  return out;
+}
 
 Lexicon::Sources Lexicon::default_sources() {
   Sources s{FACECAST_RIME_DICT, FACECAST_UNIHAN_READINGS};

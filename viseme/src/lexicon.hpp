@@ -23,6 +23,9 @@ struct StringHash {
   }
 };
 
+/// The text of `path`, decompressed when its name ends in .bz2 (Unihan_Readings.txt.bz2).
+std::string read_maybe_bz2(const std::filesystem::path& path);
+
 class Lexicon {
  public:
   struct Sources {

@@ -132,9 +132,10 @@ struct ZhChar {
   std::size_t begin, end;
 };
 
-// Polyphone rules (polyphones_zh.json) for a one-character word at run[i].
+// Polyphone rules (polyphones_zh.json) for a one-character word at run[i]; inside a longer word
+// (`in_word`) only the rules marked in_words, and only to choose the tone of the word's spelling.
 std::string apply_rules(const std::vector<ZhChar>& run, std::size_t i, std::string reading,
-                        const Lexicon& lex) {
+                        const Lexicon& lex, bool in_word) {
   const auto it = tables().polyphones.find(run[i].c);
   if (it == tables().polyphones.end()) return reading;
   const auto has = [](const std::u32string& set, char32_t c) {
@@ -145,6 +146,8 @@ std::string apply_rules(const std::vector<ZhChar>& run, std::size_t i, std::stri
     if (!r.next.empty() && !(i + 1 < run.size() && has(r.next, run[i + 1].c))) continue;
     if (r.prev_repeated && !(i >= 2 && run[i - 1].c == run[i - 2].c)) continue;
     if (r.at_end && i + 1 != run.size()) continue;
+    if (in_word && !(r.in_words && toneless(r.reading) == reading && r.reading != reading))
+      continue;
     if (lex.has_reading(run[i].c, toneless(r.reading))) return r.reading;
   }
   return reading;
@@ -231,7 +234,7 @@ class Builder {
       const bool single = seg.end - seg.begin == 1;
       for (std::size_t k = seg.begin; k < seg.end; ++k) {
         std::string bare = seg.toneless[k - seg.begin];
-        if (single) bare = apply_rules(run, k, bare, lex);
+        bare = apply_rules(run, k, bare, lex, !single);
         const bool toned = !bare.empty() && bare.back() >= '1' && bare.back() <= '5';
         const bool plain = bare.empty() || toned;
         syllables[k] = {run[k].c, plain ? bare : lex.tone(run[k].c, bare, single || k > seg.begin),
@@ -289,23 +292,49 @@ double PlanUnit::seconds() const {
   return s;
 }
 
+namespace {
+
+// The first context rule of phones_espeak_en.json that matches phone i of `phones` (name, stress).
+const PhoneMap* context_map(const std::vector<std::pair<std::string, char>>& phones,
+                            std::size_t i) {
+  const auto is = [](const std::vector<std::string>& set, const std::string& name) {
+    return set.empty() || std::find(set.begin(), set.end(), name) != set.end();
+  };
+  const std::string prev = i > 0 ? phones[i - 1].first : "#";
+  const std::string next = i + 1 < phones.size() ? phones[i + 1].first : "#";
+  for (const auto& r : tables().espeak_en_context)
+    if (r.phone == phones[i].first && (!r.stress || r.stress == phones[i].second) &&
+        is(r.prev, prev) && is(r.next, next))
+      return &r.as;
+  return nullptr;
+}
+
+}  // namespace
+
 std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_phones,
                                       const Options& options) {
   const auto& t = tables();
   const double scale = t.en_reference_rate / options.rate;
-  std::vector<PlanPhone> out;
+  std::vector<std::pair<std::string, char>> known;  // name without stress marks, stress
   for (std::string name : espeak_phones) {
-    bool stressed = false;
+    char stress = '0';
     while (!name.empty() && (name[0] == '\'' || name[0] == ',')) {
-      stressed = stressed || name[0] == '\'';
+      if (stress != '1') stress = name[0] == '\'' ? '1' : '2';
       name.erase(0, 1);
     }
-    const auto it = t.espeak_en.find(name);
-    if (it == t.espeak_en.end()) continue;
-    const std::string& cls = it->second.duration_class;
-    double seconds = t.en_class_seconds.at(cls) * scale;
-    if (stressed) seconds *= t.en_stress_factor;
-    out.push_back({name, seconds, it->second});
+    if (t.espeak_en.count(name)) known.emplace_back(std::move(name), stress);
+  }
+  std::vector<PlanPhone> out;
+  for (std::size_t i = 0; i < known.size(); ++i) {
+    const PhoneMap& m = t.espeak_en.at(known[i].first);
+    double seconds = t.en_class_seconds.at(m.duration_class) * scale;
+    if (known[i].second == '1') seconds *= t.en_stress_factor;
+    PhoneMap visemes = m;
+    if (const PhoneMap* c = context_map(known, i)) {
+      visemes.oculus = c->oculus;
+      visemes.zh15 = c->zh15;
+    }
+    out.push_back({known[i].first, seconds, std::move(visemes)});
   }
   return out;
 }

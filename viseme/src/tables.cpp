@@ -120,12 +120,44 @@ void read_pinyin(Tables& t) {
   c.reject_unknown();
 }
 
+// phones_espeak_en.json "context": [{"phone", "stress", "prev", "next", "as": [oculus, zh15]}].
+void read_en_context(ConfigReader& c, Tables& t) {
+  std::vector<json> rules;
+  c.read("context", rules);
+  const std::string where = file("phones_espeak_en.json").string() + ": context[";
+  for (std::size_t i = 0; i < rules.size(); ++i) {
+    ConfigReader r(rules[i], where + std::to_string(i) + "]");
+    EnContextRule rule;
+    std::string stress;
+    std::array<std::string, 2> as;
+    r.require("phone", rule.phone)
+        .read("stress", stress)
+        .read("prev", rule.prev)
+        .read("next", rule.next)
+        .require("as", as);
+    r.reject_unknown();
+    if (!t.espeak_en.count(rule.phone)) r.fail("phone", "not in phones: " + rule.phone);
+    if (stress == "primary")
+      rule.stress = '1';
+    else if (stress == "secondary")
+      rule.stress = '2';
+    else if (stress == "none")
+      rule.stress = '0';
+    else if (!stress.empty())
+      r.fail("stress", "expected primary, secondary or none");
+    rule.as.oculus = split_words(as[0]);
+    rule.as.zh15 = split_words(as[1]);
+    t.espeak_en_context.push_back(std::move(rule));
+  }
+}
+
 void read_phone_tables(Tables& t) {
   for (auto [name, table] :
        {std::pair{"phones_espeak_en.json", &t.espeak_en},
         std::pair{"phones_arpabet.json", &t.arpabet}, std::pair{"phones_ipa.json", &t.ipa}}) {
     ConfigReader c = ConfigReader::open(file(name));
     *table = phone_table(c, "phones", t);
+    if (table == &t.espeak_en) read_en_context(c, t);
     c.reject_unknown();
   }
   ConfigReader c = ConfigReader::open(file("visemes_external.json"));
@@ -194,7 +226,8 @@ void read_polyphones(Tables& t) {
         .read("prev", prev)
         .read("next", next)
         .read("prev_repeated", rule.prev_repeated)
-        .read("at_end", rule.at_end);
+        .read("at_end", rule.at_end)
+        .read("in_words", rule.in_words);
     r.reject_unknown();
     const std::u32string code_points = to_u32(ch);
     if (code_points.size() != 1) r.fail("char", "must be one character");

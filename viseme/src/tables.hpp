@@ -20,11 +20,22 @@ struct PhoneMap {
 };
 using PhoneTable = std::unordered_map<std::string, PhoneMap>;
 
+/// A context rule of phones_espeak_en.json: the phone `phone` with the given stress ('1' primary,
+/// '2' secondary, '0' none, 0 any), after one of `prev` and before one of `next` (empty: any;
+/// "#" the word's edge), takes the visemes of `as` (its duration class stays).
+struct EnContextRule {
+  std::string phone;
+  char stress = 0;
+  std::vector<std::string> prev, next;
+  PhoneMap as;
+};
+
 struct PolyphoneRule {
-  std::string reading;  // toneless
+  std::string reading;  // toneless, or numbered (that tone)
   std::u32string prev, next;
   bool prev_repeated = false;
   bool at_end = false;
+  bool in_words = false;  // also inside longer words (a numbered reading: the tone only)
 };
 
 struct NumbersZh {
@@ -57,6 +68,7 @@ struct Tables {
   double nucleus_default_weight = 1.2, coda_weight = 0.7;
 
   PhoneTable espeak_en, arpabet, ipa, azure, polly, rhubarb;
+  std::vector<EnContextRule> espeak_en_context;  // first match wins
   double en_reference_rate = 4.5, en_stress_factor = 1.2;
   std::unordered_map<std::string, double> en_class_seconds;
 

@@ -127,6 +127,10 @@ void word_tones(std::vector<ZhSyllable>& run) {
     if (s.c == U'一' && i > 0 && i + 1 < n && run[i - 1].c == run[i + 1].c &&
         in(t.reduplicated, run[i - 1].c))
       s.pinyin = "yi5";
+    // A一A, A了A: the verb repeated reads as it did (数一数 shu3, 量了量 liang2).
+    if (i >= 2 && run[i - 2].c == s.c && (run[i - 1].c == U'一' || run[i - 1].c == U'了') &&
+        !done[i] && !run[i - 2].pinyin.empty() && toneless(run[i - 2].pinyin) == toneless(s.pinyin))
+      s.pinyin = run[i - 2].pinyin;
   }
 }
 
