@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "facecast/rigbuild/template.hpp"
+#include "sanitizers.hpp"
 #include "test_data.hpp"
 
 namespace fctest {
@@ -40,9 +41,9 @@ void write_text(const std::filesystem::path& p, const std::string& text) {
 }  // namespace
 
 double slowdown() {
-#if defined(__SANITIZE_THREAD__)
+#if defined(FACECAST_TSAN)
   return 6.0;
-#elif defined(__SANITIZE_ADDRESS__)
+#elif defined(FACECAST_ASAN)
   return 3.0;
 #else
   return 1.0;
@@ -50,7 +51,7 @@ double slowdown() {
 }
 
 bool real_time() {
-#if defined(__SANITIZE_THREAD__)
+#if defined(FACECAST_TSAN)
   return false;
 #else
   return true;
