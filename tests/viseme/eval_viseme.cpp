@@ -38,28 +38,8 @@ std::vector<std::string> words_of(const std::string& s) {
   return out;
 }
 
-template <class T, class Eq>
-std::size_t edit_distance(const std::vector<T>& a, const std::vector<T>& b, Eq eq) {
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j)
-      cur[j] =
-          std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (eq(a[i - 1], b[j - 1]) ? 0 : 1)});
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
-
-std::size_t edit_distance(const std::vector<std::string>& a, const std::vector<std::string>& b) {
-  return edit_distance(a, b, [](const std::string& x, const std::string& y) { return x == y; });
-}
-
-std::vector<std::string> merged(std::vector<std::string> v) {
-  v.erase(std::unique(v.begin(), v.end()), v.end());
-  return v;
-}
+using en::edit_distance;
+using en::merged;
 
 std::vector<std::string> zh15_of(const std::vector<std::string>& pinyin) {
   std::vector<std::string> out;
