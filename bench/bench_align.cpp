@@ -1,6 +1,10 @@
 // Forced alignment quality and speed: word-onset error against the true times on speech from
 // other synthesizers (festival, flite) and on altered Chinese espeak-ng speech (see
-// tests/viseme/align_cases.hpp). Prints mean, p95 and max per language and source.
+// tests/viseme/align_cases.hpp), and against hand labels on human English speech
+// (tests/viseme/human_cases.hpp). English runs through both backends (HMM, DTW). Prints mean,
+// median, p95 and max per language, voice set and backend, then per source.
+// BENCH_ALIGN_ONLY=en|zh keeps one language, BENCH_ALIGN_SET=synthetic|human one voice set,
+// BENCH_ALIGN_VERBOSE=1 prints each word's error.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -8,9 +12,11 @@
 #include <map>
 
 #include "align_cases.hpp"
+#include "align_hmm.hpp"
 #include "build_paths.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/audio.hpp"
+#include "human_cases.hpp"
 
 using namespace facecast;
 
@@ -19,6 +25,10 @@ namespace {
 double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+double median(std::vector<double> v) {
+  return percentile(std::move(v), 0.5);
 }
 
 double mean(const std::vector<double>& v) {
@@ -30,53 +40,73 @@ double mean(const std::vector<double>& v) {
 }  // namespace
 
 int main() {
-  std::vector<test::AlignCase> cases = test::all_cases(facecast::test::test_data_dir() / "align");
-  if (const char* only = std::getenv("BENCH_ALIGN_ONLY"))
-    std::erase_if(cases, [&](const auto& c) { return c.lang != only; });
+  const char* only = std::getenv("BENCH_ALIGN_ONLY");
+  const char* set = std::getenv("BENCH_ALIGN_SET");
+  const auto wanted = [&](const char* name) { return !set || std::string(set) == name; };
+  std::vector<test::AlignCase> cases;
+  if (wanted("synthetic")) cases = test::all_cases(facecast::test::test_data_dir() / "align");
+  const std::size_t synthetic = cases.size();
+  if (wanted("human"))
+    for (auto& c :
+         test::human_cases(facecast::test::source_dir() / "tests/viseme/eval/human_words.tsv"))
+      cases.push_back(std::move(c));
   const viseme::AlignOptions options = viseme::load_align_options();
-  std::map<std::string, std::vector<double>> errors;        // per language and per source
-  std::map<std::string, std::vector<double>> phone_errors;  // per language
+  // "lang set backend" and "lang set backend (source)" -> errors
+  std::map<std::string, std::vector<double>> errors, by_source, phone_errors;
   std::map<std::string, std::size_t> true_phones;
-  double seconds = 0, audio_seconds = 0;
-  for (const auto& c : cases) {
-    const viseme::Audio audio = viseme::read_audio(c.audio);
-    const auto t0 = std::chrono::steady_clock::now();
-    const viseme::Utterance u = viseme::align(c.text, audio, {}, options);
-    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    audio_seconds += audio.seconds();
-    const auto e = test::onset_errors(u, c);
-    const std::string source = c.name.substr(0, c.name.find(' '));
-    for (double x : test::phone_onset_errors(u, c)) phone_errors[c.lang].push_back(x);
-    for (const auto& p : c.phones) true_phones[c.lang] += p.phone != "pau" && p.end > p.start;
-    for (double x : e) {
-      errors[c.lang].push_back(x);
-      errors[c.lang + " (" + source + ")"].push_back(x);
-    }
-    if (std::getenv("BENCH_ALIGN_VERBOSE")) {
-      std::printf("%-34s", c.name.c_str());
-      for (std::size_t w = 0; w < u.words.size(); ++w)
-        std::printf(" %4.0f", (u.words[w].start - c.onsets[w]) * 1000);
-      std::printf("\n");
-      if (c.lang == "zh") {
-        std::printf("  true:");
-        for (const auto& p : c.phones)
-          std::printf(" %s%s", p.phone.c_str(), p.end > p.start ? "" : "*");
-        std::printf("\n  mine:");
-        for (const auto& p : u.phones)
-          std::printf(" %s%s", p.phone.c_str(), p.end > p.start ? "" : "*");
+  std::map<std::string, std::pair<double, double>> speed;  // backend -> seconds, audio seconds
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const auto& c = cases[i];
+    if (only && c.lang != only) continue;
+    const bool human = i >= synthetic;
+    const viseme::Audio audio = human ? test::human_audio(c) : viseme::read_audio(c.audio);
+    std::vector<std::pair<std::string, viseme::AlignOptions::Backend>> backends = {
+        {"dtw", viseme::AlignOptions::Backend::kDtw}};
+    if (c.lang == "en")
+      backends.insert(backends.begin(), {"hmm", viseme::AlignOptions::Backend::kHmm});
+    for (const auto& [backend, b] : backends) {
+      viseme::AlignOptions o = options;
+      o.english = b;
+      const auto t0 = std::chrono::steady_clock::now();
+      const viseme::Utterance u = viseme::align(c.text, audio, {}, o);
+      speed[backend].first +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      speed[backend].second += audio.seconds();
+      const std::string key = c.lang + " " + (human ? "human" : "synthetic") + " " + backend;
+      const auto e = test::scored_onset_errors(u, c);
+      const std::string source = c.name.substr(0, c.name.find(' '));
+      errors[key].insert(errors[key].end(), e.begin(), e.end());
+      if (!human) {
+        auto& s = by_source[key + " (" + source + ")"];
+        s.insert(s.end(), e.begin(), e.end());
+        for (double x : test::phone_onset_errors(u, c)) phone_errors[key].push_back(x);
+        for (const auto& p : c.phones) true_phones[key] += p.phone != "pau" && p.end > p.start;
+      }
+      if (std::getenv("BENCH_ALIGN_VERBOSE")) {
+        std::printf("%-4s %-34s", backend.c_str(), c.name.c_str());
+        for (std::size_t w = 0; w < u.words.size(); ++w)
+          std::printf(" %4.0f", (u.words[w].start - c.onsets[w]) * 1000);
         std::printf("\n");
       }
     }
   }
-  std::printf("word-onset error, ms         words   mean    p95    max\n");
-  for (const auto& [name, e] : errors)
-    std::printf("%-28s %6zu %6.1f %6.1f %6.1f\n", name.c_str(), e.size(), mean(e) * 1000,
-                percentile(e, 0.95) * 1000, percentile(e, 1.0) * 1000);
-  std::printf("phone-onset error, ms        phones  mean    p95    max  (compared of true)\n");
-  for (const auto& [name, e] : phone_errors)
-    std::printf("%-28s %6zu %6.1f %6.1f %6.1f  (%zu of %zu)\n", name.c_str(), e.size(),
-                mean(e) * 1000, percentile(e, 0.95) * 1000, percentile(e, 1.0) * 1000, e.size(),
-                true_phones[name]);
-  std::printf("alignment speed: %.1f s for %.1f s of audio (%.0fx real time)\n", seconds,
-              audio_seconds, audio_seconds / seconds);
+  const auto row = [](const std::string& name, const std::vector<double>& e) {
+    if (e.empty()) return;
+    std::printf("%-34s %6zu %6.1f %6.1f %6.1f %6.1f\n", name.c_str(), e.size(), mean(e) * 1000,
+                median(e) * 1000, percentile(e, 0.95) * 1000, percentile(e, 1.0) * 1000);
+  };
+  std::printf("word-onset error, ms (lang set backend)  words   mean median    p95  worst\n");
+  for (const auto& [name, e] : errors) row(name, e);
+  for (const auto& [name, e] : by_source) row(name, e);
+  std::printf("phone-onset error, ms (synthetic)      phones   mean median    p95  worst\n");
+  for (const auto& [name, e] : phone_errors) {
+    row(name, e);
+    std::printf("%-34s (%zu of %zu true phones compared)\n", "", e.size(), true_phones[name]);
+  }
+  for (const auto& [backend, s] : speed)
+    std::printf("%s speed: %.1f s for %.1f s of audio (%.0fx real time)\n", backend.c_str(),
+                s.first, s.second, s.second / s.first);
+  const auto pool = viseme::detail::hmm_pool_stats();
+  std::printf("HMM decoders loaded: %d (the last in %.0f ms)\n", pool.created,
+              pool.last_load_seconds * 1000);
 }

@@ -13,15 +13,18 @@ packages=(
   fonts-dejavu-core
   libmeshoptimizer-dev libdraco-dev libdlib-dev libdlib-data
   libfftw3-dev libsndfile1-dev
+  libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us
   libsqlite3-dev libhiredis-dev libjwt-dev libssl-dev liblo-dev
   nodejs
 )
 # What the tests and benchmarks add: the browser, other synthesizers, the RTMP and Redis servers
 # they start, clang for the fuzzers and the ASan+UBSan tree (with its OpenMP), the Python client,
-# the CMU dictionary and a word list for the English text-accuracy test.
+# the CMU dictionary and a word list for the English text-accuracy test, human speech for the
+# alignment checks (alsa-utils' spoken channel names, pocketsphinx-testdata's recordings).
 test_packages=(
   chromium fonts-wqy-microhei
   festival festvox-kallpc16k flite sox festlex-cmu wamerican
+  alsa-utils pocketsphinx-testdata
   nginx libnginx-mod-rtmp redis-server
   clang libclang-rt-14-dev libomp-dev
   python3-websockets

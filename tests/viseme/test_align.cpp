@@ -7,13 +7,18 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <thread>
 
 #include <unistd.h>
 
 #include "align_cases.hpp"
+#include "align_hmm.hpp"
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/audio.hpp"
+#include "human_cases.hpp"
+#include "test_data.hpp"
 
 using namespace facecast;
 using namespace facecast::viseme;
@@ -135,6 +140,8 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
   CHECK(d.ffmpeg == c.ffmpeg);
   CHECK(d.decode_timeout == c.decode_timeout);
   const AlignOptions a, b = load_align_options();
+  CHECK(a.english == b.english);
+  CHECK(a.hmm_phones == b.hmm_phones);
   CHECK(a.min_speed == b.min_speed);
   CHECK(a.max_speed == b.max_speed);
   CHECK(a.band == b.band);
@@ -156,12 +163,17 @@ TEST_CASE("alignment: word onsets on festival English and altered Chinese speech
   const Scratch dir("cases");
   std::vector<test::AlignCase> cases = test::festival_cases(dir.path);
   for (auto& c : test::chinese_cases(dir.path)) cases.push_back(std::move(c));
-  for (const char* lang : {"en", "zh"}) {
+  // English through both backends (the HMM where pocketsphinx-en-us is installed), Chinese DTW.
+  for (const auto& [lang, backend] :
+       {std::pair{"en", AlignOptions::Backend::kHmm}, std::pair{"en", AlignOptions::Backend::kDtw},
+        std::pair{"zh", AlignOptions::Backend::kDtw}}) {
+    AlignOptions ao;
+    ao.english = backend;
     std::vector<double> errors;
     for (const auto& c : cases) {
       if (c.lang != lang) continue;
       const Audio audio = read_audio(c.audio);
-      const Utterance u = align(c.text, audio);
+      const Utterance u = align(c.text, audio, {}, ao);
       CHECK(u.duration == audio.seconds());
       CHECK(u.pcm.size() == audio.samples.size());
       const auto e = test::onset_errors(u, c);
@@ -173,8 +185,9 @@ TEST_CASE("alignment: word onsets on festival English and altered Chinese speech
     double mean = 0;
     for (double e : errors) mean += e / static_cast<double>(errors.size());
     const double p95 = errors[errors.size() * 95 / 100];
-    INFO(lang << ": mean " << mean * 1000 << " ms, p95 " << p95 * 1000 << " ms over "
-              << errors.size() << " words");
+    INFO(lang << (backend == AlignOptions::Backend::kHmm ? " hmm" : " dtw") << ": mean "
+              << mean * 1000 << " ms, p95 " << p95 * 1000 << " ms over " << errors.size()
+              << " words");
     // Looser than bench_align's targets (30 / 80 ms): this guards against regressions.
     CHECK(mean < 0.050);
     CHECK(p95 < 0.150);
@@ -208,4 +221,78 @@ TEST_CASE("alignment: pauses in the audio become rest", "[viseme][align]") {
   for (const auto& v : u.visemes)
     rest |= v.viseme == "sil" && v.start < gap_start + 0.2 && v.end > gap_end - 0.2;
   CHECK(rest);
+}
+
+TEST_CASE("alignment: English HMM word onsets on human speech (hand labels)", "[viseme][align]") {
+  // The model and recordings come from scripts/install-deps.sh (pocketsphinx-en-us, alsa-utils,
+  // pocketsphinx-testdata): missing, this fails under CI=true and warns elsewhere.
+  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
+  const auto cases = test::human_cases(test::source_dir() / "tests/viseme/eval/human_words.tsv");
+  REQUIRE(cases.size() >= 10);
+  for (const auto& c : cases)
+    if (!test::require_data(c.audio)) return;
+  REQUIRE(detail::hmm_installed());
+  const int decoders = detail::hmm_pool_stats().created;
+  std::vector<double> errors;
+  for (const auto& c : cases) {
+    INFO(c.name);
+    const Audio audio = test::human_audio(c);
+    const Utterance u = align(c.text, audio);
+    // The HMM ran and reached the transcript's end: its words, in order, inside the audio.
+    REQUIRE(u.words.size() == c.onsets.size());
+    for (std::size_t w = 1; w < u.words.size(); ++w)
+      CHECK(u.words[w].start >= u.words[w - 1].end - 1e-9);
+    const auto e = test::scored_onset_errors(u, c);
+    errors.insert(errors.end(), e.begin(), e.end());
+  }
+  CHECK(detail::hmm_pool_stats().created >= std::max(decoders, 1));
+  std::sort(errors.begin(), errors.end());
+  double mean = 0;
+  for (double e : errors) mean += e / static_cast<double>(errors.size());
+  const double p95 = errors[errors.size() * 95 / 100];
+  INFO("human English (HMM): mean " << mean * 1000 << " ms, p95 " << p95 * 1000 << " ms, worst "
+                                    << errors.back() * 1000 << " ms over " << errors.size()
+                                    << " words");
+  // The issue's goal (mean <= 30 ms, p95 <= 80 ms), on the development labels (+- 10-30 ms).
+  CHECK(mean <= 0.030);
+  CHECK(p95 <= 0.080);
+}
+
+TEST_CASE("alignment: the HMM backend is quiet, falls back to DTW and runs in parallel",
+          "[viseme][align]") {
+  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
+  Options o;
+  o.timing = Timing::kTts;
+  const Utterance spoken = analyze("Please call me when you get home", o);
+  const Audio audio = audio_from_pcm16(spoken.pcm, spoken.sample_rate);
+  // Nothing on stderr from pocketsphinx.
+  fflush(stderr);
+  const int saved = dup(2);
+  const Scratch dir("quiet");
+  const std::string log = (dir / "stderr.txt").string();
+  FILE* f = std::fopen(log.c_str(), "w");
+  REQUIRE(f);
+  dup2(fileno(f), 2);
+  const Utterance u = align("Please call me when you get home", audio);
+  fflush(stderr);
+  dup2(saved, 2);
+  close(saved);
+  std::fclose(f);
+  CHECK(std::filesystem::file_size(log) == 0);
+  REQUIRE(u.words.size() == 7);
+  for (std::size_t w = 0; w < 7; ++w)
+    CHECK(std::abs(u.words[w].start - spoken.words[w].start) < 0.06);
+  // English text over the wrong audio still gives every word (the HMM or, failing, DTW).
+  const Utterance wrong = align("twelve purple elephants dance quietly tonight", audio);
+  CHECK(wrong.words.size() == 6);
+  // Decoders from the pool in parallel give the same times as one after another.
+  std::vector<Utterance> out(4);
+  std::vector<std::thread> threads;
+  for (auto& r : out)
+    threads.emplace_back([&] { r = align("Please call me when you get home", audio); });
+  for (auto& t : threads) t.join();
+  for (const auto& r : out) {
+    REQUIRE(r.words.size() == u.words.size());
+    for (std::size_t w = 0; w < u.words.size(); ++w) CHECK(r.words[w].start == u.words[w].start);
+  }
 }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "align_hmm.hpp"
 #include "dtw.hpp"
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
@@ -265,7 +266,12 @@ detail::Timeline map_timeline(const detail::Timeline& synth, const TimeMap& map,
 AlignOptions load_align_options() {
   ConfigReader c = ConfigReader::open(config_path("viseme/align.json"));
   AlignOptions o;
-  c.read("min_speed", o.min_speed)
+  c.read_choice("english", o.english,
+                {{"hmm", AlignOptions::Backend::kHmm}, {"dtw", AlignOptions::Backend::kDtw}})
+      .read_choice(
+          "hmm_phones", o.hmm_phones,
+          {{"espeak", AlignOptions::HmmPhones::kEspeak}, {"hmm", AlignOptions::HmmPhones::kHmm}})
+      .read("min_speed", o.min_speed)
       .read("max_speed", o.max_speed)
       .read("band", o.band)
       .read("band_frames", o.band_frames)
@@ -297,6 +303,24 @@ Utterance align(std::string_view text, const Audio& audio, const Options& option
   const Speech a = analyze_speech(audio.samples, audio.sample_rate, ao, "the audio");
   Options o = options;
   o.timing = Timing::kTts;
+  const auto finish = [&](const detail::Plan& plan, detail::Timeline tl) {
+    tl.pcm = to_pcm16(audio.samples);
+    tl.sample_rate = audio.sample_rate;
+    const VisemeSet set = o.set.value_or(plan.has_zh ? VisemeSet::kZh15 : VisemeSet::kOculus);
+    Utterance u = detail::assemble(plan, tl, std::string(text), set);
+    u.duration = audio.seconds();
+    return u;
+  };
+  // English: the HMM when its model is installed (docs/algorithms.md#forced-alignment); DTW when
+  // its search does not reach the transcript's end.
+  if (ao.english == AlignOptions::Backend::kHmm && detail::hmm_installed()) {
+    detail::Plan plan = detail::make_plan(text, o);
+    if (plan.units.empty()) throw Error("alignment: the text has nothing to say");
+    if (detail::hmm_applies(plan)) {
+      const detail::Timeline synth = detail::time_by_tts(plan, o);
+      if (auto tl = detail::align_hmm(plan, synth, audio, ao)) return finish(plan, std::move(*tl));
+    }
+  }
   // Speak the text twice: the second time at the pace that makes its speech as long as the audio's,
   // so DTW's 2:1 slope limit has room on both sides.
   detail::Plan plan;
@@ -335,13 +359,7 @@ Utterance align(std::string_view text, const Audio& audio, const Options& option
     if (cost < best) best = cost, path = std::move(p);
   }
   const TimeMap map(path, x0, y0, sc.f.frames(), a.f);
-  detail::Timeline tl = map_timeline(synth, map, a, ao, audio.seconds());
-  tl.pcm = to_pcm16(audio.samples);
-  tl.sample_rate = audio.sample_rate;
-  const VisemeSet set = o.set.value_or(plan.has_zh ? VisemeSet::kZh15 : VisemeSet::kOculus);
-  Utterance u = detail::assemble(plan, tl, std::string(text), set);
-  u.duration = audio.seconds();
-  return u;
+  return finish(plan, map_timeline(synth, map, a, ao, audio.seconds()));
 }
 
 }  // namespace facecast::viseme

@@ -1,8 +1,11 @@
 #pragma once
-// Forced alignment of text to speech audio without acoustic models: the text's phones are spoken
-// by espeak-ng (times known), both signals become MFCCs, DTW with slope constraints maps one onto
-// the other, the phone boundaries go through the path and are refined locally on spectral change
-// and energy; pauses in the audio become rest. See docs/algorithms.md#forced-alignment.
+// Forced alignment of text to speech audio. English text goes through an HMM aligner when Debian's
+// pocketsphinx-en-us model is installed (Viterbi decoding with a grammar that is exactly the
+// transcript). Chinese and other text (or English with `english: dtw`) is aligned without acoustic
+// models: the text's phones are spoken by espeak-ng (times known), both signals become MFCCs, DTW
+// with slope constraints maps one onto the other, the phone boundaries go through the path and are
+// refined locally on spectral change and energy; pauses in the audio become rest. See
+// docs/algorithms.md#forced-alignment.
 #include <string_view>
 #include <vector>
 
@@ -14,6 +17,14 @@ namespace facecast::viseme {
 
 /// Defaults mirror configs/viseme/align.json.
 struct AlignOptions {
+  enum class Backend { kHmm, kDtw };
+  /// English text: pocketsphinx's HMM (when pocketsphinx-en-us is installed; DTW otherwise, and
+  /// when its search fails) or DTW. Other text always takes DTW.
+  Backend english = Backend::kHmm;
+  enum class HmmPhones { kEspeak, kHmm };
+  /// The phones inside an HMM-aligned word: espeak-ng's timing stretched onto the word, or a
+  /// second HMM pass over the plan's phones.
+  HmmPhones hmm_phones = HmmPhones::kHmm;
   int min_speed = 80, max_speed = 450;  // espeak-ng words/minute when matching the audio's pace
   double band = 0.25;  // DTW search band, fraction of the longer sequence (+ band_frames)
   int band_frames = 50;

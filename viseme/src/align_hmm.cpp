@@ -1,0 +1,360 @@
+// Forced alignment of English through pocketsphinx's HMM: see docs/algorithms.md#forced-alignment.
+#include "align_hmm.hpp"
+
+#include <pocketsphinx.h>
+#include <sphinxbase/err.h>
+#include <sphinxbase/fsg_model.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <unordered_map>
+
+#include "dtw.hpp"
+#include "facecast/core/config.hpp"
+#include "facecast/core/config_reader.hpp"
+#include "facecast/core/error.hpp"
+#include "features.hpp"
+
+#ifndef FACECAST_PS_HMM
+#define FACECAST_PS_HMM "/usr/share/pocketsphinx/model/en-us/en-us"
+#endif
+#ifndef FACECAST_PS_DICT
+#define FACECAST_PS_DICT "/usr/share/pocketsphinx/model/en-us/cmudict-en-us.dict"
+#endif
+
+namespace facecast::viseme::detail {
+namespace {
+
+constexpr int kRate = 16000;          // the model's sample rate
+constexpr double kFrame = 0.01;       // its frame shift, seconds
+constexpr std::size_t kPoolMax = 8;   // idle decoders kept
+constexpr int kMaxAddedWords = 2000;  // a pooled decoder whose dictionary grew more is dropped
+constexpr double kMinPhone = 0.01;    // seconds every phone of a word keeps
+
+// espeak-ng phone -> CMU phones (configs/viseme/phones_espeak_cmu.json), read once.
+const std::unordered_map<std::string, std::string>& espeak_to_cmu() {
+  static const auto table = [] {
+    ConfigReader c = ConfigReader::open(config_path("viseme/phones_espeak_cmu.json"));
+    std::unordered_map<std::string, std::string> t;
+    ConfigReader& phones = c.section("phones");
+    for (const std::string& k : phones.keys()) phones.require(k, t[k]);
+    c.reject_unknown();
+    return t;
+  }();
+  return table;
+}
+
+struct Decoder {
+  ps_decoder_t* ps = nullptr;
+  int added = 0;  // words added to its dictionary
+  ~Decoder() {
+    if (ps) ps_free(ps);
+  }
+};
+
+class Pool {
+ public:
+  std::unique_ptr<Decoder> take() {
+    {
+      std::lock_guard lock(mutex_);
+      if (!idle_.empty()) {
+        auto d = std::move(idle_.back());
+        idle_.pop_back();
+        return d;
+      }
+    }
+    return create();
+  }
+  void give(std::unique_ptr<Decoder> d) {
+    if (d->added > kMaxAddedWords) return;
+    std::lock_guard lock(mutex_);
+    if (idle_.size() < kPoolMax) idle_.push_back(std::move(d));
+  }
+  HmmPoolStats stats() {
+    std::lock_guard lock(mutex_);
+    return stats_;
+  }
+
+ private:
+  std::unique_ptr<Decoder> create() {
+    // pocketsphinx logs to stderr by default; its log goes nowhere (process-wide, set once).
+    static std::once_flag quiet;
+    std::call_once(quiet, [] { err_set_logfp(nullptr); });
+    const auto t0 = std::chrono::steady_clock::now();
+    // Wide beams (a one-path grammar is cheap to search), no silence removal or live CMN (frame
+    // times must be the audio's), batch CMN over the whole utterance.
+    cmd_ln_t* config = cmd_ln_init(
+        nullptr, ps_args(), TRUE, "-hmm", FACECAST_PS_HMM, "-dict", FACECAST_PS_DICT, "-samprate",
+        "16000", "-beam", "1e-80", "-wbeam", "1e-60", "-pbeam", "1e-80", "-remove_silence", "no",
+        "-cmn", "batch", "-bestpath", "no", "-logfn", "/dev/null", nullptr);
+    if (!config) throw Error("alignment: cannot configure pocketsphinx", ErrorCode::kInternal);
+    auto d = std::make_unique<Decoder>();
+    d->ps = ps_init(config);
+    cmd_ln_free_r(config);  // the decoder holds its own reference
+    if (!d->ps)
+      throw Error("alignment: cannot load pocketsphinx's model " FACECAST_PS_HMM,
+                  ErrorCode::kInternal);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::lock_guard lock(mutex_);
+    ++stats_.created;
+    stats_.last_load_seconds = seconds;
+    return d;
+  }
+
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Decoder>> idle_;
+  HmmPoolStats stats_;
+};
+
+Pool& pool() {
+  static Pool p;
+  return p;
+}
+
+// A dictionary-safe word name: lower-case ASCII letters, digits and apostrophes.
+std::string dict_name(const std::string& text) {
+  std::string out;
+  for (unsigned char c : text) {
+    if (std::isalnum(c) || c == '\'')
+      out += static_cast<char>(std::tolower(c));
+    else
+      return {};
+  }
+  return out;
+}
+
+// The unit's espeak-ng phones as CMU phones: one group per plan phone (possibly empty).
+std::vector<std::vector<std::string>> cmu_groups(const PlanUnit& u) {
+  std::vector<std::vector<std::string>> out;
+  for (const PlanPhone& p : u.phones) {
+    std::vector<std::string> g;
+    const auto it = espeak_to_cmu().find(p.name);
+    if (it != espeak_to_cmu().end()) {
+      std::string s = it->second;
+      for (std::size_t at = 0; at < s.size();) {
+        const std::size_t sp = std::min(s.find(' ', at), s.size());
+        if (sp > at) g.push_back(s.substr(at, sp - at));
+        at = sp + 1;
+      }
+    }
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
+std::string joined(const std::vector<std::vector<std::string>>& groups) {
+  std::string s;
+  for (const auto& g : groups)
+    for (const auto& p : g) s += (s.empty() ? "" : " ") + p;
+  return s;
+}
+
+std::vector<int16_t> pcm16_at_16k(const Audio& audio) {
+  const std::vector<float> s = audio.sample_rate == kRate
+                                   ? audio.samples
+                                   : resample(audio.samples, audio.sample_rate, kRate);
+  return to_pcm16(s);
+}
+
+// Segments of the last decode that are grammar words (not silence or noise), "(2)" variants
+// stripped, with their frames.
+struct Segment {
+  std::string word;
+  int first = 0, last = 0;
+};
+
+std::vector<Segment> segments(ps_decoder_t* ps) {
+  std::vector<Segment> out;
+  for (ps_seg_t* s = ps_seg_iter(ps); s; s = ps_seg_next(s)) {
+    std::string w = ps_seg_word(s);
+    if (w.empty() || w[0] == '<' || w[0] == '[') continue;  // <sil>, <s>, [NOISE]
+    if (const auto paren = w.find('('); paren != std::string::npos && paren > 0) w.resize(paren);
+    int a = 0, b = 0;
+    ps_seg_frames(s, &a, &b);
+    out.push_back({w, a, b});
+  }
+  return out;
+}
+
+}  // namespace
+
+bool hmm_installed() {
+  std::error_code ec;
+  return std::filesystem::exists(std::filesystem::path(FACECAST_PS_HMM) / "mdef", ec) &&
+         std::filesystem::exists(FACECAST_PS_DICT, ec);
+}
+
+bool hmm_applies(const Plan& plan) {
+  bool any = false;
+  for (const PlanUnit& u : plan.units) {
+    if (u.lang != Lang::kEn) return false;
+    any = any || !u.phones.empty();
+  }
+  return any;
+}
+
+std::vector<HmmWord> hmm_words(const Plan& plan) {
+  std::vector<HmmWord> out;
+  for (std::size_t i = 0; i < plan.units.size(); ++i) {
+    const PlanUnit& u = plan.units[i];
+    if (u.phones.empty()) continue;
+    HmmWord w;
+    w.name = dict_name(u.text);
+    // Whether the dictionary has it is known only to a decoder: hmm_decode adds it when missing.
+    w.phones = joined(cmu_groups(u));
+    if (w.name.empty()) w.name = "facecast_word_" + std::to_string(i);
+    out.push_back(std::move(w));
+  }
+  return out;
+}
+
+bool hmm_decode(std::vector<HmmWord>& words, const Audio& audio) {
+  if (words.empty()) return false;
+  std::unique_ptr<Decoder> d = pool().take();
+  ps_decoder_t* ps = d->ps;
+  fsg_model_t* fsg = fsg_model_init("facecast_align", ps_get_logmath(ps), 1.0f,
+                                    static_cast<int>(words.size()) + 1);
+  fsg->start_state = 0;
+  fsg->final_state = static_cast<int>(words.size());
+  for (std::size_t i = 0; i < words.size(); ++i) {
+    HmmWord& w = words[i];
+    if (char* known = ps_lookup_word(ps, w.name.c_str())) {
+      ckd_free(known);
+      w.phones.clear();  // the dictionary's pronunciations (all variants) serve
+    } else if (!w.phones.empty()) {
+      if (ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE) < 0) {
+        fsg_model_free(fsg);
+        throw Error("alignment: pocketsphinx refused the pronunciation '" + w.phones + "' of '" +
+                    w.name + "'");
+      }
+      ++d->added;
+    } else {
+      // No CMU phones for it (only a glottal stop): the word gets the shortest vowel.
+      w.phones = "AH";
+      ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE);
+      ++d->added;
+    }
+    const int wid = fsg_model_word_add(fsg, w.name.c_str());
+    fsg_model_trans_add(fsg, static_cast<int>(i), static_cast<int>(i) + 1, 0, wid);
+  }
+  const bool set =
+      ps_set_fsg(ps, "facecast_align", fsg) == 0 && ps_set_search(ps, "facecast_align") == 0;
+  fsg_model_free(fsg);  // the search holds its own reference
+  if (!set) throw Error("alignment: pocketsphinx refused the transcript grammar");
+  const std::vector<int16_t> pcm = pcm16_at_16k(audio);
+  if (ps_start_utt(ps) < 0)
+    throw Error("alignment: pocketsphinx cannot start", ErrorCode::kInternal);
+  ps_process_raw(ps, pcm.data(), pcm.size(), FALSE, TRUE);
+  ps_end_utt(ps);
+  const std::vector<Segment> segs = segments(ps);
+  bool complete = segs.size() == words.size();
+  for (std::size_t i = 0; complete && i < segs.size(); ++i) {
+    complete = segs[i].word == words[i].name;
+    words[i].span = {segs[i].first * kFrame, (segs[i].last + 1) * kFrame};
+  }
+  pool().give(std::move(d));
+  return complete;
+}
+
+std::optional<Timeline> align_hmm(const Plan& plan, const Timeline& synth, const Audio& audio,
+                                  const AlignOptions& ao) {
+  std::vector<HmmWord> words = hmm_words(plan);
+  if (!hmm_decode(words, audio)) return std::nullopt;
+  // A word after a pause (or at the start) that begins with a stop takes the silence before it as
+  // the stop's closure: its onset moves to the first frame that is not silent by the DTW path's
+  // silence test, leaving it at least kMinWord.
+  constexpr double kMinWord = 0.05;
+  const Features f = compute_features(audio.samples, audio.sample_rate);
+  const std::vector<bool> silent = silent_frames(f, ao.silence_range, ao.silence_max_db);
+  for (HmmWord& w : words) {
+    auto k = static_cast<std::size_t>(std::max(0.0, std::floor(w.span.start / f.hop_seconds)));
+    bool moved = false;
+    while (k < silent.size() && silent[k] && f.time(k + 1) < w.span.end - kMinWord)
+      ++k, moved = true;
+    if (moved) w.span.start = std::max(w.span.start, f.time(k) - f.frame_seconds / 2);
+  }
+  Timeline tl;
+  tl.duration = audio.seconds();
+  tl.units.resize(plan.units.size());
+  // HMM phone pass: one grammar word per CMU phone of the plan's own (espeak-ng) phones.
+  std::vector<HmmWord> phones;
+  std::vector<std::vector<std::size_t>> phone_count;  // per unit, per plan phone: CMU phones
+  bool phone_pass = ao.hmm_phones == AlignOptions::HmmPhones::kHmm;
+  if (phone_pass) {
+    for (const PlanUnit& u : plan.units) {
+      phone_count.emplace_back();
+      for (const auto& g : cmu_groups(u)) {
+        phone_count.back().push_back(g.size());
+        for (const auto& p : g) phones.push_back({"facecast_phone_" + p, p, {}});
+      }
+    }
+    phone_pass = hmm_decode(phones, audio);
+  }
+  std::size_t w = 0, ph = 0;
+  double previous = 0;
+  for (std::size_t i = 0; i < plan.units.size(); ++i) {
+    const PlanUnit& u = plan.units[i];
+    UnitTime& tu = tl.units[i];
+    if (u.phones.empty()) {
+      tu.span = {previous, previous};
+      continue;
+    }
+    const Span span = words[w++].span;
+    tu.span = span;
+    if (phone_pass) {
+      // Each plan phone spans its CMU phones, clamped into the word; a phone without any starts
+      // where the next one does.
+      double t = span.start;
+      for (std::size_t k = 0; k < u.phones.size(); ++k) {
+        const std::size_t n = phone_count[i][k];
+        Span p{t, t};
+        if (n > 0) {
+          p = {std::clamp(phones[ph].span.start, t, span.end),
+               std::clamp(phones[ph + n - 1].span.end, t, span.end)};
+          ph += n;
+        }
+        if (k == 0) p.start = span.start;
+        tu.phones.push_back(p);
+        t = p.end;
+      }
+      for (std::size_t k = 0; k + 1 < tu.phones.size(); ++k)
+        tu.phones[k].end = tu.phones[k + 1].start;
+      tu.phones.back().end = span.end;
+    } else {
+      // espeak-ng's timing of the word's phones, stretched onto the word's span.
+      const UnitTime& su = synth.units[i];
+      const double s0 = su.phones.front().start, s1 = su.phones.back().end;
+      const double scale = s1 > s0 ? (span.end - span.start) / (s1 - s0) : 0;
+      for (const Span& p : su.phones)
+        tu.phones.push_back(
+            {span.start + (p.start - s0) * scale, span.start + (p.end - s0) * scale});
+    }
+    // Every phone keeps at least kMinPhone (or an equal share of a shorter word).
+    const double n = static_cast<double>(tu.phones.size());
+    const double min_phone = std::min(kMinPhone, (span.end - span.start) / n);
+    for (std::size_t k = 0; k < tu.phones.size(); ++k) {
+      Span& p = tu.phones[k];
+      p.start = std::max(p.start, k > 0 ? tu.phones[k - 1].end : span.start);
+      p.end = std::max(p.end, p.start + min_phone);
+    }
+    for (std::size_t k = tu.phones.size(); k-- > 0;) {
+      Span& p = tu.phones[k];
+      p.end = std::min(p.end, k + 1 < tu.phones.size() ? tu.phones[k + 1].start : span.end);
+      p.start = std::min(p.start, p.end - min_phone);
+    }
+    previous = span.end;
+  }
+  return tl;
+}
+
+HmmPoolStats hmm_pool_stats() {
+  return pool().stats();
+}
+
+}  // namespace facecast::viseme::detail
