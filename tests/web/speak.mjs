@@ -245,7 +245,8 @@ await run('speak', async () => {
     .waitForFunction(() => window.__facecast.mouth() < 0.02, null, { timeout: 5000, polling: 50 })
     .then(() => page.evaluate(() => window.__facecast.mouth()))
     .catch(() => page.evaluate(() => window.__facecast.mouth()));
-  check('the face is at rest after stopping the queue', restAfterBurst < 0.02, restAfterBurst.toFixed(4));
+  const playerState = restAfterBurst < 0.02 ? '' : ` ${JSON.stringify(await page.evaluate(() => window.__facecast.player))}`;
+  check('the face is at rest after stopping the queue', restAfterBurst < 0.02, restAfterBurst.toFixed(4) + playerState);
 
   // ---- No console errors while the server was up.
   check('no console errors', page.problems.length === 0, page.problems.slice(0, 5).join(' | '));

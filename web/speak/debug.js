@@ -49,6 +49,24 @@ window.__facecast = {
   get clock() {
     return player.current ? player.current.clock : null;
   },
+  /** The player's state, for a test's failure message: the stream shown and why it is not over. */
+  get player() {
+    const s = player.current;
+    return {
+      streams: [...player.streams.keys()],
+      restDecay: state.restDecay,
+      current: s && {
+        id: s.id,
+        stream: s.stream,
+        ended: s.ended,
+        clock: s.clock,
+        pendingJpegs: s.pendingJpegs,
+        end: s.endOf(),
+        t: s.clock ? player.clockNow(s.clock) - s.t0 : null,
+        done: player.done(s),
+      },
+    };
+  },
   get utteranceTime() {
     const t = player.current ? player.current.lastT : null;
     return Number.isFinite(t) ? t : null;
