@@ -208,7 +208,12 @@ std::vector<HmmWord> hmm_words(const Plan& plan) {
     w.name = dict_name(u.text);
     // Whether the dictionary has it is known only to a decoder: hmm_decode adds it when missing.
     w.phones = joined(cmu_groups(u));
-    if (w.name.empty()) w.name = "facecast_word_" + std::to_string(i);
+    // A word the dictionary cannot name is named by its phones: a pooled decoder keeps the words
+    // added to it, so one name must never stand for two pronunciations.
+    if (w.name.empty()) {
+      w.name = "facecast_word";
+      for (const char c : w.phones) w.name += c == ' ' ? '_' : c;
+    }
     out.push_back(std::move(w));
   }
   return out;
