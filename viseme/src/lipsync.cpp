@@ -47,7 +47,7 @@ struct LipsyncAnalyzer::Impl {
   // (with its prior), changing only by `switch_margin` over the current class.
   LipsyncFrame decide() {
     const Scored& s = window[decided];
-    LipsyncFrame out{s.f.time, SoundClass::kSilence, s.f.loudness};
+    LipsyncFrame out{s.f.time, SoundClass::kSilence, s.f.loudness, s.f.silent};
     if (s.f.silent) {
       const bool after_voice = s.f.time - last_sounding <= options.closure_max;
       out.cls = after_voice && current != SoundClass::kSilence ? SoundClass::kClosure

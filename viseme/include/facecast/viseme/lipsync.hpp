@@ -79,6 +79,7 @@ struct LipsyncFrame {
   double time = 0;  // seconds from the stream's start (the frame's centre)
   SoundClass cls = SoundClass::kSilence;
   float loudness = 0;  // 0..1: the jaw's share from the level relative to the speech level
+  bool silent = true;  // below the silence threshold (the level decision alone)
 };
 
 /// The streaming analyser: push mono float at its sample rate in chunks of any size; frames come
