@@ -102,9 +102,9 @@ int main() {
         std::string truth = "-";
         for (const auto& e : it.truth)
           if (e.start <= f.time && f.time < e.end) truth = e.viseme;
-        std::printf("%6.3f %-4s %-11s %c %.2f\n", f.time, truth.c_str(),
-                    std::string(viseme::to_string(f.cls)).c_str(), f.silent ? 's' : ' ',
-                    f.loudness);
+        std::printf("%6.3f %-4s %-11s %c %.2f %.2f\n", f.time, truth.c_str(),
+                    std::string(viseme::to_string(f.cls)).c_str(), f.silent ? 's' : ' ', f.loudness,
+                    f.openness);
       }
     }
   print_header("audio-only lip-sync (closure and FF: segments shown / segments)");
