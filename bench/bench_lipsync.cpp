@@ -103,7 +103,7 @@ int main() {
         for (const auto& e : it.truth)
           if (e.start <= f.time && f.time < e.end) truth = e.viseme;
         std::printf("%6.3f %-4s %-11s %c %.2f %.2f\n", f.time, truth.c_str(),
-                    std::string(viseme::to_string(f.cls)).c_str(), f.silent ? 's' : ' ', f.loudness,
+                    std::string(viseme::to_string(f.cls)).c_str(), f.silent ? 's' : '-', f.loudness,
                     f.openness);
       }
     }

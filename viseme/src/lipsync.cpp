@@ -28,8 +28,10 @@ struct LipsyncAnalyzer::Impl {
   std::deque<Scored> window;  // context + the decided frame + look-ahead
   std::size_t decided = 0;    // index in `window` of the next frame to decide
   SoundClass current = SoundClass::kSilence;
-  double last_sounding = -1e9;       // time of the last sounding frame
-  float last_sounding_level = -100;  // its level, dB re the speech level
+  double last_sounding = -1e9;                // time of the last sounding frame
+  float last_sounding_level = -100;           // its level, dB re the speech level
+  static constexpr std::size_t kRecent = 10;  // sounding frames (100 ms) a murmur's dip looks back
+  std::deque<float> recent;                   // their levels, dB re the speech level
   std::vector<detail::FeatureFrame> scratch;
 
   void add(const detail::FeatureFrame& f, std::vector<LipsyncFrame>& out) {
@@ -61,12 +63,28 @@ struct LipsyncAnalyzer::Impl {
           (current != SoundClass::kSilence && current != SoundClass::kFricative &&
            current != SoundClass::kLabiodental && last_sounding_level >= options.closure_entry_db);
       out.cls = after_voice && stop ? SoundClass::kClosure : SoundClass::kSilence;
+      // Before a labial release: the look-ahead's first sounding frames (the burst of /p/ /b/
+      // after a pause, learned as "closure") score closure above every other class.
+      if (out.cls == SoundClass::kSilence) {
+        std::array<double, kSoundClasses> onset{};
+        int n = 0;
+        for (std::size_t i = decided + 1; i < window.size() && n < 2; ++i)
+          if (!window[i].f.silent) {
+            ++n;
+            for (int k = 1; k < kSoundClasses; ++k)
+              onset[static_cast<std::size_t>(k)] += window[i].ll[static_cast<std::size_t>(k)];
+          }
+        const auto best = std::max_element(onset.begin() + 1, onset.end());
+        if (n > 0 && best - onset.begin() == static_cast<std::ptrdiff_t>(SoundClass::kClosure))
+          out.cls = SoundClass::kClosure;
+      }
     } else {
       std::array<double, kSoundClasses> sum{};
       const std::size_t from = decided > static_cast<std::size_t>(options.context_frames)
                                    ? decided - static_cast<std::size_t>(options.context_frames)
                                    : 0;
       float loudest = s.f.level;
+      for (float l : recent) loudest = std::max(loudest, l);
       for (std::size_t i = from; i < window.size(); ++i)
         if (!window[i].f.silent) {
           loudest = std::max(loudest, window[i].f.level);
@@ -75,9 +93,15 @@ struct LipsyncAnalyzer::Impl {
         }
       const auto closure = static_cast<std::size_t>(SoundClass::kClosure),
                  consonant = static_cast<std::size_t>(SoundClass::kConsonant);
+      const auto murmur_like = [&](const detail::FeatureFrame& f) {
+        return !f.silent && f.settled && f.voicing >= options.murmur_voicing &&
+               f.nasal >= options.murmur_nasal_db && f.openness <= options.murmur_openness &&
+               f.level <= loudest - options.murmur_dip_db;
+      };
+      // A murmur lasts: it starts only where the next frame is one too.
       const bool murmur =
-          s.f.voicing >= options.murmur_voicing && s.f.balance >= options.murmur_balance_db &&
-          s.f.openness <= options.murmur_openness && s.f.level <= loudest - options.murmur_dip_db;
+          murmur_like(s.f) && (current == SoundClass::kClosure ||
+                               (decided + 1 < window.size() && murmur_like(window[decided + 1].f)));
       // Outside a murmur the closure templates (learned on synthetic murmurs and bursts) are
       // trusted only on weak frames (a burst, a voiced closure): loud, they fire on /r/ /l/.
       int best = murmur || s.f.level <= options.burst_max_db ? 1 : 2;
@@ -93,6 +117,8 @@ struct LipsyncAnalyzer::Impl {
         out.cls = SoundClass::kClosure;
       last_sounding = s.f.time;
       last_sounding_level = s.f.level;
+      recent.push_back(s.f.level);
+      if (recent.size() > kRecent) recent.pop_front();
     }
     current = out.cls;
     ++decided;

@@ -65,7 +65,7 @@ FeatureStream::FeatureStream(int rate, const LipsyncOptions& o, const std::vecto
     while (b < fc.mel_bands && centre_hz_[static_cast<std::size_t>(b)] < hz) ++b;
     return b;
   };
-  low0_ = first_at(150), low1_ = first_at(900), high0_ = first_at(2500);
+  bass0_ = first_at(150), bass1_ = first_at(500), mid0_ = first_at(1000), mid1_ = first_at(2200);
   f10_ = first_at(250), f11_ = first_at(1000);
 }
 
@@ -80,8 +80,8 @@ RawFrame FeatureStream::analyze(const float* frame) {
     for (int b = from; b < to; ++b) e += std::exp(static_cast<double>(m[b]));
     return static_cast<float>(10 * std::log10(e));
   };
-  r.low_db = band_db(low0_, low1_);
-  r.high_db = band_db(high0_, static_cast<int>(centre_hz_.size()));
+  r.bass_db = band_db(bass0_, bass1_);
+  r.mid_db = band_db(mid0_, mid1_);
   double w = 0, wf = 0;
   for (int b = f10_; b < f11_; ++b) {
     const double e = std::exp(2.0 * static_cast<double>(m[b]));
@@ -125,6 +125,7 @@ FeatureFrame FeatureStream::complete(const RawFrame& prev, const RawFrame& cur,
   const double threshold = std::max(floor_db_ + options_.silence_range * (speech - floor_db_),
                                     speech - options_.silence_max_db);
   f.silent = speech_weight_ == 0 || cur.level_db < threshold;
+  f.settled = speech_weight_ >= 10;
   const double bottom = speech - options_.jaw_range_db;
   f.loudness =
       static_cast<float>(std::clamp((cur.level_db - bottom) / (speech + 3 - bottom), 0.0, 1.0));
@@ -139,7 +140,7 @@ FeatureFrame FeatureStream::complete(const RawFrame& prev, const RawFrame& cur,
   f.x[2 * n + 3] = cur.zcr * 4;
   f.level = static_cast<float>(cur.level_db - speech);
   f.voicing = cur.voicing;
-  f.balance = cur.low_db - cur.high_db;
+  f.nasal = cur.bass_db - cur.mid_db;
   f.openness = static_cast<float>(std::clamp((cur.f1_hz - f1_lo_) / (f1_hi_ - f1_lo_), 0.0, 1.0));
   return f;
 }

@@ -24,8 +24,8 @@ struct RawFrame {
   float voicing = 0;   // peak normalised autocorrelation at 60..400 Hz lags (8 kHz), 0..1
   float zcr = 0;       // zero crossings per sample
   std::array<float, kLipsyncCepstra> cep{};
-  float low_db = 0;   // energy of the mel bands centred at 150..900 Hz, dB
-  float high_db = 0;  // ... at 2.5 kHz and above
+  float bass_db = 0;  // energy of the mel bands centred at 150..500 Hz, dB
+  float mid_db = 0;   // ... at 1000..2200 Hz
   float f1_hz = 0;    // first-formant proxy: power^2-weighted centre of the bands at 250..1000 Hz
 };
 
@@ -33,11 +33,12 @@ struct RawFrame {
 struct FeatureFrame {
   double time = 0;
   bool silent = true;
-  float loudness = 0;  // 0..1, see LipsyncOptions::jaw_range_db
-  float level = 0;     // dB relative to the speech level
-  float voicing = 0;   // see RawFrame
-  float balance = 0;   // low_db - high_db: high for nasal murmur and voiced closures
-  float openness = 0;  // 0..1 from the first-formant proxy (the vowel's jaw), speaker-normalised
+  bool settled = false;  // the speech level has 10 voiced frames behind it
+  float loudness = 0;    // 0..1, see LipsyncOptions::jaw_range_db
+  float level = 0;       // dB relative to the speech level
+  float voicing = 0;     // see RawFrame
+  float nasal = 0;       // bass_db - mid_db: high for nasal murmur (weak F2/F3), lower for r l w
+  float openness = 0;    // 0..1 from the first-formant proxy (the vowel's jaw), speaker-normalised
   std::array<float, kLipsyncDims> x{};
 };
 
@@ -75,7 +76,7 @@ class FeatureStream {
   double floor_db_ = 0;
   bool started_ = false;
   // Mel band ranges of RawFrame's band energies, and the speaker's first-formant range.
-  int low0_ = 0, low1_ = 0, high0_ = 0, f10_ = 0, f11_ = 0;
+  int bass0_ = 0, bass1_ = 0, mid0_ = 0, mid1_ = 0, f10_ = 0, f11_ = 0;
   std::vector<float> centre_hz_;
   double f1_lo_ = 350, f1_hi_ = 750;
 };

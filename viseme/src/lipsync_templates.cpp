@@ -51,7 +51,7 @@ LipsyncOptions load_lipsync_options() {
       .read("silence_max_db", o.silence_max_db)
       .read("closure_max", o.closure_max)
       .read("closure_entry_db", o.closure_entry_db)
-      .read("murmur_balance_db", o.murmur_balance_db)
+      .read("murmur_nasal_db", o.murmur_nasal_db)
       .read("murmur_dip_db", o.murmur_dip_db)
       .read("murmur_voicing", o.murmur_voicing)
       .read("murmur_openness", o.murmur_openness)

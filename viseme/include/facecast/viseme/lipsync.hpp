@@ -46,12 +46,12 @@ struct LipsyncOptions {
   double silence_max_db = 35;     // ... or more than this below the speech level
   double closure_max = 0.15;      // a silence after voicing shows as a closure this long at most
   double closure_entry_db = -12;  // ... when the sound before it was this loud (dB re speech)
-  double murmur_balance_db = 6;   // nasal murmur: energy < 900 Hz over > 2.5 kHz at least this
+  double murmur_nasal_db = 7;     // nasal murmur: energy at 150..500 Hz over 1..2.2 kHz >= this
   double murmur_dip_db = 2;       // ... and this far below the loudest frame around it
-  double murmur_voicing = 0.6;    // ... and voiced at least this much
+  double murmur_voicing = 0.5;    // ... and voiced at least this much
   double murmur_openness = 0.5;   // ... and its first-formant openness at most this
-  double closure_bias = 2.0;      // log-likelihood bonus of closure over consonant in a murmur
-  double burst_max_db = -2;       // outside a murmur, the closure class only this weak (dB)
+  double closure_bias = 10;       // log-likelihood bonus of closure over consonant in a murmur
+  double burst_max_db = -8;       // outside a murmur, the closure class only this weak (dB)
   int lookahead_frames = 3;       // class decision waits this many 10 ms frames
   int context_frames = 2;         // ... and sums the log-likelihoods of this many past frames
   double switch_margin = 5.0;     // log-likelihood lead a new class needs (hysteresis)
