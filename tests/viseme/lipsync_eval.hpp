@@ -12,8 +12,8 @@
 // - closure recall: the truth's p/b/m segments (Oculus PP) holding at least one closure frame
 //   (+- kTolerance, the reference's boundary error); closure precision: the analyser's closure runs
 //   (consecutive closure frames) overlapping a p/b/m segment (+- kTolerance);
-// - FF recall: the truth's f/v segments holding a labiodental frame (+- kTolerance); the baseline
-//   has no such class (0);
+// - FF recall: the truth's f/v segments holding a labiodental frame (+- kTolerance); FF precision:
+//   the labiodental runs overlapping an f/v segment; the baseline has no such class;
 // - jaw correlation: Pearson of jawOpen at 60 fps against the truth's curve (same rig mapping).
 #include <algorithm>
 #include <cmath>
@@ -57,14 +57,14 @@ struct LipsyncScore {
   std::size_t frames = 0, correct = 0, baseline_correct = 0;
   std::size_t pbm = 0, pbm_closed = 0, baseline_pbm_closed = 0;                    // p/b/m segments
   std::size_t runs = 0, runs_true = 0, baseline_runs = 0, baseline_runs_true = 0;  // closures
-  std::size_t ff = 0, ff_shown = 0;                                                // f/v segments
+  std::size_t ff = 0, ff_shown = 0, ff_runs = 0, ff_runs_true = 0;  // f/v segments, FF runs
   Correlation jaw, baseline_jaw;
   LipsyncScore& operator+=(const LipsyncScore& o) {
     frames += o.frames, correct += o.correct, baseline_correct += o.baseline_correct;
     pbm += o.pbm, pbm_closed += o.pbm_closed, baseline_pbm_closed += o.baseline_pbm_closed;
     runs += o.runs, runs_true += o.runs_true, baseline_runs += o.baseline_runs,
         baseline_runs_true += o.baseline_runs_true;
-    ff += o.ff, ff_shown += o.ff_shown;
+    ff += o.ff, ff_shown += o.ff_shown, ff_runs += o.ff_runs, ff_runs_true += o.ff_runs_true;
     jaw += o.jaw, baseline_jaw += o.baseline_jaw;
     return *this;
   }
@@ -75,6 +75,7 @@ struct LipsyncScore {
   double closure_precision() const { return ratio(runs_true, runs); }
   double baseline_closure_precision() const { return ratio(baseline_runs_true, baseline_runs); }
   double ff_recall() const { return ratio(ff_shown, ff); }
+  double ff_precision() const { return ratio(ff_runs_true, ff_runs); }
   double correlation() const { return jaw.value(); }
   double baseline_correlation() const { return baseline_jaw.value(); }
 };
@@ -137,10 +138,12 @@ std::pair<std::size_t, std::size_t> segments_shown(const std::vector<viseme::Vis
   return {n, hit};
 }
 
-// Runs of consecutive closure frames, and how many overlap a p/b/m segment (+- kTolerance).
-inline std::pair<std::size_t, std::size_t> closure_runs(
-    const std::vector<viseme::VisemeEvent>& truth, const std::vector<double>& times,
-    const std::vector<bool>& closed) {
+// Runs of consecutive flagged frames, and how many overlap a segment of viseme `name` (+-
+// kTolerance).
+inline std::pair<std::size_t, std::size_t> runs_on(const std::vector<viseme::VisemeEvent>& truth,
+                                                   const std::string& name,
+                                                   const std::vector<double>& times,
+                                                   const std::vector<bool>& closed) {
   std::size_t runs = 0, good = 0;
   for (std::size_t i = 0; i < times.size();) {
     if (!closed[i]) {
@@ -152,7 +155,7 @@ inline std::pair<std::size_t, std::size_t> closure_runs(
     ++runs;
     const double a = times[i], b = times[j];
     good += std::any_of(truth.begin(), truth.end(), [&](const viseme::VisemeEvent& e) {
-      return e.viseme == "PP" && a <= e.end + kTolerance && b >= e.start - kTolerance;
+      return e.viseme == name && a <= e.end + kTolerance && b >= e.start - kTolerance;
     });
     i = j + 1;
   }
@@ -217,8 +220,9 @@ inline LipsyncScore score_lipsync(const viseme::Audio& audio,
       segments_shown(truth, "PP", times, [&](std::size_t i) { return closed[i]; });
   s.baseline_pbm_closed =
       segments_shown(truth, "PP", times, [&](std::size_t i) { return base_closed[i]; }).second;
-  std::tie(s.runs, s.runs_true) = closure_runs(truth, times, closed);
-  std::tie(s.baseline_runs, s.baseline_runs_true) = closure_runs(truth, times, base_closed);
+  std::tie(s.runs, s.runs_true) = runs_on(truth, "PP", times, closed);
+  std::tie(s.baseline_runs, s.baseline_runs_true) = runs_on(truth, "PP", times, base_closed);
+  std::tie(s.ff_runs, s.ff_runs_true) = runs_on(truth, "FF", times, labio);
   std::tie(s.ff, s.ff_shown) =
       segments_shown(truth, "FF", times, [&](std::size_t i) { return labio[i]; });
   std::vector<float> wt(arkit_mapping().shape_names().size()), wh(wt.size());

@@ -30,11 +30,14 @@ TEST_CASE("lipsync option defaults mirror configs/viseme/lipsync.json", "[viseme
   CHECK(d.closure_max == c.closure_max);
   CHECK(d.closure_entry_db == c.closure_entry_db);
   CHECK(d.murmur_nasal_db == c.murmur_nasal_db);
+  CHECK(d.murmur_dull_db == c.murmur_dull_db);
   CHECK(d.murmur_dip_db == c.murmur_dip_db);
   CHECK(d.murmur_voicing == c.murmur_voicing);
   CHECK(d.murmur_openness == c.murmur_openness);
   CHECK(d.closure_bias == c.closure_bias);
   CHECK(d.burst_max_db == c.burst_max_db);
+  CHECK(d.labiodental_max_db == c.labiodental_max_db);
+  CHECK(d.labiodental_bias == c.labiodental_bias);
   CHECK(d.jaw_openness == c.jaw_openness);
   CHECK(d.lookahead_frames == c.lookahead_frames);
   CHECK(d.context_frames == c.context_frames);
@@ -125,9 +128,9 @@ TEST_CASE("lipsync: silence and bad tags are one-line errors", "[viseme][lipsync
 TEST_CASE("lipsync: class accuracy, closures, FF and jawOpen on synthetic speech",
           "[viseme][lipsync][slow]") {
   // Bounds a little under what bench_lipsync measures (docs/benchmarks.md#speech): festival
-  // English 52.5 % accuracy (loudness 16.6 %), p/b/m closures 20/24 (6/24), closure precision
-  // 31.6 % (14.6 %), FF 4/8, jaw 0.621 (loudness 0.478); altered espeak-ng Chinese 38.6 %
-  // (21.4 %), jaw 0.650 (0.539).
+  // English 54.6 % accuracy (loudness 16.6 %), p/b/m closures 20/24 (6/24), closure precision
+  // 30.4 % (14.6 %), FF 8/8, jaw 0.585 (loudness 0.478); altered espeak-ng Chinese 42.4 %
+  // (21.4 %), jaw 0.682 (0.539).
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("facecast_lipsync_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
@@ -145,17 +148,17 @@ TEST_CASE("lipsync: class accuracy, closures, FF and jawOpen on synthetic speech
               << s.baseline_correlation() << ")");
     CHECK(s.accuracy() > s.baseline_accuracy() + 0.15);
     if (std::string(lang) == "en") {
-      CHECK(s.accuracy() >= 0.48);
+      CHECK(s.accuracy() >= 0.50);
       CHECK(s.closure_recall() >= 0.75);
       CHECK(s.closure_recall() > s.baseline_closure_recall() + 0.4);
       CHECK(s.closure_precision() >= 0.25);
       CHECK(s.closure_precision() > s.baseline_closure_precision());
-      CHECK(s.ff_recall() >= 0.3);
-      CHECK(s.correlation() >= 0.57);
-      CHECK(s.correlation() > s.baseline_correlation() + 0.08);
-    } else {
-      CHECK(s.accuracy() >= 0.35);
+      CHECK(s.ff_recall() >= 0.6);
+      CHECK(s.correlation() >= 0.55);
       CHECK(s.correlation() > s.baseline_correlation() + 0.06);
+    } else {
+      CHECK(s.accuracy() >= 0.39);
+      CHECK(s.correlation() > s.baseline_correlation() + 0.1);
     }
   }
   std::error_code ec;
@@ -166,9 +169,9 @@ TEST_CASE("lipsync: human speech (development recordings) against the HMM alignm
           "[viseme][lipsync]") {
   // The recordings and the English model come from scripts/install-deps.sh (alsa-utils,
   // pocketsphinx-testdata, pocketsphinx-en-us): missing, this fails under CI=true and warns
-  // elsewhere. Never librivox/ or cards/ (held out). Measured by bench_lipsync: accuracy 37.6 %
-  // (loudness 18.4 %), p/b/m 3/3 (0/3), closure precision 8.3 % (0 %), FF 4/9, jaw 0.525 cold
-  // (loudness 0.591; below it, docs/benchmarks.md), 0.572 when the speaker was heard before.
+  // elsewhere. Never librivox/ or cards/ (held out). Measured by bench_lipsync: accuracy 39.6 %
+  // (loudness 18.4 %), p/b/m 3/3 (0/3), closure precision 6.7 % (0 %), FF 4/9, jaw 0.630 cold,
+  // 0.668 when the speaker was heard before (loudness 0.591, 0.610).
   if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
   const std::filesystem::path tsv = test::source_dir() / "tests/viseme/eval/human_words.tsv";
   for (const auto& c : test::human_cases(tsv))
@@ -191,15 +194,17 @@ TEST_CASE("lipsync: human speech (development recordings) against the HMM alignm
                           << warm.correlation() << " warm (loudness " << cold.baseline_correlation()
                           << ", " << warm.baseline_correlation() << ")");
   REQUIRE(cold.pbm >= 3);
-  CHECK(cold.accuracy() >= 0.34);
+  CHECK(cold.accuracy() >= 0.36);
   CHECK(cold.accuracy() > cold.baseline_accuracy() + 0.15);
   // The issue's goal: the lips close in >= 80 % of the p/b/m segments of human speech.
   CHECK(cold.closure_recall() >= 0.8);
   CHECK(warm.closure_recall() >= 0.8);
-  CHECK(cold.closure_precision() >= 0.05);
+  CHECK(cold.closure_precision() >= 0.04);
   CHECK(cold.ff_recall() >= 0.3);
-  CHECK(cold.correlation() >= 0.49);
-  CHECK(warm.correlation() >= 0.54);
+  // ... and a jaw closer to the text path's than the loudness is.
+  CHECK(cold.correlation() >= 0.6);
+  CHECK(cold.correlation() > cold.baseline_correlation());
+  CHECK(warm.correlation() > warm.baseline_correlation());
 }
 
 TEST_CASE("lipsync input: not audio, empty and 10-hour files are one-line errors naming the file",

@@ -95,8 +95,8 @@ struct LipsyncAnalyzer::Impl {
                  consonant = static_cast<std::size_t>(SoundClass::kConsonant);
       const auto murmur_like = [&](const detail::FeatureFrame& f) {
         return !f.silent && f.settled && f.voicing >= options.murmur_voicing &&
-               f.nasal >= options.murmur_nasal_db && f.openness <= options.murmur_openness &&
-               f.level <= loudest - options.murmur_dip_db;
+               f.nasal >= options.murmur_nasal_db && f.dull >= options.murmur_dull_db &&
+               f.openness <= options.murmur_openness && f.level <= loudest - options.murmur_dip_db;
       };
       // A murmur lasts: it starts only where the next frame is one too.
       const bool murmur =
@@ -115,6 +115,12 @@ struct LipsyncAnalyzer::Impl {
       out.cls = keep ? current : static_cast<SoundClass>(best);
       if (murmur && sum[closure] + options.closure_bias >= sum[consonant])
         out.cls = SoundClass::kClosure;
+      // f/v: weak frication the templates put with /s/ /th/ or the stops unless it leads.
+      const auto labio = static_cast<std::size_t>(SoundClass::kLabiodental);
+      if ((out.cls == SoundClass::kFricative || out.cls == SoundClass::kConsonant) &&
+          s.f.level <= options.labiodental_max_db &&
+          sum[labio] + options.labiodental_bias >= sum[static_cast<std::size_t>(out.cls)])
+        out.cls = SoundClass::kLabiodental;
       last_sounding = s.f.time;
       last_sounding_level = s.f.level;
       recent.push_back(s.f.level);

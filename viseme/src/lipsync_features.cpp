@@ -67,6 +67,7 @@ FeatureStream::FeatureStream(int rate, const LipsyncOptions& o, const std::vecto
   };
   bass0_ = first_at(150), bass1_ = first_at(500), mid0_ = first_at(1000), mid1_ = first_at(2200);
   f10_ = first_at(250), f11_ = first_at(1000);
+  tr0_ = first_at(2500), tr1_ = first_at(4000);
 }
 
 RawFrame FeatureStream::analyze(const float* frame) {
@@ -82,6 +83,7 @@ RawFrame FeatureStream::analyze(const float* frame) {
   };
   r.bass_db = band_db(bass0_, bass1_);
   r.mid_db = band_db(mid0_, mid1_);
+  r.treble_db = band_db(tr0_, tr1_);
   double w = 0, wf = 0;
   for (int b = f10_; b < f11_; ++b) {
     const double e = std::exp(2.0 * static_cast<double>(m[b]));
@@ -141,7 +143,10 @@ FeatureFrame FeatureStream::complete(const RawFrame& prev, const RawFrame& cur,
   f.level = static_cast<float>(cur.level_db - speech);
   f.voicing = cur.voicing;
   f.nasal = cur.bass_db - cur.mid_db;
+  f.dull = cur.bass_db - cur.treble_db;
   f.openness = static_cast<float>(std::clamp((cur.f1_hz - f1_lo_) / (f1_hi_ - f1_lo_), 0.0, 1.0));
+  f.x[2 * n + 4] = f.openness;
+  f.x[2 * n + 5] = std::clamp(f.nasal, -40.0f, 40.0f) / 20;
   return f;
 }
 

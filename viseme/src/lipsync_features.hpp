@@ -14,8 +14,8 @@ namespace facecast::viseme::detail {
 
 inline constexpr int kLipsyncCepstra = 12;  // c1..c12
 /// Feature vector: cepstra (speaker-normalised), their deltas, relative level / 10, its delta,
-/// voicing, zero-crossing rate x 4.
-inline constexpr int kLipsyncDims = 2 * kLipsyncCepstra + 4;
+/// voicing, zero-crossing rate x 4, first-formant openness (0..1), nasality (bass - mid dB) / 20.
+inline constexpr int kLipsyncDims = 2 * kLipsyncCepstra + 6;
 
 /// A frame before look-ahead: what one window alone gives.
 struct RawFrame {
@@ -24,9 +24,10 @@ struct RawFrame {
   float voicing = 0;   // peak normalised autocorrelation at 60..400 Hz lags (8 kHz), 0..1
   float zcr = 0;       // zero crossings per sample
   std::array<float, kLipsyncCepstra> cep{};
-  float bass_db = 0;  // energy of the mel bands centred at 150..500 Hz, dB
-  float mid_db = 0;   // ... at 1000..2200 Hz
-  float f1_hz = 0;    // first-formant proxy: power^2-weighted centre of the bands at 250..1000 Hz
+  float bass_db = 0;    // energy of the mel bands centred at 150..500 Hz, dB
+  float mid_db = 0;     // ... at 1000..2200 Hz
+  float treble_db = 0;  // ... at 2500..4000 Hz
+  float f1_hz = 0;      // first-formant proxy: power^2-weighted centre of the bands at 250..1000 Hz
 };
 
 /// A frame ready for classification.
@@ -37,6 +38,7 @@ struct FeatureFrame {
   float loudness = 0;    // 0..1, see LipsyncOptions::jaw_range_db
   float level = 0;       // dB relative to the speech level
   float voicing = 0;     // see RawFrame
+  float dull = 0;        // bass_db - treble_db: high for nasal murmur, low for /i/ (F2, F3 high)
   float nasal = 0;       // bass_db - mid_db: high for nasal murmur (weak F2/F3), lower for r l w
   float openness = 0;    // 0..1 from the first-formant proxy (the vowel's jaw), speaker-normalised
   std::array<float, kLipsyncDims> x{};
@@ -76,7 +78,7 @@ class FeatureStream {
   double floor_db_ = 0;
   bool started_ = false;
   // Mel band ranges of RawFrame's band energies, and the speaker's first-formant range.
-  int bass0_ = 0, bass1_ = 0, mid0_ = 0, mid1_ = 0, f10_ = 0, f11_ = 0;
+  int bass0_ = 0, bass1_ = 0, mid0_ = 0, mid1_ = 0, f10_ = 0, f11_ = 0, tr0_ = 0, tr1_ = 0;
   std::vector<float> centre_hz_;
   double f1_lo_ = 350, f1_hi_ = 750;
 };

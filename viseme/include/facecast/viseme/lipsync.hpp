@@ -47,20 +47,23 @@ struct LipsyncOptions {
   double closure_max = 0.15;      // a silence after voicing shows as a closure this long at most
   double closure_entry_db = -12;  // ... when the sound before it was this loud (dB re speech)
   double murmur_nasal_db = 7;     // nasal murmur: energy at 150..500 Hz over 1..2.2 kHz >= this
+  double murmur_dull_db = 5;      // ... and at 150..500 Hz over 2.5..4 kHz at least this
   double murmur_dip_db = 2;       // ... and this far below the loudest frame around it
   double murmur_voicing = 0.5;    // ... and voiced at least this much
   double murmur_openness = 0.5;   // ... and its first-formant openness at most this
-  double closure_bias = 10;       // log-likelihood bonus of closure over consonant in a murmur
-  double burst_max_db = -8;       // outside a murmur, the closure class only this weak (dB)
-  int lookahead_frames = 3;       // class decision waits this many 10 ms frames
-  int context_frames = 2;         // ... and sums the log-likelihoods of this many past frames
-  double switch_margin = 5.0;     // log-likelihood lead a new class needs (hysteresis)
-  double jaw_range_db = 30;       // loudness range (dB below the speech level) mapped to the jaw
-  double jaw_min = 0.1;           // strength of a sounding viseme at the bottom of that range
-  double jaw_max = 1.0;           // ... and at (or above) the speech level
-  double jaw_openness = 0.5;      // share of the vowels' jaw taken from the first formant
-  double delay = 0.04;            // live: weights trail the analysed audio by this (anticipation)
-  double window = 0.6;            // live: seconds of past events kept for coarticulation
+  double closure_bias = 60;       // log-likelihood bonus of closure over consonant in a murmur
+  double labiodental_max_db = -10;  // f/v: frication at most this loud (dB re speech) ...
+  double labiodental_bias = 10;     // ... shows FF unless s/th or a stop leads by this
+  double burst_max_db = -8;         // outside a murmur, the closure class only this weak (dB)
+  int lookahead_frames = 3;         // class decision waits this many 10 ms frames
+  int context_frames = 2;           // ... and sums the log-likelihoods of this many past frames
+  double switch_margin = 5.0;       // log-likelihood lead a new class needs (hysteresis)
+  double jaw_range_db = 30;         // loudness range (dB below the speech level) mapped to the jaw
+  double jaw_min = 0.1;             // strength of a sounding viseme at the bottom of that range
+  double jaw_max = 1.0;             // ... and at (or above) the speech level
+  double jaw_openness = 0.5;        // share of the vowels' jaw taken from the first formant
+  double delay = 0.04;              // live: weights trail the analysed audio by this (anticipation)
+  double window = 0.6;              // live: seconds of past events kept for coarticulation
   /// The viseme each class shows, per set, in SoundClass order.
   std::array<std::string, kSoundClasses> oculus = {"sil", "PP", "SS", "DD", "aa",
                                                    "E",   "I",  "O",  "U",  "FF"};
