@@ -33,10 +33,12 @@ struct Item {
 
 void print_header(const char* title) {
   std::printf("\n%s\n", title);
-  std::printf("%-38s %6s | %-15s | %-19s | %-15s | %-12s | %-13s\n", "voices", "frames",
-              "class accuracy", "p/b/m closed", "closure prec.", "FF shown", "jaw correl.");
-  std::printf("%-38s %6s | %-15s | %-19s | %-15s | %-12s | %-13s\n", "", "", "ours  loudness",
-              "ours        loudness", "ours  loudness", "ours  prec.", "ours  loudness");
+  std::printf("%-38s %6s | %-15s | %-19s | %-15s | %-15s | %-12s | %-13s\n", "voices", "frames",
+              "class accuracy", "p/b/m closed", "closure prec.", "closure in pause", "FF shown",
+              "jaw correl.");
+  std::printf("%-38s %6s | %-15s | %-19s | %-15s | %-15s | %-12s | %-13s\n", "", "",
+              "ours  loudness", "ours        loudness", "ours  loudness", "ours  loudness",
+              "ours  prec.", "ours  loudness");
 }
 
 void print_row(const std::string& name, const test::LipsyncScore& s) {
@@ -44,6 +46,8 @@ void print_row(const std::string& name, const test::LipsyncScore& s) {
               name.c_str(), s.frames, 100 * s.accuracy(), 100 * s.baseline_accuracy(), s.pbm_closed,
               s.pbm, 100 * s.closure_recall(), 100 * s.baseline_closure_recall(),
               100 * s.closure_precision(), 100 * s.baseline_closure_precision());
+  std::printf("%5.1f%%  %5.1f%% | ", 100 * s.closure_in_pause(),
+              100 * s.baseline_closure_in_pause());
   std::printf("%2zu/%-2zu %5.1f%% | %5.3f  %5.3f\n", s.ff_shown, s.ff, 100 * s.ff_precision(),
               s.correlation(), s.baseline_correlation());
 }

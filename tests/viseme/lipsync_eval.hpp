@@ -11,7 +11,8 @@
 //   the figure compares with the 9-class analyser of before;
 // - closure recall: the truth's p/b/m segments (Oculus PP) holding at least one closure frame
 //   (+- kTolerance, the reference's boundary error); closure precision: the analyser's closure runs
-//   (consecutive closure frames) overlapping a p/b/m segment (+- kTolerance);
+//   (consecutive closure frames) overlapping a p/b/m segment (+- kTolerance); closures in pauses:
+//   the share of those runs lying in the truth's rest (touching no p/b/m);
 // - FF recall: the truth's f/v segments holding a labiodental frame (+- kTolerance); FF precision:
 //   the labiodental runs overlapping an f/v segment; the baseline has no such class;
 // - jaw correlation: Pearson of jawOpen at 60 fps against the truth's curve (same rig mapping).
@@ -57,6 +58,7 @@ struct LipsyncScore {
   std::size_t frames = 0, correct = 0, baseline_correct = 0;
   std::size_t pbm = 0, pbm_closed = 0, baseline_pbm_closed = 0;                    // p/b/m segments
   std::size_t runs = 0, runs_true = 0, baseline_runs = 0, baseline_runs_true = 0;  // closures
+  std::size_t runs_pause = 0, baseline_runs_pause = 0;              // closure runs inside a pause
   std::size_t ff = 0, ff_shown = 0, ff_runs = 0, ff_runs_true = 0;  // f/v segments, FF runs
   Correlation jaw, baseline_jaw;
   LipsyncScore& operator+=(const LipsyncScore& o) {
@@ -64,6 +66,7 @@ struct LipsyncScore {
     pbm += o.pbm, pbm_closed += o.pbm_closed, baseline_pbm_closed += o.baseline_pbm_closed;
     runs += o.runs, runs_true += o.runs_true, baseline_runs += o.baseline_runs,
         baseline_runs_true += o.baseline_runs_true;
+    runs_pause += o.runs_pause, baseline_runs_pause += o.baseline_runs_pause;
     ff += o.ff, ff_shown += o.ff_shown, ff_runs += o.ff_runs, ff_runs_true += o.ff_runs_true;
     jaw += o.jaw, baseline_jaw += o.baseline_jaw;
     return *this;
@@ -75,6 +78,8 @@ struct LipsyncScore {
   double closure_precision() const { return ratio(runs_true, runs); }
   double baseline_closure_precision() const { return ratio(baseline_runs_true, baseline_runs); }
   double ff_recall() const { return ratio(ff_shown, ff); }
+  double closure_in_pause() const { return ratio(runs_pause, runs); }
+  double baseline_closure_in_pause() const { return ratio(baseline_runs_pause, baseline_runs); }
   double ff_precision() const { return ratio(ff_runs_true, ff_runs); }
   double correlation() const { return jaw.value(); }
   double baseline_correlation() const { return baseline_jaw.value(); }
@@ -162,6 +167,27 @@ inline std::pair<std::size_t, std::size_t> runs_on(const std::vector<viseme::Vis
   return {runs, good};
 }
 
+// Flagged runs whose middle lies in the truth's rest (a pause) and that touch no p/b/m segment.
+inline std::size_t runs_in_pause(const std::vector<viseme::VisemeEvent>& truth,
+                                 const std::vector<double>& times, const std::vector<bool>& flag) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < times.size();) {
+    if (!flag[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < times.size() && flag[j + 1]) ++j;
+    const double a = times[i], b = times[j];
+    const bool pp = std::any_of(truth.begin(), truth.end(), [&](const viseme::VisemeEvent& e) {
+      return e.viseme == "PP" && a <= e.end + kTolerance && b >= e.start - kTolerance;
+    });
+    n += !pp && class_at(truth, times[(i + j) / 2]) == viseme::SoundClass::kSilence;
+    i = j + 1;
+  }
+  return n;
+}
+
 /// The score of the analyser on `audio` against `truth` (Oculus visemes on the reference timing),
 /// counting only what lies after `from` seconds.
 inline LipsyncScore score_lipsync(const viseme::Audio& audio,
@@ -223,6 +249,8 @@ inline LipsyncScore score_lipsync(const viseme::Audio& audio,
   std::tie(s.runs, s.runs_true) = runs_on(truth, "PP", times, closed);
   std::tie(s.baseline_runs, s.baseline_runs_true) = runs_on(truth, "PP", times, base_closed);
   std::tie(s.ff_runs, s.ff_runs_true) = runs_on(truth, "FF", times, labio);
+  s.runs_pause = runs_in_pause(truth, times, closed);
+  s.baseline_runs_pause = runs_in_pause(truth, times, base_closed);
   std::tie(s.ff, s.ff_shown) =
       segments_shown(truth, "FF", times, [&](std::size_t i) { return labio[i]; });
   std::vector<float> wt(arkit_mapping().shape_names().size()), wh(wt.size());
