@@ -10,10 +10,12 @@
 
 #include <unistd.h>
 
+#include "build_paths.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/lipsync.hpp"
 #include "lipsync_eval.hpp"
+#include "test_data.hpp"
 
 using namespace facecast;
 using namespace facecast::viseme;
@@ -26,6 +28,17 @@ TEST_CASE("lipsync option defaults mirror configs/viseme/lipsync.json", "[viseme
   CHECK(d.silence_range == c.silence_range);
   CHECK(d.silence_max_db == c.silence_max_db);
   CHECK(d.closure_max == c.closure_max);
+  CHECK(d.closure_entry_db == c.closure_entry_db);
+  CHECK(d.murmur_nasal_db == c.murmur_nasal_db);
+  CHECK(d.murmur_dull_db == c.murmur_dull_db);
+  CHECK(d.murmur_dip_db == c.murmur_dip_db);
+  CHECK(d.murmur_voicing == c.murmur_voicing);
+  CHECK(d.murmur_openness == c.murmur_openness);
+  CHECK(d.closure_bias == c.closure_bias);
+  CHECK(d.burst_max_db == c.burst_max_db);
+  CHECK(d.labiodental_max_db == c.labiodental_max_db);
+  CHECK(d.labiodental_bias == c.labiodental_bias);
+  CHECK(d.jaw_openness == c.jaw_openness);
   CHECK(d.lookahead_frames == c.lookahead_frames);
   CHECK(d.context_frames == c.context_frames);
   CHECK(d.switch_margin == c.switch_margin);
@@ -37,6 +50,11 @@ TEST_CASE("lipsync option defaults mirror configs/viseme/lipsync.json", "[viseme
   CHECK(d.oculus == c.oculus);
   CHECK(d.zh15 == c.zh15);
   CHECK(d.mpeg4 == c.mpeg4);
+  // f/v has a class of its own, shown as each set's labiodental viseme.
+  CHECK(d.viseme(VisemeSet::kOculus, SoundClass::kLabiodental) == "FF");
+  CHECK(d.viseme(VisemeSet::kZh15, SoundClass::kLabiodental) == "f");
+  CHECK(d.viseme(VisemeSet::kMpeg4, SoundClass::kLabiodental) == "fv");
+  CHECK(parse_sound_class("labiodental") == SoundClass::kLabiodental);
 }
 
 TEST_CASE("lipsync templates: every sounding class learned, bad tables are errors",
@@ -107,8 +125,12 @@ TEST_CASE("lipsync: silence and bad tags are one-line errors", "[viseme][lipsync
                     Contains("expected (name,intensity,seconds)@time"));
 }
 
-TEST_CASE("lipsync: class accuracy and jawOpen correlation beat the loudness baseline",
+TEST_CASE("lipsync: class accuracy, closures, FF and jawOpen on synthetic speech",
           "[viseme][lipsync][slow]") {
+  // Bounds a little under what bench_lipsync measures (docs/benchmarks.md#speech): festival
+  // English 54.6 % accuracy (loudness 16.6 %), p/b/m closures 20/24 (6/24), closure precision
+  // 30.4 % (14.6 %), FF 8/8, jaw 0.585 (loudness 0.478); altered espeak-ng Chinese 42.4 %
+  // (21.4 %), jaw 0.682 (0.539).
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("facecast_lipsync_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
@@ -119,14 +141,70 @@ TEST_CASE("lipsync: class accuracy and jawOpen correlation beat the loudness bas
     for (const auto& c : cases)
       if (c.lang == lang) s += test::score_lipsync(c, {});
     INFO(lang << ": accuracy " << s.accuracy() << " (loudness " << s.baseline_accuracy()
-              << "), jaw correlation " << s.correlation() << " (loudness "
+              << "), p/b/m closed " << s.pbm_closed << "/" << s.pbm << " (loudness "
+              << s.baseline_pbm_closed << "), closure precision " << s.closure_precision()
+              << " (loudness " << s.baseline_closure_precision() << "), FF " << s.ff_shown << "/"
+              << s.ff << ", jaw correlation " << s.correlation() << " (loudness "
               << s.baseline_correlation() << ")");
-    CHECK(s.accuracy() > s.baseline_accuracy());
-    CHECK(s.correlation() > s.baseline_correlation());
-    CHECK(s.accuracy() > 0.3);
+    CHECK(s.accuracy() > s.baseline_accuracy() + 0.15);
+    if (std::string(lang) == "en") {
+      CHECK(s.accuracy() >= 0.50);
+      CHECK(s.closure_recall() >= 0.75);
+      CHECK(s.closure_recall() > s.baseline_closure_recall() + 0.4);
+      CHECK(s.closure_precision() >= 0.25);
+      CHECK(s.closure_precision() > s.baseline_closure_precision());
+      CHECK(s.ff_recall() >= 0.6);
+      CHECK(s.correlation() >= 0.55);
+      CHECK(s.correlation() > s.baseline_correlation() + 0.06);
+    } else {
+      CHECK(s.accuracy() >= 0.39);
+      CHECK(s.correlation() > s.baseline_correlation() + 0.1);
+    }
   }
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
+}
+
+TEST_CASE("lipsync: human speech (development recordings) against the HMM alignment",
+          "[viseme][lipsync]") {
+  // The recordings and the English model come from scripts/install-deps.sh (alsa-utils,
+  // pocketsphinx-testdata, pocketsphinx-en-us): missing, this fails under CI=true and warns
+  // elsewhere. Never librivox/ or cards/ (held out). Measured by bench_lipsync: accuracy 39.6 %
+  // (loudness 18.4 %), p/b/m 3/3 (0/3), closure precision 6.7 % (0 %), FF 4/9, jaw 0.630 cold,
+  // 0.668 when the speaker was heard before (loudness 0.591, 0.610).
+  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
+  const std::filesystem::path tsv = test::source_dir() / "tests/viseme/eval/human_words.tsv";
+  for (const auto& c : test::human_cases(tsv))
+    if (!test::require_data(c.audio)) return;
+  const auto cases = test::human_lipsync_cases(tsv);
+  REQUIRE(cases.size() >= 10);
+  test::LipsyncScore cold, warm;
+  for (const auto& c : cases) {
+    cold += test::score_lipsync(c.audio, c.truth, {});
+    Audio twice = c.audio;
+    twice.samples.insert(twice.samples.end(), c.audio.samples.begin(), c.audio.samples.end());
+    auto truth = c.truth;
+    for (auto& e : truth) e.start += c.audio.seconds(), e.end += c.audio.seconds();
+    warm += test::score_lipsync(twice, truth, {}, c.audio.seconds());
+  }
+  INFO("human: accuracy " << cold.accuracy() << " (loudness " << cold.baseline_accuracy()
+                          << "), p/b/m " << cold.pbm_closed << "/" << cold.pbm << " cold, "
+                          << warm.pbm_closed << "/" << warm.pbm << " warm, FF " << cold.ff_shown
+                          << "/" << cold.ff << ", jaw " << cold.correlation() << " cold, "
+                          << warm.correlation() << " warm (loudness " << cold.baseline_correlation()
+                          << ", " << warm.baseline_correlation() << ")");
+  REQUIRE(cold.pbm >= 3);
+  CHECK(cold.accuracy() >= 0.36);
+  CHECK(cold.accuracy() > cold.baseline_accuracy() + 0.15);
+  // The issue's goal: the lips close in >= 80 % of the p/b/m segments of human speech.
+  CHECK(cold.closure_recall() >= 0.8);
+  CHECK(warm.closure_recall() >= 0.8);
+  CHECK(cold.closure_precision() >= 0.04);
+  CHECK(cold.ff_recall() >= 0.3);
+  // ... and a jaw closer to the text path's than the loudness is.
+  CHECK(cold.correlation() >= 0.6);
+  CHECK(cold.correlation() > cold.baseline_correlation());
+  CHECK(warm.correlation() > warm.baseline_correlation());
 }
 
 TEST_CASE("lipsync input: not audio, empty and 10-hour files are one-line errors naming the file",

@@ -28,7 +28,10 @@ struct LipsyncAnalyzer::Impl {
   std::deque<Scored> window;  // context + the decided frame + look-ahead
   std::size_t decided = 0;    // index in `window` of the next frame to decide
   SoundClass current = SoundClass::kSilence;
-  double last_sounding = -1e9;  // time of the last sounding frame
+  double last_sounding = -1e9;                // time of the last sounding frame
+  float last_sounding_level = -100;           // its level, dB re the speech level
+  static constexpr std::size_t kRecent = 10;  // sounding frames (100 ms) a murmur's dip looks back
+  std::deque<float> recent;                   // their levels, dB re the speech level
   std::vector<detail::FeatureFrame> scratch;
 
   void add(const detail::FeatureFrame& f, std::vector<LipsyncFrame>& out) {
@@ -42,27 +45,67 @@ struct LipsyncAnalyzer::Impl {
       out.push_back(decide());
   }
 
-  // The class of window[decided]: silence by level (a closure right after sounding frames), else
-  // the sounding class whose log-likelihood summed over the context and look-ahead is highest
-  // (with its prior), changing only by `switch_margin` over the current class.
+  // The class of window[decided]:
+  // - silent (by level): a closure when it follows, within closure_max, a sounding run that was
+  //   loud just before (an abrupt stop, not a phrase's fading end) and was not frication (a pause
+  //   after /s/); else rest;
+  // - sounding: the class whose log-likelihood summed over the context and look-ahead is highest
+  //   (with its prior), changing only by `switch_margin` over the current class; a nasal murmur or
+  //   voiced closure (voiced, its energy low in frequency, a dip below the loudest frame around
+  //   it) shows the lips closed unless "consonant" (n, ng) beats "closure" by closure_bias.
   LipsyncFrame decide() {
     const Scored& s = window[decided];
-    LipsyncFrame out{s.f.time, SoundClass::kSilence, s.f.loudness};
+    LipsyncFrame out{s.f.time, SoundClass::kSilence, s.f.loudness, s.f.silent, s.f.openness};
     if (s.f.silent) {
       const bool after_voice = s.f.time - last_sounding <= options.closure_max;
-      out.cls = after_voice && current != SoundClass::kSilence ? SoundClass::kClosure
-                                                               : SoundClass::kSilence;
+      const bool stop =
+          current == SoundClass::kClosure ||
+          (current != SoundClass::kSilence && current != SoundClass::kFricative &&
+           current != SoundClass::kLabiodental && last_sounding_level >= options.closure_entry_db);
+      out.cls = after_voice && stop ? SoundClass::kClosure : SoundClass::kSilence;
+      // Before a labial release: the look-ahead's first sounding frames (the burst of /p/ /b/
+      // after a pause, learned as "closure") score closure above every other class.
+      if (out.cls == SoundClass::kSilence) {
+        std::array<double, kSoundClasses> onset{};
+        int n = 0;
+        for (std::size_t i = decided + 1; i < window.size() && n < 2; ++i)
+          if (!window[i].f.silent) {
+            ++n;
+            for (int k = 1; k < kSoundClasses; ++k)
+              onset[static_cast<std::size_t>(k)] += window[i].ll[static_cast<std::size_t>(k)];
+          }
+        const auto best = std::max_element(onset.begin() + 1, onset.end());
+        if (n > 0 && best - onset.begin() == static_cast<std::ptrdiff_t>(SoundClass::kClosure))
+          out.cls = SoundClass::kClosure;
+      }
     } else {
       std::array<double, kSoundClasses> sum{};
       const std::size_t from = decided > static_cast<std::size_t>(options.context_frames)
                                    ? decided - static_cast<std::size_t>(options.context_frames)
                                    : 0;
+      float loudest = s.f.level;
+      for (float l : recent) loudest = std::max(loudest, l);
       for (std::size_t i = from; i < window.size(); ++i)
-        if (!window[i].f.silent)
+        if (!window[i].f.silent) {
+          loudest = std::max(loudest, window[i].f.level);
           for (int k = 1; k < kSoundClasses; ++k)
             sum[static_cast<std::size_t>(k)] += window[i].ll[static_cast<std::size_t>(k)];
-      int best = 1;
-      for (int k = 1; k < kSoundClasses; ++k) {
+        }
+      const auto closure = static_cast<std::size_t>(SoundClass::kClosure),
+                 consonant = static_cast<std::size_t>(SoundClass::kConsonant);
+      const auto murmur_like = [&](const detail::FeatureFrame& f) {
+        return !f.silent && f.settled && f.voicing >= options.murmur_voicing &&
+               f.nasal >= options.murmur_nasal_db && f.dull >= options.murmur_dull_db &&
+               f.openness <= options.murmur_openness && f.level <= loudest - options.murmur_dip_db;
+      };
+      // A murmur lasts: it starts only where the next frame is one too.
+      const bool murmur =
+          murmur_like(s.f) && (current == SoundClass::kClosure ||
+                               (decided + 1 < window.size() && murmur_like(window[decided + 1].f)));
+      // Outside a murmur the closure templates (learned on synthetic murmurs and bursts) are
+      // trusted only on weak frames (a burst, a voiced closure): loud, they fire on /r/ /l/.
+      int best = murmur || s.f.level <= options.burst_max_db ? 1 : 2;
+      for (int k = best; k < kSoundClasses; ++k) {
         sum[static_cast<std::size_t>(k)] += templates.log_prior[static_cast<std::size_t>(k)];
         if (sum[static_cast<std::size_t>(k)] > sum[static_cast<std::size_t>(best)]) best = k;
       }
@@ -70,7 +113,18 @@ struct LipsyncAnalyzer::Impl {
       const bool keep = current != SoundClass::kSilence && current != SoundClass::kClosure &&
                         sum[static_cast<std::size_t>(best)] - sum[cur] < options.switch_margin;
       out.cls = keep ? current : static_cast<SoundClass>(best);
+      if (murmur && sum[closure] + options.closure_bias >= sum[consonant])
+        out.cls = SoundClass::kClosure;
+      // f/v: weak frication the templates put with /s/ /th/ or the stops unless it leads.
+      const auto labio = static_cast<std::size_t>(SoundClass::kLabiodental);
+      if ((out.cls == SoundClass::kFricative || out.cls == SoundClass::kConsonant) &&
+          s.f.level <= options.labiodental_max_db &&
+          sum[labio] + options.labiodental_bias >= sum[static_cast<std::size_t>(out.cls)])
+        out.cls = SoundClass::kLabiodental;
       last_sounding = s.f.time;
+      last_sounding_level = s.f.level;
+      recent.push_back(s.f.level);
+      if (recent.size() > kRecent) recent.pop_front();
     }
     current = out.cls;
     ++decided;
@@ -121,8 +175,14 @@ void append_lipsync_events(const std::vector<LipsyncFrame>& frames, VisemeSet se
   for (const LipsyncFrame& f : frames) {
     const std::string& name = o.viseme(set, f.cls);
     const bool sounding = f.cls != SoundClass::kSilence;
+    // The jaw: loudness, scaled for vowels by the first formant's openness (x 1 at 0.5).
+    const bool vowel = f.cls >= SoundClass::kA && f.cls <= SoundClass::kU;
+    const double open =
+        vowel ? 1 - o.jaw_openness + o.jaw_openness * 2 * static_cast<double>(f.openness) : 1.0;
     const double strength =
-        sounding ? o.jaw_min + (o.jaw_max - o.jaw_min) * static_cast<double>(f.loudness) : 1.0;
+        sounding ? o.jaw_min + (o.jaw_max - o.jaw_min) *
+                                   std::min(1.0, static_cast<double>(f.loudness) * open)
+                 : 1.0;
     const double start = f.time - hop / 2, end = f.time + hop / 2;
     if (!events.empty() && events.back().viseme == name &&
         std::abs(events.back().end - start) < hop / 4) {

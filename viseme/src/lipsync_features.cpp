@@ -52,14 +52,44 @@ FeatureStream::FeatureStream(int rate, const LipsyncOptions& o, const std::vecto
   for (int q = 0; q < kLipsyncCepstra && q < static_cast<int>(prior.size()); ++q)
     cep_mean_[static_cast<std::size_t>(q)] = prior[static_cast<std::size_t>(q)];
   cep_weight_ = prior.empty() ? 0 : o.prior_frames;
+  // Band centres of MfccAnalyzer's default filterbank (FeatureConfig: 26 bands, 80 Hz ..
+  // min(7.6 kHz, Nyquist), evenly spaced in mel).
+  const FeatureConfig fc;
+  const auto mel = [](double hz) { return 2595.0 * std::log10(1.0 + hz / 700.0); };
+  const double m0 = mel(fc.low_hz), m1 = mel(std::min(fc.high_hz, rate / 2.0));
+  for (int b = 0; b < fc.mel_bands; ++b)
+    centre_hz_.push_back(static_cast<float>(
+        700.0 * (std::pow(10.0, (m0 + (m1 - m0) * (b + 1) / (fc.mel_bands + 1)) / 2595.0) - 1)));
+  const auto first_at = [&](double hz) {
+    int b = 0;
+    while (b < fc.mel_bands && centre_hz_[static_cast<std::size_t>(b)] < hz) ++b;
+    return b;
+  };
+  bass0_ = first_at(150), bass1_ = first_at(500), mid0_ = first_at(1000), mid1_ = first_at(2200);
+  f10_ = first_at(250), f11_ = first_at(1000);
+  tr0_ = first_at(2500), tr1_ = first_at(4000);
 }
 
 RawFrame FeatureStream::analyze(const float* frame) {
   RawFrame r;
   const std::size_t win = mfcc_->window();
   r.time = static_cast<double>(frames_++) * hop_seconds_ + window_seconds_ / 2;
-  float c[16];
-  r.level_db = mfcc_->analyze(frame, c);
+  float c[16], m[64];
+  r.level_db = mfcc_->analyze(frame, c, m);
+  const auto band_db = [&](int from, int to) {
+    double e = 1e-12;
+    for (int b = from; b < to; ++b) e += std::exp(static_cast<double>(m[b]));
+    return static_cast<float>(10 * std::log10(e));
+  };
+  r.bass_db = band_db(bass0_, bass1_);
+  r.mid_db = band_db(mid0_, mid1_);
+  r.treble_db = band_db(tr0_, tr1_);
+  double w = 0, wf = 0;
+  for (int b = f10_; b < f11_; ++b) {
+    const double e = std::exp(2.0 * static_cast<double>(m[b]));
+    w += e, wf += e * centre_hz_[static_cast<std::size_t>(b)];
+  }
+  r.f1_hz = w > 0 ? static_cast<float>(wf / w) : 0.0f;
   std::copy(c + 1, c + 1 + kLipsyncCepstra, r.cep.begin());
   int crossings = 0;
   for (std::size_t i = 1; i < win; ++i) crossings += (frame[i] >= 0) != (frame[i - 1] >= 0);
@@ -97,6 +127,7 @@ FeatureFrame FeatureStream::complete(const RawFrame& prev, const RawFrame& cur,
   const double threshold = std::max(floor_db_ + options_.silence_range * (speech - floor_db_),
                                     speech - options_.silence_max_db);
   f.silent = speech_weight_ == 0 || cur.level_db < threshold;
+  f.settled = speech_weight_ >= 10;
   const double bottom = speech - options_.jaw_range_db;
   f.loudness =
       static_cast<float>(std::clamp((cur.level_db - bottom) / (speech + 3 - bottom), 0.0, 1.0));
@@ -109,6 +140,13 @@ FeatureFrame FeatureStream::complete(const RawFrame& prev, const RawFrame& cur,
   f.x[2 * n + 1] = (next.level_db - prev.level_db) / 20;
   f.x[2 * n + 2] = cur.voicing;
   f.x[2 * n + 3] = cur.zcr * 4;
+  f.level = static_cast<float>(cur.level_db - speech);
+  f.voicing = cur.voicing;
+  f.nasal = cur.bass_db - cur.mid_db;
+  f.dull = cur.bass_db - cur.treble_db;
+  f.openness = static_cast<float>(std::clamp((cur.f1_hz - f1_lo_) / (f1_hi_ - f1_lo_), 0.0, 1.0));
+  f.x[2 * n + 4] = f.openness;
+  f.x[2 * n + 5] = std::clamp(f.nasal, -40.0f, 40.0f) / 20;
   return f;
 }
 

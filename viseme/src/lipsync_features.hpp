@@ -14,8 +14,8 @@ namespace facecast::viseme::detail {
 
 inline constexpr int kLipsyncCepstra = 12;  // c1..c12
 /// Feature vector: cepstra (speaker-normalised), their deltas, relative level / 10, its delta,
-/// voicing, zero-crossing rate x 4.
-inline constexpr int kLipsyncDims = 2 * kLipsyncCepstra + 4;
+/// voicing, zero-crossing rate x 4, first-formant openness (0..1), nasality (bass - mid dB) / 20.
+inline constexpr int kLipsyncDims = 2 * kLipsyncCepstra + 6;
 
 /// A frame before look-ahead: what one window alone gives.
 struct RawFrame {
@@ -24,13 +24,23 @@ struct RawFrame {
   float voicing = 0;   // peak normalised autocorrelation at 60..400 Hz lags (8 kHz), 0..1
   float zcr = 0;       // zero crossings per sample
   std::array<float, kLipsyncCepstra> cep{};
+  float bass_db = 0;    // energy of the mel bands centred at 150..500 Hz, dB
+  float mid_db = 0;     // ... at 1000..2200 Hz
+  float treble_db = 0;  // ... at 2500..4000 Hz
+  float f1_hz = 0;      // first-formant proxy: power^2-weighted centre of the bands at 250..1000 Hz
 };
 
 /// A frame ready for classification.
 struct FeatureFrame {
   double time = 0;
   bool silent = true;
-  float loudness = 0;  // 0..1, see LipsyncOptions::jaw_range_db
+  bool settled = false;  // the speech level has 10 voiced frames behind it
+  float loudness = 0;    // 0..1, see LipsyncOptions::jaw_range_db
+  float level = 0;       // dB relative to the speech level
+  float voicing = 0;     // see RawFrame
+  float dull = 0;        // bass_db - treble_db: high for nasal murmur, low for /i/ (F2, F3 high)
+  float nasal = 0;       // bass_db - mid_db: high for nasal murmur (weak F2/F3), lower for r l w
+  float openness = 0;    // 0..1 from the first-formant proxy (the vowel's jaw), speaker-normalised
   std::array<float, kLipsyncDims> x{};
 };
 
@@ -67,6 +77,10 @@ class FeatureStream {
   double speech_db_ = -26, speech_weight_ = 0;
   double floor_db_ = 0;
   bool started_ = false;
+  // Mel band ranges of RawFrame's band energies, and the speaker's first-formant range.
+  int bass0_ = 0, bass1_ = 0, mid0_ = 0, mid1_ = 0, f10_ = 0, f11_ = 0, tr0_ = 0, tr1_ = 0;
+  std::vector<float> centre_hz_;
+  double f1_lo_ = 350, f1_hi_ = 750;
 };
 
 }  // namespace facecast::viseme::detail

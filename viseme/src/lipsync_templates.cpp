@@ -16,7 +16,7 @@ namespace facecast::viseme {
 namespace {
 
 constexpr std::array<std::string_view, kSoundClasses> kClassNames = {
-    "sil", "closure", "fricative", "consonant", "a", "e", "i", "o", "u"};
+    "sil", "closure", "fricative", "consonant", "a", "e", "i", "o", "u", "labiodental"};
 
 std::filesystem::path templates_path() {
   if (const char* e = std::getenv("FACECAST_LIPSYNC_TEMPLATES"); e && *e) return e;
@@ -50,12 +50,23 @@ LipsyncOptions load_lipsync_options() {
       .read("silence_range", o.silence_range)
       .read("silence_max_db", o.silence_max_db)
       .read("closure_max", o.closure_max)
+      .read("closure_entry_db", o.closure_entry_db)
+      .read("murmur_nasal_db", o.murmur_nasal_db)
+      .read("murmur_dull_db", o.murmur_dull_db)
+      .read("murmur_dip_db", o.murmur_dip_db)
+      .read("murmur_voicing", o.murmur_voicing)
+      .read("murmur_openness", o.murmur_openness)
+      .read("closure_bias", o.closure_bias)
+      .read("burst_max_db", o.burst_max_db)
+      .read("labiodental_max_db", o.labiodental_max_db)
+      .read("labiodental_bias", o.labiodental_bias)
       .read("lookahead_frames", o.lookahead_frames)
       .read("context_frames", o.context_frames)
       .read("switch_margin", o.switch_margin)
       .read("jaw_range_db", o.jaw_range_db)
       .read("jaw_min", o.jaw_min)
       .read("jaw_max", o.jaw_max)
+      .read("jaw_openness", o.jaw_openness)
       .read("delay", o.delay)
       .read("window", o.window);
   c.section("visemes").read("oculus", o.oculus).read("zh15", o.zh15).read("mpeg4", o.mpeg4);
@@ -64,6 +75,8 @@ LipsyncOptions load_lipsync_options() {
   if (o.context_frames < 0 || o.context_frames > 20) c.fail("context_frames", "must be 0..20");
   if (o.adapt_seconds <= 0) c.fail("adapt_seconds", "must be > 0");
   if (o.jaw_range_db <= 0) c.fail("jaw_range_db", "must be > 0");
+  if (o.jaw_openness < 0 || o.jaw_openness > 1) c.fail("jaw_openness", "must be 0..1");
+  if (o.murmur_voicing < 0 || o.murmur_voicing > 1) c.fail("murmur_voicing", "must be 0..1");
   if (o.delay < 0 || o.delay > 0.1) c.fail("delay", "must be 0..0.1 s (latency budget 150 ms)");
   c.reject_unknown();
   return o;

@@ -19,34 +19,58 @@ namespace facecast::viseme {
 
 /// Mouth classes of the audio-only path. kClosure: the lips meet (p b m; a short silence after
 /// voicing); kConsonant: other consonants (t d k g n l r ...); vowels by their mouth shape.
-enum class SoundClass : int { kSilence, kClosure, kFricative, kConsonant, kA, kE, kI, kO, kU };
-inline constexpr int kSoundClasses = 9;
+/// kLabiodental: f v (the lower lip against the teeth); kFricative: the other fricatives.
+enum class SoundClass : int {
+  kSilence,
+  kClosure,
+  kFricative,
+  kConsonant,
+  kA,
+  kE,
+  kI,
+  kO,
+  kU,
+  kLabiodental
+};
+inline constexpr int kSoundClasses = 10;
 std::string_view to_string(SoundClass c) noexcept;
-/// "sil" | "closure" | "fricative" | "consonant" | "a" | "e" | "i" | "o" | "u"; Error otherwise.
+/// "sil" | "closure" | "fricative" | "consonant" | "a" | "e" | "i" | "o" | "u" | "labiodental";
+/// Error otherwise.
 SoundClass parse_sound_class(std::string_view name);
 
 /// Defaults mirror configs/viseme/lipsync.json.
 struct LipsyncOptions {
-  double adapt_seconds = 3.0;   // speaker normalisation: cumulative mean over this, then running
-  double prior_frames = 50;     // weight (frames) of the templates' mean at the stream's start
-  double silence_range = 0.35;  // silent: level < floor + this x (speech level - floor) ...
-  double silence_max_db = 35;   // ... or more than this below the speech level
-  double closure_max = 0.15;    // a silence after voicing shows as a closure this long at most
-  int lookahead_frames = 3;     // class decision waits this many 10 ms frames
-  int context_frames = 2;       // ... and sums the log-likelihoods of this many past frames
-  double switch_margin = 5.0;   // log-likelihood lead a new class needs (hysteresis)
-  double jaw_range_db = 30;     // loudness range (dB below the speech level) mapped to the jaw
-  double jaw_min = 0.1;         // strength of a sounding viseme at the bottom of that range
-  double jaw_max = 1.0;         // ... and at (or above) the speech level
-  double delay = 0.04;          // live: weights trail the analysed audio by this (anticipation)
-  double window = 0.6;          // live: seconds of past events kept for coarticulation
+  double adapt_seconds = 3.0;     // speaker normalisation: cumulative mean over this, then running
+  double prior_frames = 50;       // weight (frames) of the templates' mean at the stream's start
+  double silence_range = 0.35;    // silent: level < floor + this x (speech level - floor) ...
+  double silence_max_db = 35;     // ... or more than this below the speech level
+  double closure_max = 0.15;      // a silence after voicing shows as a closure this long at most
+  double closure_entry_db = -12;  // ... when the sound before it was this loud (dB re speech)
+  double murmur_nasal_db = 7;     // nasal murmur: energy at 150..500 Hz over 1..2.2 kHz >= this
+  double murmur_dull_db = 5;      // ... and at 150..500 Hz over 2.5..4 kHz at least this
+  double murmur_dip_db = 2;       // ... and this far below the loudest frame around it
+  double murmur_voicing = 0.5;    // ... and voiced at least this much
+  double murmur_openness = 0.5;   // ... and its first-formant openness at most this
+  double closure_bias = 60;       // log-likelihood bonus of closure over consonant in a murmur
+  double labiodental_max_db = -10;  // f/v: frication at most this loud (dB re speech) ...
+  double labiodental_bias = 10;     // ... shows FF unless s/th or a stop leads by this
+  double burst_max_db = -8;         // outside a murmur, the closure class only this weak (dB)
+  int lookahead_frames = 3;         // class decision waits this many 10 ms frames
+  int context_frames = 2;           // ... and sums the log-likelihoods of this many past frames
+  double switch_margin = 5.0;       // log-likelihood lead a new class needs (hysteresis)
+  double jaw_range_db = 30;         // loudness range (dB below the speech level) mapped to the jaw
+  double jaw_min = 0.1;             // strength of a sounding viseme at the bottom of that range
+  double jaw_max = 1.0;             // ... and at (or above) the speech level
+  double jaw_openness = 0.5;        // share of the vowels' jaw taken from the first formant
+  double delay = 0.04;              // live: weights trail the analysed audio by this (anticipation)
+  double window = 0.6;              // live: seconds of past events kept for coarticulation
   /// The viseme each class shows, per set, in SoundClass order.
   std::array<std::string, kSoundClasses> oculus = {"sil", "PP", "SS", "DD", "aa",
-                                                   "E",   "I",  "O",  "U"};
+                                                   "E",   "I",  "O",  "U",  "FF"};
   std::array<std::string, kSoundClasses> zh15 = {"sil", "bpm", "zcs", "dtnl", "a",
-                                                 "e",   "i",   "o",   "uv"};
+                                                 "e",   "i",   "o",   "uv",   "f"};
   std::array<std::string, kSoundClasses> mpeg4 = {"none", "pbm", "sz", "td", "A",
-                                                  "e",    "I",   "Q",  "U"};
+                                                  "e",    "I",   "Q",  "U",  "fv"};
   const std::string& viseme(VisemeSet set, SoundClass c) const;
 };
 
@@ -79,6 +103,8 @@ struct LipsyncFrame {
   double time = 0;  // seconds from the stream's start (the frame's centre)
   SoundClass cls = SoundClass::kSilence;
   float loudness = 0;  // 0..1: the jaw's share from the level relative to the speech level
+  bool silent = true;  // below the silence threshold (the level decision alone)
+  float openness = 0;  // 0..1: the vowel's jaw from the first formant (speaker-normalised)
 };
 
 /// The streaming analyser: push mono float at its sample rate in chunks of any size; frames come
