@@ -90,7 +90,12 @@ TEST_CASE("speak with uploaded audio aligns its text and streams that audio", "[
   CHECK(q.start["utterance"]["words"].empty());
   const auto jaw2 = jaw_of(q);
   REQUIRE(!jaw2.empty());
-  CHECK(*std::max_element(jaw2.begin(), jaw2.end()) > 0.2f);
+  // The jaw opens about as far as the text path's on the same audio (0.21 against 0.36 when
+  // measured; the audio-only jaw follows loudness and the vowel's openness).
+  const float text_peak = *std::max_element(jaw.begin(), jaw.end());
+  const float audio_peak = *std::max_element(jaw2.begin(), jaw2.end());
+  INFO("jaw peak: text " << text_peak << ", audio only " << audio_peak);
+  CHECK(audio_peak > 0.5f * text_peak);
   sent = 0;
   for (const auto& a : q.audio) sent += a.samples;
   CHECK(std::abs(static_cast<double>(sent) / out_rate - seconds) < 0.02);
