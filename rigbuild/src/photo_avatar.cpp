@@ -10,6 +10,7 @@
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/render/renderer.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "parallel.hpp"
@@ -224,6 +225,7 @@ PhotoOptions load_photo_options() {
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
       .read("estimate_noise", o.estimate_noise)
+      .read("self_calibrate", o.self_calibrate)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -303,6 +305,129 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
   return t;
 }
 
+namespace {
+
+// The fitted head, dressed in the photo's texture, photographed as the fitted cameras saw the
+// photos: one renderer whose morph targets are the identity modes, so a head the detector
+// response asks for (the head moved along a mode) is a weight, not a new upload.
+class HeadCamera {
+ public:
+  HeadCamera(rig::Rig head, const std::vector<rig::Positions>& modes)
+      : head_(with_modes(std::move(head), modes)),
+        base_(head_.positions),
+        renderer_(head_, options()) {
+    const auto n = static_cast<Eigen::Index>(modes.size());
+    Eigen::MatrixXd m(head_.positions.size(), n);
+    for (Eigen::Index k = 0; k < n; ++k)
+      m.col(k) = Eigen::Map<const Eigen::VectorXf>(modes[static_cast<std::size_t>(k)].data(),
+                                                   modes[static_cast<std::size_t>(k)].size())
+                     .cast<double>();
+    gram_ = (m.transpose() * m).ldlt();
+    modes_ = std::move(m);
+  }
+  // The head at `positions` (the fitted head moved along its modes) seen by `camera` at `size`.
+  render::Image shoot(const rig::Positions& positions, const OrthoCamera& camera,
+                      const render::Image& size) {
+    const Eigen::VectorXd delta =
+        Eigen::Map<const Eigen::VectorXf>(positions.data(), positions.size()).cast<double>() -
+        Eigen::Map<const Eigen::VectorXf>(base_.data(), base_.size()).cast<double>();
+    const Eigen::VectorXd w = gram_.solve(modes_.transpose() * delta);
+    std::vector<float> weights(static_cast<std::size_t>(w.size()));
+    for (Eigen::Index k = 0; k < w.size(); ++k)
+      weights[static_cast<std::size_t>(k)] = static_cast<float>(w(k));
+    renderer_.set_camera(render_camera(camera, head_.positions, size.width, size.height));
+    return renderer_.render(weights);
+  }
+
+ private:
+  static rig::Rig with_modes(rig::Rig head, const std::vector<rig::Positions>& modes) {
+    head.shapes.clear();
+    for (std::size_t k = 0; k < modes.size(); ++k)
+      head.shapes.push_back(rig::Blendshape::from_dense("identity" + std::to_string(k), modes[k]));
+    return head;
+  }
+  static render::RenderOptions options() {
+    render::RenderOptions ro;
+    ro.contexts = 1;
+    ro.trilinear = true;
+    ro.lod_pixels = 0;
+    return ro;
+  }
+  rig::Rig head_;
+  rig::Positions base_;
+  render::Renderer renderer_;
+  Eigen::MatrixXd modes_;
+  Eigen::LDLT<Eigen::MatrixXd> gram_;
+};
+
+render::Image crop(const render::Image& image, int x0, int y0, int width, int height) {
+  const auto channels = static_cast<std::size_t>(image.channels);
+  render::Image out{width, height, image.channels,
+                    std::vector<std::uint8_t>(static_cast<std::size_t>(width * height) * channels)};
+  const std::size_t row = static_cast<std::size_t>(width) * channels;
+  for (int y = 0; y < height; ++y)
+    std::copy_n(
+        image.pixels.begin() +
+            static_cast<std::ptrdiff_t>(
+                (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(image.width) +
+                 static_cast<std::size_t>(x0)) *
+                channels),
+        row, out.pixels.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * row));
+  return out;
+}
+
+bool has_detector_response(const PhotoTemplate& t) {
+  for (const auto& b : t.bias)
+    if (b.squaredNorm() > 0) return true;
+  return false;
+}
+
+// Analysis by synthesis: the detector's convention measured on the fitted head itself, dressed in
+// the photo's own texture and seen by the fitted camera (so in the photo's style), is taken as
+// the template's bias for a second fit. On the template's own landmark vertices dlib's points lie
+// about 4 % of the inter-ocular distance away, a constant the first fit would otherwise explain
+// with identity (docs/algorithms.md#photo-avatar).
+PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first,
+                             const render::Image& front, const render::Image* side,
+                             const PhotoOptions& options) {
+  const render::Image texture = bake_photo_texture(tmpl, first.fit, front, side, options);
+  rig::Rig head = textured_head(tmpl, first.fit.positions, texture);
+  paint_eyes(head, tmpl, first.fit, front);
+  PhotoTemplate calibrated = tmpl;
+  calibrated.rig.positions = first.fit.positions;
+  PhotoOptions quick = options;
+  quick.box_steps = 0;  // one box per render: the response is a difference of many renders
+  quick.min_face = std::min(options.min_face, 32);  // a head moved along a mode may look smaller
+  HeadCamera camera(std::move(head), tmpl.modes);
+  measure_detector_response(
+      calibrated,
+      [&](const rig::Positions& p) {
+        render::Image seen_side;
+        if (side && first.fit.side) seen_side = camera.shoot(p, *first.fit.side, *side);
+        return std::make_pair(camera.shoot(p, first.fit.front, front), std::move(seen_side));
+      },
+      quick, 2.0,
+      [&](const render::Image& shot, bool is_side) {
+        // The face is found as in the photo, within twice the photo's face box around it (a
+        // quarter of a portrait's pixels for the face detector).
+        const PhotoLandmarks& seen = is_side ? first.side : first.front;
+        const double cx = (seen.rect[0] + seen.rect[2]) / 2, cy = (seen.rect[1] + seen.rect[3]) / 2;
+        const int half = static_cast<int>(std::lround(seen.rect[2] - seen.rect[0]));
+        const int x0 = std::clamp(static_cast<int>(cx) - half, 0, shot.width - 1);
+        const int y0 = std::clamp(static_cast<int>(cy) - half, 0, shot.height - 1);
+        const render::Image part = crop(shot, x0, y0, std::min(2 * half, shot.width - x0),
+                                        std::min(2 * half, shot.height - y0));
+        PhotoLandmarks found = detect_photo_landmarks(part, "render", quick);
+        for (auto& p : found.points) p += Eigen::Vector2d(x0, y0);
+        return found;
+      });
+  calibrated.rig.positions = tmpl.rig.positions;
+  return fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options, &front,
+                         side);
+}
+
+}  // namespace
+
 PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& front,
                                const render::Image* side, const PhotoOptions& options,
                                const ProgressFn& progress) {
@@ -320,6 +445,16 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
+  std::string calibration_note;
+  if (!has_detector_response(tmpl)) {
+    try {
+      for (int round = 0; round < options.self_calibrate; ++round)
+        out.fit = self_calibrated_fit(tmpl, out, front, side, options);
+    } catch (const Error& e) {
+      // A render the detector cannot read (a head moved far along a mode): the fit stays as it was.
+      calibration_note = std::string("self-calibration skipped: ") + e.what();
+    }
+  }
   timing["fit"] = seconds_since(t);
   report(progress, "texture", 0.25);
   t = std::chrono::steady_clock::now();
@@ -342,6 +477,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   nlohmann::json notes = nlohmann::json::array();
   for (const auto* m : {&out.front, &out.side})
     if (!m->note.empty()) notes.push_back(m->note);
+  if (!calibration_note.empty()) notes.push_back(calibration_note);
   out.report = {{"front",
                  {{"landmarks", points_json(out.front)},
                   {"faces", out.front.faces},

@@ -507,17 +507,21 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
 }
 
 void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
-                               const PhotoOptions& options, double amplitude) {
+                               const PhotoOptions& options, double amplitude,
+                               const PhotoDetectFn& detect) {
+  const PhotoDetectFn find = detect ? detect : [&](const render::Image& shot, bool side) {
+    return detect_photo_landmarks(shot, side ? "template side" : "template front", options);
+  };
   using Offsets = std::array<Eigen::Vector3d, kLandmarkCount>;
   // Per photo alone (all 68 points), the offsets on the head at `positions`: front, side.
   const auto measure = [&](const rig::Positions& positions) {
     PhotoTemplate t = tmpl;
     t.rig.positions = positions;
     const auto [front, side] = shoot(positions);
-    const PhotoLandmarks f = detect_photo_landmarks(front, "template front", options);
-    const PhotoLandmarks s = detect_photo_landmarks(side, "template side", options);
-    return std::array<Offsets, 2>{measure_landmark_bias(t, f, nullptr, options),
-                                  measure_landmark_bias(t, s, nullptr, options)};
+    std::array<Offsets, 2> out{measure_landmark_bias(t, find(front, false), nullptr, options),
+                               zero_landmark_vectors()};
+    if (side.width > 0) out[1] = measure_landmark_bias(t, find(side, true), nullptr, options);
+    return out;
   };
   const auto at = measure(tmpl.rig.positions);
   tmpl.bias = at[0];

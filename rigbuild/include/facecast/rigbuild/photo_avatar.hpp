@@ -46,7 +46,11 @@ struct PhotoOptions {
   int iterations = 8;            // camera / coefficient alternations
   double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
   bool estimate_noise = true;    // ... estimated from the residuals (landmark_noise: its floor)
-  double side_noise = 1.0;       // the side photo's landmark noise relative to the front's
+  /// Without a measured detector response in the template: the first fit's head, wearing the
+  /// texture baked from the photo, is photographed with the fitted cameras; the detector's offsets
+  /// on it become the bias, and the shape is fitted again (this many rounds; 0: none).
+  int self_calibrate = 1;
+  double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
   bool side_calibration = false;    // the RBF calibration moves the side photo's residuals too
@@ -101,9 +105,10 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path);
 /// The 68 points dlib finds in a photo (the largest face).
 struct PhotoLandmarks {
   std::array<Eigen::Vector2d, kLandmarkCount> points{};
-  int faces = 0;     // faces dlib found (the largest is used)
-  double box = 0;    // width of the face box, pixels
-  std::string note;  // e.g. "3 faces found, the largest used"
+  int faces = 0;                 // faces dlib found (the largest is used)
+  double box = 0;                // width of the face box, pixels
+  std::array<double, 4> rect{};  // the face box: left, top, right, bottom (pixels)
+  std::string note;              // e.g. "3 faces found, the largest used"
 };
 
 /// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
@@ -163,7 +168,8 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
                                                                   const PhotoLandmarks* side,
                                                                   const PhotoOptions& options);
 
-/// Photographs a head (template topology) the way the photos are taken: front and side images.
+/// Photographs a head (template topology) the way the photos are taken: front and side images
+/// (an empty side image: no side photo, its response is not measured).
 using PhotoShootFn =
     std::function<std::pair<render::Image, render::Image>(const rig::Positions& positions)>;
 
@@ -173,8 +179,12 @@ using PhotoShootFn =
 /// photographed, measured; central difference). Stored in PhotoTemplate::bias, ::mode_bias and the
 /// side_* ones. The detector regresses towards its mean face, so it sees a fraction of a shape
 /// change; the fit then models what it sees.
+/// `detect` (optional) finds the points on a shot (`side`: the side one); by default
+/// detect_photo_landmarks.
+using PhotoDetectFn = std::function<PhotoLandmarks(const render::Image& shot, bool side)>;
 void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
-                               const PhotoOptions& options, double amplitude = 2.0);
+                               const PhotoOptions& options, double amplitude = 2.0,
+                               const PhotoDetectFn& detect = {});
 
 /// The skin texture (2 N x N, u in [0, 2] as the template's face and back-of-head UV tiles)
 /// baked from the photos. `coverage` (optional): fraction of skin texels seen by a photo;
