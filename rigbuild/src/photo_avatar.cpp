@@ -245,6 +245,7 @@ PhotoOptions load_photo_options() {
   if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
+  if (o.self_calibrate < 0 || o.self_calibrate > 3) c.fail("self_calibrate", "must be in 0..3");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
   if (!(o.outline_noise > 0)) c.fail("outline_noise", "must be positive");
