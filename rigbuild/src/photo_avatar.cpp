@@ -383,11 +383,11 @@ bool has_detector_response(const PhotoTemplate& t) {
   return false;
 }
 
-// Analysis by synthesis: the detector's convention measured on the fitted head itself, dressed in
-// the photo's own texture and seen by the fitted camera (so in the photo's style), is taken as
-// the template's bias for a second fit. On the template's own landmark vertices dlib's points lie
-// about 4 % of the inter-ocular distance away, a constant the first fit would otherwise explain
-// with identity (docs/algorithms.md#photo-avatar).
+// Analysis by synthesis: the detector's convention and its change per identity mode, measured on
+// the fitted head itself, dressed in the photo's own texture and seen by the fitted cameras (so
+// in the photo's style), are taken as the template's response for a second fit. On the template's
+// own landmark vertices dlib's points lie about 4 % of the inter-ocular distance away, a constant
+// the first fit would otherwise explain with identity (docs/algorithms.md#photo-avatar).
 PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first,
                              const render::Image& front, const render::Image* side,
                              const PhotoOptions& options) {
