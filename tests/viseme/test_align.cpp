@@ -156,6 +156,7 @@ TEST_CASE("audio and align option defaults mirror configs/viseme", "[viseme][con
   CHECK(a.refine == b.refine);
   CHECK(a.warps == b.warps);
   CHECK(a.max_seconds == b.max_seconds);
+  CHECK(a.stream_lag == b.stream_lag);
 }
 
 TEST_CASE("alignment: word onsets on festival English and altered Chinese speech",

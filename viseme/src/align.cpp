@@ -284,7 +284,10 @@ AlignOptions load_align_options() {
       .read("deltas", o.deltas)
       .read("refine", o.refine)
       .read("warps", o.warps)
-      .read("max_seconds", o.max_seconds);
+      .read("max_seconds", o.max_seconds)
+      .read("stream_lag", o.stream_lag);
+  if (o.stream_lag < 0.03 || o.stream_lag > 2)
+    c.fail("stream_lag", "must lie within 0.03..2 seconds");
   if (o.warps.empty()) c.fail("warps", "must list at least one warp (1.0: none)");
   if (o.min_speed < 80 || o.max_speed > 450 || o.min_speed > o.max_speed)
     c.fail("min_speed", "min_speed..max_speed must lie within 80..450");

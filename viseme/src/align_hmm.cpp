@@ -2,7 +2,9 @@
 #include "align_hmm.hpp"
 
 #include <pocketsphinx.h>
+#include <sphinxbase/cmn.h>
 #include <sphinxbase/err.h>
+#include <sphinxbase/feat.h>
 #include <sphinxbase/fsg_model.h>
 
 #include <algorithm>
@@ -12,6 +14,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <unordered_map>
 
 #include "dtw.hpp"
@@ -51,14 +54,17 @@ const std::unordered_map<std::string, std::string>& espeak_to_cmu() {
 
 struct Decoder {
   ps_decoder_t* ps = nullptr;
-  int added = 0;  // words added to its dictionary
+  int added = 0;                     // words added to its dictionary
+  std::vector<mfcc_t> initial_mean;  // the model's cepstral mean (cmninit) as loaded
   ~Decoder() {
     if (ps) ps_free(ps);
   }
 };
 
+// Decoders of one kind: batch cepstral mean (whole files) or live (streams).
 class Pool {
  public:
+  explicit Pool(bool live) : live_(live) {}
   std::unique_ptr<Decoder> take() {
     {
       std::lock_guard lock(mutex_);
@@ -86,12 +92,13 @@ class Pool {
     static std::once_flag quiet;
     std::call_once(quiet, [] { err_set_logfp(nullptr); });
     const auto t0 = std::chrono::steady_clock::now();
-    // Wide beams (a one-path grammar is cheap to search), no silence removal or live CMN (frame
-    // times must be the audio's), batch CMN over the whole utterance.
+    // Wide beams (a one-path grammar is cheap to search), no silence removal (frame times must be
+    // the audio's); batch CMN over the whole utterance, or live for streams (HmmStream sets its
+    // mean).
     cmd_ln_t* config = cmd_ln_init(
         nullptr, ps_args(), TRUE, "-hmm", FACECAST_PS_HMM, "-dict", FACECAST_PS_DICT, "-samprate",
         "16000", "-beam", "1e-80", "-wbeam", "1e-60", "-pbeam", "1e-80", "-remove_silence", "no",
-        "-cmn", "batch", "-bestpath", "no", "-logfn", "/dev/null", nullptr);
+        "-cmn", live_ ? "live" : "batch", "-bestpath", "no", "-logfn", "/dev/null", nullptr);
     if (!config) throw Error("alignment: cannot configure pocketsphinx", ErrorCode::kInternal);
     auto d = std::make_unique<Decoder>();
     d->ps = ps_init(config);
@@ -99,6 +106,8 @@ class Pool {
     if (!d->ps)
       throw Error("alignment: cannot load pocketsphinx's model " FACECAST_PS_HMM,
                   ErrorCode::kInternal);
+    const cmn_t& cmn = *ps_get_feat(d->ps)->cmn_struct;
+    d->initial_mean.assign(cmn.cmn_mean, cmn.cmn_mean + cmn.veclen);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::lock_guard lock(mutex_);
@@ -107,14 +116,15 @@ class Pool {
     return d;
   }
 
+  const bool live_;
   std::mutex mutex_;
   std::vector<std::unique_ptr<Decoder>> idle_;
   HmmPoolStats stats_;
 };
 
-Pool& pool() {
-  static Pool p;
-  return p;
+Pool& pool(bool live = false) {
+  static Pool batch(false), stream(true);
+  return live ? stream : batch;
 }
 
 // A dictionary-safe word name: lower-case ASCII letters, digits and apostrophes.
@@ -129,8 +139,9 @@ std::string dict_name(const std::string& text) {
   return out;
 }
 
-// The unit's espeak-ng phones as CMU phones: one group per plan phone (possibly empty).
-std::vector<std::vector<std::string>> cmu_groups(const PlanUnit& u) {
+}  // namespace
+
+std::vector<std::vector<std::string>> hmm_phone_groups(const PlanUnit& u) {
   std::vector<std::vector<std::string>> out;
   for (const PlanPhone& p : u.phones) {
     std::vector<std::string> g;
@@ -147,6 +158,8 @@ std::vector<std::vector<std::string>> cmu_groups(const PlanUnit& u) {
   }
   return out;
 }
+
+namespace {
 
 std::string joined(const std::vector<std::vector<std::string>>& groups) {
   std::string s;
@@ -182,6 +195,42 @@ std::vector<Segment> segments(ps_decoder_t* ps) {
   return out;
 }
 
+// The decoder's search becomes a grammar that is exactly `words` in order (optional silence and
+// noise between them); words missing from its dictionary are added with their phones (and have
+// `phones` cleared when the dictionary has them).
+void set_grammar(Decoder& d, std::vector<HmmWord>& words) {
+  ps_decoder_t* ps = d.ps;
+  fsg_model_t* fsg = fsg_model_init("facecast_align", ps_get_logmath(ps), 1.0f,
+                                    static_cast<int>(words.size()) + 1);
+  fsg->start_state = 0;
+  fsg->final_state = static_cast<int>(words.size());
+  for (std::size_t i = 0; i < words.size(); ++i) {
+    HmmWord& w = words[i];
+    if (char* known = ps_lookup_word(ps, w.name.c_str())) {
+      ckd_free(known);
+      w.phones.clear();  // the dictionary's pronunciations (all variants) serve
+    } else if (!w.phones.empty()) {
+      if (ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE) < 0) {
+        fsg_model_free(fsg);
+        throw Error("alignment: pocketsphinx refused the pronunciation '" + w.phones + "' of '" +
+                    w.name + "'");
+      }
+      ++d.added;
+    } else {
+      // No CMU phones for it (only a glottal stop): the word gets the shortest vowel.
+      w.phones = "AH";
+      ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE);
+      ++d.added;
+    }
+    const int wid = fsg_model_word_add(fsg, w.name.c_str());
+    fsg_model_trans_add(fsg, static_cast<int>(i), static_cast<int>(i) + 1, 0, wid);
+  }
+  const bool set =
+      ps_set_fsg(ps, "facecast_align", fsg) == 0 && ps_set_search(ps, "facecast_align") == 0;
+  fsg_model_free(fsg);  // the search holds its own reference
+  if (!set) throw Error("alignment: pocketsphinx refused the transcript grammar");
+}
+
 }  // namespace
 
 bool hmm_installed() {
@@ -207,7 +256,7 @@ std::vector<HmmWord> hmm_words(const Plan& plan) {
     HmmWord w;
     w.name = dict_name(u.text);
     // Whether the dictionary has it is known only to a decoder: hmm_decode adds it when missing.
-    w.phones = joined(cmu_groups(u));
+    w.phones = joined(hmm_phone_groups(u));
     // A word the dictionary cannot name is named by its phones: a pooled decoder keeps the words
     // added to it, so one name must never stand for two pronunciations.
     if (w.name.empty()) {
@@ -223,35 +272,7 @@ bool hmm_decode(std::vector<HmmWord>& words, const Audio& audio) {
   if (words.empty()) return false;
   std::unique_ptr<Decoder> d = pool().take();
   ps_decoder_t* ps = d->ps;
-  fsg_model_t* fsg = fsg_model_init("facecast_align", ps_get_logmath(ps), 1.0f,
-                                    static_cast<int>(words.size()) + 1);
-  fsg->start_state = 0;
-  fsg->final_state = static_cast<int>(words.size());
-  for (std::size_t i = 0; i < words.size(); ++i) {
-    HmmWord& w = words[i];
-    if (char* known = ps_lookup_word(ps, w.name.c_str())) {
-      ckd_free(known);
-      w.phones.clear();  // the dictionary's pronunciations (all variants) serve
-    } else if (!w.phones.empty()) {
-      if (ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE) < 0) {
-        fsg_model_free(fsg);
-        throw Error("alignment: pocketsphinx refused the pronunciation '" + w.phones + "' of '" +
-                    w.name + "'");
-      }
-      ++d->added;
-    } else {
-      // No CMU phones for it (only a glottal stop): the word gets the shortest vowel.
-      w.phones = "AH";
-      ps_add_word(ps, w.name.c_str(), w.phones.c_str(), FALSE);
-      ++d->added;
-    }
-    const int wid = fsg_model_word_add(fsg, w.name.c_str());
-    fsg_model_trans_add(fsg, static_cast<int>(i), static_cast<int>(i) + 1, 0, wid);
-  }
-  const bool set =
-      ps_set_fsg(ps, "facecast_align", fsg) == 0 && ps_set_search(ps, "facecast_align") == 0;
-  fsg_model_free(fsg);  // the search holds its own reference
-  if (!set) throw Error("alignment: pocketsphinx refused the transcript grammar");
+  set_grammar(*d, words);
   const std::vector<int16_t> pcm = pcm16_at_16k(audio);
   if (ps_start_utt(ps) < 0)
     throw Error("alignment: pocketsphinx cannot start", ErrorCode::kInternal);
@@ -294,7 +315,7 @@ std::optional<Timeline> align_hmm(const Plan& plan, const Timeline& synth, const
   if (phone_pass) {
     for (const PlanUnit& u : plan.units) {
       phone_count.emplace_back();
-      for (const auto& g : cmu_groups(u)) {
+      for (const auto& g : hmm_phone_groups(u)) {
         phone_count.back().push_back(g.size());
         for (const auto& p : g) phones.push_back({"facecast_phone_" + p, p, {}});
       }
@@ -356,6 +377,88 @@ std::optional<Timeline> align_hmm(const Plan& plan, const Timeline& synth, const
     previous = span.end;
   }
   return tl;
+}
+
+struct HmmStream::Impl {
+  std::unique_ptr<Decoder> d;
+  bool started = false;              // a search is running
+  bool fresh = true;                 // no audio yet: the cepstral mean starts over
+  std::vector<std::string> grammar;  // word names of the grammar's phones
+
+  cmn_t& cmn() const { return *ps_get_feat(d->ps)->cmn_struct; }
+  // The live mean becomes the mean of the stream's frames so far once there are enough of them
+  // (pocketsphinx would update it only every 800 frames).
+  static constexpr int kMinFrames = 30;
+  void update_mean() {
+    cmn_t& c = cmn();
+    if (c.nframe < kMinFrames) return;
+    for (int j = 0; j < c.veclen; ++j) c.cmn_mean[j] = c.sum[j] / static_cast<mfcc_t>(c.nframe);
+  }
+};
+
+HmmStream::HmmStream() : impl_(std::make_unique<Impl>()) {
+  impl_->d = pool(true).take();
+}
+
+HmmStream::~HmmStream() {
+  if (impl_->started) ps_end_utt(impl_->d->ps);
+  pool(true).give(std::move(impl_->d));
+}
+
+void HmmStream::restart(const std::vector<std::string>& phones, const std::int16_t* pcm,
+                        std::size_t n) {
+  ps_decoder_t* ps = impl_->d->ps;
+  if (impl_->started) ps_end_utt(ps);
+  impl_->started = false;
+  std::vector<HmmWord> words;
+  for (const std::string& p : phones) words.push_back({"facecast_phone_" + p, p, {}});
+  set_grammar(*impl_->d, words);
+  if (impl_->fresh) {
+    cmn_t& c = impl_->cmn();
+    std::copy(impl_->d->initial_mean.begin(), impl_->d->initial_mean.end(), c.cmn_mean);
+    std::fill(c.sum, c.sum + c.veclen, mfcc_t{0});
+    c.nframe = 0;
+  }
+  // Frame numbers count from the stream's start: each search starts one.
+  if (ps_start_stream(ps) < 0 || ps_start_utt(ps) < 0)
+    throw Error("alignment: pocketsphinx cannot start", ErrorCode::kInternal);
+  impl_->started = true;
+  feed(pcm, n);
+}
+
+void HmmStream::feed(const std::int16_t* pcm, std::size_t n) {
+  if (!impl_->started || n == 0) return;
+  impl_->fresh = false;
+  ps_process_raw(impl_->d->ps, pcm, n, FALSE, FALSE);
+  impl_->update_mean();
+}
+
+void HmmStream::finish() {
+  if (impl_->started) ps_end_utt(impl_->d->ps);
+  impl_->started = false;
+}
+
+bool HmmStream::settled() const {
+  return !impl_->fresh && impl_->cmn().nframe >= Impl::kMinFrames;
+}
+
+int HmmStream::frames() const {
+  return ps_get_n_frames(impl_->d->ps);
+}
+
+std::vector<HmmStream::Segment> HmmStream::path() const {
+  std::vector<Segment> out;
+  std::size_t k = 0;
+  for (ps_seg_t* s = ps_seg_iter(impl_->d->ps); s; s = ps_seg_next(s)) {
+    Segment g;
+    ps_seg_frames(s, &g.first, &g.last);
+    // The grammar's phones are its only non-filler words, and the grammar is linear: the k-th
+    // of them on the path is phone k.
+    if (std::string_view(ps_seg_word(s)).starts_with("facecast_phone_"))
+      g.phone = static_cast<int>(k++);
+    out.push_back(g);
+  }
+  return out;
 }
 
 HmmPoolStats hmm_pool_stats() {

@@ -38,6 +38,9 @@ struct AlignOptions {
   bool refine = true;            // boundary refinement on spectral change and energy
   /// Longer audio is refused (DTW memory grows with length x band: about 80 MB at 120 s).
   double max_seconds = 120;
+  /// Streaming alignment (StreamAligner): the audio this far behind the newest searched frame is
+  /// decided from the best path so far.
+  double stream_lag = 0.1;
   /// Frequency warps tried on the audio's filterbank (vocal tract length normalisation).
   std::vector<double> warps = {0.8, 0.86, 0.92, 1.0, 1.06, 1.13, 1.2, 1.27};
 };

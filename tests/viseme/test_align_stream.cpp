@@ -1,0 +1,204 @@
+// Streaming alignment (StreamAligner): English TTS speech of other synthesizers (festival, flite)
+// streamed in 100-200 ms chunks, its text arriving word by word as each word's audio starts,
+// against the whole-file alignment of the same audio and text.
+#include <unistd.h>
+#include <algorithm>
+#include <array>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+
+#include "align_cases.hpp"
+#include "facecast/core/error.hpp"
+#include "facecast/viseme/align.hpp"
+#include "facecast/viseme/align_stream.hpp"
+#include "facecast/viseme/audio.hpp"
+
+using namespace facecast;
+using namespace facecast::viseme;
+using Catch::Contains;
+
+namespace {
+
+struct StreamScratch {
+  std::filesystem::path path;
+  explicit StreamScratch(const std::string& name)
+      : path(std::filesystem::temp_directory_path() /
+             ("facecast_stream_" + name + "_" + std::to_string(getpid()))) {
+    std::filesystem::create_directories(path);
+  }
+  ~StreamScratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  StreamScratch(const StreamScratch&) = delete;
+  StreamScratch& operator=(const StreamScratch&) = delete;
+};
+
+// The viseme at time t (the pause viseme outside every event).
+std::string viseme_at(const std::vector<VisemeEvent>& v, double t) {
+  for (const auto& e : v)
+    if (t >= e.start && t < e.end) return e.viseme;
+  return "sil";
+}
+
+struct Streamed {
+  std::vector<std::string> frames;  // the viseme of each 60 fps frame, read once it was decided
+  std::vector<Phone> phones;
+  std::vector<double> behind;  // per chunk: audio received - decided (seconds)
+};
+
+// Streams `audio` in chunks of 100, 160 and 200 ms in turn; the text of word k (with the space
+// after it) goes in when the audio sent reaches onset[k], as TTS services stream their alignment
+// beside the audio. Each 60 fps frame's viseme is read as soon as it is decided, as the server
+// samples it; decided() must only grow.
+Streamed stream(const std::string& text, const Audio& audio, const std::vector<double>& onsets) {
+  StreamAligner s(audio.sample_rate);
+  std::vector<std::string> pieces;
+  for (std::size_t at = 0; at < text.size();) {
+    std::size_t end = text.find(' ', at);
+    end = end == std::string::npos ? text.size() : end + 1;
+    pieces.push_back(text.substr(at, end - at));
+    at = end;
+  }
+  std::vector<double> when(pieces.size(), 0.0);
+  if (pieces.size() == onsets.size()) when = onsets;
+  Streamed out;
+  std::size_t next = 0, at = 0;
+  const std::array<double, 3> seconds = {0.1, 0.16, 0.2};
+  const auto read = [&] {
+    while (static_cast<double>(out.frames.size()) / 60 < s.decided())
+      out.frames.push_back(viseme_at(s.visemes(), static_cast<double>(out.frames.size()) / 60));
+  };
+  for (int k = 0; at < audio.samples.size(); ++k) {
+    const auto n = std::min(audio.samples.size() - at,
+                            static_cast<std::size_t>(seconds[k % 3] * audio.sample_rate));
+    const double reach = static_cast<double>(at + n) / audio.sample_rate;
+    while (next < pieces.size() && when[next] <= reach) {
+      s.add_text(pieces[next++]);
+      if (next == pieces.size()) s.end_text();  // the last word comes with the end of the text
+    }
+    const double before = s.decided();
+    s.add_audio(audio.samples.data() + at, n);
+    at += n;
+    CHECK(s.decided() >= before);
+    CHECK(s.decided() <= reach + 1e-9);
+    out.behind.push_back(reach - s.decided());
+    read();
+  }
+  s.finish();
+  CHECK(s.decided() == Approx(audio.seconds()).margin(0.011));
+  read();
+  out.phones = s.phones();
+  return out;
+}
+
+std::array<double, 3> summary(std::vector<double> e) {
+  std::sort(e.begin(), e.end());
+  double mean = 0;
+  for (double x : e) mean += x / static_cast<double>(e.size());
+  return {mean, e[e.size() / 2], e[e.size() * 95 / 100]};
+}
+
+}  // namespace
+
+TEST_CASE("streaming alignment follows the whole-file alignment within a frame or two",
+          "[viseme][align][stream]") {
+  const StreamScratch dir("cases");
+  std::vector<test::AlignCase> cases = test::festival_cases(dir.path);
+  for (auto& c : test::flite_cases(dir.path)) cases.push_back(std::move(c));
+  REQUIRE(cases.size() >= 8);
+  std::vector<double> phone_diff, behind;
+  std::size_t frames = 0, within = 0, phones = 0, whole_phones = 0;
+  for (const auto& c : cases) {
+    INFO(c.name << ": " << c.text);
+    const Audio audio = read_audio(c.audio);
+    const Utterance whole = align(c.text, audio);
+    const Streamed streamed = stream(c.text, audio, c.onsets);
+    phones += streamed.phones.size();
+    whole_phones += whole.phones.size();
+    CHECK(streamed.phones.size() == whole.phones.size());
+    if (streamed.phones.size() != whole.phones.size()) {
+      std::string a, b;
+      for (const auto& ph : whole.phones) a += ph.phone + " ";
+      for (const auto& ph : streamed.phones) b += ph.phone + " ";
+      WARN("whole-file: " << a << "\nstreamed:   " << b);
+    }
+    for (std::size_t p = 0; p < whole.phones.size() && p < streamed.phones.size(); ++p) {
+      CHECK(streamed.phones[p].phone == whole.phones[p].phone);
+      phone_diff.push_back(std::abs(streamed.phones[p].start - whole.phones[p].start));
+    }
+    behind.insert(behind.end(), streamed.behind.begin(), streamed.behind.end());
+    // 60 fps frames: the streamed viseme is the whole-file one within two frames.
+    for (std::size_t f = 0; f < streamed.frames.size(); ++f, ++frames) {
+      const double t = static_cast<double>(f) / 60;
+      bool near = false;
+      for (int d = -2; d <= 2 && !near; ++d)
+        near = viseme_at(whole.visemes, t + d / 60.0) == streamed.frames[f];
+      within += near;
+    }
+  }
+  const auto p = summary(phone_diff), b = summary(behind);
+  const double share = static_cast<double>(within) / static_cast<double>(frames);
+  WARN("streaming vs whole-file, " << cases.size() << " utterances: " << 100 * share
+                                   << " % of 60 fps frames show the whole-file viseme within two "
+                                      "frames; phone onsets mean "
+                                   << 1000 * p[0] << " ms, median " << 1000 * p[1] << ", p95 "
+                                   << 1000 * p[2] << " (" << phones << " / " << whole_phones
+                                   << " phones); decided behind the audio received: mean "
+                                   << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 "
+                                   << 1000 * b[2]);
+  CHECK(share >= 0.95);
+  CHECK(p[1] <= 0.02);
+  CHECK(p[2] <= 0.035);
+  // Text arrives at each word's onset, so the decisions wait for it about a word at a time; with
+  // all the text ahead they stay the lag behind (the next case).
+  CHECK(b[1] <= 0.6);
+}
+
+TEST_CASE("streaming alignment with the text ahead decides the lag behind the audio",
+          "[viseme][align][stream]") {
+  const StreamScratch dir("ahead");
+  const std::vector<test::AlignCase> cases = test::flite_cases(dir.path);
+  REQUIRE(!cases.empty());
+  const test::AlignCase& c = cases.front();
+  const Audio audio = read_audio(c.audio);
+  StreamAligner s(audio.sample_rate);
+  s.add_text(c.text);
+  s.end_text();
+  const auto n = static_cast<std::size_t>(0.02 * audio.sample_rate);  // 20 ms chunks
+  std::vector<double> behind;
+  for (std::size_t at = 0; at < audio.samples.size(); at += n) {
+    const std::size_t k = std::min(n, audio.samples.size() - at);
+    s.add_audio(audio.samples.data() + at, k);
+    if (at > audio.samples.size() / 10) behind.push_back(s.received() - s.decided());
+  }
+  const auto b = summary(behind);
+  WARN("text ahead, 20 ms chunks: decided behind the audio received, mean "
+       << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 " << 1000 * b[2]
+       << " (stream_lag " << 1000 * AlignOptions{}.stream_lag << " ms)");
+  // The lag, the decoder's feature context (a few frames) and a 20 ms chunk.
+  CHECK(b[2] <= AlignOptions{}.stream_lag + 0.07);
+  s.finish();
+  CHECK(s.decided() == Approx(audio.seconds()).margin(0.011));
+  CHECK(!s.phones().empty());
+}
+
+TEST_CASE("streaming alignment refuses what it cannot align", "[viseme][align][stream]") {
+  CHECK_THROWS_WITH(StreamAligner(4000), Contains("sample rate 4000"));
+  StreamAligner s(16000);
+  CHECK_THROWS_WITH(s.add_text("你好 "), Contains("English"));
+  CHECK_THROWS_WITH(s.add_text(std::string(5000, 'a')), Contains("without a space"));
+  StreamAligner t(16000);
+  t.add_text("hello ");
+  const std::vector<float> second(16000, 0.0f);
+  // Audio more than 60 s ahead of its text (the first word waits for more text) is refused.
+  CHECK_THROWS_WITH(
+      [&] {
+        for (int k = 0; k < 70; ++k) t.add_audio(second.data(), second.size());
+      }(),
+      Contains("ahead of its text"));
+  StreamAligner u(16000);
+  u.finish();
+  CHECK_THROWS_WITH(u.add_audio(second.data(), 10), Contains("ended"));
+}
