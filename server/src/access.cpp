@@ -74,6 +74,8 @@ void Access::authorize_message(const Principal& who, const ClientMessage& messag
             who.require(kScopeChannelsProduce, "a channel's utterances");
         } else if constexpr (std::is_same_v<T, ExpressionRequest>) {
           who.require(kScopeSpeak, "expression");
+        } else if constexpr (std::is_same_v<T, AudioTextRequest>) {
+          who.require(kScopeSpeak, "audio_text");
         } else if constexpr (std::is_same_v<T, SubscribeRequest>) {
           who.require(kScopeChannelsSubscribe, "subscribe");
           if (who.viewer && m.channel != who.channel)

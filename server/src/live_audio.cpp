@@ -29,14 +29,17 @@ AudioChunk read_audio_chunk(std::string_view b) {
   if (b[1] != 1) throw Error("audio chunk: version " + std::to_string(b[1]) + ", expected 1");
   AudioChunk c;
   const unsigned flags = static_cast<unsigned char>(b[2]) | static_cast<unsigned char>(b[3]) << 8;
-  if (flags & ~unsigned{kAudioInLast})
+  if (flags & ~unsigned{kAudioInLast | kAudioInAligned})
     throw Error("audio chunk: unknown flags " + std::to_string(flags));
   c.last = flags & kAudioInLast;
+  c.aligned = flags & kAudioInAligned;
   const std::uint32_t rate = u32_at(b, 4);
   if (rate < 8000 || rate > 48000)
     throw Error("audio chunk: sample_rate " + std::to_string(rate) + " outside 8000..48000");
   c.sample_rate = static_cast<int>(rate);
   c.first = u32_at(b, 8);
+  if (c.aligned && c.first != 0)
+    throw Error("audio chunk: flag 2 (aligned) is for the first chunk of a stream (sample 0)");
   const std::uint32_t count = u32_at(b, 12);
   if (b.size() != 24 + 2 * static_cast<std::size_t>(count))
     throw Error("audio chunk: count " + std::to_string(count) + " samples but " +
@@ -50,7 +53,7 @@ AudioChunk read_audio_chunk(std::string_view b) {
 
 LiveLipsync::LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
                          const viseme::LipsyncOptions& options, viseme::VisemeSet set,
-                         int input_rate, double fps)
+                         int input_rate, double fps, const viseme::AlignOptions* align)
     : rig_(std::move(rig)),
       anim_(anim),
       options_(options),
@@ -59,12 +62,28 @@ LiveLipsync::LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimO
       resampler_(input_rate, 16000),
       analyzer_(16000, options) {
   anim_.idle = false;  // idle life is a function of the whole utterance; the client adds its own
+  if (align) {
+    viseme::Options o;
+    o.set = set;
+    aligner_.emplace(input_rate, o, *align);
+  }
+}
+
+void LiveLipsync::add_text(std::string_view text, bool final) {
+  if (!aligner_)
+    throw Error("audio_text: the open audio stream is not aligned (flag 2 on its first chunk)");
+  aligner_->add_text(text);
+  if (final) aligner_->end_text();
 }
 
 int LiveLipsync::push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values) {
   std::vector<float> in(n);
   for (std::size_t i = 0; i < n; ++i) in[i] = static_cast<float>(pcm[i]) / 32768.0f;
   samples_ += n;
+  if (aligner_) {
+    aligner_->add_audio(in.data(), n);
+    return emit(-1, values);
+  }
   resampled_.clear();
   resampler_.push(in.data(), n, resampled_);
   frames_.clear();
@@ -74,7 +93,10 @@ int LiveLipsync::push(const std::int16_t* pcm, std::size_t n, std::vector<float>
 
 int LiveLipsync::finish(std::vector<float>& values) {
   frames_.clear();
-  analyzer_.finish(frames_);
+  if (aligner_)
+    aligner_->finish();
+  else
+    analyzer_.finish(frames_);
   return emit(static_cast<double>(samples_) / input_rate(), values);
 }
 
@@ -85,12 +107,22 @@ void LiveLipsync::add_expressions(std::string_view tags) {
 
 // Frames up to the analysed audio minus `delay` (or up to `until` at the end) from one
 // Performance over the recent events. The open last event is taken to go on for `delay` more,
-// so its key is not pulled towards rest before the audio says so.
+// so its key is not pulled towards rest before the audio says so. Aligned: frames up to what the
+// aligner has decided; its events after that are its best guess so far, so no delay is needed.
 int LiveLipsync::emit(double until, std::vector<float>& values) {
+  if (aligner_) {
+    events_ = aligner_->visemes();
+    for (auto& e : aligner_->take_expressions()) expressions_.push_back(std::move(e));
+    analysed_ = aligner_->decided();
+    return sample(until >= 0 ? until : analysed_, false, values);
+  }
   constexpr double kHop = 0.01;
   viseme::append_lipsync_events(frames_, set_, options_, kHop, events_);
   if (!frames_.empty()) analysed_ = frames_.back().time + kHop / 2;
-  const double end = until >= 0 ? until : analysed_ - options_.delay;
+  return sample(until >= 0 ? until : analysed_ - options_.delay, until < 0, values);
+}
+
+int LiveLipsync::sample(double end, bool open_last, std::vector<float>& values) {
   if (next_frame_ / fps_ > end) return 0;
   const double keep = next_frame_ / fps_ - options_.window;
   std::erase_if(events_, [&](const viseme::VisemeEvent& e) { return e.end < keep; });
@@ -98,7 +130,7 @@ int LiveLipsync::emit(double until, std::vector<float>& values) {
   u.set = set_;
   u.visemes = events_;
   u.expressions = expressions_;
-  if (until < 0 && !u.visemes.empty()) u.visemes.back().end += options_.delay;
+  if (open_last && !u.visemes.empty()) u.visemes.back().end += options_.delay;
   u.duration = std::max(analysed_, u.visemes.empty() ? 0.0 : u.visemes.back().end);
   const anim::Performance p(u, rig_->mapping, anim_);
   const std::size_t shapes = rig_->mapping.shape_names().size();

@@ -17,6 +17,7 @@
 
 #include "beast.hpp"
 #include "facecast/anim/animation.hpp"
+#include "facecast/viseme/align_stream.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/lipsync.hpp"
 #include "rigs.hpp"
@@ -24,7 +25,8 @@
 namespace facecast::server {
 
 inline constexpr std::uint8_t kAudioInKind = 4;
-inline constexpr std::uint16_t kAudioInLast = 1;  // flags: the stream ends with this chunk
+inline constexpr std::uint16_t kAudioInLast = 1;     // flags: the stream ends with this chunk
+inline constexpr std::uint16_t kAudioInAligned = 2;  // flags (first chunk): text comes beside it
 
 /// A client's audio chunk: the 24-byte header (kind 4, version 1, u16 flags, u32 sample_rate,
 /// u32 first sample, u32 count, f64 reserved) and count PCM16 samples.
@@ -32,17 +34,23 @@ struct AudioChunk {
   int sample_rate = 0;
   std::uint32_t first = 0;
   bool last = false;
+  bool aligned = false;  // the stream's text comes in audio_text messages (first chunk only)
   std::vector<std::int16_t> samples;
 };
 /// Throws Error naming the field (size, kind, version, rate 8000..48000, count vs payload).
 AudioChunk read_audio_chunk(std::string_view bytes);
 
-/// PCM in, frames of weights (rig shapes + the body pose's channels) out. Not thread-safe.
+/// PCM in, frames of weights (rig shapes + the body pose's channels) out: from the audio alone, or
+/// (`align` given) aligned to the stream's text as it arrives (viseme::StreamAligner). Not
+/// thread-safe.
 class LiveLipsync {
  public:
   LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
               const viseme::LipsyncOptions& options, viseme::VisemeSet set, int input_rate,
-              double fps);
+              double fps, const viseme::AlignOptions* align = nullptr);
+  /// More of the aligned stream's text (`final`: the text ends with it). Throws Error when the
+  /// stream is not aligned or the text cannot be aligned.
+  void add_text(std::string_view text, bool final);
   /// Appends the frames this chunk completes to `values` (frame-major); returns their count.
   int push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values);
   /// The end of the audio: the remaining frames up to its end.
@@ -62,6 +70,7 @@ class LiveLipsync {
 
  private:
   int emit(double until, std::vector<float>& values);
+  int sample(double end, bool open_last, std::vector<float>& values);
 
   std::shared_ptr<const LoadedRig> rig_;
   anim::AnimOptions anim_;
@@ -70,6 +79,7 @@ class LiveLipsync {
   double fps_;
   viseme::StreamResampler resampler_;
   viseme::LipsyncAnalyzer analyzer_;
+  std::optional<viseme::StreamAligner> aligner_;
   std::vector<float> resampled_;
   std::vector<viseme::LipsyncFrame> frames_;
   std::vector<viseme::VisemeEvent> events_;

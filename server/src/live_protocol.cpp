@@ -71,6 +71,22 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const j
                          "tags: more than " + std::to_string(limits.max_text) + " characters");
     return ExpressionRequest{std::move(text)};
   }
+  if (type == "audio_text") {
+    bool final = false;
+    read_fields(j, type, {"text", "final"}, [&](const std::string& key, const json& v) {
+      if (key == "final") {
+        if (!v.is_boolean()) throw Error("audio_text: final: expected true or false");
+        final = v.get<bool>();
+      } else {
+        read(key, v);
+      }
+    });
+    if (!have_text && !final) throw Error("audio_text: text: missing");
+    if (utf8_length(text) > limits.max_text)
+      throw RequestError(Code::kLimit,
+                         "text: more than " + std::to_string(limits.max_text) + " characters");
+    return AudioTextRequest{std::move(text), final};
+  }
   if (type == "subscribe" || type == "unsubscribe") {
     read_fields(j, type, {"channel"}, read);
     if (type == "subscribe") return SubscribeRequest{need_channel(channel, type)};

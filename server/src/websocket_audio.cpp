@@ -20,6 +20,11 @@ const viseme::LipsyncOptions& lipsync_options() {
   return o;
 }
 
+const viseme::AlignOptions& align_options() {
+  static const viseme::AlignOptions o = viseme::load_align_options();
+  return o;
+}
+
 }  // namespace
 
 void WebSocketSession::handle_binary(std::string_view bytes) {
@@ -35,7 +40,7 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
       if (c.first != 0)
         throw Error("audio chunk: first sample " + std::to_string(c.first) +
                     " but no audio stream is open (a stream starts at sample 0)");
-      open_audio(c.sample_rate);
+      open_audio(c.sample_rate, c.aligned);
     } else if (c.sample_rate != audio_->rate || c.first != audio_->received) {
       throw Error("audio chunk: sample_rate " + std::to_string(c.sample_rate) + ", first " +
                   std::to_string(c.first) + "; the stream expects " + std::to_string(audio_->rate) +
@@ -69,20 +74,20 @@ void WebSocketSession::handle_binary(std::string_view bytes) {
 
 // The stream's engine is made on its strand (loading the rig may take a while); its stream_start
 // comes back to the connection before any of its weights.
-void WebSocketSession::open_audio(int rate) {
+void WebSocketSession::open_audio(int rate, bool aligned) {
   const std::uint32_t stream = services_->sessions.new_stream_id();
   audio_ = std::make_unique<LiveAudio>(net::make_strand(services_->workers));
   audio_->stream = stream;
   audio_->id = "audio-" + std::to_string(stream);
   audio_->rate = rate;
   net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, stream, rate,
-                             id = audio_->id] {
+                             aligned, id = audio_->id] {
     const viseme::VisemeSet set =
         self->services_->speech.viseme_options().set.value_or(viseme::VisemeSet::kOculus);
     try {
       engine->lipsync.emplace(self->services_->rigs.load(""),
                               self->services_->speech.anim_options(), lipsync_options(), set, rate,
-                              kLiveFps);
+                              kLiveFps, aligned ? &align_options() : nullptr);
     } catch (...) {
       const Problem problem = describe(std::current_exception());
       net::post(self->ws_.get_executor(), [self, id, problem] { self->send_error(id, problem); });
@@ -134,6 +139,20 @@ void WebSocketSession::end_audio() {
     });
   });
   audio_.reset();
+}
+
+void WebSocketSession::live_text(const std::string& text, bool final) {
+  if (!audio_) throw Error("audio_text: no live audio stream is open on this connection");
+  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, text, final] {
+    if (!engine->lipsync) return;
+    try {
+      engine->lipsync->add_text(text, final);
+    } catch (...) {
+      const Problem problem = describe(std::current_exception());
+      net::post(self->ws_.get_executor(),
+                [self, problem] { self->send_error(std::nullopt, problem); });
+    }
+  });
 }
 
 void WebSocketSession::live_expressions(const std::string& tags) {

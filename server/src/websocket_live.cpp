@@ -70,6 +70,10 @@ bool WebSocketSession::route_live(ClientMessage& m) {
       live_expressions(x->tags);
       return true;
     }
+    if (const auto* t = std::get_if<AudioTextRequest>(&m)) {
+      live_text(t->text, t->final);
+      return true;
+    }
     return false;  // this connection's own speak / cancel / ping
   }
   if (std::find(producing_.begin(), producing_.end(), channel) == producing_.end())

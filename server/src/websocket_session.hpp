@@ -68,11 +68,12 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   // Live audio in (websocket_audio.cpp).
   void handle_binary(std::string_view bytes);
   // Live audio in (websocket_audio.cpp): the analysis runs on the stream's worker strand.
-  void open_audio(int rate);
+  void open_audio(int rate, bool aligned);
   void post_audio_weights(std::uint32_t stream, int first, int count, double fps,
                           std::vector<float> values);
   void end_audio();
   void live_expressions(const std::string& tags);
+  void live_text(const std::string& text, bool final);
 
   // Queues `message` (drop and slow-client rules); do_write() sends what is queued.
   std::uint32_t enqueue(OutMessage message);

@@ -101,6 +101,8 @@ try {
   await a.next((m) => m.type === "error");
   a.send({ type: "expression", tags: "(joy,40,0.5)" });
   await a.next((m) => m.type === "error");
+  a.send({ type: "audio_text", text: "hello ", final: true });
+  await a.next((m) => m.type === "error");
   a.send({ type: "subscribe", channel: "show" });
   await a.next((m) => m.type === "subscribed");
   const b = await open();

@@ -151,3 +151,74 @@ TEST_CASE("expression tags over live audio start at the next frame", "[ws][audio
   CHECK(*std::max_element(brow.begin(), brow.begin() + static_cast<long>(before)) < 0.02f);
   CHECK(brow.back() > 0.5f);
 }
+
+TEST_CASE("an aligned live audio stream takes its text beside the audio", "[ws][audio][stream]") {
+  // Speech with its words' onsets: each word's text is sent as its audio starts (a streaming TTS).
+  facecast::viseme::Options o;
+  o.timing = facecast::viseme::Timing::kTts;
+  const auto u = facecast::viseme::analyze("Bring me the maps before the rain begins", o);
+  const int rate = u.sample_rate;
+  TestServer s;
+  WsClient c(s.port());
+  REQUIRE(c.read_json(10)["type"] == "hello");
+  c.send(nlohmann::json{{"type", "audio_text"}, {"text", "hello "}});
+  CHECK(c.read_json(10)["message"].get<std::string>().find("no live audio stream") !=
+        std::string::npos);
+  const std::uint32_t n = 2205;  // 100 ms
+  std::size_t word = 0;
+  std::uint32_t at = 0;
+  for (; at < u.pcm.size(); at += n) {
+    const auto count = std::min<std::uint32_t>(n, static_cast<std::uint32_t>(u.pcm.size() - at));
+    const bool last = at + count >= u.pcm.size();
+    std::string b = chunk(rate, at, u.pcm.data() + at, count, false);
+    if (at == 0) b[2] = static_cast<char>(b[2] | 2);  // aligned
+    c.send_binary(b);
+    for (; word < u.words.size() && u.words[word].start * rate < at + count; ++word)
+      c.send(nlohmann::json{{"type", "audio_text"},
+                            {"text", u.words[word].text + " "},
+                            {"final", word + 1 == u.words.size()}});
+    if (last) c.send_binary(chunk(rate, at + count, u.pcm.data(), 0, true));
+  }
+  std::vector<float> jaw;
+  std::size_t names = 0, jaw_index = 0;
+  nlohmann::json end;
+  std::vector<std::string> errors;
+  while (end.is_null()) {
+    const auto m = c.read(30);
+    REQUIRE(m);
+    if (m->text) {
+      const auto j = m->json();
+      if (j["type"] == "stream_start") {
+        names = j["names"].size() + j["extra"].size();
+        const auto& list = j["names"];
+        jaw_index =
+            static_cast<std::size_t>(std::find(list.begin(), list.end(), "jawOpen") - list.begin());
+      }
+      if (j["type"] == "error") errors.push_back(j["message"]);
+      if (j["type"] == "stream_end") end = j;
+      continue;
+    }
+    const auto h = facecast::server::read_header(m->data);
+    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
+    for (std::uint32_t k = 0; k < h.count; ++k) jaw.push_back(values[k * names + jaw_index]);
+  }
+  for (const auto& e : errors) WARN(e);
+  CHECK(errors.empty());
+  const double seconds = static_cast<double>(u.pcm.size()) / rate;
+  CHECK(end["frames"] == static_cast<int>(std::floor(seconds * 60)) + 1);
+  REQUIRE(jaw.size() == end["frames"].get<std::size_t>());
+  // The face speaks: the jaw opens on the vowels (the frame-level agreement with the whole-file
+  // alignment is tests/viseme/test_align_stream.cpp's).
+  CHECK(*std::max_element(jaw.begin(), jaw.end()) > 0.1f);
+  CHECK(jaw.back() < 0.05f);
+  // Text on a stream that is not aligned, and text that is not English, are refused.
+  std::vector<std::int16_t> quiet(441, 0);
+  c.send_binary(chunk(rate, 0, quiet.data(), 441, false));
+  c.send(nlohmann::json{{"type", "audio_text"}, {"text", "hello "}});
+  std::string got;
+  for (int k = 0; k < 5 && got.empty(); ++k) {
+    const auto j = c.read_json(10);
+    if (j["type"] == "error") got = j["message"];
+  }
+  CHECK(got.find("not aligned") != std::string::npos);
+}

@@ -140,14 +140,13 @@ TEST_CASE("streaming alignment follows the whole-file alignment within a frame o
   }
   const auto p = summary(phone_diff), b = summary(behind);
   const double share = static_cast<double>(within) / static_cast<double>(frames);
-  WARN("streaming vs whole-file, " << cases.size() << " utterances: " << 100 * share
-                                   << " % of 60 fps frames show the whole-file viseme within two "
-                                      "frames; phone onsets mean "
-                                   << 1000 * p[0] << " ms, median " << 1000 * p[1] << ", p95 "
-                                   << 1000 * p[2] << " (" << phones << " / " << whole_phones
-                                   << " phones); decided behind the audio received: mean "
-                                   << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 "
-                                   << 1000 * b[2]);
+  WARN("streaming vs whole-file, "
+       << cases.size() << " utterances: " << 100 * share
+       << " % of 60 fps frames show the whole-file viseme within two "
+          "frames; phone onsets mean "
+       << 1000 * p[0] << " ms, median " << 1000 * p[1] << ", p95 " << 1000 * p[2] << " (" << phones
+       << " / " << whole_phones << " phones); decided behind the audio received: mean "
+       << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 " << 1000 * b[2]);
   CHECK(share >= 0.95);
   CHECK(p[1] <= 0.02);
   CHECK(p[2] <= 0.035);
@@ -175,8 +174,8 @@ TEST_CASE("streaming alignment with the text ahead decides the lag behind the au
   }
   const auto b = summary(behind);
   WARN("text ahead, 20 ms chunks: decided behind the audio received, mean "
-       << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 " << 1000 * b[2]
-       << " (stream_lag " << 1000 * AlignOptions{}.stream_lag << " ms)");
+       << 1000 * b[0] << " ms, median " << 1000 * b[1] << ", p95 " << 1000 * b[2] << " (stream_lag "
+       << 1000 * AlignOptions{}.stream_lag << " ms)");
   // The lag, the decoder's feature context (a few frames) and a 20 ms chunk.
   CHECK(b[2] <= AlignOptions{}.stream_lag + 0.07);
   s.finish();

@@ -19,9 +19,9 @@ namespace {
 
 constexpr int kRate = 16000, kHop = 160;  // the model's rate and its 10 ms frame
 constexpr double kFrame = 0.01;
-constexpr long kMaxSearch = 2000;         // frames: a longer search restarts at what is decided
-constexpr std::size_t kMaxPending = 4096;  // bytes of text waiting for whitespace
-constexpr long kMinWord = 5;               // frames a word keeps when its onset moves past silence
+constexpr long kMaxSearch = 2000;           // frames: a longer search restarts at what is decided
+constexpr std::size_t kMaxPending = 4096;   // bytes of text waiting for whitespace
+constexpr long kMinWord = 5;                // frames a word keeps when its onset moves past silence
 constexpr std::size_t kLevelFrames = 3000;  // recent frames the silence threshold is taken from
 constexpr long kMaxAhead = 6000;  // frames of audio kept undecided at most (waiting for text)
 
@@ -67,10 +67,10 @@ struct StreamAligner::Impl {
   long origin = 0;
   std::vector<std::int16_t> pcm;  // 16 kHz since origin
   bool searching = false, dirty = false;
-  bool settled = false;  // the search has run with the stream's own cepstral mean
-  std::uint64_t samples = 0;   // 16 kHz samples received
-  std::vector<float> energy;   // dB per frame since origin
-  std::vector<float> levels;   // dB of recent frames (a ring of kLevelFrames)
+  bool settled = false;       // the search has run with the stream's own cepstral mean
+  std::uint64_t samples = 0;  // 16 kHz samples received
+  std::vector<float> energy;  // dB per frame since origin
+  std::vector<float> levels;  // dB of recent frames (a ring of kLevelFrames)
   std::size_t levels_at = 0;
 
   // Decisions.
@@ -99,7 +99,7 @@ struct StreamAligner::Impl {
   struct Last {
     std::string piece;
     std::size_t units = 0, entries = 0;  // sizes before it was planned
-    bool open = false;                             // planned without what follows it
+    bool open = false;                   // planned without what follows it
   } last;
 
   // The text without its tags (context is only read).
@@ -193,8 +193,8 @@ struct StreamAligner::Impl {
     const auto drop = static_cast<std::size_t>(at - origin) * kHop;
     pcm.erase(pcm.begin(), pcm.begin() + static_cast<std::ptrdiff_t>(std::min(drop, pcm.size())));
     energy.erase(energy.begin(),
-                 energy.begin() + std::min<std::ptrdiff_t>(at - origin,
-                                                           static_cast<std::ptrdiff_t>(energy.size())));
+                 energy.begin() + std::min<std::ptrdiff_t>(
+                                      at - origin, static_cast<std::ptrdiff_t>(energy.size())));
     origin = at;
     base = done;
     dirty = false;
@@ -226,9 +226,9 @@ struct StreamAligner::Impl {
     const auto names = u.phones[k].map.in(set);
     const double step = (e - s) / static_cast<double>(std::max<std::size_t>(1, names.size()));
     for (std::size_t v = 0; v < names.size(); ++v)
-      detail::append_viseme(track, names[v],
-                            {s + step * static_cast<double>(v), s + step * static_cast<double>(v + 1)},
-                            set);
+      detail::append_viseme(
+          track, names[v],
+          {s + step * static_cast<double>(v), s + step * static_cast<double>(v + 1)}, set);
   }
 
   bool last_of_phone(std::size_t e) const {
@@ -252,7 +252,8 @@ struct StreamAligner::Impl {
     // its start on waits for more text.
     if (!text_ended && !finished && !entries.empty())
       for (const auto& g : path)
-        if (g.phone >= 0 && entries[static_cast<std::size_t>(g.phone)].unit == entries.back().unit) {
+        if (g.phone >= 0 &&
+            entries[static_cast<std::size_t>(g.phone)].unit == entries.back().unit) {
           until = std::min<long>(until, g.first);
           break;
         }
@@ -264,8 +265,8 @@ struct StreamAligner::Impl {
           until = std::min<long>(until, g.first);
           break;
         }
-    if (!searching && !entries.empty() && done == entries.size() && !text_ended)
-      until = std::min(until, done_end);
+    // With no text undecided, nothing after it is decided until more text (or its end) comes.
+    if (!searching && !text_ended && !finished) until = std::min(until, done_end);
     float threshold = 0;
     bool have_threshold = false;
     // The path's grammar phones (silence and noise between them left out).

@@ -126,13 +126,20 @@ struct ExpressionRequest {
   std::string tags;
 };
 
+/// More of the open aligned live audio stream's text (docs/protocol.md, "Live audio in"); `final`:
+/// the text ends with it.
+struct AudioTextRequest {
+  std::string text;
+  bool final = false;
+};
+
 struct PingRequest {
   nlohmann::json t;  // echoed (null when absent)
 };
 
 using ClientMessage =
     std::variant<SpeakRequest, CancelRequest, PingRequest, SubscribeRequest, UnsubscribeRequest,
-                 ProduceRequest, AppendRequest, EndRequest, ExpressionRequest>;
+                 ProduceRequest, AppendRequest, EndRequest, ExpressionRequest, AudioTextRequest>;
 
 struct ProtocolLimits {
   std::size_t max_text = 2000;  // characters (code points) of text
