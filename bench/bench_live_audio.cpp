@@ -1,9 +1,12 @@
 // Live audio-only lip-sync through `facecast serve` (docs/protocol.md, "Live audio in"): N clients
 // (default 50) each stream espeak-ng speech as 20 ms PCM16 chunks in real time over the WebSocket
-// and read the weights back. Latency of a frame = its arrival - the sending of the chunk that holds
-// the audio of its time (pts): the end-to-end delay from an audio chunk to its weights. Prints the
-// p50 / p99 / max over all frames, the server's CPU time per chunk and the machine's load average
-// (the figure means little on a busy machine). Usage: bench_live_audio [clients] [seconds]
+// and read the weights back. With --aligned the streams are aligned to their text (flag 2, the
+// text of each repetition of the speech sent in an audio_text message as it starts, as a streaming
+// TTS sends it; English speech), otherwise the analysis is from the audio alone. Latency of a frame
+// = its arrival - the sending of the chunk that holds the audio of its time (pts): the end-to-end
+// delay from an audio chunk to its weights. Prints the p50 / p99 / max over all frames, the
+// server's CPU time per chunk and the machine's load average (the figure means little on a busy
+// machine). Usage: bench_live_audio [clients] [seconds]
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
@@ -35,6 +38,7 @@ constexpr int kRate = 16000, kChunk = 320;  // 20 ms
 
 struct Shared {
   std::vector<std::int16_t> pcm;  // the speech every client loops
+  std::string text;               // its text (aligned streams)
   std::mutex mutex;
   std::vector<double> latency;
   std::atomic<int> errors{0}, ended{0};
@@ -44,17 +48,19 @@ struct Shared {
 // once the previous is written), and closes at stream_end.
 class Client : public fctest::AsyncWsClient {
  public:
-  Client(net::io_context& ioc, unsigned short port, Shared& s, std::size_t offset, int chunks)
+  Client(net::io_context& ioc, unsigned short port, Shared& s, std::size_t offset, int chunks,
+         std::chrono::milliseconds start_delay)
       // A live audio client sends small messages: no Nagle delay (browsers do the same).
       : AsyncWsClient(ioc, {.port = port, .no_delay = true}),
         timer_(executor()),
         s_(s),
         offset_(offset),
-        chunks_(chunks) {}
+        chunks_(chunks),
+        start_delay_(start_delay) {}
 
  private:
   void on_open() override {
-    next_ = Clock::now();
+    next_ = Clock::now() + start_delay_;
     send_chunk();
   }
   void on_sent() override {
@@ -73,7 +79,7 @@ class Client : public fctest::AsyncWsClient {
     }
     const bool last = sent_ + 1 == chunks_;
     std::string out(24 + 2 * kChunk, '\0');
-    out[0] = 4, out[1] = 1, out[2] = last ? 1 : 0;
+    out[0] = 4, out[1] = 1, out[2] = static_cast<char>((last ? 1 : 0) | (aligned() ? 2 : 0));
     const auto put = [&](std::size_t at, std::uint32_t v) {
       for (int k = 0; k < 4; ++k)
         out[at + static_cast<std::size_t>(k)] = static_cast<char>(v >> (8 * k));
@@ -91,8 +97,14 @@ class Client : public fctest::AsyncWsClient {
     ++sent_;
     next_ += std::chrono::milliseconds(20);
     writing_ = true;
+    const std::size_t at =
+        (offset_ + static_cast<std::size_t>((sent_ - 1) * kChunk)) % s_.pcm.size();
     send(std::move(out), false);
+    // Aligned: each repetition's text as its audio starts (after the chunk that opens the stream).
+    if (!s_.text.empty() && at < static_cast<std::size_t>(kChunk))
+      send(nlohmann::json{{"type", "audio_text"}, {"text", s_.text + " "}}.dump());
   }
+  bool aligned() const { return !s_.text.empty() && sent_ == 0; }
   void on_message(const Message& m) override {
     if (m.text) {
       if (m.data.find("\"stream_end\"") != std::string_view::npos) {
@@ -120,6 +132,7 @@ class Client : public fctest::AsyncWsClient {
   Shared& s_;
   std::size_t offset_;
   int chunks_, sent_ = 0;
+  std::chrono::milliseconds start_delay_;
   bool writing_ = false;
   Clock::time_point next_;
   std::vector<Clock::time_point> sent_at_;  // written and read on the client's strand
@@ -147,13 +160,19 @@ std::string load_average() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const int clients = argc > 1 ? std::atoi(argv[1]) : 50;
-  const double seconds = argc > 2 ? std::atof(argv[2]) : 20;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  const bool aligned = std::erase(args, "--aligned") > 0;
+  const int clients = args.size() > 0 ? std::atoi(args[0].c_str()) : 50;
+  const double seconds = args.size() > 1 ? std::atof(args[1].c_str()) : 20;
   Shared s;
   facecast::viseme::Options o;
   o.timing = facecast::viseme::Timing::kTts;
-  const auto u = facecast::viseme::analyze(
-      "Hello everyone, thanks for joining the stream today. 今天我们聊一聊新的功能。", o);
+  const std::string text =
+      aligned ? "Hello everyone, thanks for joining the stream today. We will look at the new "
+                "features together."
+              : "Hello everyone, thanks for joining the stream today. 今天我们聊一聊新的功能。";
+  if (aligned) s.text = text;
+  const auto u = facecast::viseme::analyze(text, o);
   s.pcm = facecast::viseme::to_pcm16(
       facecast::viseme::audio_from_pcm16(u.pcm, u.sample_rate, {kRate}).samples);
   const auto dir =
@@ -168,8 +187,11 @@ int main(int argc, char** argv) {
   const int chunks = static_cast<int>(seconds * kRate / kChunk);
   std::vector<std::shared_ptr<Client>> all;
   for (int c = 0; c < clients; ++c) {
+    // Aligned streams start at the speech's start (their text is the speech's), one every 20 ms;
+    // the others together, at different points of it.
     all.push_back(std::make_shared<Client>(
-        ioc, server.port(), s, static_cast<std::size_t>(c) * 7919 % s.pcm.size(), chunks));
+        ioc, server.port(), s, aligned ? 0 : static_cast<std::size_t>(c) * 7919 % s.pcm.size(),
+        chunks, std::chrono::milliseconds(aligned ? 20 * c : 0)));
     all.back()->start();
   }
   std::vector<std::thread> threads;
@@ -185,9 +207,10 @@ int main(int argc, char** argv) {
                      static_cast<std::size_t>(p * static_cast<double>(s.latency.size())))];
   };
   std::printf(
-      "live audio lip-sync: %d clients x %.0f s of 20 ms chunks; %zu frames, %d streams "
+      "live audio lip-sync (%s): %d clients x %.0f s of 20 ms chunks; %zu frames, %d streams "
       "ended, %d errors\n",
-      clients, seconds, s.latency.size(), s.ended.load(), s.errors.load());
+      aligned ? "aligned to its text" : "audio alone", clients, seconds, s.latency.size(),
+      s.ended.load(), s.errors.load());
   std::printf("chunk -> weights latency: p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", at(0.5) * 1000,
               at(0.99) * 1000, at(1.0) * 1000);
   std::printf("server CPU: %.2f s, %.0f us per chunk; load average before %s, after %s\n", cpu,

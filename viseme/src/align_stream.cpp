@@ -19,10 +19,11 @@ namespace {
 
 constexpr int kRate = 16000, kHop = 160;  // the model's rate and its 10 ms frame
 constexpr double kFrame = 0.01;
-constexpr long kMaxSearch = 2000;           // frames: a longer search restarts at what is decided
+constexpr long kMaxSearch = 300;            // frames: a longer search restarts at what is decided
 constexpr std::size_t kMaxPending = 4096;   // bytes of text waiting for whitespace
 constexpr long kMinWord = 5;                // frames a word keeps when its onset moves past silence
 constexpr std::size_t kLevelFrames = 3000;  // recent frames the silence threshold is taken from
+constexpr std::size_t kContextWords = 3;    // words read around a piece (espeak-ng's context)
 constexpr long kMaxAhead = 6000;  // frames of audio kept undecided at most (waiting for text)
 
 // Where the text can be cut: after its last whitespace outside a tag's parentheses (0: nowhere).
@@ -91,16 +92,31 @@ struct StreamAligner::Impl {
   long lag() const { return std::lround(align.stream_lag / kFrame); }
   long received_frames() const { return static_cast<long>(samples / kHop); }
 
-  // Complete pieces of text are planned as they come, with up to two pieces before them as
-  // context; when the next piece comes the last one is planned again with it after, so its words
+  // Complete pieces of text are planned as they come, with up to three words before them as
+  // context; when the next piece comes the last one is planned again with its first three words
+  // after, so its words
   // are read as espeak-ng speaks them in context (weak forms: "a" before a word), as in the
   // whole-file aligner, unless the search has decided some of it already.
-  std::deque<std::string> context;  // the pieces before the last one, untagged (at most two)
+  std::deque<std::string> context;  // words before the last piece, untagged (kContextWords)
   struct Last {
     std::string piece;
     std::size_t units = 0, entries = 0;  // sizes before it was planned
     bool open = false;                   // planned without what follows it
   } last;
+
+  // The words of a text, each with the whitespace after it.
+  static std::vector<std::string> words(std::string_view s) {
+    std::vector<std::string> out;
+    for (std::size_t at = s.find_first_not_of(" \t\r\n"); at != std::string_view::npos;) {
+      const std::size_t end = s.find_first_of(" \t\r\n", at);
+      const std::size_t next =
+          end == std::string_view::npos ? end : s.find_first_not_of(" \t\r\n", end);
+      out.emplace_back(s.substr(at, (next == std::string_view::npos ? s.size() : next) - at));
+      if (end == std::string_view::npos) break;
+      at = next;
+    }
+    return out;
+  }
 
   // The text without its tags (context is only read).
   static std::string untagged(std::string_view s) {
@@ -116,9 +132,14 @@ struct StreamAligner::Impl {
 
   void take(std::string piece) {
     if (piece.find_first_not_of(" \t\r\n") == std::string::npos) return;
-    if (last.open) replan(untagged(piece));
-    if (!last.piece.empty()) context.push_back(untagged(last.piece));
-    if (context.size() > 2) context.pop_front();
+    if (last.open) {
+      std::string after;
+      const auto next = words(untagged(piece));
+      for (std::size_t i = 0; i < next.size() && i < kContextWords; ++i) after += next[i];
+      replan(after);
+    }
+    for (std::string& w : words(untagged(last.piece))) context.push_back(std::move(w));
+    while (context.size() > kContextWords) context.pop_front();
     last = {piece, units.size(), entries.size(), true};
     plan(piece, {});
   }

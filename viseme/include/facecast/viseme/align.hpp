@@ -40,7 +40,7 @@ struct AlignOptions {
   double max_seconds = 120;
   /// Streaming alignment (StreamAligner): the audio this far behind the newest searched frame is
   /// decided from the best path so far.
-  double stream_lag = 0.1;
+  double stream_lag = 0.05;
   /// Frequency warps tried on the audio's filterbank (vocal tract length normalisation).
   std::vector<double> warps = {0.8, 0.86, 0.92, 1.0, 1.06, 1.13, 1.2, 1.27};
 };
