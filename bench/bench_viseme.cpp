@@ -1,14 +1,20 @@
 // bench_viseme: the viseme engine's speed.
 //  - first call: loading configs/viseme and the Chinese lexicon cache
+//  - loading the English lexicon (pocketsphinx-en-us's CMU dictionary): time and memory
 //  - a 1,000-character Chinese paragraph with the duration model (target <= 10 ms)
 //  - espeak-ng timing (synthesis with phoneme events), Chinese and English (target >= 20x real
 //  time)
+//  - the English lexicon's effect on espeak-ng timing: ten sentences with it on and off (speech
+//    length, mean difference of a word's duration, words it speaks otherwise)
 #include <chrono>
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <string>
 
+#include "en_lexicon.hpp"
 #include "facecast/viseme/viseme.hpp"
+#include "plan.hpp"
 
 namespace v = facecast::viseme;
 using Clock = std::chrono::steady_clock;
@@ -58,6 +64,14 @@ int main() {
   auto t0 = Clock::now();
   (void)v::to_pinyin("银行");
   std::cout << "first call (configs + Chinese lexicon cache load): " << ms_since(t0) << " ms\n";
+  {
+    namespace d = facecast::viseme::detail;
+    t0 = Clock::now();
+    const d::EnglishLexicon lex = d::EnglishLexicon::load(d::EnglishLexicon::default_path());
+    std::cout << "English lexicon load (" << d::EnglishLexicon::default_path().string()
+              << "): " << ms_since(t0) << " ms, " << lex.size() << " pronunciations in "
+              << static_cast<double>(lex.memory_bytes()) / (1 << 20) << " MiB\n";
+  }
 
   const std::string zh = paragraph(1000);
   std::size_t syllables = 0;
@@ -89,5 +103,40 @@ int main() {
     std::cout << "espeak-ng timing, " << name << ": " << u.duration << " s of speech in " << t
               << " ms = " << u.duration * 1000.0 / t << "x real time  (target >= 20x)\n";
   }
+
+  const char* sentences[] = {
+      "Hello world, this is a test of the speech system.",
+      "The quick brown fox jumps over the lazy dog.",
+      "Please call Stella and ask her to bring these things with her from the store.",
+      "Six spoons of fresh snow peas, five thick slabs of blue cheese, and maybe a snack for her "
+      "brother Bob.",
+      "We also need a small plastic snake and a big toy frog for the kids.",
+      "She can scoop these things into three red bags, and we will go meet her Wednesday at the "
+      "train station.",
+      "Photography is not a crime, said the photographer to the police officer.",
+      "Our company records show that the president read the report yesterday.",
+      "I would like to thank everybody who came to the conference in Pittsburgh.",
+      "Artificial intelligence is changing how we work and communicate every day."};
+  double on_s = 0, off_s = 0, word_diff = 0;
+  std::size_t words = 0, respoken = 0;
+  for (const char* s : sentences) {
+    v::Options o = tts;
+    o.lang = v::LangMode::kEn;
+    const v::Utterance on = v::analyze(s, o);
+    for (const auto& u : facecast::viseme::detail::make_plan(s, o).units)
+      respoken += !u.spoken.empty();
+    o.english_lexicon = false;
+    const v::Utterance off = v::analyze(s, o);
+    on_s += on.duration;
+    off_s += off.duration;
+    for (std::size_t w = 0; w < on.words.size() && w < off.words.size(); ++w, ++words)
+      word_diff +=
+          std::abs((on.words[w].end - on.words[w].start) - (off.words[w].end - off.words[w].start));
+  }
+  std::cout << "espeak-ng timing, ten English sentences, the English lexicon on / off: " << on_s
+            << " / " << off_s << " s of speech (" << 100 * (on_s / off_s - 1)
+            << " %), a word's duration " << 1000 * word_diff / static_cast<double>(words)
+            << " ms apart on average; " << respoken << " of " << words
+            << " words spoken from the lexicon\n";
   return 0;
 }

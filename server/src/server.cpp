@@ -287,8 +287,8 @@ void Server::start() {
                           {"token", !o.token.empty()},
                           {"keys", impl_->services->auth.keys() != nullptr}});
   net::dispatch(impl_->control, [this] { impl_->do_accept(); });
-  // Warm-up on a worker: the default rig's mapping, the Chinese lexicon and espeak-ng's voices are
-  // loaded once here rather than during the first client's speak.
+  // Warm-up on a worker: the default rig's mapping, the Chinese and English lexicons and
+  // espeak-ng's voices are loaded once here rather than during the first client's speak.
   net::post(impl_->services->workers, [s = impl_->services] {
     const auto t0 = std::chrono::steady_clock::now();
     try {

@@ -12,6 +12,15 @@ grep -q '"pinyin": "hang2"' <<<"$out" || fail "pinyin missing: $out"
 grep -q '"name": "joy"' <<<"$out" || fail "expression missing"
 grep -q '"viseme": "zhchsh"' <<<"$out" || fail "zh15 viseme missing"
 
+# The English lexicon: a word espeak-ng reads otherwise is spoken with the CMU dictionary's phones
+# (Bartosik: b 3: t oU s I k); with its file missing, espeak-ng reads it (b A@ t @ s I k).
+if [[ -e /usr/share/pocketsphinx/model/en-us/cmudict-en-us.dict ]]; then
+  out=$("$facecast" visemes --text "Bartosik" --set oculus)
+  grep -q '"phone": "3:"' <<<"$out" || fail "the lexicon's reading missing: $out"
+fi
+out=$(FACECAST_EN_LEXICON="$tmp/missing.dict" "$facecast" visemes --text "Bartosik" --set oculus)
+grep -q '"phone": "A@"' <<<"$out" || fail "espeak-ng's reading without a lexicon: $out"
+
 printf '银行行长\nHello world.\n\n2024年，3.5%%\n' >"$tmp/in.txt"
 "$facecast" visemes --input "$tmp/in.txt" --format json >"$tmp/out.jsonl"
 [[ $(wc -l <"$tmp/out.jsonl") == 4 ]] || fail "JSON Lines: expected 4 lines"

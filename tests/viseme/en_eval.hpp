@@ -1,9 +1,12 @@
 #pragma once
 // English viseme accuracy against the CMU dictionary (eval_viseme and the text-accuracy test share
-// it): words are read by the engine (espeak-ng phonemes -> Oculus visemes), the dictionary's
-// ARPAbet pronunciations are mapped through configs/viseme/phones_arpabet.json, consecutive
-// repeats merge, and a word's error is the edit distance to its closest pronunciation. The error
-// is edits over reference visemes.
+// it): words are read by the engine (the English lexicon's or espeak-ng's phonemes -> Oculus
+// visemes), the dictionary's ARPAbet pronunciations are mapped through
+// configs/viseme/phones_arpabet.json, consecutive repeats merge, and a word's error is the edit
+// distance to its closest pronunciation. The error is edits over reference visemes. The reference
+// (festival's cmudict-0.4) and the engine's lexicon (pocketsphinx's cmudict-en-us, 0.7-era) are
+// two releases of one dictionary: with the lexicon the figure measures its coverage and agreement,
+// on the words it lacks (or with it off) espeak-ng's letter-to-sound rules.
 //
 // Samples: the dictionary's words (a-z only, two letters or more) in byte order, every
 // (count / n)-th from OFFSET % step, so OFFSETs 0..step-1 give disjoint samples. The context rules
@@ -112,11 +115,13 @@ inline std::vector<std::string> oculus_of_arpabet(const std::vector<std::string>
   return merged(out);
 }
 
-/// The engine's Oculus visemes of one English word (pauses left out, repeats merged).
-inline std::vector<std::string> oculus_of_word(const std::string& word) {
+/// The engine's Oculus visemes of one English word (pauses left out, repeats merged), read with
+/// the English lexicon or by espeak-ng alone.
+inline std::vector<std::string> oculus_of_word(const std::string& word, bool lexicon = true) {
   v::Options o;
   o.set = v::VisemeSet::kOculus;
   o.lang = v::LangMode::kEn;
+  o.english_lexicon = lexicon;
   std::vector<std::string> got;
   for (const auto& e : v::analyze(word, o).visemes)
     if (e.viseme != "sil") got.push_back(e.viseme);
@@ -128,9 +133,9 @@ struct WordScore {
   std::vector<std::string> ref, got;  // the closest pronunciation's visemes, ours
 };
 
-inline WordScore score_word(const Dictionary& dict, const std::string& word) {
+inline WordScore score_word(const Dictionary& dict, const std::string& word, bool lexicon = true) {
   WordScore s;
-  s.got = oculus_of_word(word);
+  s.got = oculus_of_word(word, lexicon);
   std::size_t best = SIZE_MAX;
   for (const auto& pron : dict.at(word)) {
     auto ref = oculus_of_arpabet(pron);

@@ -6,7 +6,8 @@
 //       reference mapped ARPAbet -> Oculus through configs/viseme/phones_arpabet.json; with
 //       WORDLIST (e.g. /usr/share/dict/american-english from wamerican) only words in it, and
 //       OFFSET picks a different sample (use one sample to study errors, another to report; the
-//       English context rules were learned on OFFSET 0-9 without a word list: en_eval.hpp)
+//       English context rules were learned on OFFSET 0-9 without a word list: en_eval.hpp);
+//       --no-lexicon reads the words with espeak-ng alone (Options::english_lexicon off)
 #include <algorithm>
 #include <fstream>
 #include <iomanip>
@@ -169,7 +170,7 @@ void count_confusions(const std::vector<std::string>& ref, const std::vector<std
 }
 
 int eval_en(const std::string& path, std::size_t n, const std::string& word_list,
-            std::size_t offset) {
+            std::size_t offset, bool lexicon) {
   const en::Dictionary dict = en::read_cmu(path);
   std::set<std::string> allowed;
   if (!word_list.empty()) allowed = en::read_word_list(word_list);
@@ -178,7 +179,7 @@ int eval_en(const std::string& path, std::size_t n, const std::string& word_list
   en::Score total;
   std::vector<std::string> worst;
   for (const auto& w : words) {
-    const en::WordScore s = en::score_word(dict, w);
+    const en::WordScore s = en::score_word(dict, w, lexicon);
     count_confusions(s.ref, s.got, confusions);
     total.add(s);
     if (s.edits >= 2 && worst.size() < 25) {
@@ -206,12 +207,18 @@ int eval_en(const std::string& path, std::size_t n, const std::string& word_list
 
 int main(int argc, char** argv) {
   try {
-    const std::string mode = argc > 1 ? argv[1] : "";
-    if (mode == "zh" && argc == 3) return eval_zh(argv[2]);
-    if (mode == "en" && argc >= 3)
-      return eval_en(argv[2], argc > 3 ? std::stoul(argv[3]) : 2000, argc > 4 ? argv[4] : "",
-                     argc > 5 ? std::stoul(argv[5]) : 0);
-    std::cerr << "usage: eval_viseme zh SENTENCES.tsv | en CMUDICT [N [WORDLIST [OFFSET]]]\n";
+    std::vector<std::string> args(argv + 1, argv + argc);
+    const auto flag = std::find(args.begin(), args.end(), "--no-lexicon");
+    const bool lexicon = flag == args.end();
+    if (!lexicon) args.erase(flag);
+    const std::size_t n = args.size();
+    const std::string mode = n > 0 ? args[0] : "";
+    if (mode == "zh" && n == 2) return eval_zh(args[1]);
+    if (mode == "en" && n >= 2)
+      return eval_en(args[1], n > 2 ? std::stoul(args[2]) : 2000, n > 3 ? args[3] : "",
+                     n > 4 ? std::stoul(args[4]) : 0, lexicon);
+    std::cerr << "usage: eval_viseme zh SENTENCES.tsv | en CMUDICT [N [WORDLIST [OFFSET]]] "
+                 "[--no-lexicon]\n";
     return 2;
   } catch (const facecast::Error& e) {
     std::cerr << "eval_viseme: " << e.what() << '\n';

@@ -15,11 +15,9 @@
 #include <memory>
 #include <mutex>
 #include <string_view>
-#include <unordered_map>
 
 #include "dtw.hpp"
 #include "facecast/core/config.hpp"
-#include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "features.hpp"
 
@@ -39,19 +37,6 @@ constexpr std::size_t kPoolMax = 8;       // idle decoders kept
 constexpr std::size_t kLivePoolMax = 16;  // ... of streams (smaller: phones only)
 constexpr int kMaxAddedWords = 2000;      // a pooled decoder whose dictionary grew more is dropped
 constexpr double kMinPhone = 0.01;        // seconds every phone of a word keeps
-
-// espeak-ng phone -> CMU phones (configs/viseme/phones_espeak_cmu.json), read once.
-const std::unordered_map<std::string, std::string>& espeak_to_cmu() {
-  static const auto table = [] {
-    ConfigReader c = ConfigReader::open(config_path("viseme/phones_espeak_cmu.json"));
-    std::unordered_map<std::string, std::string> t;
-    ConfigReader& phones = c.section("phones");
-    for (const std::string& k : phones.keys()) phones.require(k, t[k]);
-    c.reject_unknown();
-    return t;
-  }();
-  return table;
-}
 
 struct Decoder {
   ps_decoder_t* ps = nullptr;
@@ -152,17 +137,8 @@ std::string dict_name(const std::string& text) {
 std::vector<std::vector<std::string>> hmm_phone_groups(const PlanUnit& u) {
   std::vector<std::vector<std::string>> out;
   for (const PlanPhone& p : u.phones) {
-    std::vector<std::string> g;
-    const auto it = espeak_to_cmu().find(p.name);
-    if (it != espeak_to_cmu().end()) {
-      std::string s = it->second;
-      for (std::size_t at = 0; at < s.size();) {
-        const std::size_t sp = std::min(s.find(' ', at), s.size());
-        if (sp > at) g.push_back(s.substr(at, sp - at));
-        at = sp + 1;
-      }
-    }
-    out.push_back(std::move(g));
+    const auto it = tables().espeak_cmu.find(p.name);
+    out.push_back(it != tables().espeak_cmu.end() ? it->second : std::vector<std::string>());
   }
   return out;
 }

@@ -89,7 +89,8 @@ std::vector<std::string> phonemize(std::string_view text, const std::string& voi
   return phones;
 }
 
-Synthesis synthesize(std::string_view text, const std::string& voice, int speed) {
+Synthesis synthesize(std::string_view text, const std::string& voice, int speed,
+                     bool phoneme_input) {
   const std::string buffer(text);
   Synthesis out;
   std::lock_guard lock(g_mutex);
@@ -98,8 +99,9 @@ Synthesis synthesize(std::string_view text, const std::string& voice, int speed)
   espeak_SetParameter(espeakRATE, speed, 0);
   out.sample_rate = g_rate;
   g_target = &out;
-  const espeak_ERROR err = espeak_Synth(buffer.c_str(), buffer.size() + 1, 0, POS_CHARACTER, 0,
-                                        espeakCHARS_UTF8, nullptr, nullptr);
+  const espeak_ERROR err =
+      espeak_Synth(buffer.c_str(), buffer.size() + 1, 0, POS_CHARACTER, 0,
+                   espeakCHARS_UTF8 | (phoneme_input ? espeakPHONEMES : 0), nullptr, nullptr);
   g_target = nullptr;
   if (err != EE_OK) throw Error("espeak-ng: synthesis failed", ErrorCode::kInternal);
   return out;

@@ -27,8 +27,11 @@ struct Synthesis {
   std::vector<Event> events;
 };
 
-/// Speaks `text` with `voice` at `speed` words per minute; audio and events together.
-Synthesis synthesize(std::string_view text, const std::string& voice, int speed);
+/// Speaks `text` with `voice` at `speed` words per minute; audio and events together. With
+/// `phoneme_input`, text within [[ ]] is espeak-ng phonemes (the English lexicon's words; the
+/// callers' text never holds brackets otherwise).
+Synthesis synthesize(std::string_view text, const std::string& voice, int speed,
+                     bool phoneme_input = false);
 
 /// The sample rate espeak-ng produces (initializes it).
 int sample_rate();

@@ -49,6 +49,7 @@ Options load_options() {
   read_named(c, "timing", o.timing, parse_timing);
   c.read("rate", o.rate)
       .read("en_voice", o.en_voice)
+      .read("english_lexicon", o.english_lexicon)
       .read("zh_voice", o.zh_voice)
       .read("espeak_speed", o.espeak_speed)
       .read("phrase_final_lengthening", o.phrase_final_lengthening)

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "chars.hpp"
+#include "en_lexicon.hpp"
 #include "espeak.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/pinyin.hpp"
@@ -216,7 +217,13 @@ class Builder {
     u.src_begin = t.begin;
     u.src_end = t.end;
     u.word = plan_.words.size();
-    u.phones = english_phones(espeak::phonemize(t.ascii, options_.en_voice), options_);
+    std::vector<std::string> phones = espeak::phonemize(t.ascii, options_.en_voice);
+    if (english_lexicon_applies(options_))
+      if (auto listed = lexicon_phones(EnglishLexicon::get(), t.ascii, phones)) {
+        phones = std::move(*listed);
+        u.spoken = espeak_phoneme_input(phones);
+      }
+    u.phones = english_phones(phones, options_, u.spoken.empty());
     plan_.words.push_back({u.text, plan_.units.size(), plan_.units.size() + 1});
     add_unit(std::move(u));
   }
@@ -312,7 +319,7 @@ const PhoneMap* context_map(const std::vector<std::pair<std::string, char>>& pho
 }  // namespace
 
 std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_phones,
-                                      const Options& options) {
+                                      const Options& options, bool context_rules) {
   const auto& t = tables();
   const double scale = t.en_reference_rate / options.rate;
   std::vector<std::pair<std::string, char>> known;  // name without stress marks, stress
@@ -330,7 +337,7 @@ std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_pho
     double seconds = t.en_class_seconds.at(m.duration_class) * scale;
     if (known[i].second == '1') seconds *= t.en_stress_factor;
     PhoneMap visemes = m;
-    if (const PhoneMap* c = context_map(known, i)) {
+    if (const PhoneMap* c = context_rules ? context_map(known, i) : nullptr) {
       visemes.oculus = c->oculus;
       visemes.zh15 = c->zh15;
     }

@@ -24,7 +24,9 @@ struct PlanUnit {
   Lang lang = Lang::kZh;
   std::string text;                        // zh: the character; en: the word as written
   std::string pinyin;                      // zh: numbered pinyin, lexical tones (the JSON's)
-  std::string spoken;                      // zh: the pinyin espeak-ng speaks (tone sandhi)
+  std::string spoken;                      // zh: the pinyin espeak-ng speaks (tone sandhi);
+                                           // en: the lexicon's phones as espeak-ng phoneme input
+                                           // ("[[...]]"), empty when espeak-ng reads the word
   std::size_t src_begin = 0, src_end = 0;  // characters of the input text it came from
   std::size_t word = 0;                    // index into Plan::words
   std::vector<PlanPhone> phones;
@@ -59,10 +61,12 @@ Plan make_plan(std::string_view text, const Options& options);
 
 // The duration model: see docs/algorithms.md#duration-model.
 
-/// English phones of a word through espeak-ng, mapped through phones_espeak_en.json, with
+/// English phones of a word (espeak-ng's), mapped through phones_espeak_en.json, with
 /// duration-model seconds (stress lengthens vowels). Phones missing from the table are dropped.
+/// The table's context rules (learned on espeak-ng's letter-to-sound readings) apply when
+/// `context_rules`; a word read from the lexicon goes without them.
 std::vector<PlanPhone> english_phones(const std::vector<std::string>& espeak_phones,
-                                      const Options& options);
+                                      const Options& options, bool context_rules = true);
 
 /// Chinese phones of a numbered pinyin syllable with duration-model seconds for a syllable of
 /// `syllable_seconds`.

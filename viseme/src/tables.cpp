@@ -179,6 +179,36 @@ void read_durations_en(Tables& t) {
                   ": unknown duration class '" + m.duration_class + "'");
 }
 
+// After read_phone_tables: every phone of "from_cmu" must be an English phone with visemes.
+void read_espeak_cmu(Tables& t) {
+  ConfigReader c = ConfigReader::open(file("phones_espeak_cmu.json"));
+  for (const auto& [name, cmu] : read_map<std::string>(c, "phones"))
+    t.espeak_cmu[name] = split_words(cmu);
+  const auto inverse = [&](std::string_view key,
+                           std::unordered_map<std::string, std::string>& out) {
+    std::vector<std::string> list;
+    c.require(key, list);
+    for (const auto& phone : list) {
+      const auto it = t.espeak_cmu.find(phone);
+      if (it == t.espeak_cmu.end() || it->second.empty() || it->second.size() > 2)
+        c.fail(key, "'" + phone + "' stands for no CMU phone or pair in phones");
+      if (!t.espeak_en.count(phone)) c.fail(key, "'" + phone + "' is not in phones_espeak_en.json");
+      const std::string cmu =
+          it->second.size() == 1 ? it->second[0] : it->second[0] + " " + it->second[1];
+      if (!out.emplace(cmu, phone).second) c.fail(key, "two phones stand for " + cmu);
+    }
+  };
+  inverse("from_cmu", t.cmu_espeak);
+  inverse("from_cmu_unstressed", t.cmu_espeak_unstressed);
+  for (const auto& [cmu, phone] : t.cmu_espeak_unstressed)
+    if (!t.cmu_espeak.count(cmu))
+      c.fail("from_cmu_unstressed", "'" + phone + "' stands for " + cmu + ", which from_cmu lacks");
+  for (const auto& [name, cmu] : t.espeak_cmu)
+    for (const auto& p : cmu)
+      if (!t.cmu_espeak.count(p)) c.fail("from_cmu", "no phone speaks the CMU phone " + p);
+  c.reject_unknown();
+}
+
 void read_numbers(NumbersZh& n) {
   ConfigReader c = ConfigReader::open(file("numbers_zh.json"));
   c.require("digits", n.digits)
@@ -245,6 +275,7 @@ Tables load_tables() {
   read_pinyin(t);
   read_phone_tables(t);
   read_durations_en(t);
+  read_espeak_cmu(t);
   read_numbers(t.numbers);
   read_polyphones(t);
   return t;

@@ -72,6 +72,12 @@ struct Tables {
   double en_reference_rate = 4.5, en_stress_factor = 1.2;
   std::unordered_map<std::string, double> en_class_seconds;
 
+  // phones_espeak_cmu.json: espeak-ng phone -> the CMU phones it stands for ("phones"); CMU phones
+  // (one, or a pair joined by a space: "AA R") -> the espeak-ng phone that speaks them
+  // ("from_cmu"), and for unstressed vowels ("from_cmu_unstressed").
+  std::unordered_map<std::string, std::vector<std::string>> espeak_cmu;
+  std::unordered_map<std::string, std::string> cmu_espeak, cmu_espeak_unstressed;
+
   NumbersZh numbers;
   std::unordered_map<char32_t, std::vector<PolyphoneRule>> polyphones;
 };

@@ -53,7 +53,7 @@ std::string phrase_text(const Plan& plan, const Phrase& ph, std::vector<int>& po
     }
     positions.push_back(chars + 1);
     const PlanUnit& unit = plan.units[u];
-    const std::string& s = unit.lang == Lang::kZh ? unit.spoken : unit.text;
+    const std::string& s = unit.spoken.empty() ? unit.text : unit.spoken;
     text += s;
     chars += utf8_length(s);
   }
@@ -114,7 +114,7 @@ double time_phrase(Plan& plan, const Phrase& ph, const espeak::Synthesis& syn,
     if (unit.lang == Lang::kEn) {
       std::vector<std::string> names;
       for (const auto& p : real) names.push_back(p.first);
-      std::vector<PlanPhone> phones = english_phones(names, options);
+      std::vector<PlanPhone> phones = english_phones(names, options, unit.spoken.empty());
       // english_phones drops unknown phones: keep the spans of the ones it kept.
       std::vector<Span> spans;
       for (std::size_t i = 0, j = 0; i < real.size() && j < phones.size(); ++i) {
@@ -193,7 +193,8 @@ Timeline time_by_tts(Plan& plan, const Options& options) {
     std::vector<int> positions;
     const std::string text = phrase_text(plan, ph, positions);
     const std::string& voice = ph.lang == Lang::kZh ? options.zh_voice : options.en_voice;
-    const espeak::Synthesis syn = espeak::synthesize(text, voice, options.espeak_speed);
+    const espeak::Synthesis syn =
+        espeak::synthesize(text, voice, options.espeak_speed, ph.lang == Lang::kEn);
     const double end = time_phrase(plan, ph, syn, positions, options, tl.units);
     const auto keep = std::min(syn.pcm.size(), static_cast<std::size_t>(std::lround(end * rate)));
     tl.pcm.insert(tl.pcm.end(), syn.pcm.begin(),

@@ -34,6 +34,9 @@ struct Options {
   // rate, phrase_final_lengthening, neutral_tone_factor: docs/algorithms.md#duration-model.
   double rate = 4.5;  // speech rate of the duration model, syllables per second
   std::string en_voice = "en-us";
+  // English words the CMU dictionary lists are spoken with its phones (with an American en_voice);
+  // others by espeak-ng's letter-to-sound rules: docs/algorithms.md#english-reading.
+  bool english_lexicon = true;
   std::string zh_voice = "cmn-latn-pinyin";
   int espeak_speed = 175;                 // espeak-ng words per minute for Timing::kTts
   double phrase_final_lengthening = 1.3;  // last syllable before a pause, duration model
