@@ -197,6 +197,15 @@ TEST_CASE("streaming alignment refuses what it cannot align", "[viseme][align][s
         for (int k = 0; k < 70; ++k) t.add_audio(second.data(), second.size());
       }(),
       Contains("ahead of its text"));
+  // Text far ahead of the audio is refused too (the search's grammar stays bounded).
+  StreamAligner v(16000);
+  std::string many;
+  for (int k = 0; k < 200; ++k) many += "the quick brown fox jumps over the lazy dog ";
+  CHECK_THROWS_WITH(
+      [&] {
+        for (int k = 0; k < 10; ++k) v.add_text(many);
+      }(),
+      Contains("ahead of the audio"));
   StreamAligner u(16000);
   u.finish();
   CHECK_THROWS_WITH(u.add_audio(second.data(), 10), Contains("ended"));

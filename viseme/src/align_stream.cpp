@@ -24,6 +24,7 @@ constexpr std::size_t kMaxPending = 4096;   // bytes of text waiting for whitesp
 constexpr long kMinWord = 5;                // frames a word keeps when its onset moves past silence
 constexpr std::size_t kLevelFrames = 3000;  // recent frames the silence threshold is taken from
 constexpr std::size_t kContextWords = 3;    // words read around a piece (espeak-ng's context)
+constexpr std::size_t kMaxTextAhead = 3000;  // phones of text undecided at most (a few minutes)
 constexpr long kMaxAhead = 6000;  // frames of audio kept undecided at most (waiting for text)
 
 // Where the text can be cut: after its last whitespace outside a tag's parentheses (0: nowhere).
@@ -194,6 +195,9 @@ struct StreamAligner::Impl {
         for (; placed < tags.size(); ++placed)
           tags[placed].unit = offset + std::min(item.unit, b) - a;
     }
+    if (entries.size() - done > kMaxTextAhead)
+      throw Error("audio_text: more than " + std::to_string(kMaxTextAhead) +
+                  " phones of text ahead of the audio");
     for (std::size_t i = a; i < b; ++i) {
       const auto groups = detail::hmm_phone_groups(p.units[i]);
       bool first = true;
