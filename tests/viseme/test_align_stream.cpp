@@ -183,6 +183,32 @@ TEST_CASE("streaming alignment with the text ahead decides the lag behind the au
   CHECK(!s.phones().empty());
 }
 
+TEST_CASE("streaming alignment waits for text that comes after its audio",
+          "[viseme][align][stream]") {
+  // The last word arrives only after all the audio: the search must not have stretched the words
+  // it knew over it.
+  const StreamScratch dir("late");
+  const std::vector<test::AlignCase> cases = test::flite_cases(dir.path);
+  REQUIRE(!cases.empty());
+  const test::AlignCase& c = cases.back();
+  const Audio audio = read_audio(c.audio);
+  const Utterance whole = align(c.text, audio);
+  StreamAligner s(audio.sample_rate);
+  const std::size_t cut = c.text.rfind(' ') + 1;
+  s.add_text(c.text.substr(0, cut));
+  const auto n = static_cast<std::size_t>(0.02 * audio.sample_rate);
+  for (std::size_t at = 0; at < audio.samples.size(); at += n)
+    s.add_audio(audio.samples.data() + at, std::min(n, audio.samples.size() - at));
+  s.add_text(c.text.substr(cut));
+  s.finish();
+  INFO(c.text);
+  REQUIRE(s.phones().size() == whole.phones.size());
+  for (std::size_t p = 0; p < whole.phones.size(); ++p) {
+    INFO(p << " " << whole.phones[p].phone);
+    CHECK(std::abs(s.phones()[p].start - whole.phones[p].start) <= 0.03);
+  }
+}
+
 TEST_CASE("streaming alignment refuses what it cannot align", "[viseme][align][stream]") {
   CHECK_THROWS_WITH(StreamAligner(4000), Contains("sample rate 4000"));
   StreamAligner s(16000);

@@ -195,7 +195,7 @@ struct StreamAligner::Impl {
         for (; placed < tags.size(); ++placed)
           tags[placed].unit = offset + std::min(item.unit, b) - a;
     }
-    if (entries.size() - done > kMaxTextAhead)
+    if (entries.size() > done + kMaxTextAhead)
       throw Error("audio_text: more than " + std::to_string(kMaxTextAhead) +
                   " phones of text ahead of the audio");
     for (std::size_t i = a; i < b; ++i) {
