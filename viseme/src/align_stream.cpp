@@ -95,14 +95,12 @@ struct StreamAligner::Impl {
 
   // Complete pieces of text are planned as they come, with up to three words before them as
   // context; when the next piece comes the last one is planned again with its first three words
-  // after, so its words
-  // are read as espeak-ng speaks them in context (weak forms: "a" before a word), as in the
-  // whole-file aligner, unless the search has decided some of it already.
+  // after, so its words are read as espeak-ng speaks them in context (weak forms: "a" before a
+  // word), as in the whole-file aligner, unless the search has decided some of it already.
   std::deque<std::string> context;  // words before the last piece, untagged (kContextWords)
-  struct Last {
+  struct Last {                     // the last piece, planned without what follows it
     std::string piece;
     std::size_t units = 0, entries = 0;  // sizes before it was planned
-    bool open = false;                   // planned without what follows it
   } last;
 
   // The words of a text, each with the whitespace after it.
@@ -133,7 +131,7 @@ struct StreamAligner::Impl {
 
   void take(std::string piece) {
     if (piece.find_first_not_of(" \t\r\n") == std::string::npos) return;
-    if (last.open) {
+    if (!last.piece.empty()) {
       std::string after;
       const auto next = words(untagged(piece));
       for (std::size_t i = 0; i < next.size() && i < kContextWords; ++i) after += next[i];
@@ -141,7 +139,7 @@ struct StreamAligner::Impl {
     }
     for (std::string& w : words(untagged(last.piece))) context.push_back(std::move(w));
     while (context.size() > kContextWords) context.pop_front();
-    last = {piece, units.size(), entries.size(), true};
+    last = {piece, units.size(), entries.size()};
     plan(piece, {});
   }
 
@@ -172,6 +170,9 @@ struct StreamAligner::Impl {
 
   // Plans `target` between the context and `after`, appending its units, grammar phones and tags.
   void plan(const std::string& target, const std::string& after) {
+    if (entries.size() > done + kMaxTextAhead)
+      throw Error("audio_text: more than " + std::to_string(kMaxTextAhead) +
+                  " phones of text ahead of the audio");
     std::string before;
     for (const std::string& l : context) before += l;
     detail::Plan p = detail::make_plan(before + target + after, options);
@@ -195,9 +196,6 @@ struct StreamAligner::Impl {
         for (; placed < tags.size(); ++placed)
           tags[placed].unit = offset + std::min(item.unit, b) - a;
     }
-    if (entries.size() > done + kMaxTextAhead)
-      throw Error("audio_text: more than " + std::to_string(kMaxTextAhead) +
-                  " phones of text ahead of the audio");
     for (std::size_t i = a; i < b; ++i) {
       const auto groups = detail::hmm_phone_groups(p.units[i]);
       bool first = true;
@@ -248,12 +246,7 @@ struct StreamAligner::Impl {
                  std::vector<VisemeEvent>& track, bool final) {
     const double s = static_cast<double>(first) * kFrame, e = static_cast<double>(end) * kFrame;
     if (final) phones.push_back({u.phones[k].name, s, e, "en"});
-    const auto names = u.phones[k].map.in(set);
-    const double step = (e - s) / static_cast<double>(std::max<std::size_t>(1, names.size()));
-    for (std::size_t v = 0; v < names.size(); ++v)
-      detail::append_viseme(
-          track, names[v],
-          {s + step * static_cast<double>(v), s + step * static_cast<double>(v + 1)}, set);
+    detail::append_phone_visemes(track, u.phones[k].map, {s, e}, set);
   }
 
   bool last_of_phone(std::size_t e) const {

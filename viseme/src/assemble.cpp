@@ -1,4 +1,5 @@
 // A timed plan -> Utterance.
+#include <algorithm>
 #include <cmath>
 
 #include "timeline.hpp"
@@ -33,6 +34,18 @@ void append_viseme(std::vector<VisemeEvent>& track, const std::string& viseme, S
   track.push_back({viseme, span.start, span.end});
 }
 
+void append_phone_visemes(std::vector<VisemeEvent>& track, const PhoneMap& map, Span span,
+                          VisemeSet set) {
+  const auto visemes = map.in(set);
+  const double step =
+      (span.end - span.start) / static_cast<double>(std::max<std::size_t>(1, visemes.size()));
+  for (std::size_t v = 0; v < visemes.size(); ++v)
+    append_viseme(track, visemes[v],
+                  {span.start + step * static_cast<double>(v),
+                   span.start + step * static_cast<double>(v + 1)},
+                  set);
+}
+
 Utterance assemble(const Plan& plan, const Timeline& tl, std::string text, VisemeSet set) {
   Utterance u;
   u.text = std::move(text);
@@ -47,14 +60,7 @@ Utterance assemble(const Plan& plan, const Timeline& tl, std::string text, Visem
     for (std::size_t k = 0; k < unit.phones.size() && k < t.phones.size(); ++k) {
       const Span s = t.phones[k];
       u.phones.push_back({unit.phones[k].name, s.start, s.end, lang});
-      const auto visemes = unit.phones[k].map.in(set);
-      const double step =
-          (s.end - s.start) / static_cast<double>(std::max<std::size_t>(1, visemes.size()));
-      for (std::size_t v = 0; v < visemes.size(); ++v)
-        append_viseme(
-            u.visemes, visemes[v],
-            {s.start + step * static_cast<double>(v), s.start + step * static_cast<double>(v + 1)},
-            set);
+      append_phone_visemes(u.visemes, unit.phones[k].map, s, set);
     }
     if (unit.lang == Lang::kZh)
       u.syllables.push_back({unit.text, unit.pinyin, t.span.start, t.span.end});

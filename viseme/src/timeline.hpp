@@ -52,4 +52,8 @@ Utterance assemble(const Plan& plan, const Timeline& timeline, std::string text,
 void append_viseme(std::vector<VisemeEvent>& track, const std::string& viseme, Span span,
                    VisemeSet set);
 
+/// Appends a phone's visemes in `set` (its map's, splitting its span evenly) by append_viseme.
+void append_phone_visemes(std::vector<VisemeEvent>& track, const PhoneMap& map, Span span,
+                          VisemeSet set);
+
 }  // namespace facecast::viseme::detail
