@@ -1,10 +1,12 @@
 // Forced alignment quality and speed: word-onset error against the true times on speech from
 // other synthesizers (festival, flite) and on altered Chinese espeak-ng speech (see
 // tests/viseme/align_cases.hpp), and against hand labels on human English speech
-// (tests/viseme/human_cases.hpp). English runs through both backends (HMM, DTW). Prints mean,
+// (tests/viseme/human_cases.hpp): the development set (human, eval/human_words.tsv) and issue
+// 36's held-out set (heldout, eval/human_words_heldout.tsv: pocketsphinx-testdata's cards/ and
+// librivox/, never tuned on). English runs through both backends (HMM, DTW). Prints mean,
 // median, p95 and max per language, voice set and backend, then per source.
-// BENCH_ALIGN_ONLY=en|zh keeps one language, BENCH_ALIGN_SET=synthetic|human one voice set,
-// BENCH_ALIGN_VERBOSE=1 prints each word's error.
+// BENCH_ALIGN_ONLY=en|zh keeps one language, BENCH_ALIGN_SET=synthetic|human|heldout one voice
+// set, BENCH_ALIGN_VERBOSE=1 prints each word's error.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -44,12 +46,17 @@ int main() {
   const char* set = std::getenv("BENCH_ALIGN_SET");
   const auto wanted = [&](const char* name) { return !set || std::string(set) == name; };
   std::vector<test::AlignCase> cases;
+  std::vector<std::string> sets;  // each case's voice set
   if (wanted("synthetic")) cases = test::all_cases(facecast::test::test_data_dir() / "align");
-  const std::size_t synthetic = cases.size();
-  if (wanted("human"))
-    for (auto& c :
-         test::human_cases(facecast::test::source_dir() / "tests/viseme/eval/human_words.tsv"))
+  sets.assign(cases.size(), "synthetic");
+  for (const auto& [name, file] : {std::pair<const char*, const char*>{"human", "human_words.tsv"},
+                                   {"heldout", "human_words_heldout.tsv"}}) {
+    if (!wanted(name)) continue;
+    for (auto& c : test::human_cases(facecast::test::source_dir() / "tests/viseme/eval" / file)) {
       cases.push_back(std::move(c));
+      sets.push_back(name);
+    }
+  }
   const viseme::AlignOptions options = viseme::load_align_options();
   // "lang set backend" and "lang set backend (source)" -> errors
   std::map<std::string, std::vector<double>> errors, by_source, phone_errors;
@@ -58,7 +65,7 @@ int main() {
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const auto& c = cases[i];
     if (only && c.lang != only) continue;
-    const bool human = i >= synthetic;
+    const bool human = sets[i] != "synthetic";
     const viseme::Audio audio = human ? test::human_audio(c) : viseme::read_audio(c.audio);
     std::vector<std::pair<std::string, viseme::AlignOptions::Backend>> backends = {
         {"dtw", viseme::AlignOptions::Backend::kDtw}};
@@ -72,7 +79,7 @@ int main() {
       speed[backend].first +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       speed[backend].second += audio.seconds();
-      const std::string key = c.lang + " " + (human ? "human" : "synthetic") + " " + backend;
+      const std::string key = c.lang + " " + sets[i] + " " + backend;
       const auto e = test::scored_onset_errors(u, c);
       const std::string source = c.name.substr(0, c.name.find(' '));
       errors[key].insert(errors[key].end(), e.begin(), e.end());

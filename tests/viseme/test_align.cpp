@@ -224,14 +224,19 @@ TEST_CASE("alignment: pauses in the audio become rest", "[viseme][align]") {
   CHECK(rest);
 }
 
-TEST_CASE("alignment: English HMM word onsets on human speech (hand labels)", "[viseme][align]") {
+namespace {
+
+// The HMM backend's word-onset errors (seconds, sorted) on a hand-labelled set of human English
+// speech (human_cases.hpp), checking on the way that it ran and reached each transcript's end.
+// Empty when the model or a recording is missing (require_data: a failure under CI=true).
+std::vector<double> hmm_human_errors(const std::string& tsv, std::size_t min_files) {
   // The model and recordings come from scripts/install-deps.sh (pocketsphinx-en-us, alsa-utils,
   // pocketsphinx-testdata): missing, this fails under CI=true and warns elsewhere.
-  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
-  const auto cases = test::human_cases(test::source_dir() / "tests/viseme/eval/human_words.tsv");
-  REQUIRE(cases.size() >= 10);
+  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return {};
+  const auto cases = test::human_cases(test::source_dir() / "tests/viseme/eval" / tsv);
+  REQUIRE(cases.size() >= min_files);
   for (const auto& c : cases)
-    if (!test::require_data(c.audio)) return;
+    if (!test::require_data(c.audio)) return {};
   REQUIRE(detail::hmm_installed());
   const int decoders = detail::hmm_pool_stats().created;
   std::vector<double> errors;
@@ -248,15 +253,50 @@ TEST_CASE("alignment: English HMM word onsets on human speech (hand labels)", "[
   }
   CHECK(detail::hmm_pool_stats().created >= std::max(decoders, 1));
   std::sort(errors.begin(), errors.end());
-  double mean = 0;
-  for (double e : errors) mean += e / static_cast<double>(errors.size());
-  const double p95 = errors[errors.size() * 95 / 100];
-  INFO("human English (HMM): mean " << mean * 1000 << " ms, p95 " << p95 * 1000 << " ms, worst "
-                                    << errors.back() * 1000 << " ms over " << errors.size()
-                                    << " words");
+  return errors;
+}
+
+struct OnsetStats {
+  double mean = 0, p95 = 0, worst = 0;
+};
+
+OnsetStats onset_stats(const std::vector<double>& sorted) {
+  OnsetStats s;
+  for (double e : sorted) s.mean += e / static_cast<double>(sorted.size());
+  s.p95 = sorted[sorted.size() * 95 / 100];
+  s.worst = sorted.back();
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("alignment: English HMM word onsets on human speech (hand labels)", "[viseme][align]") {
+  const auto errors = hmm_human_errors("human_words.tsv", 10);
+  if (errors.empty()) return;
+  const OnsetStats s = onset_stats(errors);
+  INFO("human English (HMM): mean " << s.mean * 1000 << " ms, p95 " << s.p95 * 1000 << " ms, worst "
+                                    << s.worst * 1000 << " ms over " << errors.size() << " words");
   // The issue's goal (mean <= 30 ms, p95 <= 80 ms), on the development labels (+- 10-30 ms).
-  CHECK(mean <= 0.030);
-  CHECK(p95 <= 0.080);
+  CHECK(s.mean <= 0.030);
+  CHECK(s.p95 <= 0.080);
+}
+
+TEST_CASE("alignment: English HMM word onsets on held-out human speech (issue 36's check)",
+          "[viseme][align]") {
+  // pocketsphinx-testdata's cards/ and librivox/ recordings, held out by issue 36: labelled by
+  // hand before any aligner ran on them, never tuned on (eval/human_words_heldout.tsv).
+  const auto errors = hmm_human_errors("human_words_heldout.tsv", 8);
+  if (errors.empty()) return;
+  const OnsetStats s = onset_stats(errors);
+  INFO("held-out human English (HMM): mean " << s.mean * 1000 << " ms, p95 " << s.p95 * 1000
+                                             << " ms, worst " << s.worst * 1000 << " ms over "
+                                             << errors.size() << " words");
+  // The issue's goal (mean <= 30 ms, p95 <= 80 ms) is NOT met here: measured 30.3 ms mean, 200 ms
+  // p95, 205 ms worst over 48 words (by 2026-12-03; docs/benchmarks.md says which words and why).
+  // The bounds are the measured figures with a small margin, so that the check catches a
+  // regression; they were not tuned towards, and nothing was tuned on these recordings.
+  CHECK(s.mean <= 0.033);
+  CHECK(s.p95 <= 0.210);
 }
 
 TEST_CASE("alignment: the HMM backend is quiet, falls back to DTW and runs in parallel",
