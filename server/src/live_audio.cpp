@@ -69,11 +69,14 @@ LiveLipsync::LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimO
   }
 }
 
-void LiveLipsync::add_text(std::string_view text, bool final) {
+void LiveLipsync::add_text(const AudioTextRequest& text) {
   if (!aligner_)
     throw Error("audio_text: the open audio stream is not aligned (flag 2 on its first chunk)");
-  aligner_->add_text(text);
-  if (final) aligner_->end_text();
+  if (text.start)
+    aligner_->add_timed_text(text.text, *text.start, *text.end);
+  else
+    aligner_->add_text(text.text);
+  if (text.final) aligner_->end_text();
 }
 
 int LiveLipsync::push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values) {

@@ -17,6 +17,7 @@
 
 #include "beast.hpp"
 #include "facecast/anim/animation.hpp"
+#include "facecast/server/protocol.hpp"
 #include "facecast/viseme/align_stream.hpp"
 #include "facecast/viseme/audio.hpp"
 #include "facecast/viseme/lipsync.hpp"
@@ -48,9 +49,10 @@ class LiveLipsync {
   LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
               const viseme::LipsyncOptions& options, viseme::VisemeSet set, int input_rate,
               double fps, const viseme::AlignOptions* align = nullptr);
-  /// More of the aligned stream's text (`final`: the text ends with it). Throws Error when the
-  /// stream is not aligned or the text cannot be aligned.
-  void add_text(std::string_view text, bool final);
+  /// More of the aligned stream's text (with its time, or without for the aligner to find;
+  /// `final`: the text ends with it). Throws Error when the stream is not aligned or the text
+  /// cannot be aligned.
+  void add_text(const AudioTextRequest& text);
   /// Appends the frames this chunk completes to `values` (frame-major); returns their count.
   int push(const std::int16_t* pcm, std::size_t n, std::vector<float>& values);
   /// The end of the audio: the remaining frames up to its end.

@@ -72,20 +72,27 @@ std::optional<ClientMessage> parse_live_message(const std::string& type, const j
     return ExpressionRequest{std::move(text)};
   }
   if (type == "audio_text") {
-    bool final = false;
-    read_fields(j, type, {"text", "final"}, [&](const std::string& key, const json& v) {
-      if (key == "final") {
-        if (!v.is_boolean()) throw Error("audio_text: final: expected true or false");
-        final = v.get<bool>();
-      } else {
-        read(key, v);
-      }
-    });
-    if (!have_text && !final) throw Error("audio_text: text: missing");
+    AudioTextRequest r;
+    read_fields(j, type, {"text", "final", "start", "end"},
+                [&](const std::string& key, const json& v) {
+                  if (key == "final") {
+                    if (!v.is_boolean()) throw Error("audio_text: final: expected true or false");
+                    r.final = v.get<bool>();
+                  } else if (key == "start" || key == "end") {
+                    if (!v.is_number()) throw Error("audio_text: " + key + ": expected seconds");
+                    (key == "start" ? r.start : r.end) = v.get<double>();
+                  } else {
+                    read(key, v);
+                  }
+                });
+    if (!have_text && !r.final) throw Error("audio_text: text: missing");
+    if (r.start.has_value() != r.end.has_value())
+      throw Error("audio_text: start and end come together (or neither)");
     if (utf8_length(text) > limits.max_text)
       throw RequestError(Code::kLimit,
                          "text: more than " + std::to_string(limits.max_text) + " characters");
-    return AudioTextRequest{std::move(text), final};
+    r.text = std::move(text);
+    return r;
   }
   if (type == "subscribe" || type == "unsubscribe") {
     read_fields(j, type, {"channel"}, read);

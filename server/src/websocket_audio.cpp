@@ -141,12 +141,12 @@ void WebSocketSession::end_audio() {
   audio_.reset();
 }
 
-void WebSocketSession::live_text(const std::string& text, bool final) {
+void WebSocketSession::live_text(const AudioTextRequest& text) {
   if (!audio_) throw Error("audio_text: no live audio stream is open on this connection");
-  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, text, final] {
+  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, text] {
     if (!engine->lipsync) return;
     try {
-      engine->lipsync->add_text(text, final);
+      engine->lipsync->add_text(text);
     } catch (...) {
       const Problem problem = describe(std::current_exception());
       net::post(self->ws_.get_executor(),

@@ -71,7 +71,7 @@ bool WebSocketSession::route_live(ClientMessage& m) {
       return true;
     }
     if (const auto* t = std::get_if<AudioTextRequest>(&m)) {
-      live_text(t->text, t->final);
+      live_text(*t);
       return true;
     }
     return false;  // this connection's own speak / cancel / ping

@@ -73,7 +73,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
                           std::vector<float> values);
   void end_audio();
   void live_expressions(const std::string& tags);
-  void live_text(const std::string& text, bool final);
+  void live_text(const AudioTextRequest& text);
 
   // Queues `message` (drop and slow-client rules); do_write() sends what is queued.
   std::uint32_t enqueue(OutMessage message);

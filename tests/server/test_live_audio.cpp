@@ -222,3 +222,64 @@ TEST_CASE("an aligned live audio stream takes its text beside the audio", "[ws][
   }
   CHECK(got.find("not aligned") != std::string::npos);
 }
+
+TEST_CASE("an aligned live audio stream takes text with its times, in Chinese too",
+          "[ws][audio][stream]") {
+  // Each syllable with its time beside the audio, as TTS services stream their alignment.
+  facecast::viseme::Options o;
+  o.timing = facecast::viseme::Timing::kTts;
+  const auto u = facecast::viseme::analyze("今天我们聊一聊新的功能", o);
+  const int rate = u.sample_rate;
+  TestServer s;
+  WsClient c(s.port());
+  REQUIRE(c.read_json(10)["type"] == "hello");
+  const std::uint32_t n = 2205;  // 100 ms
+  std::size_t next = 0;
+  for (std::uint32_t at = 0; at < u.pcm.size(); at += n) {
+    const auto count = std::min<std::uint32_t>(n, static_cast<std::uint32_t>(u.pcm.size() - at));
+    std::string b = chunk(rate, at, u.pcm.data() + at, count, false);
+    if (at == 0) {
+      b[2] = static_cast<char>(b[2] | 2);  // aligned
+      c.send_binary(b);
+      c.send(nlohmann::json{{"type", "audio_text"}, {"text", "今"}, {"start", 0.1}});
+    } else {
+      c.send_binary(b);
+    }
+    for (; next < u.syllables.size() && u.syllables[next].start * rate < at + count; ++next)
+      c.send(nlohmann::json{{"type", "audio_text"},
+                            {"text", u.syllables[next].text},
+                            {"start", u.syllables[next].start},
+                            {"end", u.syllables[next].end},
+                            {"final", next + 1 == u.syllables.size()}});
+  }
+  c.send_binary(chunk(rate, static_cast<std::uint32_t>(u.pcm.size()), u.pcm.data(), 0, true));
+  std::vector<float> jaw;
+  std::size_t names = 0, jaw_index = 0;
+  std::vector<std::string> errors;
+  for (bool ended = false; !ended;) {
+    const auto m = c.read(30);
+    REQUIRE(m);
+    if (m->text) {
+      const auto j = m->json();
+      if (j["type"] == "stream_start") {
+        names = j["names"].size() + j["extra"].size();
+        const auto& list = j["names"];
+        jaw_index =
+            static_cast<std::size_t>(std::find(list.begin(), list.end(), "jawOpen") - list.begin());
+      }
+      if (j["type"] == "error") errors.push_back(j["message"]);
+      ended = j["type"] == "stream_end";
+      continue;
+    }
+    const auto h = facecast::server::read_header(m->data);
+    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
+    for (std::uint32_t k = 0; k < h.count; ++k) jaw.push_back(values[k * names + jaw_index]);
+  }
+  // Only the message with a start and no end was refused.
+  REQUIRE(errors.size() == 1);
+  CHECK(errors[0].find("start and end come together") != std::string::npos);
+  CHECK(jaw.size() ==
+        static_cast<std::size_t>(std::floor(static_cast<double>(u.pcm.size()) / rate * 60)) + 1);
+  CHECK(*std::max_element(jaw.begin(), jaw.end()) > 0.1f);
+  CHECK(jaw.front() < 0.05f);
+}

@@ -12,6 +12,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/viseme/align.hpp"
 #include "facecast/viseme/align_stream.hpp"
+#include "facecast/viseme/analyze.hpp"
 #include "facecast/viseme/audio.hpp"
 
 using namespace facecast;
@@ -235,4 +236,61 @@ TEST_CASE("streaming alignment refuses what it cannot align", "[viseme][align][s
   StreamAligner u(16000);
   u.finish();
   CHECK_THROWS_WITH(u.add_audio(second.data(), 10), Contains("ended"));
+}
+
+TEST_CASE("timed text streams take the TTS's own word times, in either language",
+          "[viseme][align][stream]") {
+  // Each word (Chinese: each syllable) with its time, as ElevenLabs and Azure stream them beside
+  // the audio: no search, the visemes sit where the TTS said the words are.
+  for (const std::string text :
+       {"Bring me the maps before the rain begins", "今天我们聊一聊新的功能"}) {
+    INFO(text);
+    Options o;
+    o.timing = Timing::kTts;
+    const Utterance u = analyze(text, o);
+    const bool zh = !u.syllables.empty();
+    struct Piece {
+      std::string text;
+      double start, end;
+    };
+    std::vector<Piece> pieces;
+    if (zh)
+      for (const auto& y : u.syllables) pieces.push_back({y.text, y.start, y.end});
+    else
+      for (const auto& w : u.words) pieces.push_back({w.text + " ", w.start, w.end});
+    StreamAligner s(u.sample_rate);
+    std::vector<float> pcm(u.pcm.size());
+    for (std::size_t i = 0; i < pcm.size(); ++i) pcm[i] = static_cast<float>(u.pcm[i]) / 32768.0f;
+    const auto n = static_cast<std::size_t>(0.1 * u.sample_rate);
+    std::size_t next = 0;
+    for (std::size_t at = 0; at < pcm.size(); at += n) {
+      const std::size_t k = std::min(n, pcm.size() - at);
+      const double reach = static_cast<double>(at + k) / u.sample_rate;
+      for (; next < pieces.size() && pieces[next].start < reach; ++next)
+        s.add_timed_text(pieces[next].text, pieces[next].start, pieces[next].end);
+      s.add_audio(pcm.data() + at, k);
+      CHECK(s.decided() <= reach + 1e-9);
+      // Decided up to the last timed word's end (or the audio's).
+      const double timed_end = next > 0 ? pieces[next - 1].end : 0.0;
+      CHECK(s.decided() >= std::min(reach, timed_end) - 0.011);
+    }
+    s.finish();
+    CHECK(s.decided() == Approx(u.duration).margin(0.011));
+    REQUIRE(s.phones().size() == u.phones.size());
+    // Each piece's first phone starts where the TTS said the piece starts.
+    std::size_t p = 0;
+    for (const Piece& piece : pieces) {
+      while (p < s.phones().size() && s.phones()[p].end <= piece.start + 1e-9) ++p;
+      REQUIRE(p < s.phones().size());
+      CHECK(s.phones()[p].start == Approx(piece.start).margin(1e-9));
+    }
+  }
+  StreamAligner t(16000);
+  t.add_timed_text("hello ", 0.1, 0.5);
+  CHECK_THROWS_WITH(t.add_timed_text("there ", 0.3, 0.6), Contains("pieces come in order"));
+  CHECK_THROWS_WITH(t.add_timed_text("there ", 0.6, 0.5), Contains("start <= end"));
+  CHECK_THROWS_WITH(t.add_text("there "), Contains("needs start and end"));
+  StreamAligner v(16000);
+  v.add_text("hello ");
+  CHECK_THROWS_WITH(v.add_timed_text("there ", 0.6, 0.9), Contains("without times"));
 }

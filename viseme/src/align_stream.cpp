@@ -5,6 +5,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -46,7 +47,9 @@ struct StreamAligner::Impl {
   AlignOptions align;
   VisemeSet set;
   StreamResampler resampler;
-  detail::HmmStream hmm;
+  std::optional<detail::HmmStream> hmm;  // made for the first text without times
+  enum class Mode { kNone, kAligned, kTimed } mode = Mode::kNone;
+  double timed_end = 0;  // kTimed: the end of the last timed text (seconds)
 
   // The text so far.
   std::string pending;  // after the last complete word
@@ -131,6 +134,15 @@ struct StreamAligner::Impl {
 
   void take(std::string piece) {
     if (piece.find_first_not_of(" \t\r\n") == std::string::npos) return;
+    if (mode == Mode::kTimed)
+      throw Error("audio_text: this stream's text has times; every piece needs start and end");
+    if (!hmm) {
+      if (!detail::hmm_installed())
+        throw Error("streaming alignment needs pocketsphinx's English model (pocketsphinx-en-us)",
+                    ErrorCode::kInternal);
+      hmm.emplace();
+      mode = Mode::kAligned;
+    }
     if (!last.piece.empty()) {
       std::string after;
       const auto next = words(untagged(piece));
@@ -209,6 +221,51 @@ struct StreamAligner::Impl {
     dirty = true;
   }
 
+  // Text spoken over [start, end] of the audio (a TTS's word or character timestamps): no search;
+  // its units share the span by their model lengths, their phones by the model's proportions.
+  void timed(std::string_view text, double start, double end) {
+    if (mode == Mode::kAligned)
+      throw Error("audio_text: this stream's text came without times; send none with them");
+    mode = Mode::kTimed;
+    if (!(start >= 0 && end >= start && end - start <= 60))
+      throw Error(
+          "audio_text: start and end must be seconds of the stream with 0 <= start <= "
+          "end <= start + 60");
+    if (start + 1e-6 < timed_end)
+      throw Error("audio_text: start " + std::to_string(start) + " is before the end of the " +
+                  "last piece (" + std::to_string(timed_end) + "); pieces come in order");
+    const detail::Plan p = detail::make_plan(text, options);
+    double total = 0;
+    for (const auto& u : p.units) total += u.seconds();
+    double t = start;
+    for (const detail::PlanItem& item : p.items) {
+      if (item.kind == detail::PlanItem::Kind::kTag)
+        expressions.push_back({item.name, item.intensity, t, item.ramp});
+      if (item.kind != detail::PlanItem::Kind::kUnit) continue;
+      const detail::PlanUnit& u = p.units[item.unit];
+      const double share = total > 0 ? u.seconds() / total : 1.0 / p.units.size();
+      const detail::Span span{t, std::min(end, t + share * (end - start))};
+      const std::vector<detail::Span> spans = detail::spread(u.phones, span);
+      for (std::size_t k = 0; k < u.phones.size(); ++k) {
+        phones.push_back({u.phones[k].name, spans[k].start, spans[k].end,
+                          u.lang == detail::Lang::kZh ? "zh" : "en"});
+        detail::append_phone_visemes(final_visemes, u.phones[k].map, spans[k], set);
+      }
+      t = span.end;
+    }
+    timed_end = end;
+    update_timed();
+  }
+
+  void update_timed() {
+    const long until =
+        finished ? received_frames() : std::min(received_frames(), std::lround(timed_end / kFrame));
+    decided = std::max(decided, until);
+    const double keep = static_cast<double>(decided) * kFrame - keep_seconds;
+    std::erase_if(final_visemes, [&](const VisemeEvent& v) { return v.end < keep; });
+    visemes = final_visemes;
+  }
+
   // A new search over the undecided entries, from the end of the last decided one (or on a search
   // grown too long, to bound its memory).
   void restart() {
@@ -225,7 +282,7 @@ struct StreamAligner::Impl {
     if (!searching) return;
     std::vector<std::string> grammar;
     for (std::size_t e = base; e < entries.size(); ++e) grammar.push_back(entries[e].cmu);
-    hmm.restart(grammar, pcm.data(), pcm.size());
+    hmm->restart(grammar, pcm.data(), pcm.size());
   }
 
   // The silence threshold of the audio so far (as the whole-file aligner's, on recent frames).
@@ -258,14 +315,14 @@ struct StreamAligner::Impl {
   // and rebuilds the events after it from the path.
   void update() {
     std::vector<detail::HmmStream::Segment> path;
-    if (searching) path = hmm.path();
+    if (searching) path = hmm->path();
     for (auto& g : path) {
       if (g.phone >= 0) g.phone += static_cast<int>(base);
       g.first += static_cast<int>(origin);
       g.last += static_cast<int>(origin);
     }
     long until = finished ? std::numeric_limits<long>::max()
-                          : (searching ? origin + hmm.frames() : received_frames()) - lag();
+                          : (searching ? origin + hmm->frames() : received_frames()) - lag();
     // The search stretches the last word of the text so far over words still to come: audio from
     // its start on waits for more text.
     if (!text_ended && !finished && !entries.empty())
@@ -359,6 +416,14 @@ struct StreamAligner::Impl {
   void feed(const float* s, std::size_t n) {
     std::vector<float> out;
     resampler.push(s, n, out);
+    if (mode == Mode::kTimed) {
+      samples += out.size();
+      if (received_frames() - std::lround(timed_end / kFrame) > kMaxAhead)
+        throw Error("audio_text: the audio is more than " + std::to_string(kMaxAhead / 100) +
+                    " s ahead of its text");
+      update_timed();
+      return;
+    }
     const std::vector<std::int16_t> p = to_pcm16(out);
     const std::size_t before = pcm.size();
     pcm.insert(pcm.end(), p.begin(), p.end());
@@ -381,10 +446,10 @@ struct StreamAligner::Impl {
     if (dirty || (searching && received_frames() - origin > kMaxSearch && done > base)) {
       restart();  // the search reads the whole buffer, this chunk included
     } else if (searching) {
-      hmm.feed(pcm.data() + before, p.size());
-      if (!settled && hmm.settled()) restart();  // again, with the stream's own mean throughout
+      hmm->feed(pcm.data() + before, p.size());
+      if (!settled && hmm->settled()) restart();  // again, with the stream's own mean throughout
     }
-    settled = settled || hmm.settled();
+    settled = settled || (hmm && hmm->settled());
     update();
   }
 };
@@ -394,9 +459,6 @@ StreamAligner::StreamAligner(int sample_rate, const Options& options,
   if (sample_rate < 8000 || sample_rate > 48000)
     throw Error("streaming alignment: sample rate " + std::to_string(sample_rate) +
                 " outside 8000..48000");
-  if (!detail::hmm_installed())
-    throw Error("streaming alignment needs pocketsphinx's English model (pocketsphinx-en-us)",
-                ErrorCode::kInternal);
   impl_ = std::make_unique<Impl>(sample_rate, options, align_options);
 }
 
@@ -418,6 +480,11 @@ void StreamAligner::add_text(std::string_view piece) {
   m.take(std::move(whole));
 }
 
+void StreamAligner::add_timed_text(std::string_view text, double start, double end) {
+  if (impl_->text_ended) throw Error("audio_text: the text has ended");
+  impl_->timed(text, start, end);
+}
+
 void StreamAligner::end_text() {
   Impl& m = *impl_;
   if (m.text_ended) return;
@@ -435,9 +502,12 @@ void StreamAligner::finish() {
   if (m.finished) return;
   end_text();
   if (m.dirty) m.restart();
-  if (m.searching) m.hmm.finish();
+  if (m.searching) m.hmm->finish();
   m.finished = true;
-  m.update();
+  if (m.mode == Impl::Mode::kTimed)
+    m.update_timed();
+  else
+    m.update();
 }
 
 double StreamAligner::decided() const {

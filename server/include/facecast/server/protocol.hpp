@@ -131,6 +131,7 @@ struct ExpressionRequest {
 struct AudioTextRequest {
   std::string text;
   bool final = false;
+  std::optional<double> start, end;  // both or neither: the text's time in the stream (seconds)
 };
 
 struct PingRequest {

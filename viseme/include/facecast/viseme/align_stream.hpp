@@ -17,7 +17,8 @@ namespace facecast::viseme {
 
 class StreamAligner {
  public:
-  /// `sample_rate`: the audio's (8000..48000). Throws Error when pocketsphinx-en-us is missing.
+  /// `sample_rate`: the audio's (8000..48000). Text without times needs pocketsphinx-en-us (an
+  /// Error at the first such text when it is missing).
   explicit StreamAligner(int sample_rate, const Options& options = {},
                          const AlignOptions& align_options = {});
   ~StreamAligner();
@@ -28,6 +29,11 @@ class StreamAligner {
   /// end_text()); expression tags work as in analyze(). Throws Error for text other than English
   /// or a malformed tag.
   void add_text(std::string_view piece);
+  /// Text with its time instead (a TTS's word or character timestamps, as ElevenLabs and Azure
+  /// stream them): `text` is spoken over [start, end] seconds of the audio; no search is made, and
+  /// any language the text path reads is taken. Pieces come in order; a stream takes either timed
+  /// text or text without times. Throws Error for a bad span or mixing the two.
+  void add_timed_text(std::string_view text, double start, double end);
   /// No more text: the last word is taken.
   void end_text();
   /// More audio (mono, at the constructor's rate).
