@@ -101,6 +101,12 @@ export declare class FacecastClient extends EventTarget implements AsyncIterable
   append(id: string, text: string, options?: { channel?: string }): void;
   end(id: string, options?: { channel?: string }): void;
   cancel(id: string, options?: { channel?: string }): void;
+  /** one live audio chunk (PCM16 mono); the weights come back as stream "audio-<n>" (collect('audio-')) */
+  sendAudio(pcm: Int16Array, sampleRate: number, first: number, options?: { last?: boolean; aligned?: boolean }): void;
+  /** more text of the open aligned audio stream, optionally with its time (seconds of the stream) */
+  audioText(text: string, options?: { start?: number; end?: number; final?: boolean }): void;
+  /** expression tags over the open live audio stream */
+  expression(tags: string): void;
   subscribe(channel: string): Promise<ServerMessage & { type: 'subscribed'; channel: string; subscribers: number; playing: string | null }>;
   unsubscribe(channel: string): Promise<ServerMessage & { type: 'unsubscribed'; channel: string }>;
   produce(channel: string, token: string): Promise<ServerMessage & { type: 'producing'; channel: string }>;

@@ -236,6 +236,36 @@ export class FacecastClient extends EventTarget {
     this.send({ type: 'cancel', id, channel });
   }
 
+  /**
+   * One live audio chunk (docs/protocol.md, "Live audio in"): `pcm` (Int16Array, mono) at
+   * `sampleRate`, `first` the index of its first sample in the stream (0 opens a stream; `aligned`:
+   * its text comes by audioText); `last` ends it. The weights come back as a stream with id
+   * "audio-<stream>" (collect('audio-')).
+   */
+  sendAudio(pcm, sampleRate, first, { last = false, aligned = false } = {}) {
+    if (!this.connected) throw new FacecastError('closed', `audio: not connected (${this.state})`);
+    const out = new ArrayBuffer(24 + 2 * pcm.length);
+    const v = new DataView(out);
+    v.setUint8(0, 4);
+    v.setUint8(1, 1);
+    v.setUint16(2, (last ? 1 : 0) | (aligned ? 2 : 0), true);
+    v.setUint32(4, sampleRate, true);
+    v.setUint32(8, first, true);
+    v.setUint32(12, pcm.length, true);
+    for (let i = 0; i < pcm.length; ++i) v.setInt16(24 + 2 * i, pcm[i], true);
+    this._ws.send(out);
+  }
+
+  /** More text of the open aligned audio stream: as it comes (English), or with its time in the stream ({start, end}: seconds; any language). */
+  audioText(text, { start, end, final } = {}) {
+    this.send({ type: 'audio_text', text, start, end, final });
+  }
+
+  /** Expression tags over the open live audio stream ("(smile,40,0.5)"). */
+  expression(tags) {
+    this.send({ type: 'expression', tags });
+  }
+
   /** Watches a channel; resolves with the `subscribed` answer (subscribers, playing). */
   subscribe(channel) {
     return this._request({ type: 'subscribe', channel }, 'subscribed', (m) => m.channel === channel);

@@ -64,14 +64,18 @@ export function itemQueue(sinks, { timeout = 0, ended = false } = {}) {
   };
 }
 
-/** Reads `items` until the stream_end of utterance `id`: {start, end, frames, audio, images, others}. */
+/**
+ * Reads `items` until the stream_end of utterance `id`: {start, end, frames, audio, images, others}.
+ * id 'audio-' collects the next live audio stream (its id is "audio-<stream>").
+ */
 export async function collect(items, id, url) {
   const result = { start: null, end: null, frames: [], audio: [], images: [], others: [] };
   let stream = null;
   for await (const item of items) {
     if (item.type === 'error') {
       if (item.id === id) throw new FacecastError(item.code, item.message, { id });
-    } else if (item.type === 'stream_start' && item.id === id) {
+    } else if (item.type === 'stream_start' && stream === null && (item.id === id || (id === 'audio-' && item.id.startsWith('audio-')))) {
+      id = item.id;
       result.start = item;
       stream = item.stream;
     } else if (item.type === 'stream_end' && item.id === id) {

@@ -69,6 +69,26 @@ describe('against facecast serve', { skip, timeout: 120000 }, () => {
     assert.deepEqual(audio.map((c) => c.first), audio.map((_, i) => audio.slice(0, i).reduce((n, c) => n + c.count, 0)));
   });
 
+  test('an aligned live audio stream: the server\'s own speech streamed back in with its text', async () => {
+    const client = await open();
+    const spoken = await client.collect(client.speak('Bring me the maps.', { fps: 30 }));
+    const pcm = new Int16Array(spoken.audio.reduce((n, c) => n + c.count, 0));
+    for (const c of spoken.audio) pcm.set(c.pcm, c.first);
+    const rate = spoken.start.audio.sample_rate;
+    const step = rate / 10;
+    const result = client.collect('audio-');
+    for (let at = 0; at < pcm.length; at += step) {
+      client.sendAudio(pcm.subarray(at, at + step), rate, at, { aligned: at === 0 });
+      if (at === 0) client.audioText('Bring me the maps.', { final: true });
+    }
+    client.sendAudio(new Int16Array(0), rate, pcm.length, { last: true });
+    const { start, frames, end } = await result;
+    assert.ok(start.id.startsWith('audio-'));
+    assert.equal(frames.length, Math.floor((pcm.length / rate) * 60) + 1);
+    assert.equal(end.frames, frames.length);
+    assert.ok(Math.max(...frames.map((f) => f.get('jawOpen'))) > 0.1);
+  });
+
   test('incremental text: speak with more, append, end', async () => {
     const client = await open({ key: KEY, via: 'message' });
     const id = client.speak('Good evening.', { more: true, fps: 30 });

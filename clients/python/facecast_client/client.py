@@ -4,6 +4,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import struct
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional, Tuple, Union
@@ -155,7 +156,8 @@ class Client:
 
     async def collect(self, id: str, timeout: Optional[float] = -1.0) -> Utterance:
         """Reads until the `stream_end` of utterance `id`; raises its error (other messages go
-        to `others`, media of other streams are dropped)."""
+        to `others`, media of other streams are dropped). id "audio-" collects the next live
+        audio stream (its id is "audio-<stream>")."""
         result, stream = Utterance(), None
         while True:
             try:
@@ -164,7 +166,9 @@ class Client:
                 if e.id == id:
                     raise
                 continue
-            if isinstance(item, StreamStart) and item.id == id:
+            if isinstance(item, StreamStart) and stream is None and (
+                    item.id == id or (id == "audio-" and item.id.startswith("audio-"))):
+                id = item.id
                 result.start, stream = item, item.stream
             elif isinstance(item, StreamEnd) and item.id == id:
                 result.end = item
@@ -224,6 +228,30 @@ class Client:
     async def cancel(self, id: str, *, channel: Optional[str] = None) -> None:
         """Stops an utterance (it fades to rest, then stream_end has cancelled: true)."""
         await self.send({"type": "cancel", "id": id, "channel": channel})
+
+    async def send_audio(self, pcm: bytes, sample_rate: int, first: int, *, last: bool = False,
+                         aligned: bool = False) -> None:
+        """One live audio chunk (docs/protocol.md, "Live audio in"): `pcm` is PCM16 little-endian
+        mono at `sample_rate`, `first` the index of its first sample in the stream (0 opens a
+        stream; `aligned`: its text comes by audio_text); `last` ends the stream. The weights come
+        back as a stream with id "audio-<stream>" (collect("audio-"))."""
+        flags = (1 if last else 0) | (2 if aligned else 0)
+        header = struct.pack("<BBHIIId", 4, 1, flags, sample_rate, first, len(pcm) // 2, 0.0)
+        try:
+            await self._ws.send(header + pcm)
+        except ConnectionClosed as e:
+            raise FacecastError(f"send audio: connection closed ({e})") from None
+
+    async def audio_text(self, text: str, *, start: Optional[float] = None,
+                         end: Optional[float] = None, final: Optional[bool] = None) -> None:
+        """More text of the open aligned audio stream: as it comes (English, aligned by the
+        server), or with its time in the stream (start, end: seconds; any language)."""
+        await self.send({"type": "audio_text", "text": text, "start": start, "end": end,
+                         "final": final})
+
+    async def expression(self, tags: str) -> None:
+        """Expression tags over the open live audio stream ("(smile,40,0.5)")."""
+        await self.send({"type": "expression", "tags": tags})
 
     async def subscribe(self, channel: str) -> Event:
         """Watches a channel; returns the `subscribed` answer (raw: subscribers, playing)."""

@@ -129,6 +129,26 @@ class ServerTest(unittest.IsolatedAsyncioTestCase):
         self.assertEqual([c.first for c in result.audio],
                          [sum(c.count for c in result.audio[:i]) for i in range(len(result.audio))])
 
+    async def test_aligned_audio(self) -> None:
+        # Speech from the server itself (speak with audio), streamed back in as live audio with its
+        # words' text beside it: an aligned stream.
+        client = await self.connect()
+        spoken = await client.collect(await client.speak("Bring me the maps.", fps=30))
+        pcm = b"".join(c.pcm for c in spoken.audio)
+        rate = spoken.start.audio["sample_rate"]
+        step = rate // 10 * 2  # 100 ms of PCM16
+        for i, at in enumerate(range(0, len(pcm), step)):
+            await client.send_audio(pcm[at:at + step], rate, at // 2, aligned=at == 0)
+            if i == 0:
+                await client.audio_text("Bring me the maps.", final=True)
+        await client.send_audio(b"", rate, len(pcm) // 2, last=True)
+        result = await client.collect("audio-")
+        self.assertTrue(result.start.id.startswith("audio-"))
+        self.check_contiguous(result)
+        self.assertEqual(len(result.frames), int(len(pcm) // 2 / rate * 60) + 1)
+        self.assertGreater(max(f["jawOpen"] for f in result.frames), 0.1)
+        self.assertEqual([e for e in result.others if e.type == "error"], [])
+
     async def test_incremental_text(self) -> None:
         client = await self.connect(via="subprotocol")
         id = await client.speak("Good evening.", more=True, fps=30)
