@@ -33,6 +33,39 @@ std::string chunk(int rate, std::uint32_t first, const std::int16_t* pcm, std::u
   return b;
 }
 
+// A live audio stream's answer up to its stream_end: one shape's track over the frames (the
+// shape's index found in stream_start) and the error messages on the way.
+struct LiveStream {
+  nlohmann::json start, end;
+  std::vector<float> track;
+  std::vector<std::string> errors;
+};
+LiveStream read_live_stream(WsClient& c, const std::string& shape) {
+  LiveStream out;
+  std::size_t names = 0, index = 0;
+  while (out.end.is_null()) {
+    const auto m = c.read(30);
+    REQUIRE(m);
+    if (m->text) {
+      const auto j = m->json();
+      if (j["type"] == "stream_start") {
+        out.start = j;
+        names = j["names"].size() + j["extra"].size();
+        const auto& list = j["names"];
+        index = static_cast<std::size_t>(std::find(list.begin(), list.end(), shape) - list.begin());
+        REQUIRE(index < list.size());
+      }
+      if (j["type"] == "error") out.errors.push_back(j["message"]);
+      if (j["type"] == "stream_end") out.end = j;
+      continue;
+    }
+    const auto h = facecast::server::read_header(m->data);
+    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
+    for (std::uint32_t k = 0; k < h.count; ++k) out.track.push_back(values[k * names + index]);
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("live audio chunks stream weights back and end with stream_end", "[ws][audio]") {
@@ -120,29 +153,9 @@ TEST_CASE("expression tags over live audio start at the next frame", "[ws][audio
   c.send(nlohmann::json{{"type", "expression"}, {"tags", "(surprise,63,0.1)"}});
   c.send_binary(
       chunk(rate, at, u.pcm.data() + at, static_cast<std::uint32_t>(u.pcm.size() - at), true));
-  std::vector<float> brow;
-  std::vector<std::string> errors;
-  std::size_t names = 0, brow_index = 0;
-  for (bool ended = false; !ended;) {
-    const auto m = c.read(30);
-    REQUIRE(m);
-    if (m->text) {
-      const auto j = m->json();
-      if (j["type"] == "stream_start") {
-        names = j["names"].size() + j["extra"].size();
-        const auto& list = j["names"];
-        brow_index = static_cast<std::size_t>(std::find(list.begin(), list.end(), "browInnerUp") -
-                                              list.begin());
-        REQUIRE(brow_index < list.size());
-      }
-      if (j["type"] == "error") errors.push_back(j["message"]);
-      ended = j["type"] == "stream_end";
-      continue;
-    }
-    const auto h = facecast::server::read_header(m->data);
-    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
-    for (std::uint32_t k = 0; k < h.count; ++k) brow.push_back(values[k * names + brow_index]);
-  }
+  const LiveStream r = read_live_stream(c, "browInnerUp");
+  const std::vector<float>& brow = r.track;
+  const std::vector<std::string>& errors = r.errors;
   REQUIRE(errors.size() == 1);
   CHECK(errors[0].find("intensity 0..63") != std::string::npos);
   // The brows stay down until the tag arrived (about half the audio), then rise and hold.
@@ -179,29 +192,10 @@ TEST_CASE("an aligned live audio stream takes its text beside the audio", "[ws][
                             {"final", word + 1 == u.words.size()}});
     if (last) c.send_binary(chunk(rate, at + count, u.pcm.data(), 0, true));
   }
-  std::vector<float> jaw;
-  std::size_t names = 0, jaw_index = 0;
-  nlohmann::json end;
-  std::vector<std::string> errors;
-  while (end.is_null()) {
-    const auto m = c.read(30);
-    REQUIRE(m);
-    if (m->text) {
-      const auto j = m->json();
-      if (j["type"] == "stream_start") {
-        names = j["names"].size() + j["extra"].size();
-        const auto& list = j["names"];
-        jaw_index =
-            static_cast<std::size_t>(std::find(list.begin(), list.end(), "jawOpen") - list.begin());
-      }
-      if (j["type"] == "error") errors.push_back(j["message"]);
-      if (j["type"] == "stream_end") end = j;
-      continue;
-    }
-    const auto h = facecast::server::read_header(m->data);
-    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
-    for (std::uint32_t k = 0; k < h.count; ++k) jaw.push_back(values[k * names + jaw_index]);
-  }
+  const LiveStream r = read_live_stream(c, "jawOpen");
+  const std::vector<float>& jaw = r.track;
+  const std::vector<std::string>& errors = r.errors;
+  const nlohmann::json& end = r.end;
   for (const auto& e : errors) WARN(e);
   CHECK(errors.empty());
   const double seconds = static_cast<double>(u.pcm.size()) / rate;
@@ -253,28 +247,9 @@ TEST_CASE("an aligned live audio stream takes text with its times, in Chinese to
                             {"final", next + 1 == u.syllables.size()}});
   }
   c.send_binary(chunk(rate, static_cast<std::uint32_t>(u.pcm.size()), u.pcm.data(), 0, true));
-  std::vector<float> jaw;
-  std::size_t names = 0, jaw_index = 0;
-  std::vector<std::string> errors;
-  for (bool ended = false; !ended;) {
-    const auto m = c.read(30);
-    REQUIRE(m);
-    if (m->text) {
-      const auto j = m->json();
-      if (j["type"] == "stream_start") {
-        names = j["names"].size() + j["extra"].size();
-        const auto& list = j["names"];
-        jaw_index =
-            static_cast<std::size_t>(std::find(list.begin(), list.end(), "jawOpen") - list.begin());
-      }
-      if (j["type"] == "error") errors.push_back(j["message"]);
-      ended = j["type"] == "stream_end";
-      continue;
-    }
-    const auto h = facecast::server::read_header(m->data);
-    const auto values = facecast::server::read_floats(std::string_view(m->data).substr(24));
-    for (std::uint32_t k = 0; k < h.count; ++k) jaw.push_back(values[k * names + jaw_index]);
-  }
+  const LiveStream r = read_live_stream(c, "jawOpen");
+  const std::vector<float>& jaw = r.track;
+  const std::vector<std::string>& errors = r.errors;
   // Only the message with a start and no end was refused.
   REQUIRE(errors.size() == 1);
   CHECK(errors[0].find("start and end come together") != std::string::npos);

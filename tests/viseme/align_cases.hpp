@@ -5,6 +5,8 @@
 // into words by each word's own phone count), Chinese from espeak-ng's Mandarin voice with other
 // variants and speeds, then pitch-shifted, time-stretched unevenly in three pieces, reverberated
 // and mixed with pink noise by sox (the onsets follow the stretch).
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +22,23 @@
 #include "facecast/viseme/import.hpp"
 
 namespace facecast::test {
+
+// A scratch folder for one test case, removed with everything in it at the end of the case.
+struct Scratch {
+  std::filesystem::path path;
+  explicit Scratch(const std::string& name)
+      : path(std::filesystem::temp_directory_path() /
+             ("facecast_align_" + name + "_" + std::to_string(getpid()))) {
+    std::filesystem::create_directories(path);
+  }
+  ~Scratch() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  std::filesystem::path operator/(const std::string& file) const { return path / file; }
+};
 
 struct AlignCase {
   std::string name, lang, text, audio;

@@ -26,22 +26,7 @@ using Catch::Contains;
 
 namespace {
 
-// A scratch folder for one test case, removed with everything in it at the end of the case.
-struct Scratch {
-  std::filesystem::path path;
-  explicit Scratch(const std::string& name)
-      : path(std::filesystem::temp_directory_path() /
-             ("facecast_align_" + name + "_" + std::to_string(getpid()))) {
-    std::filesystem::create_directories(path);
-  }
-  ~Scratch() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-  Scratch(const Scratch&) = delete;
-  Scratch& operator=(const Scratch&) = delete;
-  std::filesystem::path operator/(const std::string& file) const { return path / file; }
-};
+using test::Scratch;
 
 std::vector<float> sine(double hz, int rate, double seconds) {
   std::vector<float> s(static_cast<std::size_t>(seconds * rate));

@@ -21,20 +21,7 @@ using Catch::Contains;
 
 namespace {
 
-struct StreamScratch {
-  std::filesystem::path path;
-  explicit StreamScratch(const std::string& name)
-      : path(std::filesystem::temp_directory_path() /
-             ("facecast_stream_" + name + "_" + std::to_string(getpid()))) {
-    std::filesystem::create_directories(path);
-  }
-  ~StreamScratch() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-  StreamScratch(const StreamScratch&) = delete;
-  StreamScratch& operator=(const StreamScratch&) = delete;
-};
+using test::Scratch;
 
 // The viseme at time t (the pause viseme outside every event).
 std::string viseme_at(const std::vector<VisemeEvent>& v, double t) {
@@ -105,7 +92,7 @@ std::array<double, 3> summary(std::vector<double> e) {
 
 TEST_CASE("streaming alignment follows the whole-file alignment within a frame or two",
           "[viseme][align][stream]") {
-  const StreamScratch dir("cases");
+  const Scratch dir("stream_cases");
   std::vector<test::AlignCase> cases = test::festival_cases(dir.path);
   for (auto& c : test::flite_cases(dir.path)) cases.push_back(std::move(c));
   REQUIRE(cases.size() >= 8);
@@ -158,7 +145,7 @@ TEST_CASE("streaming alignment follows the whole-file alignment within a frame o
 
 TEST_CASE("streaming alignment with the text ahead decides the lag behind the audio",
           "[viseme][align][stream]") {
-  const StreamScratch dir("ahead");
+  const Scratch dir("stream_ahead");
   const std::vector<test::AlignCase> cases = test::flite_cases(dir.path);
   REQUIRE(!cases.empty());
   const test::AlignCase& c = cases.front();
@@ -188,7 +175,7 @@ TEST_CASE("streaming alignment waits for text that comes after its audio",
           "[viseme][align][stream]") {
   // The last word arrives only after all the audio: the search must not have stretched the words
   // it knew over it.
-  const StreamScratch dir("late");
+  const Scratch dir("stream_late");
   const std::vector<test::AlignCase> cases = test::flite_cases(dir.path);
   REQUIRE(!cases.empty());
   const test::AlignCase& c = cases.back();
