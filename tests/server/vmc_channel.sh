@@ -27,7 +27,10 @@ req = urllib.request.Request(sys.argv[1] + "/api/channels/show/speak", method="P
                                       "Content-Type": "application/json"})
 assert urllib.request.urlopen(req, timeout=10).status == 202
 PY
-  sleep 4
+  # Until the utterance has been played out (its stream_end in the log; slow under sanitizers),
+  # then a moment for the last bundles.
+  for _ in $(seq 300); do grep -q "stream_end.*id=v1" "$tmp/serve.err" && break; sleep 0.1; done
+  sleep 0.5
   kill -TERM $pid; wait $pid || true
   exit 0
 fi
