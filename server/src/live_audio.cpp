@@ -52,19 +52,19 @@ AudioChunk read_audio_chunk(std::string_view b) {
 }
 
 LiveLipsync::LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
-                         const viseme::LipsyncOptions& options, viseme::VisemeSet set,
+                         const viseme::LipsyncOptions& options, const viseme::Options& speech,
                          int input_rate, double fps, const viseme::AlignOptions* align)
     : rig_(std::move(rig)),
       anim_(anim),
       options_(options),
-      set_(set),
+      set_(speech.set.value_or(viseme::VisemeSet::kOculus)),
       fps_(fps),
       resampler_(input_rate, 16000),
       analyzer_(16000, options) {
   anim_.idle = false;  // idle life is a function of the whole utterance; the client adds its own
   if (align) {
-    viseme::Options o;
-    o.set = set;
+    viseme::Options o = speech;  // the server's voice and lexicon read the stream's text
+    o.set = set_;
     aligner_.emplace(input_rate, o, *align);
   }
 }

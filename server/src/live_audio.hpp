@@ -47,7 +47,7 @@ AudioChunk read_audio_chunk(std::string_view bytes);
 class LiveLipsync {
  public:
   LiveLipsync(std::shared_ptr<const LoadedRig> rig, const anim::AnimOptions& anim,
-              const viseme::LipsyncOptions& options, viseme::VisemeSet set, int input_rate,
+              const viseme::LipsyncOptions& options, const viseme::Options& speech, int input_rate,
               double fps, const viseme::AlignOptions* align = nullptr);
   /// More of the aligned stream's text (with its time, or without for the aligner to find;
   /// `final`: the text ends with it). Throws Error when the stream is not aligned or the text

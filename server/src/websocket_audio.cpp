@@ -82,12 +82,12 @@ void WebSocketSession::open_audio(int rate, bool aligned) {
   audio_->rate = rate;
   net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, stream, rate,
                              aligned, id = audio_->id] {
-    const viseme::VisemeSet set =
-        self->services_->speech.viseme_options().set.value_or(viseme::VisemeSet::kOculus);
+    const viseme::Options& speech = self->services_->speech.viseme_options();
+    const viseme::VisemeSet set = speech.set.value_or(viseme::VisemeSet::kOculus);
     try {
       engine->lipsync.emplace(self->services_->rigs.load(""),
-                              self->services_->speech.anim_options(), lipsync_options(), set, rate,
-                              kLiveFps, aligned ? &align_options() : nullptr);
+                              self->services_->speech.anim_options(), lipsync_options(), speech,
+                              rate, kLiveFps, aligned ? &align_options() : nullptr);
     } catch (...) {
       const Problem problem = describe(std::current_exception());
       net::post(self->ws_.get_executor(), [self, id, problem] { self->send_error(id, problem); });
