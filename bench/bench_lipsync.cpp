@@ -3,9 +3,10 @@
 // (festival and flite English; altered espeak-ng Mandarin) against the text path's visemes on the
 // true timing, and the human English development recordings of tests/viseme/eval/human_words.tsv
 // (alsa-utils, pocketsphinx-testdata) against the text path's visemes on the HMM alignment of
-// their transcripts. Figures (tests/viseme/lipsync_eval.hpp): class frame accuracy, p/b/m closure
-// recall and precision, f/v (FF) recall, jawOpen correlation. Then speaker adaptation (the
-// cepstral mean frozen at the templates' prior; each recording heard twice, the second pass
+// their transcripts, and the same for the held-out recordings of human_words_heldout.tsv (a check
+// only: nothing is tuned on them). Figures (tests/viseme/lipsync_eval.hpp): class frame accuracy,
+// p/b/m closure recall and precision, f/v (FF) recall, jawOpen correlation. Then speaker adaptation
+// (the cepstral mean frozen at the templates' prior; each recording heard twice, the second pass
 // scored) and the analyser's cost per 10 ms frame.
 #include <chrono>
 #include <cmath>
@@ -77,6 +78,10 @@ int main() {
   if (human.empty())
     std::printf("human recordings missing (alsa-utils, pocketsphinx-testdata): no human rows\n");
   for (const auto& h : human) items.push_back({"English human (dev recordings)", h.audio, h.truth});
+  // The held-out recordings (cards/, librivox/): a check only, never tuned on.
+  for (const auto& h :
+       test::human_lipsync_cases(test::source_dir() / "tests/viseme/eval/human_words_heldout.tsv"))
+    items.push_back({"English human (held-out recordings)", h.audio, h.truth});
 
   const viseme::LipsyncOptions lo = viseme::load_lipsync_options();
   viseme::LipsyncOptions frozen = lo;
