@@ -9,7 +9,7 @@
 // left out: it runs after the fit and does not change it.
 //
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
-//        [--no-warp] [--no-own]
+//        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
 // The default seeds are 3001.. (count 3): held out from every choice of the fit's options
 // (tuning: 11-38; earlier held-out figures: 404-1313; development of this benchmark: 2001-2004).
 #include <algorithm>
@@ -35,6 +35,7 @@ struct Args {
   int count = 3;
   std::vector<std::string> styles;
   bool warp = true, own = true;
+  std::string camera;  // photo.json's camera model overridden ("": as configured)
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -63,10 +64,12 @@ Args parse(int argc, char** argv) {
       a.warp = false;
     } else if (arg == "--no-own") {
       a.own = false;
+    } else if (arg == "--camera") {
+      a.camera = value();
     } else {
       throw Error(
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
-          "[--no-warp] [--no-own]");
+          "[--no-warp] [--no-own] [--camera auto|orthographic|perspective]");
     }
   }
   if (a.seeds.empty())
@@ -92,6 +95,7 @@ Fit run_fit(const rigbuild::PhotoTemplate& tmpl, const test::PhotoShoot& shoot, 
     f.ok = true;
     f.error = test::face_error(tmpl, a.fit.positions, truth);
     f.turn = test::fitted_turn_degrees(a.fit);
+    f.focal = a.fit.front.focal();
     for (const auto& n : a.report["notes"]) f.note += n.get<std::string>() + "; ";
   } catch (const Error& e) {
     f.note = e.what();
@@ -148,6 +152,7 @@ int main(int argc, char** argv) try {
   // As the command: its options and its template (photo.json's, else the shipped one).
   rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
   opt.shapes = false;  // the expressions' transfer follows the fit and does not change it
+  if (!args.camera.empty()) opt.camera = args.camera;
   const rigbuild::PhotoTemplate tmpl =
       rigbuild::load_photo_template(rigbuild::photo_template_path(opt, ""));
   const auto dir = test::build_dir() / "test-artifacts" / "photo";

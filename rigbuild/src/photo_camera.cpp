@@ -9,12 +9,37 @@
 
 namespace facecast::rigbuild {
 
-Eigen::Vector2d OrthoCamera::project(const Eigen::Vector3d& p) const {
+Eigen::Vector2d PhotoCamera::project(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d q = R * p;
-  return {s * q.x() + t.x(), t.y() - s * q.y()};
+  const Eigen::Vector2d u(s * q.x() + t.x(), t.y() - s * q.y());
+  if (kappa <= 0) return u;
+  return centre + (u - centre) / (1 - kappa * q.z());
 }
 
-OrthoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
+Eigen::Vector3d PhotoCamera::eye() const {
+  // Where every ray meets: (R p).z = 1 / kappa, and the origin's offset from the principal point
+  // undone.
+  return R.transpose() *
+         Eigen::Vector3d((centre.x() - t.x()) / s, (t.y() - centre.y()) / s, 1 / kappa);
+}
+
+Eigen::Vector3d PhotoCamera::towards(const Eigen::Vector3d& p) const {
+  if (kappa <= 0) return towards();
+  return (eye() - p).normalized();
+}
+
+Eigen::Matrix<double, 2, 3> PhotoCamera::jacobian(const Eigen::Vector3d& p) const {
+  if (kappa <= 0) return s * R.topRows<2>();
+  // y up: Q = c + U / d, U = (t - c) + s (R p).xy, d = 1 - kappa (R p).z:
+  // dQ/dp = (s R12 + kappa (Q - c) R3) / d.
+  const Eigen::Vector3d q = R * p;
+  const double d = 1 - kappa * q.z();
+  const Eigen::Vector2d pixel = project(p);
+  const Eigen::Vector2d offset(pixel.x() - centre.x(), centre.y() - pixel.y());
+  return (s * R.topRows<2>() + kappa * offset * R.row(2)) / d;
+}
+
+PhotoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector2d>& pixels) {
   const auto n = static_cast<Eigen::Index>(points.size());
   // y up: q = (x, -y) = s R12 p + b.
@@ -39,7 +64,7 @@ OrthoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
                                                     Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Matrix<double, 2, 3> rows =
       svd.matrixU() * Eigen::Matrix<double, 2, 3>::Identity() * svd.matrixV().transpose();
-  OrthoCamera cam;
+  PhotoCamera cam;
   cam.R.row(0) = rows.row(0);
   cam.R.row(1) = rows.row(1);
   cam.R.row(2) = rows.row(0).cross(rows.row(1));
@@ -125,26 +150,38 @@ void rbf_deform(rig::Positions& positions, const std::vector<RbfCentre>& centres
   positions = std::move(out);
 }
 
-render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& positions, int width,
+render::Camera render_camera(const PhotoCamera& camera, const rig::Positions& positions, int width,
                              int height) {
+  const Eigen::Vector3d centre = rig::to_points(positions).colwise().mean().transpose();
+  const double radius =
+      (rig::to_points(positions).rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
+  render::Camera out;
+  out.up = camera.R.row(1).transpose().cast<float>();
+  if (camera.perspective()) {
+    // The camera itself, looking down its axis; the principal point is the photo's centre.
+    const Eigen::Vector3d eye = camera.eye();
+    const double distance = 1 / camera.kappa;
+    out.eye = eye.cast<float>();
+    out.target = (eye - distance * camera.towards()).cast<float>();
+    out.fov_y_deg = static_cast<float>(2 * std::atan(0.5 * height / camera.focal()) * 180.0 / M_PI);
+    const double to_head = (eye - centre).norm();
+    out.near_plane = static_cast<float>(std::max(1e-3 * to_head, to_head - 2 * radius));
+    out.far_plane = static_cast<float>(to_head + 2 * radius);
+    return out;
+  }
   // A narrow perspective camera far away approximates the orthographic projection: the photo's
   // centre pixel back-projected at the head's mean depth is the target.
-  const Eigen::Vector3d centre = rig::to_points(positions).colwise().mean().transpose();
   const double z0 = camera.depth(centre);
   const Eigen::Vector3d target =
       camera.R.transpose() * Eigen::Vector3d((0.5 * (width - 1) - camera.t.x()) / camera.s,
                                              (camera.t.y() - 0.5 * (height - 1)) / camera.s, z0);
-  render::Camera out;
   out.fov_y_deg = 1.0f;
   const double half = 0.5 * height / camera.s;
   const double distance = half / std::tan(0.5 * out.fov_y_deg * M_PI / 180.0);
   out.target = target.cast<float>();
   out.eye = (target + distance * camera.towards()).cast<float>();
-  out.up = camera.R.row(1).transpose().cast<float>();
-  const double depth =
-      (rig::to_points(positions).rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
-  out.near_plane = static_cast<float>(std::max(1e-3, distance - 2 * depth));
-  out.far_plane = static_cast<float>(distance + 2 * depth);
+  out.near_plane = static_cast<float>(std::max(1e-3, distance - 2 * radius));
+  out.far_plane = static_cast<float>(distance + 2 * radius);
   return out;
 }
 

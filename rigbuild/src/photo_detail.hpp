@@ -12,7 +12,7 @@ namespace facecast::rigbuild {
 /// Scale-orthographic camera closest to `pixels` (photo coordinates) = projection of `points`:
 /// the affine camera by least squares, its 2x3 part replaced by the nearest scaled pair of
 /// orthonormal rows (SVD), then scale and translation refitted.
-OrthoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
+PhotoCamera fit_ortho_camera(const std::vector<Eigen::Vector3d>& points,
                              const std::vector<Eigen::Vector2d>& pixels);
 
 /// One exact-displacement constraint of the calibration: vertex `vertex` moves by `move`.
@@ -36,7 +36,7 @@ struct DepthBuffer {
   int w = 0, h = 0;
   std::vector<float> depth;  // w * h, rows from the top
   DepthBuffer(const rig::Positions& positions, const Triangles& triangles,
-              const OrthoCamera& camera, int width, int height);
+              const PhotoCamera& camera, int width, int height);
   /// Depth z at the pixel nearest `at` is not behind the mesh by more than `tolerance`.
   bool visible(const Eigen::Vector2d& at, double z, double tolerance) const;
   /// A triangle covers the pixel nearest `at`.

@@ -1,7 +1,7 @@
-// The photo avatar's shape: scale-orthographic cameras and identity-mode coefficients fitted
-// together to the photos' landmarks (jaw-line points matched to the fit's silhouette) and to the
-// edges along the face's outline, then the residuals moved by an RBF deformation. See
-// docs/algorithms.md#photo-avatar.
+// The photo avatar's shape: the cameras (scale-orthographic or perspective) and identity-mode
+// coefficients fitted together to the photos' landmarks (jaw-line points matched to the fit's
+// silhouette) and to the edges along the face's outline, then the residuals moved by an RBF
+// deformation. See docs/algorithms.md#photo-avatar.
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -34,7 +34,7 @@ struct View {
   const PhotoLandmarks* marks = nullptr;
   std::vector<int> used;      // landmarks this photo contributes
   std::vector<char> contour;  // per landmark: matched to the silhouette
-  OrthoCamera camera;
+  PhotoCamera camera;
   std::array<int, kLandmarkCount> vertex{};
   const PhotoTemplate* tmpl = nullptr;
   const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
@@ -44,6 +44,8 @@ struct View {
   // vertical axis (R_front Ry(turn)) instead of a free rotation.
   bool turned = false;
   double turn = 0;
+  // The camera's perspective (PhotoCamera::kappa) is fitted too (else it stays as it is).
+  bool perspective = false;
   std::optional<EdgeImage> edges;     // the photo's, when its outline is matched
   std::vector<OutlinePoint> outline;  // the outline's matches (match_outline)
 
@@ -90,6 +92,22 @@ rig::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) 
   return p;
 }
 
+// Per vertex: on the silhouette the camera sees (from its centre when it has perspective).
+std::vector<char> camera_silhouette(const rig::Positions& p, const Triangles& tris,
+                                    const PhotoCamera& camera) {
+  if (!camera.perspective()) return silhouette(p, tris, camera.towards());
+  const Eigen::Vector3d eye = camera.eye();
+  std::vector<unsigned char> facing(static_cast<std::size_t>(p.rows()), 0);
+  for (Eigen::Index f = 0; f < tris.rows(); ++f) {
+    const Eigen::Vector3d a = row(p, tris(f, 0)), b = row(p, tris(f, 1)), c = row(p, tris(f, 2));
+    const unsigned char bit = (b - a).cross(c - a).dot(eye - a) > 0 ? 1 : 2;
+    for (int k = 0; k < 3; ++k) facing[static_cast<std::size_t>(tris(f, k))] |= bit;
+  }
+  std::vector<char> out(facing.size());
+  for (std::size_t v = 0; v < facing.size(); ++v) out[v] = facing[v] == 3;
+  return out;
+}
+
 // Per jaw landmark, the skin vertices near the template's jaw vertex that may become its
 // silhouette point.
 std::vector<std::vector<int>> jaw_candidates(const PhotoTemplate& tmpl, double radius) {
@@ -108,8 +126,7 @@ std::vector<std::vector<int>> jaw_candidates(const PhotoTemplate& tmpl, double r
 // the silhouette vertices near it, the one projecting nearest the photo's point.
 void match_contour(const PhotoTemplate& tmpl, const rig::Positions& positions,
                    const std::vector<std::vector<int>>& candidates, View& view) {
-  const std::vector<char> outline =
-      silhouette(positions, tmpl.rig.triangles, view.camera.towards());
+  const std::vector<char> outline = camera_silhouette(positions, tmpl.rig.triangles, view.camera);
   for (int k : view.used) {
     const auto i = static_cast<std::size_t>(k);
     if (!view.contour[i]) continue;
@@ -157,9 +174,9 @@ std::vector<char> outline_region(const PhotoTemplate& tmpl, double iod) {
 // median are dropped: another feature than the outline was found, or none.
 void match_outline(const PhotoTemplate& tmpl, const rig::Positions& p,
                    const std::vector<char>& region, double window, double spacing, View& view) {
-  const OrthoCamera& cam = view.camera;
+  const PhotoCamera& cam = view.camera;
   const EdgeImage& edges = *view.edges;
-  const std::vector<char> outline = silhouette(p, tmpl.rig.triangles, cam.towards());
+  const std::vector<char> outline = camera_silhouette(p, tmpl.rig.triangles, cam);
   const rig::Positions normals = rig::vertex_normals(p, tmpl.rig.triangles);
   const DepthBuffer cover(p, tmpl.rig.triangles, cam, edges.width(), edges.height());
   std::set<std::pair<long, long>> cells;
@@ -167,11 +184,15 @@ void match_outline(const PhotoTemplate& tmpl, const rig::Positions& p,
   const double step = window / 16;
   for (int v = 0; v < p.rows(); ++v) {
     if (!region[static_cast<std::size_t>(v)] || !outline[static_cast<std::size_t>(v)]) continue;
-    const Eigen::Vector3d n3 = cam.R * row(normals, v);
-    Eigen::Vector2d n(n3.x(), -n3.y());
-    if (n.norm() < 0.5) continue;  // facing the camera: not on the outline
+    const Eigen::Vector3d normal = row(normals, v), at = row(p, v);
+    const double facing = normal.dot(cam.towards(at));
+    if (1 - facing * facing < 0.25) continue;  // facing the camera: not on the outline
+    // The normal seen in the photo (pixels, y down).
+    Eigen::Vector2d n = cam.jacobian(at) * normal;
+    n.y() = -n.y();
+    if (n.norm() == 0) continue;
     n.normalize();
-    const Eigen::Vector2d x = cam.project(row(p, v));
+    const Eigen::Vector2d x = cam.project(at);
     if (cover.covered(x + 0.25 * spacing * n)) continue;
     if (!cells
              .insert({std::lround(std::floor(x.x() / spacing)),
@@ -229,12 +250,17 @@ void fit_camera(const rig::Positions& positions, const Eigen::VectorXd& c, View&
 // the variance components that set the side photo's noise (fit_shape). `sd` (optional): the
 // coefficients' posterior standard deviations, sqrt(diag(noise^2 H^-1)) over the modes (the data
 // terms and the prior, both in units of `noise`), at the step's start.
+constexpr Eigen::Index kCameraParameters = 6;  // per photo: rotation (3), scale, translation (2)
+
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
                        double iod, double noise, double outline_noise,
                        std::vector<Eigen::Vector2d>* scatter = nullptr,
                        Eigen::VectorXd* sd = nullptr) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
-  const Eigen::Index n = K + 6 * static_cast<Eigen::Index>(views.size());
+  // The last parameter: the photos' shared inverse focal length q (kappa_v = s_v q; one camera
+  // took both photos).
+  const Eigen::Index n = K + kCameraParameters * static_cast<Eigen::Index>(views.size()) + 1;
+  const double inv_focal = views[0].perspective ? views[0].camera.kappa / views[0].camera.s : 0.0;
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
   H.topLeftCorner(K, K).diagonal().array() += noise * noise;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
@@ -245,24 +271,40 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     if (scatter) Hv.push_back(Eigen::MatrixXd::Zero(n, n));
     const View& view = views[vi];
-    const OrthoCamera& cam = view.camera;
+    const PhotoCamera& cam = view.camera;
     const double unit = 1.0 / (cam.s * iod);
-    const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
+    const Eigen::Index o = K + kCameraParameters * static_cast<Eigen::Index>(vi);
     const Eigen::Matrix<double, 2, 3> R12 = cam.R.topRows<2>();
-    // d pi_v(x) / d(c, cameras), y up; D: d x / d c.
+    // d pi_v(x) / d(c, cameras), y up; D: d x / d c. With r = R x, d = 1 - kappa r.z and Q the
+    // pixel (y up, from the principal point): dQ/dr = (s [I 0] + kappa Q e_z^T) / d, so that
+    // dQ/dx = dQ/dr R (PhotoCamera::jacobian).
     const auto jacobian = [&](const Eigen::Vector3d& x, const Eigen::Matrix3Xd& D) {
       Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, n);
-      J.leftCols(K) = cam.s * R12 * D;
+      const Eigen::Vector3d r = cam.R * x;
+      const double d = 1 - cam.kappa * r.z();
+      const Eigen::Vector2d pixel = cam.project(x);
+      const Eigen::Vector2d offset(pixel.x() - cam.centre.x(), cam.centre.y() - pixel.y());
+      Eigen::Matrix<double, 2, 3> dr = Eigen::Matrix<double, 2, 3>::Zero();
+      dr.leftCols<2>() = cam.s * Eigen::Matrix2d::Identity();
+      dr.col(2) = cam.kappa * offset;
+      dr /= d;
+      const Eigen::Matrix<double, 2, 3> dx = dr * cam.R;
+      J.leftCols(K) = dx * D;
       if (view.turned) {
         // R = R_front exp([w]x) Ry(turn): the front photo's w, and the turn.
         const Eigen::Vector3d y = Eigen::AngleAxisd(view.turn, Eigen::Vector3d::UnitY()) * x;
-        J.block(0, K, 2, 3) = -cam.s * views[0].camera.R.topRows<2>() * skew(y);
-        J.col(o) = cam.s * R12 * Eigen::Vector3d::UnitY().cross(x);
+        J.block(0, K, 2, 3) = -dr * views[0].camera.R * skew(y);
+        J.col(o) = dx * Eigen::Vector3d::UnitY().cross(x);
       } else {
-        J.block(0, o, 2, 3) = -cam.s * R12 * skew(x);  // d(R exp([w]x) x)/dw at 0: -R [x]x
+        J.block(0, o, 2, 3) = -dx * skew(x);  // d(R exp([w]x) x)/dw at 0: -R [x]x
       }
-      J.col(o + 3) = R12 * x;
-      J.block(0, o + 4, 2, 2) = Eigen::Matrix2d::Identity();
+      J.col(o + 3) = R12 * x / d;
+      J.block(0, o + 4, 2, 2) = Eigen::Matrix2d::Identity() / d;
+      if (view.perspective) {  // dQ/dkappa = Q r.z / d, kappa = s q
+        const Eigen::Vector2d dkappa = offset * r.z() / d;
+        J.col(o + 3) += inv_focal * dkappa;
+        J.col(n - 1) = cam.s * dkappa;
+      }
       return J;
     };
     Eigen::Matrix3Xd D(3, K);
@@ -295,14 +337,42 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       g += J.transpose() * r;
     }
   }
-  for (std::size_t vi = 0; vi < views.size(); ++vi)
+  for (std::size_t vi = 0; vi < views.size(); ++vi) {
+    const Eigen::Index o = K + kCameraParameters * static_cast<Eigen::Index>(vi);
     if (views[vi].turned) {  // its other two rotation parameters are not used
-      const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
       H(o + 1, o + 1) += 1;
       H(o + 2, o + 2) += 1;
     }
+  }
+  if (!views[0].perspective) H(n - 1, n - 1) += 1;  // orthographic: q stays 0
   const auto ldlt = H.ldlt();
-  const Eigen::VectorXd dx = ldlt.solve(g);
+  Eigen::VectorXd dx = ldlt.solve(g);
+  if (views[0].perspective) {
+    // q stays in [0, 0.8 / (s max r_z)] (no point of the head nearer than a fifth of the camera's
+    // distance) and a step moves the nearest point's perspective factor kappa r_z by at most 0.05
+    // (far from the solution a full step can throw the cameras off). A step that would leave
+    // those bounds takes q to the bound and solves the other parameters again with it there (a
+    // coupled step computed for a q that is not taken throws them off instead).
+    double nearest = 1e-9, s_max = 0;
+    for (const View& view : views) {
+      for (int v = 0; v < p.rows(); ++v)
+        nearest = std::max(nearest, (view.camera.R * row(p, v)).z());
+      s_max = std::max(s_max, view.camera.s);
+    }
+    const double limit = 0.05 / (nearest * s_max);
+    const double next =
+        std::clamp(inv_focal + std::clamp(dx(n - 1), -limit, limit), 0.0, 0.8 / (nearest * s_max));
+    const double step = next - inv_focal;
+    if (step != dx(n - 1)) {
+      Eigen::MatrixXd Hq = H;
+      Eigen::VectorXd gq = g - H.col(n - 1) * step;
+      Hq.row(n - 1).setZero();
+      Hq.col(n - 1).setZero();
+      Hq(n - 1, n - 1) = 1;
+      gq(n - 1) = step;
+      dx = Hq.ldlt().solve(gq);
+    }
+  }
   if (scatter) {
     scatter->clear();
     for (std::size_t vi = 0; vi < views.size(); ++vi)
@@ -315,8 +385,8 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   }
   c += dx.head(K);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
-    OrthoCamera& cam = views[vi].camera;
-    const Eigen::Index o = K + 6 * static_cast<Eigen::Index>(vi);
+    PhotoCamera& cam = views[vi].camera;
+    const Eigen::Index o = K + kCameraParameters * static_cast<Eigen::Index>(vi);
     const Eigen::Vector3d w = dx.segment<3>(o);
     if (views[vi].turned) {  // after the front photo's camera (vi = 0) moved
       views[vi].turn += dx(o);
@@ -326,6 +396,8 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
     cam.s += dx(o + 3);
     cam.t += Eigen::Vector2d(dx(o + 4), -dx(o + 5));
   }
+  if (views[0].perspective)
+    for (View& view : views) view.camera.kappa = view.camera.s * (inv_focal + dx(n - 1));
 }
 
 double rms_pixels(const rig::Positions& p, const Eigen::VectorXd& c, const View& view) {
@@ -350,11 +422,11 @@ std::vector<RbfCentre> calibration_moves(const rig::Positions& p, const Eigen::V
   std::vector<Eigen::Vector3d> Atb;
   for (const auto& view : views) {
     if (&view != &views.front() && !side_moves) continue;
-    const Eigen::Matrix<double, 2, 3> A = view.camera.s / view.noise * view.camera.R.topRows<2>();
     for (int k : view.used) {
       const int v = view.vertex[static_cast<std::size_t>(k)];
-      Eigen::Vector2d r = view.marks->points[static_cast<std::size_t>(k)] -
-                          view.camera.project(view.point(p, c, k));
+      const Eigen::Vector3d x = view.point(p, c, k);
+      const Eigen::Matrix<double, 2, 3> A = view.camera.jacobian(x) / view.noise;
+      Eigen::Vector2d r = view.marks->points[static_cast<std::size_t>(k)] - view.camera.project(x);
       r.y() = -r.y();
       r /= view.noise;
       auto it = std::find(order.begin(), order.end(), v);
@@ -382,7 +454,8 @@ std::vector<RbfCentre> calibration_moves(const rig::Positions& p, const Eigen::V
 // detector offsets were measured).
 PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                    const PhotoLandmarks* side, const PhotoOptions& options, bool contour,
-                   const render::Image* front_photo, const render::Image* side_photo) {
+                   const render::Image* front_photo, const render::Image* side_photo,
+                   bool perspective, const PhotoFit* start) {
   const auto& X0 = tmpl.rig.positions;
   const double iod = (row(X0, tmpl.landmarks[36]) - row(X0, tmpl.landmarks[45])).norm();
   std::vector<View> views(side ? 2 : 1);
@@ -417,20 +490,50 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     views[1].turn = std::atan2(rel(0, 2), rel(0, 0));
     views[1].camera.R = views[0].camera.R * turn_matrix(views[1].turn);
   }
+  if (start) {
+    // From an earlier fit's cameras (analysis by synthesis): the detector's offsets measured on
+    // renders of a side photo move its camera fitted alone by up to 15 degrees of turn, further
+    // than the outline reaches.
+    views[0].camera = start->front;
+    if (side && start->side) {
+      views[1].camera = *start->side;
+      if (views[1].turned) {
+        const Eigen::Matrix3d rel = start->front.R.transpose() * start->side->R;
+        views[1].turn = std::atan2(rel(0, 2), rel(0, 0));
+        views[1].camera.R = views[0].camera.R * turn_matrix(views[1].turn);
+      }
+    }
+    if (!perspective)
+      for (auto& v : views) v.camera.kappa = 0;
+  }
+  if (perspective)
+    for (auto& v : views) {
+      // From orthographic (kappa 0, or the earlier fit's) on; the principal point is the photo's
+      // centre.
+      v.perspective = true;
+      v.camera.centre = {0.5 * (v.marks->width - 1), 0.5 * (v.marks->height - 1)};
+    }
   // The outlines' edges, blurred and searched in proportion to the face's size in each photo.
   const render::Image* photos[2] = {options.front_outline ? front_photo : nullptr,
                                     options.side_outline ? side_photo : nullptr};
   for (std::size_t i = 0; i < views.size(); ++i)
     if (photos[i]) views[i].edges.emplace(*photos[i], 0.01 * views[i].camera.s * iod);
   const auto region = outline_region(tmpl, iod);
+  // The outline's search window (inter-ocular distances) in round `it`: outline_start times
+  // outline_window in the first round that matches outlines, half a window narrower each round
+  // after. The side photo's first turn, from the landmarks alone, is often 5-10 degrees short
+  // (dlib's points on a turned face lie as if it were turned less), and its outline then lies
+  // outside the narrow window.
+  const auto window = [&](int it) {
+    return options.outline_window * std::max(1.0, options.outline_start - 0.5 * (it - 1));
+  };
   double noise = options.landmark_noise;  // the front landmarks', inter-ocular distances
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
     if (it > 0)
       for (auto& v : views) {
         match_contour(tmpl, p, candidates, v);
         if (v.edges)
-          match_outline(tmpl, p, region, options.outline_window * v.camera.s * iod,
-                        0.05 * v.camera.s * iod, v);
+          match_outline(tmpl, p, region, window(it) * v.camera.s * iod, 0.05 * v.camera.s * iod, v);
       }
     std::vector<Eigen::Vector2d> scatter;
     for (int step = 0; step < 3; ++step)
@@ -455,6 +558,17 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     p = apply_modes(tmpl, fit.coefficients);
   }
   fit.model_positions = p;
+  for (std::size_t vi = 0; vi < views.size(); ++vi) {
+    // The landmarks' misfit in inter-ocular distances (the camera model's evidence).
+    const View& v = views[vi];
+    double sum = 0;
+    for (int k : v.used)
+      sum += (v.camera.project(v.point(p, fit.coefficients, k)) -
+              v.marks->points[static_cast<std::size_t>(k)])
+                 .squaredNorm();
+    (vi == 0 ? fit.front_rss : fit.side_rss) = sum / std::pow(v.camera.s * iod, 2);
+    fit.residuals += 2 * static_cast<int>(v.used.size());
+  }
   fit.front_rms = rms_pixels(p, fit.coefficients, views[0]);
   if (side) {
     fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
@@ -484,8 +598,37 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
 
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
-                         const render::Image* front_photo, const render::Image* side_photo) {
-  return fit_shape(tmpl, front, side, options, tmpl.mode_bias.empty(), front_photo, side_photo);
+                         const render::Image* front_photo, const render::Image* side_photo,
+                         const PhotoFit* start) {
+  const bool contour = tmpl.mode_bias.empty();
+  const bool sized = front.width > 0 && (!side || side->width > 0);
+  if (options.camera == "orthographic" || !sized)
+    return fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, false, start);
+  if (options.camera == "perspective") {
+    PhotoFit fit =
+        fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, true, start);
+    fit.camera_model = "perspective";
+    return fit;
+  }
+  // Chosen by the evidence: each model's landmark misfit in the orthographic fit's noise (the
+  // front's, and the side's relative to it) plus the identity prior, chi^2 + |c|^2, and for the
+  // perspective one a penalty of ln(residuals) for its extra parameter (the focal length the
+  // photos share: the Bayesian information criterion).
+  PhotoFit ortho =
+      fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, false, start);
+  PhotoFit persp =
+      fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, true, start);
+  const double var = ortho.noise * ortho.noise;
+  const double side_var = var * std::max(1.0, ortho.side_noise * ortho.side_noise);
+  const auto chi2 = [&](const PhotoFit& f) {
+    return f.front_rss / var + f.side_rss / side_var + f.coefficients.squaredNorm();
+  };
+  const double penalty = std::log(static_cast<double>(ortho.residuals));
+  const double evidence = chi2(ortho) - chi2(persp) - penalty;
+  PhotoFit& chosen = evidence > 0 ? persp : ortho;
+  chosen.camera_model = evidence > 0 ? "perspective" : "orthographic";
+  chosen.camera_evidence = evidence;
+  return chosen;
 }
 
 std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
@@ -499,7 +642,7 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
   plain.side_mode_bias.clear();
   PhotoOptions o = options;
   o.landmark_noise = 1e6;  // the template's own shape: no identity modes
-  const PhotoFit fit = fit_shape(plain, front, side, o, false, nullptr, nullptr);
+  const PhotoFit fit = fit_shape(plain, front, side, o, false, nullptr, nullptr, false, nullptr);
   std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
   for (int k = 0; k < kLandmarkCount; ++k)
     out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];

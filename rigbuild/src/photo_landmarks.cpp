@@ -97,6 +97,8 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
   const dlib::rectangle best = *std::max_element(
       faces.begin(), faces.end(), [](const auto& a, const auto& b) { return a.area() < b.area(); });
   PhotoLandmarks out;
+  out.width = photo.width;
+  out.height = photo.height;
   out.faces = static_cast<int>(faces.size());
   out.box = best.width() / scale;
   if (out.box < options.min_face)

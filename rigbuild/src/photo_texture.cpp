@@ -240,7 +240,7 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
 
 }  // namespace
 
-DepthBuffer::DepthBuffer(const rig::Positions& p, const Triangles& tri, const OrthoCamera& cam,
+DepthBuffer::DepthBuffer(const rig::Positions& p, const Triangles& tri, const PhotoCamera& cam,
                          int w_, int h_)
     : w(w_), h(h_), depth(static_cast<std::size_t>(w_) * h_, kEmpty) {
   std::vector<Eigen::Vector2d> px(static_cast<std::size_t>(p.rows()));
@@ -338,7 +338,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
   t.covered.assign(n, 0);
 
   const render::Image* photos[2] = {&front, side};
-  const OrthoCamera* cams[2] = {&fit.front, fit.side ? &*fit.side : nullptr};
+  const PhotoCamera* cams[2] = {&fit.front, fit.side ? &*fit.side : nullptr};
   const double iod = (fit.positions.row(tmpl.landmarks[36]) - fit.positions.row(tmpl.landmarks[45]))
                          .cast<double>()
                          .norm();
@@ -368,7 +368,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                         t.covered[i] = 1;
                         bool seen = false, taken = false;
                         for (std::size_t k = 0; k < depth.size(); ++k) {
-                          const double facing = nrm.dot(cams[k]->towards());
+                          const double facing = nrm.dot(cams[k]->towards(p));
                           const Eigen::Vector2d at = cams[k]->project(p);
                           if (facing <= 0 || !depth[k].visible(at, cams[k]->depth(p), 0.02 * iod))
                             continue;

@@ -340,7 +340,7 @@ inline double fitted_turn_degrees(const rigbuild::PhotoFit& fit) {
 }
 
 /// `rig` rendered as the photo's camera saw it (the photo's size), with the given weights.
-inline render::Image render_as_photo(const rig::Rig& rig, const rigbuild::OrthoCamera& camera,
+inline render::Image render_as_photo(const rig::Rig& rig, const rigbuild::PhotoCamera& camera,
                                      const render::Image& photo,
                                      const std::vector<std::pair<std::string, float>>& named = {}) {
   render::RenderOptions ro;

@@ -1,12 +1,12 @@
 #pragma once
 // An avatar from photos (docs/algorithms.md#photo-avatar): dlib's 68 landmarks in a front photo
-// (and optionally a side photo, turned up to about 45 degrees), a scale-orthographic camera per
-// photo estimated jointly with the shape (similarity + the template's identity modes by
-// regularised least squares, jaw-line points matched to the fit's silhouette, the face's outline
-// to the photos' edges), the landmark residuals then moved by an RBF deformation of the whole
-// head (eyes and mouth interior carried rigidly), a UV texture baked from the photos blended by the
-// normal (seed 003, section 5), and the template's expressions transferred onto the fitted head
-// (build.hpp).
+// (and optionally a side photo, turned up to about 45 degrees), a scale-orthographic or
+// perspective camera per photo (PhotoCamera; the model chosen by the evidence) estimated jointly
+// with the shape (similarity + the template's identity modes by regularised least squares,
+// jaw-line points matched to the fit's silhouette, the face's outline to the photos' edges), the
+// landmark residuals then moved by an RBF deformation of the whole head (eyes and mouth interior
+// carried rigidly), a UV texture baked from the photos blended by the normal (seed 003, section
+// 5), and the template's expressions transferred onto the fitted head (build.hpp).
 //
 // Photos: y down, pixel centres at whole numbers (dlib's convention). Heads face +Z, +Y up.
 #include <array>
@@ -53,18 +53,23 @@ struct PhotoOptions {
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
-  bool side_calibration = false;    // the RBF calibration moves the side photo's residuals too
-  bool front_outline = false;       // the fit matches the face's outline to the front photo's edges
-  bool side_outline = true;         // ... and to the side photo's
-  double outline_noise = 2.0;       // an outline point's noise relative to a front landmark's
-  double outline_window = 0.06;     // edges searched this far from the outline, inter-ocular dist.
-  double rbf_smoothing = 1.0;       // RBF regularisation: 0 moves the landmarks exactly
-  double rbf_radius = 1.2;          // RBF support radius, in inter-ocular distances of the template
-  int texture_size = 1024;          // texture height; the width is twice (face and back of head)
-  double side_gamma = 1.0;          // blend exponent on the normal's components (1: the seed's)
-  bool mask_background = true;      // outside the face, no background or clothes in the texture
-  bool shapes = true;               // transfer the template's expressions onto the fitted head
-  BuildOptions build;               // that transfer (configs/rigbuild/build.json)
+  /// The photos' camera: "orthographic" (scale-orthographic), "perspective" (one unknown focal
+  /// length for the photos, the principal point at each one's centre) or "auto" (the one the
+  /// evidence picks: fit_photo_shape).
+  std::string camera = "auto";
+  bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
+  bool front_outline = false;     // the fit matches the face's outline to the front photo's edges
+  bool side_outline = true;       // ... and to the side photo's
+  double outline_noise = 2.0;     // an outline point's noise relative to a front landmark's
+  double outline_window = 0.06;   // edges searched this far from the outline, inter-ocular dist.
+  double outline_start = 2.5;     // ... times this in the first round, narrowing to it by round 4
+  double rbf_smoothing = 1.0;     // RBF regularisation: 0 moves the landmarks exactly
+  double rbf_radius = 1.2;        // RBF support radius, in inter-ocular distances of the template
+  int texture_size = 1024;        // texture height; the width is twice (face and back of head)
+  double side_gamma = 1.0;        // blend exponent on the normal's components (1: the seed's)
+  bool mask_background = true;    // outside the face, no background or clothes in the texture
+  bool shapes = true;             // transfer the template's expressions onto the fitted head
+  BuildOptions build;             // that transfer (configs/rigbuild/build.json)
 };
 
 /// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
@@ -109,27 +114,43 @@ struct PhotoLandmarks {
   double box = 0;                // width of the face box, pixels
   std::array<double, 4> rect{};  // the face box: left, top, right, bottom (pixels)
   std::string note;              // e.g. "3 faces found, the largest used"
+  int width = 0, height = 0;     // the photo's size (0: unknown; no perspective camera then)
 };
 
 /// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
 PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
                                       const PhotoOptions& options);
 
-/// Scale-orthographic camera: pixel = (s (R p).x + tx, ty - s (R p).y); depth (R p).z grows
-/// towards the camera.
-struct OrthoCamera {
+/// A photo's camera. Scale-orthographic (kappa = 0): pixel = (s (R p).x + tx, ty - s (R p).y);
+/// perspective (kappa > 0, 1 / the camera's distance from the model's origin along its axis):
+/// pixel = c + ((t - c) + s ((R p).x, -(R p).y)) / (1 - kappa (R p).z), c the principal point
+/// (the photo's centre), so t is still where the origin projects, s the scale there, and the
+/// focal length s / kappa pixels. Depth (R p).z grows towards the camera.
+struct PhotoCamera {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   double s = 1;
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  double kappa = 0;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // the principal point (perspective), pixels
   Eigen::Vector2d project(const Eigen::Vector3d& p) const;
   double depth(const Eigen::Vector3d& p) const { return (R * p).z(); }
-  /// The direction towards the camera in model coordinates.
+  /// The camera's axis, towards the camera, in model coordinates.
   Eigen::Vector3d towards() const { return R.row(2).transpose(); }
+  /// The direction from p towards the camera (the axis when orthographic).
+  Eigen::Vector3d towards(const Eigen::Vector3d& p) const;
+  /// The camera's centre in model coordinates (perspective only).
+  Eigen::Vector3d eye() const;
+  /// d pixel / d p at p, with the pixel's y pointing up (2 x 3).
+  Eigen::Matrix<double, 2, 3> jacobian(const Eigen::Vector3d& p) const;
+  bool perspective() const { return kappa > 0; }
+  /// The focal length in pixels (0: orthographic).
+  double focal() const { return kappa > 0 ? s / kappa : 0.0; }
 };
 
-/// A renderer camera (narrow field of view, far away) that shows what `camera` projects onto a
-/// width x height photo: for rendering the result as the photo saw it.
-render::Camera render_camera(const OrthoCamera& camera, const rig::Positions& positions, int width,
+/// A renderer camera that shows what `camera` projects onto a width x height photo (an
+/// orthographic one: a narrow field of view far away): for rendering the result as the photo saw
+/// it.
+render::Camera render_camera(const PhotoCamera& camera, const rig::Positions& positions, int width,
                              int height);
 
 struct PhotoFit {
@@ -138,13 +159,21 @@ struct PhotoFit {
   Eigen::VectorXd coefficients;    // identity-mode weights
   Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
   double noise = 0;  // the front landmarks' noise estimated (inter-ocular distances; PhotoOptions)
-  OrthoCamera front;
-  std::optional<OrthoCamera> side;
+  PhotoCamera front;
+  std::optional<PhotoCamera> side;
   std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
   std::array<int, kLandmarkCount> side_vertex{};   // -1 where not used in the side photo
   double front_rms = 0, side_rms = 0;              // landmark residual of the model fit, pixels
   double side_noise = 0;  // the side landmarks' noise relative to the front's that the fit used
   double moved_rms = 0;   // RMS RBF displacement at the landmarks, model units
+  /// The landmarks' misfit of the model fit, squared inter-ocular distances, and how many
+  /// residuals (two per point) it sums: the camera model's evidence.
+  double front_rss = 0, side_rss = 0;
+  int residuals = 0;
+  /// The cameras' model (PhotoOptions::camera): "orthographic" or "perspective"; and, when chosen
+  /// by the evidence, chi^2 (orthographic) - chi^2 (perspective) - the penalty (> 0: perspective).
+  std::string camera_model = "orthographic";
+  double camera_evidence = 0;
   /// Per landmark, the calibration's move of its front vertex (model units).
   std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
 };
@@ -154,11 +183,17 @@ struct PhotoFit {
 std::vector<int> side_points(const PhotoLandmarks& side);
 
 /// `front_photo`, `side_photo` (optional): the photos the landmarks came from, whose outlines the
-/// fit then matches too.
+/// fit then matches too. With options.camera "auto" both camera models are fitted and the
+/// perspective one is kept when chi^2 = RSS_front / sigma^2 + RSS_side / (sigma n_side)^2 + |c|^2
+/// (sigma, n_side: the orthographic fit's noises) is lower by more than ln(residuals), the
+/// Bayesian information criterion's price of its parameter; landmarks of unknown photo size
+/// (PhotoLandmarks::width 0) keep the orthographic camera. `start` (optional): an earlier fit
+/// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
                          const render::Image* front_photo = nullptr,
-                         const render::Image* side_photo = nullptr);
+                         const render::Image* side_photo = nullptr,
+                         const PhotoFit* start = nullptr);
 
 /// The detector's convention on a kind of photo (renders, say): the template itself photographed
 /// that way and fitted without identity modes; per landmark the calibration's move, which
