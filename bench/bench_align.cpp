@@ -6,7 +6,9 @@
 // librivox/, never tuned on). English runs through both backends (HMM, DTW). Prints mean,
 // median, p95 and max per language, voice set and backend, then per source.
 // BENCH_ALIGN_ONLY=en|zh keeps one language, BENCH_ALIGN_SET=synthetic|human|heldout one voice
-// set, BENCH_ALIGN_VERBOSE=1 prints each word's error.
+// set; BENCH_ALIGN_SET=function runs only the short function-word sentences ("to be", "of the":
+// festival, flite's four voices, and flite 30 % faster; align_cases.hpp). BENCH_ALIGN_VERBOSE=1
+// prints each word's error, =2 also each word's aligned span and the true onsets.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -49,6 +51,18 @@ int main() {
   std::vector<std::string> sets;  // each case's voice set
   if (wanted("synthetic")) cases = test::all_cases(facecast::test::test_data_dir() / "align");
   sets.assign(cases.size(), "synthetic");
+  if (set && std::string(set) == "function") {
+    // Short function words after pauses and plosives (align_cases.hpp).
+    const auto dir = facecast::test::test_data_dir() / "align_function";
+    std::filesystem::create_directories(dir);
+    const auto& s = test::function_word_sentences();
+    cases = test::festival_cases(dir, s, "fw");
+    for (auto& c : test::flite_cases(dir, s, {"slt", "kal16", "awb", "rms"}, "fw"))
+      cases.push_back(std::move(c));
+    for (auto& c : test::flite_cases(dir, s, {"rms", "slt", "awb", "kal16"}, "fast", 0.7))
+      cases.push_back(std::move(c));
+    sets.assign(cases.size(), "function");
+  }
   for (const auto& [name, file] : {std::pair<const char*, const char*>{"human", "human_words.tsv"},
                                    {"heldout", "human_words_heldout.tsv"}}) {
     if (!wanted(name)) continue;
@@ -65,7 +79,7 @@ int main() {
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const auto& c = cases[i];
     if (only && c.lang != only) continue;
-    const bool human = sets[i] != "synthetic";
+    const bool human = sets[i] != "synthetic" && sets[i] != "function";
     const viseme::Audio audio = human ? test::human_audio(c) : viseme::read_audio(c.audio);
     std::vector<std::pair<std::string, viseme::AlignOptions::Backend>> backends = {
         {"dtw", viseme::AlignOptions::Backend::kDtw}};
@@ -94,6 +108,15 @@ int main() {
         for (std::size_t w = 0; w < u.words.size(); ++w)
           std::printf(" %4.0f", (u.words[w].start - c.onsets[w]) * 1000);
         std::printf("\n");
+        if (std::getenv("BENCH_ALIGN_VERBOSE")[0] == '2') {
+          std::printf("     spans:");
+          for (const auto& w : u.words)
+            std::printf(" %s %.3f-%.3f(%.0f)", w.text.c_str(), w.start, w.end,
+                        (w.end - w.start) * 1000);
+          std::printf("\n     true:");
+          for (std::size_t w = 0; w < u.words.size(); ++w) std::printf(" %.3f", c.onsets[w]);
+          std::printf("\n");
+        }
       }
     }
   }

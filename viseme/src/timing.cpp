@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <string_view>
 
 #include "espeak.hpp"
 #include "facecast/core/utf8.hpp"
@@ -60,6 +61,55 @@ std::string phrase_text(const Plan& plan, const Phrase& ph, std::vector<int>& po
   return text;
 }
 
+// Whether an espeak-ng English phone name (the table's) is a vowel.
+bool vowel_name(const std::string& n) {
+  return !n.empty() && std::string_view("aAeEiIoOuUV03@").find(n[0]) != std::string_view::npos;
+}
+
+// Edit distance between phones a[from, to) and b; a vowel for another vowel or a consonant for
+// another consonant costs half (a reduced reading: "t@" for "tu:").
+double reading_distance(const std::vector<PlanPhone>& a, std::size_t from, std::size_t to,
+                        const std::vector<PlanPhone>& b) {
+  const std::size_t n = to - from, m = b.size();
+  std::vector<double> row(m + 1), next(m + 1);
+  for (std::size_t j = 0; j <= m; ++j) row[j] = static_cast<double>(j);
+  for (std::size_t i = 1; i <= n; ++i) {
+    next[0] = static_cast<double>(i);
+    for (std::size_t j = 1; j <= m; ++j) {
+      const std::string& x = a[from + i - 1].name;
+      const std::string& y = b[j - 1].name;
+      const double sub = x == y ? 0 : vowel_name(x) == vowel_name(y) ? 0.5 : 1;
+      next[j] = std::min({row[j] + 1, next[j - 1] + 1, row[j - 1] + sub});
+    }
+    std::swap(row, next);
+  }
+  return row[m];
+}
+
+// Where the phones `joined` of words that espeak-ng read as one split among them: phones cut[j] ..
+// cut[j + 1] are word j's, the cuts that make each word's share differ least from its own reading
+// `own[j]`, every word keeping at least one phone while there are enough.
+std::vector<std::size_t> split_joined(const std::vector<PlanPhone>& joined,
+                                      const std::vector<const std::vector<PlanPhone>*>& own) {
+  const std::size_t n = joined.size(), words = own.size();
+  const std::size_t least = n >= words ? 1 : 0;  // phones each word keeps at least
+  constexpr double kNone = 1e30;
+  // cost[j][c]: the first j words take the first c phones.
+  std::vector<std::vector<double>> cost(words + 1, std::vector<double>(n + 1, kNone));
+  std::vector<std::vector<std::size_t>> from(words + 1, std::vector<std::size_t>(n + 1, 0));
+  cost[0][0] = 0;
+  for (std::size_t j = 1; j <= words; ++j)
+    for (std::size_t c = 0; c <= n; ++c)
+      for (std::size_t b = 0; b + least <= c; ++b) {
+        if (cost[j - 1][b] >= kNone) continue;
+        const double v = cost[j - 1][b] + reading_distance(joined, b, c, *own[j - 1]);
+        if (v < cost[j][c]) cost[j][c] = v, from[j][c] = b;
+      }
+  std::vector<std::size_t> cut(words + 1, n);
+  for (std::size_t j = words; j > 0; --j) cut[j - 1] = from[j][cut[j]];
+  return cut;
+}
+
 // Times of one synthesized phrase, relative to its start; returns the end of speech.
 double time_phrase(Plan& plan, const Phrase& ph, const espeak::Synthesis& syn,
                    const std::vector<int>& positions, const Options& options,
@@ -104,14 +154,15 @@ double time_phrase(Plan& plan, const Phrase& ph, const espeak::Synthesis& syn,
         spoken[current].push_back({ev.phoneme, {ev.time, std::max(ev.time, end)}});
     }
   }
-  double cursor = 0;
-  for (std::size_t k = 0; k < ph.units.size(); ++k) {
-    PlanUnit& unit = plan.units[ph.units[k]];
-    UnitTime& ut = times[ph.units[k]];
-    std::vector<std::pair<std::string, Span>> real;
-    for (const auto& p : spoken[k])
-      if (!is_pause_phoneme(p.first)) real.push_back(p);
-    if (unit.lang == Lang::kEn) {
+  // English: each unit's spoken phones (the table's names) with their spans.
+  std::vector<std::vector<PlanPhone>> en_phones(ph.units.size());
+  std::vector<std::vector<Span>> en_spans(ph.units.size());
+  if (ph.lang == Lang::kEn) {
+    for (std::size_t k = 0; k < ph.units.size(); ++k) {
+      const PlanUnit& unit = plan.units[ph.units[k]];
+      std::vector<std::pair<std::string, Span>> real;
+      for (const auto& p : spoken[k])
+        if (!is_pause_phoneme(p.first)) real.push_back(p);
       std::vector<std::string> names;
       for (const auto& p : real) names.push_back(p.first);
       std::vector<PlanPhone> phones = english_phones(names, options, unit.spoken.empty());
@@ -126,12 +177,48 @@ double time_phrase(Plan& plan, const Phrase& ph, const espeak::Synthesis& syn,
         }
       }
       phones.resize(spans.size());
+      en_phones[k] = std::move(phones);
+      en_spans[k] = std::move(spans);
+    }
+    // espeak-ng reads some word pairs as one word ("to be", "I am", "at once") and reports one
+    // word event: the first unit gets all the phones, the rest none. A unit without phones has
+    // no length in any timeline made from this one (the aligners' "be" of no length, issue 36),
+    // so the joined phones are shared back among the words by their own readings.
+    for (std::size_t k = 0; k < ph.units.size(); ++k) {
+      std::size_t m = k + 1;
+      while (m < ph.units.size() && en_phones[m].empty() && !plan.units[ph.units[m]].phones.empty())
+        ++m;
+      if (m == k + 1 || en_phones[k].empty()) continue;
+      std::vector<const std::vector<PlanPhone>*> own;
+      for (std::size_t j = k; j < m; ++j) own.push_back(&plan.units[ph.units[j]].phones);
+      const std::vector<PlanPhone> joined = std::move(en_phones[k]);
+      const std::vector<Span> joined_spans = std::move(en_spans[k]);
+      const std::vector<std::size_t> cut = split_joined(joined, own);
+      for (std::size_t j = k; j < m; ++j) {
+        const auto from = static_cast<std::ptrdiff_t>(cut[j - k]);
+        const auto to = static_cast<std::ptrdiff_t>(cut[j - k + 1]);
+        en_phones[j].assign(joined.begin() + from, joined.begin() + to);
+        en_spans[j].assign(joined_spans.begin() + from, joined_spans.begin() + to);
+      }
+      k = m - 1;
+    }
+  }
+  double cursor = 0;
+  for (std::size_t k = 0; k < ph.units.size(); ++k) {
+    PlanUnit& unit = plan.units[ph.units[k]];
+    UnitTime& ut = times[ph.units[k]];
+    if (unit.lang == Lang::kEn) {
+      std::vector<PlanPhone>& phones = en_phones[k];
+      const std::vector<Span>& spans = en_spans[k];
       for (std::size_t i = 0; i < phones.size(); ++i)
         phones[i].seconds = spans[i].end - spans[i].start;
       unit.phones = std::move(phones);
       ut.phones = spans;
       ut.span = spans.empty() ? Span{cursor, cursor} : Span{spans.front().start, spans.back().end};
     } else {
+      std::vector<std::pair<std::string, Span>> real;
+      for (const auto& p : spoken[k])
+        if (!is_pause_phoneme(p.first)) real.push_back(p);
       const double start = word_time[k] >= 0 ? word_time[k] : cursor;
       const double end = real.empty() ? start : std::max(start, real.back().second.end);
       ut.span = {std::max(start, cursor), end};
