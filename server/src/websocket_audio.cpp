@@ -141,32 +141,28 @@ void WebSocketSession::end_audio() {
   audio_.reset();
 }
 
+template <class Change>
+void WebSocketSession::change_live_audio(const char* what, Change change) {
+  if (!audio_) throw Error(std::string(what) + ": no live audio stream is open on this connection");
+  net::post(audio_->strand,
+            [self = shared_from_this(), engine = audio_->engine, change = std::move(change)] {
+              if (!engine->lipsync) return;  // making it failed: the error was sent
+              try {
+                change(*engine->lipsync);
+              } catch (...) {
+                const Problem problem = describe(std::current_exception());
+                net::post(self->ws_.get_executor(),
+                          [self, problem] { self->send_error(std::nullopt, problem); });
+              }
+            });
+}
+
 void WebSocketSession::live_text(const AudioTextRequest& text) {
-  if (!audio_) throw Error("audio_text: no live audio stream is open on this connection");
-  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, text] {
-    if (!engine->lipsync) return;
-    try {
-      engine->lipsync->add_text(text);
-    } catch (...) {
-      const Problem problem = describe(std::current_exception());
-      net::post(self->ws_.get_executor(),
-                [self, problem] { self->send_error(std::nullopt, problem); });
-    }
-  });
+  change_live_audio("audio_text", [text](LiveLipsync& l) { l.add_text(text); });
 }
 
 void WebSocketSession::live_expressions(const std::string& tags) {
-  if (!audio_) throw Error("expression: no live audio stream is open on this connection");
-  net::post(audio_->strand, [self = shared_from_this(), engine = audio_->engine, tags] {
-    if (!engine->lipsync) return;
-    try {
-      engine->lipsync->add_expressions(tags);
-    } catch (...) {
-      const Problem problem = describe(std::current_exception());
-      net::post(self->ws_.get_executor(),
-                [self, problem] { self->send_error(std::nullopt, problem); });
-    }
-  });
+  change_live_audio("expression", [tags](LiveLipsync& l) { l.add_expressions(tags); });
 }
 
 }  // namespace facecast::server

@@ -74,6 +74,10 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession>,
   void end_audio();
   void live_expressions(const std::string& tags);
   void live_text(const AudioTextRequest& text);
+  // Runs `change(LiveLipsync&)` on the open stream's strand; what it throws goes back as an error
+  // message. `what`: the message's type, for the error when no stream is open.
+  template <class Change>
+  void change_live_audio(const char* what, Change change);
 
   // Queues `message` (drop and slow-client rules); do_write() sends what is queued.
   std::uint32_t enqueue(OutMessage message);
