@@ -2,11 +2,12 @@
 // (default 50) each stream espeak-ng speech as 20 ms PCM16 chunks in real time over the WebSocket
 // and read the weights back. With --aligned the streams are aligned to their text (flag 2, the
 // text of each repetition of the speech sent in an audio_text message as it starts, as a streaming
-// TTS sends it; English speech), otherwise the analysis is from the audio alone. Latency of a frame
-// = its arrival - the sending of the chunk that holds the audio of its time (pts): the end-to-end
-// delay from an audio chunk to its weights. Prints the p50 / p99 / max over all frames, the
-// server's CPU time per chunk and the machine's load average (the figure means little on a busy
-// machine). Usage: bench_live_audio [clients] [seconds]
+// TTS sends it; English speech; with --text-ahead one repetition ahead, as a client that knows what
+// it asked the TTS to say can send it), otherwise the analysis is from the audio alone. Latency of
+// a frame = its arrival - the sending of the chunk that holds the audio of its time (pts): the
+// end-to-end delay from an audio chunk to its weights. Prints the p50 / p99 / max over all frames,
+// the server's CPU time per chunk and the machine's load average (the figure means little on a busy
+// machine). Usage: bench_live_audio [clients] [seconds] [--aligned | --text-ahead]
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
@@ -39,6 +40,7 @@ constexpr int kRate = 16000, kChunk = 320;  // 20 ms
 struct Shared {
   std::vector<std::int16_t> pcm;  // the speech every client loops
   std::string text;               // its text (aligned streams)
+  bool text_ahead = false;        // each repetition's text sent as the one before starts
   std::mutex mutex;
   std::vector<double> latency;
   std::atomic<int> errors{0}, ended{0};
@@ -100,9 +102,11 @@ class Client : public fctest::AsyncWsClient {
     const std::size_t at =
         (offset_ + static_cast<std::size_t>((sent_ - 1) * kChunk)) % s_.pcm.size();
     send(std::move(out), false);
-    // Aligned: each repetition's text as its audio starts (after the chunk that opens the stream).
+    // Aligned: each repetition's text as its audio starts (after the chunk that opens the stream),
+    // or as the one before it starts.
     if (!s_.text.empty() && at < static_cast<std::size_t>(kChunk))
-      send(nlohmann::json{{"type", "audio_text"}, {"text", s_.text + " "}}.dump());
+      for (int k = 0; k < (s_.text_ahead && sent_ == 1 ? 2 : 1); ++k)
+        send(nlohmann::json{{"type", "audio_text"}, {"text", s_.text + " "}}.dump());
   }
   bool aligned() const { return !s_.text.empty() && sent_ == 0; }
   void on_message(const Message& m) override {
@@ -161,7 +165,8 @@ std::string load_average() {
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
-  const bool aligned = std::erase(args, "--aligned") > 0;
+  const bool text_ahead = std::erase(args, "--text-ahead") > 0;
+  const bool aligned = std::erase(args, "--aligned") > 0 || text_ahead;
   const int clients = args.size() > 0 ? std::atoi(args[0].c_str()) : 50;
   const double seconds = args.size() > 1 ? std::atof(args[1].c_str()) : 20;
   Shared s;
@@ -172,6 +177,7 @@ int main(int argc, char** argv) {
                 "features together."
               : "Hello everyone, thanks for joining the stream today. 今天我们聊一聊新的功能。";
   if (aligned) s.text = text;
+  s.text_ahead = text_ahead;
   const auto u = facecast::viseme::analyze(text, o);
   s.pcm = facecast::viseme::to_pcm16(
       facecast::viseme::audio_from_pcm16(u.pcm, u.sample_rate, {kRate}).samples);
@@ -209,8 +215,10 @@ int main(int argc, char** argv) {
   std::printf(
       "live audio lip-sync (%s): %d clients x %.0f s of 20 ms chunks; %zu frames, %d streams "
       "ended, %d errors\n",
-      aligned ? "aligned to its text" : "audio alone", clients, seconds, s.latency.size(),
-      s.ended.load(), s.errors.load());
+      text_ahead ? "aligned, text a repetition ahead"
+      : aligned  ? "aligned to its text"
+                 : "audio alone",
+      clients, seconds, s.latency.size(), s.ended.load(), s.errors.load());
   std::printf("chunk -> weights latency: p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", at(0.5) * 1000,
               at(0.99) * 1000, at(1.0) * 1000);
   std::printf("server CPU: %.2f s, %.0f us per chunk; load average before %s, after %s\n", cpu,
