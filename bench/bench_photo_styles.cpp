@@ -10,6 +10,11 @@
 //
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
+//        [--response STYLE,.. [--front-response]]
+// --response: the detector's response measured on the template photographed in the named styles
+// (the benchmark's, or photo_support.hpp's training styles pale, lamp, phone, deep), averaged over
+// them and used by every fit (analysis by synthesis then skipped): the route of a table measured
+// once and shipped with the template; --front-response: the front photo's only.
 // The default seeds are 3001.. (count 3): held out from every choice of the fit's options
 // (tuning: 11-38; earlier held-out figures: 404-1313; development of this benchmark: 2001-2004).
 #include <algorithm>
@@ -35,7 +40,9 @@ struct Args {
   int count = 3;
   std::vector<std::string> styles;
   bool warp = true, own = true;
-  std::string camera;  // photo.json's camera model overridden ("": as configured)
+  std::string camera;                 // photo.json's camera model overridden ("": as configured)
+  std::vector<std::string> response;  // styles the detector's response is measured in (averaged)
+  bool front_response = false;        // ... the front's only
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -66,10 +73,15 @@ Args parse(int argc, char** argv) {
       a.own = false;
     } else if (arg == "--camera") {
       a.camera = value();
+    } else if (arg == "--response") {
+      a.response = split(value());
+    } else if (arg == "--front-response") {
+      a.front_response = true;
     } else {
       throw Error(
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
-          "[--no-warp] [--no-own] [--camera auto|orthographic|perspective]");
+          "[--no-warp] [--no-own] [--camera auto|orthographic|perspective] "
+          "[--response a,b,.. [--front-response]]");
     }
   }
   if (a.seeds.empty())
@@ -153,7 +165,7 @@ int main(int argc, char** argv) try {
   rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
   opt.shapes = false;  // the expressions' transfer follows the fit and does not change it
   if (!args.camera.empty()) opt.camera = args.camera;
-  const rigbuild::PhotoTemplate tmpl =
+  rigbuild::PhotoTemplate tmpl =
       rigbuild::load_photo_template(rigbuild::photo_template_path(opt, ""));
   const auto dir = test::build_dir() / "test-artifacts" / "photo";
   std::filesystem::create_directories(dir);
@@ -163,6 +175,52 @@ int main(int argc, char** argv) try {
             << " identity modes); seeds "
             << list(std::vector<double>(args.seeds.begin(), args.seeds.end()), 0) << "\n";
   const auto t0 = std::chrono::steady_clock::now();
+  if (!args.response.empty()) {
+    // The fixed-table route: the response measured on the template in each named style (its
+    // photos' perspective measured against a perspective camera), the mean used for every fit.
+    rigbuild::PhotoTemplate sum = tmpl;
+    sum.mode_bias.assign(tmpl.modes.size(), rigbuild::zero_landmark_vectors());
+    sum.side_mode_bias = sum.mode_bias;
+    int n = 0;
+    auto all = styles;
+    for (const auto& t : test::training_photo_styles(dir / "room_background.png")) all.push_back(t);
+    for (const auto& [style, yaw] : all) {
+      if (std::find(args.response.begin(), args.response.end(), style.name) == args.response.end())
+        continue;
+      rigbuild::PhotoOptions o = opt;
+      if (style.distance > 0) o.camera = "perspective";
+      rigbuild::PhotoTemplate t = tmpl;
+      const render::Image tex = test::skin_texture(tmpl, 512, style);
+      rigbuild::measure_detector_response(
+          t,
+          [&](const rig::Positions& p) {
+            const test::PhotoShoot s = test::photograph(tmpl, p, yaw, style, tex);
+            return std::make_pair(s.front, args.front_response ? render::Image{} : s.side);
+          },
+          o);
+      for (std::size_t k = 0; k < rigbuild::kLandmarkCount; ++k) {
+        sum.bias[k] += t.bias[k];
+        sum.side_bias[k] += t.side_bias[k];
+        for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
+          sum.mode_bias[m][k] += t.mode_bias[m][k];
+          sum.side_mode_bias[m][k] += t.side_mode_bias[m][k];
+        }
+      }
+      ++n;
+    }
+    if (n == 0) throw Error("--response: no such style");
+    for (std::size_t k = 0; k < rigbuild::kLandmarkCount; ++k) {
+      sum.bias[k] /= n;
+      sum.side_bias[k] /= n;
+      for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
+        sum.mode_bias[m][k] /= n;
+        sum.side_mode_bias[m][k] /= n;
+      }
+    }
+    tmpl = std::move(sum);
+    std::printf("detector response measured in %d styles (%.0f s)\n", n,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
   for (const auto& [style, yaw] : styles) {
     if (!args.styles.empty() &&
         std::find(args.styles.begin(), args.styles.end(), style.name) == args.styles.end())

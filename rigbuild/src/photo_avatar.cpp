@@ -235,6 +235,7 @@ PhotoOptions load_photo_options() {
       .read("landmark_noise", o.landmark_noise)
       .read("estimate_noise", o.estimate_noise)
       .read("self_calibrate", o.self_calibrate)
+      .read("calibration_texture", o.calibration_texture)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -257,6 +258,8 @@ PhotoOptions load_photo_options() {
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (o.self_calibrate < 0 || o.self_calibrate > 3) c.fail("self_calibrate", "must be in 0..3");
+  if (o.calibration_texture != "painted" && o.calibration_texture != "photo")
+    c.fail("calibration_texture", "must be \"painted\" or \"photo\"");
   if (o.camera != "auto" && o.camera != "orthographic" && o.camera != "perspective")
     c.fail("camera", "must be \"auto\", \"orthographic\" or \"perspective\"");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
@@ -409,24 +412,57 @@ bool has_detector_response(const PhotoTemplate& t) {
 PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first,
                              const render::Image& front, const render::Image* side,
                              const PhotoOptions& options) {
-  const render::Image texture = bake_photo_texture(tmpl, first.fit, front, side, options);
-  rig::Rig head = textured_head(tmpl, first.fit.positions, texture);
-  paint_eyes(head, tmpl, first.fit, front);
+  // The painted template (calibration_texture): a texture baked from the photo through the first
+  // fit puts the photo's features where that fit's landmark vertices are, so the detector finds on
+  // the render about the points the first fit already explained, and the fit's own error comes
+  // back as the "offset" (the template's own photo 0.19 cm off). The template painted with the
+  // photo's colours where its own landmark vertices put the features shows how the detector reads
+  // the template in the photo's camera and colours, and the model (bias + mode_bias c about the
+  // template, c = 0) is then measured where it is used.
+  const bool painted = options.calibration_texture == "painted";
+  const rig::Positions& base = painted ? tmpl.rig.positions : first.fit.positions;
+  const render::Image texture = painted ? paint_face_texture(tmpl, front, first.front, 512)
+                                        : bake_photo_texture(tmpl, first.fit, front, side, options);
+  rig::Rig head = textured_head(tmpl, base, texture);
+  PhotoFit eyes = first.fit;  // the eyes painted where the rendered head has them
+  eyes.positions = base;
+  paint_eyes(head, tmpl, eyes, front);
   PhotoTemplate calibrated = tmpl;
-  calibrated.rig.positions = first.fit.positions;
+  calibrated.rig.positions = base;
   PhotoOptions quick = options;
-  quick.box_steps = 0;  // one box per render: the response is a difference of many renders
+  // The painted template's points are found as the photo's were (the whole render, the grid of
+  // boxes): the detector's points move with its face box by a pixel or two, and a box found on a
+  // crop or a single box lost (studio mixtures 0.53 -> 0.72 with one box on the whole render,
+  // 0.93 on the crop). The baked photo's renders keep one box on the crop (the grid lost there).
+  if (!painted) quick.box_steps = 0;
   quick.min_face = std::min(options.min_face, 32);  // a head moved along a mode may look smaller
+  // The painted template is photographed through the perspective camera fitted to the photo (the
+  // first fit's, or fitted for the purpose when the evidence kept the orthographic one): the
+  // first fit, explaining the detector's offsets with identity, often keeps a selfie's camera
+  // orthographic, and the painted renders then show a distant face (selfies' fitted/template
+  // 1.95 on the development heads; 1.01 through the perspective camera, 1.17 before). A long
+  // lens's perspective camera is nearly orthographic. The offsets are still measured against a
+  // scale-orthographic camera fitted to each render (against a perspective one: studio mixtures
+  // 0.69 -> 0.89, selfies 1.01 -> 0.92).
+  PhotoCamera shot_camera = first.fit.front;
+  if (painted && !first.fit.front.perspective() && first.front.width > 0 &&
+      (!side || first.side.width > 0)) {
+    PhotoOptions p = options;
+    p.camera = "perspective";
+    shot_camera =
+        fit_photo_shape(tmpl, first.front, side ? &first.side : nullptr, p, &front, side).front;
+  }
   HeadCamera camera(std::move(head), tmpl.modes);
   measure_detector_response(
       calibrated,
       [&](const rig::Positions& p) {
-        return std::make_pair(camera.shoot(p, first.fit.front, front), render::Image{});
+        return std::make_pair(camera.shoot(p, shot_camera, front), render::Image{});
       },
       quick, 2.0,
       [&](const render::Image& shot, bool) {
-        // The face is found as in the photo, within twice the photo's face box around it (a
-        // quarter of a portrait's pixels for the face detector).
+        if (painted) return detect_photo_landmarks(shot, "render", quick);
+        // The face is found within twice the photo's face box around it (a quarter of a
+        // portrait's pixels for the face detector).
         const PhotoLandmarks& seen = first.front;
         const double cx = (seen.rect[0] + seen.rect[2]) / 2, cy = (seen.rect[1] + seen.rect[3]) / 2;
         const int half = static_cast<int>(std::lround(seen.rect[2] - seen.rect[0]));

@@ -52,6 +52,15 @@ void for_each_skin_texel(
     const PhotoTemplate& tmpl, const rig::Positions& positions, int w, int h, int tiles,
     const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f);
 
+/// A stylised face on the template's skin (2 N x N, as bake_photo_texture's), its features where
+/// the template's landmark vertices put them (brows along 17-21 and 22-26, lips along the outer
+/// lip contour and across the mouth), in the colours the photo shows at dlib's points (`marks`):
+/// analysis by synthesis's renders (a texture baked from the photo through the first fit would
+/// carry that fit's landmark errors into the renders, and the detector would find its own points
+/// again).
+render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
+                                 const PhotoLandmarks& marks, int n);
+
 /// `positions` on the template's topology as a rig without shapes, its skin materials sampling
 /// `texture` (2 N x N: u scaled onto the skin's UV tiles).
 rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& positions,

@@ -642,7 +642,12 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
   plain.side_mode_bias.clear();
   PhotoOptions o = options;
   o.landmark_noise = 1e6;  // the template's own shape: no identity modes
-  const PhotoFit fit = fit_shape(plain, front, side, o, false, nullptr, nullptr, false, nullptr);
+  // A perspective photo's offsets against a perspective camera (an orthographic one would count
+  // the lens's distortion as the detector's).
+  const bool perspective =
+      options.camera == "perspective" && front.width > 0 && (!side || side->width > 0);
+  const PhotoFit fit =
+      fit_shape(plain, front, side, o, false, nullptr, nullptr, perspective, nullptr);
   std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
   for (int k = 0; k < kLandmarkCount; ++k)
     out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];

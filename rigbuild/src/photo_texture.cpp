@@ -407,4 +407,97 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
   return out;
 }
 
+namespace {
+
+double segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                        const Eigen::Vector3d& b) {
+  const Eigen::Vector3d d = b - a;
+  const double t = std::clamp((p - a).dot(d) / std::max(1e-12, d.squaredNorm()), 0.0, 1.0);
+  return (a + t * d - p).norm();
+}
+
+// Per channel, the median of the photo's colours at the points a + t (b - a), t in `ts`, for the
+// landmark pairs given; `fallback` when the photo shows none of them.
+Eigen::Vector3d median_colour(const render::Image& photo,
+                              const std::array<Eigen::Vector2d, kLandmarkCount>& lm,
+                              const std::vector<std::pair<int, int>>& pairs,
+                              const std::vector<double>& ts, const Eigen::Vector3d& fallback) {
+  std::array<std::vector<double>, 3> v;
+  for (const auto& [a, b] : pairs)
+    for (double t : ts) {
+      const Eigen::Vector2d at =
+          lm[static_cast<std::size_t>(a)] +
+          t * (lm[static_cast<std::size_t>(b)] - lm[static_cast<std::size_t>(a)]);
+      if (at.x() < 0 || at.y() < 0 || at.x() > photo.width - 1 || at.y() > photo.height - 1)
+        continue;
+      const Eigen::Vector3f c = sample(photo, at);
+      for (int k = 0; k < 3; ++k) v[static_cast<std::size_t>(k)].push_back(c(k));
+    }
+  if (v[0].empty()) return fallback;
+  return {median(v[0]), median(v[1]), median(v[2])};
+}
+
+}  // namespace
+
+render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
+                                 const PhotoLandmarks& marks, int n) {
+  const auto& lm = marks.points;
+  // The photo's colours where dlib's points say they are: skin across the cheeks, the nose's
+  // ridge and the chin; brows along their points; lips halfway between the outer and the inner
+  // lip contours.
+  const Eigen::Vector3d skin = median_colour(
+      photo, lm, {{2, 31}, {14, 35}, {4, 48}, {12, 54}, {57, 8}, {27, 30}, {3, 31}, {13, 35}},
+      {0.3, 0.4, 0.5, 0.6, 0.7}, Eigen::Vector3d(200, 150, 125));
+  std::vector<std::pair<int, int>> brow_pairs;
+  for (int k = 17; k < 26; ++k)
+    if (k != 21) brow_pairs.emplace_back(k, k + 1);
+  const Eigen::Vector3d brow =
+      median_colour(photo, lm, brow_pairs, {0.0, 0.25, 0.5, 0.75}, 0.4 * skin);
+  const Eigen::Vector3d lips =
+      median_colour(photo, lm,
+                    {{49, 61},
+                     {50, 61},
+                     {51, 62},
+                     {52, 63},
+                     {53, 63},
+                     {55, 65},
+                     {56, 65},
+                     {57, 66},
+                     {58, 67},
+                     {59, 67}},
+                    {0.5}, skin.cwiseProduct(Eigen::Vector3d(0.85, 0.55, 0.6)));
+  const auto& X = tmpl.rig.positions;
+  const auto at = [&](int k) {
+    return Eigen::Vector3d(X.row(tmpl.landmarks[static_cast<std::size_t>(k)]).cast<double>());
+  };
+  const double iod = (at(36) - at(45)).norm();
+  const auto near_chain = [&](const Eigen::Vector3d& p, int from, int to, bool closed) {
+    double d = std::numeric_limits<double>::max();
+    for (int k = from; k < to; ++k) d = std::min(d, segment_distance(p, at(k), at(k + 1)));
+    if (closed) d = std::min(d, segment_distance(p, at(to), at(from)));
+    return d;
+  };
+  const Eigen::Vector3d mouth = 0.5 * (at(48) + at(54));
+  const double mouth_half = (at(54) - mouth).norm();
+  render::Image img{2 * n, n, 3,
+                    std::vector<std::uint8_t>(static_cast<std::size_t>(2 * n) * n * 3)};
+  const auto put = [&](std::size_t i, const Eigen::Vector3d& c) {
+    for (int k = 0; k < 3; ++k)
+      img.pixels[i * 3 + static_cast<std::size_t>(k)] =
+          static_cast<std::uint8_t>(std::clamp(std::lround(c(k)), 0L, 255L));
+  };
+  for (std::size_t i = 0; i < img.pixels.size() / 3; ++i) put(i, skin);
+  for_each_skin_texel(
+      tmpl, X, 2 * n, n, 2, [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d&) {
+        Eigen::Vector3d c = skin;
+        const double b = std::min(near_chain(p, 17, 21, false), near_chain(p, 22, 26, false));
+        if (b < 0.05 * iod && p.z() > at(27).z() - 0.5 * iod) c = brow;
+        if (near_chain(p, 48, 59, true) < 0.05 * iod ||
+            ((p - mouth).norm() < mouth_half && std::abs(p.y() - mouth.y()) < 0.12 * iod))
+          c = lips;
+        put(i, c);
+      });
+  return img;
+}
+
 }  // namespace facecast::rigbuild

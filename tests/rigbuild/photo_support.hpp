@@ -252,6 +252,64 @@ inline std::vector<std::pair<PhotoStyle, double>> photo_styles(const std::filesy
   return out;
 }
 
+/// Styles the detector's response table is measured in (bench/photo_response_table.cpp), none of
+/// them a benchmark style: skin tones from pale to very dark, lamps from several sides, plain
+/// and room backgrounds, lenses from 5 to 50 degrees (framed, or 45-70 cm from the face).
+inline std::vector<std::pair<PhotoStyle, double>> training_photo_styles(
+    const std::filesystem::path& room) {
+  std::vector<std::pair<PhotoStyle, double>> out;
+  PhotoStyle pale;
+  pale.name = "pale";
+  pale.skin = {228, 185, 165};
+  pale.brow = {110, 80, 60};
+  pale.lips = {190, 105, 105};
+  pale.light = {-0.3, 0.4, 0.85};
+  pale.ambient = 0.7;
+  pale.background = Eigen::Vector3f(0.45f, 0.47f, 0.5f);
+  pale.fov_y_deg = 5;
+  out.emplace_back(pale, 40.0);
+  PhotoStyle lamp;
+  lamp.name = "lamp";
+  lamp.skin = {135, 92, 68};
+  lamp.brow = {45, 32, 26};
+  lamp.lips = {120, 62, 58};
+  lamp.light = {-0.7, 0.2, 0.6};
+  lamp.ambient = 0.45;
+  lamp.light_tint = {1.0, 0.9, 0.75};
+  lamp.background = Eigen::Vector3f(0.15f, 0.15f, 0.18f);
+  lamp.fov_y_deg = 20;
+  lamp.fill_seams = lamp.irises = true;
+  out.emplace_back(lamp, 35.0);
+  PhotoStyle phone;
+  phone.name = "phone";
+  phone.skin = {175, 128, 96};
+  phone.brow = {60, 42, 32};
+  phone.lips = {150, 80, 75};
+  phone.light = {0.3, 0.9, 0.4};
+  phone.ambient = 0.5;
+  phone.fov_y_deg = 50;
+  phone.distance = 45;
+  phone.fill_seams = phone.irises = true;
+  phone.width = 480;
+  phone.height = 640;
+  if (!std::filesystem::exists(room)) write_room_background(room, 480, 640);
+  phone.background_image = room.string();
+  out.emplace_back(phone, 30.0);
+  PhotoStyle deep;
+  deep.name = "deep";
+  deep.skin = {88, 60, 44};
+  deep.brow = {30, 22, 18};
+  deep.lips = {85, 48, 44};
+  deep.light = {0.2, 0.3, 0.9};
+  deep.ambient = 0.6;
+  deep.background = Eigen::Vector3f(0.86f, 0.86f, 0.9f);
+  deep.fov_y_deg = 30;
+  deep.distance = 70;
+  deep.fill_seams = deep.irises = true;
+  out.emplace_back(deep, 35.0);
+  return out;
+}
+
 /// The focal length of a style's camera, pixels.
 inline double focal_pixels(const PhotoStyle& style) {
   return 0.5 * style.height / std::tan(0.5 * style.fov_y_deg * M_PI / 180.0);

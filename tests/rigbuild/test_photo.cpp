@@ -272,6 +272,8 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.box_steps == d.box_steps);
   CHECK(c.iterations == d.iterations);
   CHECK(c.landmark_noise == d.landmark_noise);
+  CHECK(c.self_calibrate == d.self_calibrate);
+  CHECK(c.calibration_texture == d.calibration_texture);
   CHECK(c.side_noise == d.side_noise);
   CHECK(c.estimate_side_noise == d.estimate_side_noise);
   CHECK(c.side_turn == d.side_turn);

@@ -46,10 +46,16 @@ struct PhotoOptions {
   int iterations = 8;            // camera / coefficient alternations
   double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
   bool estimate_noise = true;    // ... estimated from the residuals (landmark_noise: its floor)
-  /// Without a measured detector response in the template: the first fit's head, wearing the
-  /// texture baked from the photo, is photographed with the fitted cameras; the detector's offsets
-  /// on it become the bias, and the shape is fitted again (this many rounds; 0: none).
+  /// Without a measured detector response in the template: a head in the photo's colours
+  /// (calibration_texture) is photographed through the photo's fitted camera, at the template and
+  /// moved along each mode; the detector's offsets on it become the bias and its change per mode,
+  /// and the shape is fitted again (this many rounds; 0: none).
   int self_calibrate = 1;
+  /// What the head wears in those photographs: "painted" (the template itself, a stylised face in
+  /// the photo's colours painted where its landmark vertices put the features:
+  /// paint_face_texture) or "photo" (the first fit's head wearing the texture baked from the
+  /// photo, whose features then sit where the first fit put its landmark vertices).
+  std::string calibration_texture = "painted";
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
