@@ -109,6 +109,7 @@ Fit run_fit(const rigbuild::PhotoTemplate& tmpl, const test::PhotoShoot& shoot, 
     f.turn = test::fitted_turn_degrees(a.fit);
     f.focal = a.fit.front.focal();
     for (const auto& n : a.report["notes"]) f.note += n.get<std::string>() + "; ";
+    if (const std::string c = a.report["calibration_texture"]; !c.empty()) f.note += c;
   } catch (const Error& e) {
     f.note = e.what();
   }

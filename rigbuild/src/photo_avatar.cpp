@@ -236,6 +236,7 @@ PhotoOptions load_photo_options() {
       .read("estimate_noise", o.estimate_noise)
       .read("self_calibrate", o.self_calibrate)
       .read("calibration_texture", o.calibration_texture)
+      .read("painted_distance", o.painted_distance)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -258,6 +259,7 @@ PhotoOptions load_photo_options() {
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (o.self_calibrate < 0 || o.self_calibrate > 3) c.fail("self_calibrate", "must be in 0..3");
+  if (!(o.painted_distance >= 0)) c.fail("painted_distance", "must be at least 0");
   if (o.calibration_texture != "painted" && o.calibration_texture != "photo")
     c.fail("calibration_texture", "must be \"painted\" or \"photo\"");
   if (o.camera != "auto" && o.camera != "orthographic" && o.camera != "perspective")
@@ -402,16 +404,17 @@ bool has_detector_response(const PhotoTemplate& t) {
 }
 
 // Analysis by synthesis: the detector's convention and its change per identity mode, measured on
-// the fitted head itself, dressed in the photo's own texture and seen by the fitted front camera
-// (so in the photo's style), are taken as the template's response for a second fit. On the
-// template's own landmark vertices dlib's points lie about 4 % of the inter-ocular distance away, a
-// constant the first fit would otherwise explain with identity (docs/algorithms.md#photo-avatar).
-// The side photo's response is not measured: fitted alone, a render of a turned head gives a camera
-// turned by up to 15 degrees less, and offsets measured against it pulled the second fit's turn as
-// far.
+// a head in the photo's colours seen by the photo's fitted front camera (so in the photo's style),
+// are taken as the template's response for a second fit. On the template's own landmark vertices
+// dlib's points lie about 4 % of the inter-ocular distance away, a constant the first fit would
+// otherwise explain with identity (docs/algorithms.md#photo-avatar). The side photo's response is
+// not measured: fitted alone, a render of a turned head gives a camera turned by up to 15 degrees
+// less, and offsets measured against it pulled the second fit's turn as far (against the known
+// side camera: window mixtures 1.11 -> 1.32, turns off by up to 10 degrees). `used`: the texture
+// the head wore ("painted" or "photo").
 PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first,
                              const render::Image& front, const render::Image* side,
-                             const PhotoOptions& options) {
+                             const PhotoOptions& options, std::string* used) {
   // The painted template (calibration_texture): a texture baked from the photo through the first
   // fit puts the photo's features where that fit's landmark vertices are, so the detector finds on
   // the render about the points the first fit already explained, and the fit's own error comes
@@ -419,7 +422,28 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   // photo's colours where its own landmark vertices put the features shows how the detector reads
   // the template in the photo's camera and colours, and the model (bias + mode_bias c about the
   // template, c = 0) is then measured where it is used.
-  const bool painted = options.calibration_texture == "painted";
+  //
+  // It is photographed through the perspective camera fitted to the photo (the first fit's, or
+  // fitted for the purpose when the evidence kept the orthographic one): the first fit, explaining
+  // the detector's offsets with identity, often keeps a selfie's camera orthographic, and the
+  // painted renders then show a distant face (development selfies' fitted/template 1.95; 1.01
+  // through the perspective camera). A long lens's perspective camera is nearly orthographic.
+  PhotoCamera shot_camera = first.fit.front;
+  bool painted = options.calibration_texture == "painted";
+  if (painted && !first.fit.front.perspective() && first.front.width > 0 &&
+      (!side || first.side.width > 0)) {
+    PhotoOptions p = options;
+    p.camera = "perspective";
+    shot_camera =
+        fit_photo_shape(tmpl, first.front, side ? &first.side : nullptr, p, &front, side).front;
+  }
+  // Nearer than painted_distance (a selfie at arm's length) the painted renders' offsets moved the
+  // fitted focal length 2x too long (1175 px for 554 on the template's own selfie, 0.28 cm off
+  // against 0.10 with the baked texture): there the first fit's head in the baked texture stays.
+  if (painted && shot_camera.perspective() && 1 / shot_camera.kappa < options.painted_distance)
+    painted = false;
+  if (!painted) shot_camera = first.fit.front;
+  if (used) *used = painted ? "painted" : "photo";
   const rig::Positions& base = painted ? tmpl.rig.positions : first.fit.positions;
   const render::Image texture = painted ? paint_face_texture(tmpl, front, first.front, 512)
                                         : bake_photo_texture(tmpl, first.fit, front, side, options);
@@ -433,25 +457,16 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   // The painted template's points are found as the photo's were (the whole render, the grid of
   // boxes): the detector's points move with its face box by a pixel or two, and a box found on a
   // crop or a single box lost (studio mixtures 0.53 -> 0.72 with one box on the whole render,
-  // 0.93 on the crop). The baked photo's renders keep one box on the crop (the grid lost there).
-  if (!painted) quick.box_steps = 0;
+  // 0.93 on the crop). The baked photo's renders keep one box on the crop (the grid did not help
+  // there: 1.01 against 1.03).
+  // The offsets are measured against a scale-orthographic camera fitted to each render (against a
+  // perspective one: studio mixtures 0.69 -> 0.89; against the render's own camera: selfies'
+  // turn off by 7 degrees).
+  // The grid's 27 boxes (box_steps 1) read the renders as well as the photo's 125 and in less
+  // time (studio mixtures 0.49 against 0.53, window 0.76 against 0.84, the template's own studio
+  // photo 0.13 against 0.155 cm).
+  quick.box_steps = painted ? std::min(options.box_steps, 1) : 0;
   quick.min_face = std::min(options.min_face, 32);  // a head moved along a mode may look smaller
-  // The painted template is photographed through the perspective camera fitted to the photo (the
-  // first fit's, or fitted for the purpose when the evidence kept the orthographic one): the
-  // first fit, explaining the detector's offsets with identity, often keeps a selfie's camera
-  // orthographic, and the painted renders then show a distant face (selfies' fitted/template
-  // 1.95 on the development heads; 1.01 through the perspective camera, 1.17 before). A long
-  // lens's perspective camera is nearly orthographic. The offsets are still measured against a
-  // scale-orthographic camera fitted to each render (against a perspective one: studio mixtures
-  // 0.69 -> 0.89, selfies 1.01 -> 0.92).
-  PhotoCamera shot_camera = first.fit.front;
-  if (painted && !first.fit.front.perspective() && first.front.width > 0 &&
-      (!side || first.side.width > 0)) {
-    PhotoOptions p = options;
-    p.camera = "perspective";
-    shot_camera =
-        fit_photo_shape(tmpl, first.front, side ? &first.side : nullptr, p, &front, side).front;
-  }
   HeadCamera camera(std::move(head), tmpl.modes);
   measure_detector_response(
       calibrated,
@@ -500,11 +515,11 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
-  std::string calibration_note;
+  std::string calibration_note, calibration_texture;
   if (!has_detector_response(tmpl)) {
     try {
       for (int round = 0; round < options.self_calibrate; ++round)
-        out.fit = self_calibrated_fit(tmpl, out, front, side, options);
+        out.fit = self_calibrated_fit(tmpl, out, front, side, options, &calibration_texture);
     } catch (const Error& e) {
       // A render the detector cannot read (a head moved far along a mode): the fit stays as it was.
       calibration_note = std::string("self-calibration skipped: ") + e.what();
@@ -546,6 +561,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                                                            out.fit.coefficient_sd.size())},
                 {"landmark_noise", out.fit.noise},
                 {"camera_model", out.fit.camera_model},
+                {"calibration_texture", calibration_texture},
                 {"camera_evidence", out.fit.camera_evidence},
                 {"rbf_rms_move", out.fit.moved_rms},
                 {"eyes", eyes},

@@ -56,6 +56,9 @@ struct PhotoOptions {
   /// paint_face_texture) or "photo" (the first fit's head wearing the texture baked from the
   /// photo, whose features then sit where the first fit put its landmark vertices).
   std::string calibration_texture = "painted";
+  /// ... painted only when the photo's fitted perspective camera is at least this far from the
+  /// model's origin (model units, cm; nearer, e.g. a selfie at arm's length: photo).
+  double painted_distance = 100;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
