@@ -252,9 +252,10 @@ inline std::vector<std::pair<PhotoStyle, double>> photo_styles(const std::filesy
   return out;
 }
 
-/// Styles the detector's response table is measured in (bench/photo_response_table.cpp), none of
-/// them a benchmark style: skin tones from pale to very dark, lamps from several sides, plain
-/// and room backgrounds, lenses from 5 to 50 degrees (framed, or 45-70 cm from the face).
+/// Styles the fixed-table route measures the detector's response in (`bench_photo_styles
+/// --response pale,lamp,phone,deep`), none of them a benchmark style: skin tones from pale to very
+/// dark, lamps from several sides, plain and room backgrounds, lenses from 5 to 50 degrees (framed,
+/// or 45-70 cm from the face).
 inline std::vector<std::pair<PhotoStyle, double>> training_photo_styles(
     const std::filesystem::path& room) {
   std::vector<std::pair<PhotoStyle, double>> out;
