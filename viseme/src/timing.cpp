@@ -286,14 +286,16 @@ Timeline time_by_tts(Plan& plan, const Options& options) {
     const auto keep = std::min(syn.pcm.size(), static_cast<std::size_t>(std::lround(end * rate)));
     tl.pcm.insert(tl.pcm.end(), syn.pcm.begin(),
                   syn.pcm.begin() + static_cast<std::ptrdiff_t>(keep));
+    // Times end where the kept audio does (a phrase's end rounds to a whole sample).
+    const double last = static_cast<double>(tl.pcm.size()) / rate;
+    const auto place = [&](Span& s) {
+      s.start = std::min(s.start + offset, last);
+      s.end = std::min(s.end + offset, last);
+    };
     for (std::size_t u : ph.units) {
       UnitTime& ut = tl.units[u];
-      ut.span.start += offset;
-      ut.span.end += offset;
-      for (auto& s : ut.phones) {
-        s.start += offset;
-        s.end += offset;
-      }
+      place(ut.span);
+      for (auto& s : ut.phones) place(s);
     }
   }
   tl.duration = static_cast<double>(tl.pcm.size()) / rate;

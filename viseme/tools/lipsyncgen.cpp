@@ -24,6 +24,7 @@ constexpr int D = detail::kLipsyncDims;
 
 struct Training {
   std::vector<std::string> english, chinese, english_voices, chinese_voices;
+  std::vector<std::string> skip_phones;  // phones whose frames teach no class
   std::vector<int> speeds;
   std::vector<double> warps;
   int components = 4, iterations = 12;
@@ -43,7 +44,8 @@ Training load_training() {
       .read("components", t.components)
       .read("iterations", t.iterations)
       .read("prior_power", t.prior_power)
-      .read("variance_floor", t.variance_floor);
+      .read("variance_floor", t.variance_floor)
+      .read("skip_phones", t.skip_phones);
   ConfigReader& classes = c.section("classes");
   for (const std::string& name : classes.keys()) {
     std::vector<std::string> visemes;
@@ -57,7 +59,8 @@ Training load_training() {
 
 struct Sample {
   Audio audio;
-  std::vector<VisemeEvent> visemes;  // times in the (warped) audio
+  std::vector<VisemeEvent> visemes;                // times in the (warped) audio
+  std::vector<std::pair<double, double>> skipped;  // spans of Training::skip_phones
 };
 
 // Every sentence with every voice; speed and warp cycle so the combinations spread.
@@ -85,6 +88,9 @@ std::vector<Sample> synthesize(const Training& t) {
           e.end /= warp;
           sm.visemes.push_back(e);
         }
+        for (const Phone& p : u.phones)
+          if (std::find(t.skip_phones.begin(), t.skip_phones.end(), p.phone) != t.skip_phones.end())
+            sm.skipped.push_back({p.start / warp, p.end / warp});
         out.push_back(std::move(sm));
       }
   };
@@ -128,6 +134,9 @@ std::array<std::vector<Vec>, kSoundClasses> labelled_frames(const std::vector<Sa
     for (const auto& f : frames) {
       while (e < s.visemes.size() && s.visemes[e].end <= f.time) ++e;
       if (f.silent || e == s.visemes.size() || s.visemes[e].start > f.time) continue;
+      if (std::any_of(s.skipped.begin(), s.skipped.end(),
+                      [&](const auto& r) { return f.time >= r.first && f.time < r.second; }))
+        continue;
       const auto it = t.class_of.find(s.visemes[e].viseme);
       if (it == t.class_of.end() || it->second == SoundClass::kSilence) continue;
       out[static_cast<std::size_t>(it->second)].push_back(f.x);
