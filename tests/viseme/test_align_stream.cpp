@@ -138,9 +138,11 @@ TEST_CASE("streaming alignment follows the whole-file alignment within a frame o
   CHECK(share >= 0.95);
   CHECK(p[1] <= 0.02);
   CHECK(p[2] <= 0.035);
-  // Text arrives at each word's onset, so the decisions wait for it about a word at a time; with
-  // all the text ahead they stay the lag behind (the next case).
-  CHECK(b[1] <= 0.6);
+  // Text arrives at each word's onset: the last word so far is decided once the path has left it,
+  // so decisions stay about the lag behind as with all the text ahead (the next case). When it
+  // waited for the next word, p95 was 390 ms.
+  CHECK(b[1] <= 0.12);
+  CHECK(b[2] <= 0.2);
 }
 
 TEST_CASE("streaming alignment with the text ahead decides the lag behind the audio",
