@@ -199,8 +199,9 @@ struct StreamAligner::Impl {
     detail::Plan p = detail::make_plan(before + target + after, options);
     for (const detail::PlanUnit& u : p.units)
       if (u.lang != detail::Lang::kEn)
-        throw Error("audio_text: streaming alignment takes English text; '" + u.text +
-                    "' is not (align Chinese whole files, or stream its audio alone)");
+        throw Error(
+            "audio_text: streaming alignment takes English text; '" + u.text +
+            "' is not (send Chinese with its times, align whole files, or stream the audio alone)");
     // The target's units: those after the context's (words are cut at whitespace, so the plan of
     // a prefix is a prefix of the plan).
     const std::size_t a = before.empty() ? 0 : detail::make_plan(before, options).units.size();
