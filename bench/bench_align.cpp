@@ -45,6 +45,8 @@ double mean(const std::vector<double>& v) {
 
 int main() {
   const char* only = std::getenv("BENCH_ALIGN_ONLY");
+  // BENCH_ALIGN_PAD=seconds: each recording inside that much faint noise (test::pad_audio).
+  const double pad = std::getenv("BENCH_ALIGN_PAD") ? std::atof(std::getenv("BENCH_ALIGN_PAD")) : 0;
   const char* set = std::getenv("BENCH_ALIGN_SET");
   const auto wanted = [&](const char* name) { return !set || std::string(set) == name; };
   std::vector<test::AlignCase> cases;
@@ -77,10 +79,11 @@ int main() {
   std::map<std::string, std::size_t> true_phones;
   std::map<std::string, std::pair<double, double>> speed;  // backend -> seconds, audio seconds
   for (std::size_t i = 0; i < cases.size(); ++i) {
-    const auto& c = cases[i];
+    test::AlignCase c = cases[i];
     if (only && c.lang != only) continue;
     const bool human = sets[i] != "synthetic" && sets[i] != "function";
-    const viseme::Audio audio = human ? test::human_audio(c) : viseme::read_audio(c.audio);
+    viseme::Audio audio = human ? test::human_audio(c) : viseme::read_audio(c.audio);
+    if (pad > 0) test::pad_audio(audio, c, pad);
     std::vector<std::pair<std::string, viseme::AlignOptions::Backend>> backends = {
         {"dtw", viseme::AlignOptions::Backend::kDtw}};
     if (c.lang == "en")

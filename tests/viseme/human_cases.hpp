@@ -65,6 +65,24 @@ inline viseme::Audio human_audio(const AlignCase& c) {
   return viseme::audio_from_pcm16(pcm, 16000);
 }
 
+/// `seconds` of faint noise (about -60 dBFS, as a quiet room records it) before and after the
+/// audio; the case's true times move with it.
+inline void pad_audio(viseme::Audio& audio, AlignCase& c, double seconds) {
+  const auto n = static_cast<std::size_t>(seconds * audio.sample_rate);
+  std::uint32_t state = 12345;
+  const auto noise = [&] {
+    state = state * 1664525u + 1013904223u;
+    return 1.7e-3f * (static_cast<float>(state >> 8) / 8388608.0f - 1.0f);
+  };
+  std::vector<float> out;
+  for (std::size_t i = 0; i < n; ++i) out.push_back(noise());
+  out.insert(out.end(), audio.samples.begin(), audio.samples.end());
+  for (std::size_t i = 0; i < n; ++i) out.push_back(noise());
+  audio.samples = std::move(out);
+  for (double& t : c.onsets) t += seconds;
+  for (auto& p : c.phones) p.start += seconds, p.end += seconds;
+}
+
 /// |aligned - true| word onsets of the scored words, seconds.
 inline std::vector<double> scored_onset_errors(const viseme::Utterance& u, const AlignCase& c) {
   if (u.words.size() != c.onsets.size())

@@ -343,6 +343,43 @@ TEST_CASE("alignment: English HMM word onsets on held-out human speech (issue 36
   CHECK(s.p95 <= 0.065);
 }
 
+TEST_CASE("alignment: silence around the speech does not move its words (both backends)",
+          "[viseme][align]") {
+  // Recordings often hold seconds of room noise before and after the speech. Both backends
+  // normalise the cepstra over the utterance, so that silence pulled the statistics toward it:
+  // DTW lost words by up to a second, the HMM moved some by 80 ms.
+  if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;
+  const auto cases = test::human_cases(test::source_dir() / "tests/viseme/eval/human_words.tsv");
+  REQUIRE(cases.size() >= 10);
+  for (const auto& [name, backend] :
+       {std::pair{"hmm", AlignOptions::Backend::kHmm}, {"dtw", AlignOptions::Backend::kDtw}}) {
+    AlignOptions o = load_align_options();
+    o.english = backend;
+    std::vector<double> moved;
+    for (const auto& c : cases) {
+      if (!test::require_data(c.audio)) return;
+      INFO(name << " " << c.name);
+      const Audio audio = test::human_audio(c);
+      test::AlignCase pc = c;
+      Audio padded = audio;
+      test::pad_audio(padded, pc, 3.0);
+      const Utterance u = align(c.text, audio, {}, o), v = align(c.text, padded, {}, o);
+      REQUIRE(u.words.size() == v.words.size());
+      for (std::size_t w = 0; w < u.words.size(); ++w)
+        moved.push_back(std::abs(v.words[w].start - 3.0 - u.words[w].start));
+    }
+    std::sort(moved.begin(), moved.end());
+    const OnsetStats s = onset_stats(moved);
+    WARN(name << ": words moved by 3 s of faint noise around the speech: mean " << s.mean * 1000
+              << " ms, p95 " << s.p95 * 1000 << " ms, worst " << s.worst * 1000 << " ms");
+    // Measured: HMM 6.9 / 40 / 97.5 ms (10 / 80 / 90 before), DTW 10 / 40 / 110 ms (98 / 780 /
+    // 1080 before).
+    CHECK(s.mean <= 0.02);
+    CHECK(s.p95 <= 0.06);
+    CHECK(s.worst <= 0.15);
+  }
+}
+
 TEST_CASE("alignment: the HMM backend is quiet, falls back to DTW and runs in parallel",
           "[viseme][align]") {
   if (!test::require_data("/usr/share/pocketsphinx/model/en-us/en-us/mdef")) return;

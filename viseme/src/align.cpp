@@ -31,6 +31,11 @@ struct Speech {
   double seconds() const { return static_cast<double>(last - first + 1) * f.hop_seconds; }
 };
 
+std::pair<std::size_t, std::size_t> padded(const Speech& s) {
+  const auto pad = static_cast<std::size_t>(kPad / s.f.hop_seconds);
+  return {s.first > pad ? s.first - pad : 0, std::min(s.f.frames() - 1, s.last + pad)};
+}
+
 Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOptions& ao,
                       const char* what, double warp = 1.0) {
   Speech s;
@@ -44,7 +49,9 @@ Speech analyze_speech(const std::vector<float>& samples, int rate, const AlignOp
   s.last = s.silent.size() - 1 -
            static_cast<std::size_t>(std::find(s.silent.rbegin(), s.silent.rend(), false) -
                                     s.silent.rbegin());
-  detail::normalize(s.f);
+  // The statistics of the frames DTW reads: silence around the speech would dominate them.
+  const auto [a, b] = padded(s);
+  detail::normalize(s.f, a, b + 1);
   if (ao.deltas) detail::add_deltas(s.f);
   return s;
 }
@@ -63,11 +70,6 @@ Speech crop(const Speech& s, std::size_t a, std::size_t b) {
   c.silent.assign(s.silent.begin() + static_cast<std::ptrdiff_t>(a),
                   s.silent.begin() + static_cast<std::ptrdiff_t>(b + 1));
   return c;
-}
-
-std::pair<std::size_t, std::size_t> padded(const Speech& s) {
-  const auto pad = static_cast<std::size_t>(kPad / s.f.hop_seconds);
-  return {s.first > pad ? s.first - pad : 0, std::min(s.f.frames() - 1, s.last + pad)};
 }
 
 // Synthesized-speech time -> audio time through the path. A time between synthesized frames j-1

@@ -252,36 +252,78 @@ std::vector<HmmWord> hmm_words(const Plan& plan) {
   return out;
 }
 
-bool hmm_decode(std::vector<HmmWord>& words, const Audio& audio) {
+namespace {
+
+// Viterbi decoding of pcm[first, last) (16 kHz) with a grammar that is exactly `words` in order
+// (optional silence between them); fills each word's span (seconds of the whole pcm). False when
+// the search did not reach the grammar's end (the caller falls back to DTW). Thread-safe: each call
+// takes a decoder from a guarded pool.
+bool hmm_decode(std::vector<HmmWord>& words, const std::vector<int16_t>& pcm, std::size_t first,
+                std::size_t last) {
   if (words.empty()) return false;
   std::unique_ptr<Decoder> d = pool().take();
   ps_decoder_t* ps = d->ps;
   set_grammar(*d, words);
-  const std::vector<int16_t> pcm = pcm16_at_16k(audio);
   if (ps_start_utt(ps) < 0)
     throw Error("alignment: pocketsphinx cannot start", ErrorCode::kInternal);
-  ps_process_raw(ps, pcm.data(), pcm.size(), FALSE, TRUE);
+  ps_process_raw(ps, pcm.data() + first, last - first, FALSE, TRUE);
   ps_end_utt(ps);
   const std::vector<Segment> segs = segments(ps);
+  const double offset = static_cast<double>(first) / 16000;
   bool complete = segs.size() == words.size();
   for (std::size_t i = 0; complete && i < segs.size(); ++i) {
     complete = segs[i].word == words[i].name;
-    words[i].span = {segs[i].first * kFrame, (segs[i].last + 1) * kFrame};
+    words[i].span = {offset + segs[i].first * kFrame, offset + (segs[i].last + 1) * kFrame};
   }
   pool().give(std::move(d));
   return complete;
 }
 
+// The samples pocketsphinx reads: the speech and kSilenceKept of what is silent around it. Its
+// cepstral mean is the utterance's, so long silence before or after the speech would pull it
+// towards silence (one second of it moved a word 80 ms).
+std::pair<std::size_t, std::size_t> speech_samples(const std::vector<bool>& silent,
+                                                   const Features& f, std::size_t samples) {
+  constexpr double kSilenceKept = 0.3;
+  const auto speech = std::find(silent.begin(), silent.end(), false);
+  if (speech == silent.end()) return {0, samples};
+  const auto end = std::find(silent.rbegin(), silent.rend(), false);
+  const double a = f.time(static_cast<std::size_t>(speech - silent.begin())) - kSilenceKept;
+  const double b =
+      f.time(silent.size() - 1 - static_cast<std::size_t>(end - silent.rbegin())) + kSilenceKept;
+  const auto at = [&](double t) {
+    return std::min(samples, static_cast<std::size_t>(std::max(0.0, t) * 16000));
+  };
+  return {at(a), std::max(at(a), at(b))};
+}
+
+}  // namespace
+
 std::optional<Timeline> align_hmm(const Plan& plan, const Timeline& synth, const Audio& audio,
                                   const AlignOptions& ao) {
   std::vector<HmmWord> words = hmm_words(plan);
-  if (!hmm_decode(words, audio)) return std::nullopt;
+  const Features f = compute_features(audio.samples, audio.sample_rate);
+  const std::vector<int16_t> pcm = pcm16_at_16k(audio);
+  const auto [first, last] =
+      speech_samples(silent_frames(f, ao.silence_range, ao.silence_max_db), f, pcm.size());
+  if (!hmm_decode(words, pcm, first, last)) return std::nullopt;
   // A word after a pause (or at the start) that begins with a stop takes the silence before it as
   // the stop's closure: its onset moves to the first frame that is not silent by the DTW path's
-  // silence test, leaving it at least kMinWord.
+  // silence test (its levels taken where pocketsphinx listened, so silence around the speech does
+  // not lower them), leaving it at least kMinWord.
   constexpr double kMinWord = 0.05;
-  const Features f = compute_features(audio.samples, audio.sample_rate);
-  const std::vector<bool> silent = silent_frames(f, ao.silence_range, ao.silence_max_db);
+  std::vector<bool> silent(f.frames(), true);
+  {
+    const auto frame = [&](std::size_t sample) {
+      return std::min(f.frames(), static_cast<std::size_t>(sample / 16000.0 / f.hop_seconds));
+    };
+    const std::size_t a = frame(first), b = std::min(f.frames(), std::max(a + 1, frame(last)));
+    Features heard;
+    heard.energy_db.assign(f.energy_db.begin() + static_cast<std::ptrdiff_t>(a),
+                           f.energy_db.begin() + static_cast<std::ptrdiff_t>(b));
+    const std::vector<bool> s = silent_frames(heard, ao.silence_range, ao.silence_max_db);
+    std::copy(s.begin(), s.end(), silent.begin() + static_cast<std::ptrdiff_t>(a));
+  }
   for (HmmWord& w : words) {
     auto k = static_cast<std::size_t>(std::max(0.0, std::floor(w.span.start / f.hop_seconds)));
     bool moved = false;
@@ -304,7 +346,7 @@ std::optional<Timeline> align_hmm(const Plan& plan, const Timeline& synth, const
         for (const auto& p : g) phones.push_back({"facecast_phone_" + p, p, {}});
       }
     }
-    phone_pass = hmm_decode(phones, audio);
+    phone_pass = hmm_decode(phones, pcm, first, last);
   }
   std::size_t w = 0, ph = 0;
   double previous = 0;

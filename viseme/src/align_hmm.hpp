@@ -34,12 +34,6 @@ struct HmmWord {
 /// pronunciations where the word is listed, espeak-ng's phones mapped to CMU otherwise).
 std::vector<HmmWord> hmm_words(const Plan& plan);
 
-/// Viterbi decoding of `audio` with a grammar that is exactly `words` in order (optional silence
-/// between them); fills each word's span. False when the search did not reach the grammar's end
-/// (the caller falls back to DTW). Thread-safe: each call takes a decoder from a guarded pool.
-/// Throws Error when the model cannot be loaded.
-bool hmm_decode(std::vector<HmmWord>& words, const Audio& audio);
-
 /// The timeline of `plan` on `audio` by the HMM: each unit in its word's span; the phones inside
 /// by options.hmm_phones: espeak-ng's timing (`synth`) stretched onto the span, or a second HMM
 /// pass over the plan's own phones (mapped to CMU). nullopt when the search failed.

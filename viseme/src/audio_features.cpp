@@ -129,19 +129,22 @@ void add_deltas(Features& f) {
   f.dims *= 2;
 }
 
-void normalize(Features& f) {
+void normalize(Features& f, std::size_t from, std::size_t to) {
   const std::size_t n = f.frames();
+  to = std::min(to, n);
+  if (from >= to) from = 0, to = n;
   if (n == 0) return;
   const auto d = static_cast<std::size_t>(f.dims);
+  const auto m = static_cast<double>(to - from);
   float emax = -1e30f;
-  for (std::size_t i = 0; i < n; ++i) emax = std::max(emax, f.mfcc[i * d]);
+  for (std::size_t i = from; i < to; ++i) emax = std::max(emax, f.mfcc[i * d]);
   for (std::size_t i = 0; i < n; ++i) f.mfcc[i * d] = std::max(f.mfcc[i * d] - emax, -12.0f) / 3.0f;
   for (std::size_t q = 1; q < d; ++q) {
     double mean = 0, sq = 0;
-    for (std::size_t i = 0; i < n; ++i) mean += f.mfcc[i * d + q];
-    mean /= static_cast<double>(n);
-    for (std::size_t i = 0; i < n; ++i) sq += std::pow(f.mfcc[i * d + q] - mean, 2);
-    const double sd = std::sqrt(sq / static_cast<double>(n)) + 1e-6;
+    for (std::size_t i = from; i < to; ++i) mean += f.mfcc[i * d + q];
+    mean /= m;
+    for (std::size_t i = from; i < to; ++i) sq += std::pow(f.mfcc[i * d + q] - mean, 2);
+    const double sd = std::sqrt(sq / m) + 1e-6;
     for (std::size_t i = 0; i < n; ++i)
       f.mfcc[i * d + q] = static_cast<float>((f.mfcc[i * d + q] - mean) / sd);
   }

@@ -2,6 +2,7 @@
 // Frame-wise acoustic features of mono audio: MFCCs (FFTW real FFT, mel filterbank, DCT-II) and
 // log energy. See docs/algorithms.md#audio-features.
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 struct fftwf_plan_s;
@@ -66,9 +67,10 @@ class MfccAnalyzer {
 Features compute_features(const std::vector<float>& samples, int sample_rate,
                           const FeatureConfig& config = {});
 
-/// Cepstral mean and variance normalisation over all frames (columns 1.. of mfcc; the energy
-/// column is centred on its maximum instead, so silence stays low).
-void normalize(Features& f);
+/// Cepstral mean and variance normalisation (columns 1.. of mfcc; the energy column is centred on
+/// its maximum instead, so silence stays low), the statistics taken over frames [from, to) (all
+/// when empty) and applied to every frame.
+void normalize(Features& f, std::size_t from = 0, std::size_t to = SIZE_MAX);
 
 /// Appends first differences (x[i+1] - x[i-1]) / 2 of every column: dims doubles.
 void add_deltas(Features& f);
