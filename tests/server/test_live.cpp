@@ -295,7 +295,7 @@ TEST_CASE("incremental text fed in 3-word pieces has no gaps", "[ws][incremental
   double speech_end = r.start["utterance"]["duration"];
   for (const auto& seg : r.segments) {
     const double gap = seg["start"].get<double>() - speech_end;
-    CHECK(gap >= -1e-9);
+    CHECK(gap >= -0.5e-4 - 1e-9);  // the utterance JSON's times are rounded to 0.1 ms
     CHECK(gap < 0.5);
     speech_end = seg["start"].get<double>() + seg["utterance"]["duration"].get<double>();
     CHECK(seg["end_sample"].get<std::size_t>() <= samples);
