@@ -62,7 +62,8 @@ struct PhotoOptions {
   /// The painted template also carries the photo's light across the face (a lamp at one side):
   /// the log ratio of the photo to a render of the flat painted template, fitted linearly across
   /// the face at skin points between landmarks (fit_face_shading).
-  bool calibration_shading = false;
+  /// 0: off; 1: the gradient only (its mean level left to the renderer's lights); 2: the whole.
+  int calibration_shading = 0;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   /// Per-landmark noise of the front photo's points: "none" (all alike) or "spread" (each
