@@ -239,9 +239,6 @@ PhotoOptions load_photo_options() {
       .read("painted_distance", o.painted_distance)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
-      .read("landmark_weights", o.landmark_weights)
-      .read("mode_evidence", o.mode_evidence)
-      .read("calibration_shading", o.calibration_shading)
       .read("side_turn", o.side_turn)
       .read("camera", o.camera)
       .read("side_calibration", o.side_calibration)
@@ -470,19 +467,6 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   // photo 0.13 against 0.155 cm).
   quick.box_steps = painted ? std::min(options.box_steps, 1) : 0;
   quick.min_face = std::min(options.min_face, 32);  // a head moved along a mode may look smaller
-  if (painted && options.calibration_shading > 0) {
-    // The photo's light across the face (a lamp at one side) that the renderer's lights do not
-    // give the painted template: the log ratio of the photo to a render of the flat painted
-    // template, fitted linearly across the face, is painted into its skin.
-    HeadCamera flat(head, tmpl.modes);
-    const render::Image shot = flat.shoot(tmpl.rig.positions, shot_camera, front);
-    Eigen::Matrix3d shading = fit_face_shading(tmpl, front, first.front, shot, shot_camera);
-    if (options.calibration_shading == 1) shading.col(0).setZero();
-    rig::Rig lit =
-        textured_head(tmpl, base, paint_face_texture(tmpl, front, first.front, 512, &shading));
-    paint_eyes(lit, tmpl, eyes, front);
-    head = std::move(lit);
-  }
   HeadCamera camera(std::move(head), tmpl.modes);
   measure_detector_response(
       calibrated,

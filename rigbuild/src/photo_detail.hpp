@@ -59,18 +59,7 @@ void for_each_skin_texel(
 /// carry that fit's landmark errors into the renders, and the detector would find its own points
 /// again).
 render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, int n,
-                                 const Eigen::Matrix3d* shading = nullptr);
-
-/// The photo's light across the face relative to a render of the painted template (`render`, the
-/// template at its own positions through `camera`): per channel, log(photo / render) at skin
-/// points between landmarks (dlib's in the photo, the template's landmark vertices in the
-/// render) fitted as a + b x + c y, (x, y) the template's position from its nose tip (landmark
-/// 30) in inter-ocular distances; rows: channels, columns a, b, c (paint_face_texture's
-/// `shading`: each texel's colour times exp of it).
-Eigen::Matrix3d fit_face_shading(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, const render::Image& render,
-                                 const PhotoCamera& camera);
+                                 const PhotoLandmarks& marks, int n);
 
 /// `positions` on the template's topology as a rig without shapes, its skin materials sampling
 /// `texture` (2 N x N: u scaled onto the skin's UV tiles).

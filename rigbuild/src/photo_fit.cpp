@@ -40,12 +40,6 @@ struct View {
   const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
   const std::vector<std::array<Eigen::Vector3d, kLandmarkCount>>* mode_bias = nullptr;
   double noise = 1;  // this photo's landmark noise relative to the front photo's
-  // Per landmark, its noise relative to this photo's (PhotoOptions::landmark_weights).
-  std::array<double, kLandmarkCount> scale = [] {
-    std::array<double, kLandmarkCount> a;
-    a.fill(1.0);
-    return a;
-  }();
   // A turned head: this photo's rotation is the front photo's times a turn about the head's
   // vertical axis (R_front Ry(turn)) instead of a free rotation.
   bool turned = false;
@@ -259,7 +253,7 @@ void fit_camera(const rig::Positions& positions, const Eigen::VectorXd& c, View&
 constexpr Eigen::Index kCameraParameters = 6;  // per photo: rotation (3), scale, translation (2)
 
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
-                       double iod, double noise, double outline_noise, const Eigen::VectorXd& alpha,
+                       double iod, double noise, double outline_noise,
                        std::vector<Eigen::Vector2d>* scatter = nullptr,
                        Eigen::VectorXd* sd = nullptr) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
@@ -268,9 +262,9 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   const Eigen::Index n = K + kCameraParameters * static_cast<Eigen::Index>(views.size()) + 1;
   const double inv_focal = views[0].perspective ? views[0].camera.kappa / views[0].camera.s : 0.0;
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
-  H.topLeftCorner(K, K).diagonal() += noise * noise * alpha;
+  H.topLeftCorner(K, K).diagonal().array() += noise * noise;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-  g.head(K) = -noise * noise * alpha.cwiseProduct(c);
+  g.head(K) = -noise * noise * c;
   const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
@@ -320,9 +314,8 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       Eigen::Vector2d r = view.marks->points[i] - cam.project(x);
       r.y() = -r.y();  // y up
       for (Eigen::Index m = 0; m < K; ++m) D.col(m) = view.mode(static_cast<int>(m), k);
-      const double weight = unit / (view.noise * view.scale[i]);
-      const Eigen::MatrixXd J = jacobian(x, D) * weight;
-      r *= weight;
+      const Eigen::MatrixXd J = jacobian(x, D) * (unit / view.noise);
+      r *= unit / view.noise;
       const Eigen::MatrixXd JtJ = J.transpose() * J;
       H += JtJ;
       g += J.transpose() * r;
@@ -535,44 +528,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     return options.outline_window * std::max(1.0, options.outline_start - 0.5 * (it - 1));
   };
   double noise = options.landmark_noise;  // the front landmarks', inter-ocular distances
-  // Per landmark, the detector response's spread across its renders (inter-ocular distances).
-  std::array<double, kLandmarkCount> spread{};
-  double median_spread = 0;
-  if (options.landmark_weights != "none") {
-    std::vector<double> all;
-    for (int k = 0; k < kLandmarkCount; ++k) {
-      spread[static_cast<std::size_t>(k)] = tmpl.spread[static_cast<std::size_t>(k)] / iod;
-      if (!views[0].contour[static_cast<std::size_t>(k)])
-        all.push_back(spread[static_cast<std::size_t>(k)]);
-    }
-    if (!all.empty()) {
-      std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(all.size() / 2),
-                       all.end());
-      median_spread = all[all.size() / 2];
-    }
-  }
-  // Per landmark: "spread" adds its spread's variance to the common noise's, sigma^2 + spread^2;
-  // "relative" scales the common noise by sqrt((m^2 + spread^2) / (2 m^2)), m the median spread.
-  const auto set_scales = [&] {
-    if (median_spread <= 0) return;
-    for (int k = 0; k < kLandmarkCount; ++k) {
-      const auto i = static_cast<std::size_t>(k);
-      double f = 1;
-      if (views[0].contour[i]) {
-        f = 1;
-      } else if (options.landmark_weights == "spread") {
-        f = std::sqrt(1 + spread[i] * spread[i] / (noise * noise));
-      } else if (options.landmark_weights == "relative") {
-        const double m2 = median_spread * median_spread;
-        f = std::sqrt((m2 + spread[i] * spread[i]) / (2 * m2));
-      }
-      views[0].scale[i] = f;
-    }
-  };
-  const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
-  Eigen::VectorXd alpha = Eigen::VectorXd::Ones(K);  // the modes' prior precisions
   for (int it = 0; it < std::max(1, options.iterations); ++it) {
-    set_scales();
     if (it > 0)
       for (auto& v : views) {
         match_contour(tmpl, p, candidates, v);
@@ -581,18 +537,8 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
       }
     std::vector<Eigen::Vector2d> scatter;
     for (int step = 0; step < 3; ++step)
-      gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise, alpha,
+      gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise,
                         step == 2 ? &scatter : nullptr, step == 2 ? &fit.coefficient_sd : nullptr);
-    if (options.mode_evidence && it > 0) {
-      // Type-II maximum likelihood per mode (MacKay): gamma_m = 1 - alpha_m Sigma_mm of the
-      // posterior, alpha_m = gamma_m / c_m^2, never below the prior's 1.
-      for (Eigen::Index m = 0; m < K; ++m) {
-        const double sd = fit.coefficient_sd(m);
-        const double gamma = std::clamp(1 - alpha(m) * sd * sd, 0.0, 1.0);
-        const double c2 = fit.coefficients(m) * fit.coefficients(m);
-        alpha(m) = std::clamp(gamma / std::max(c2, 1e-12), 1.0, 1e4);
-      }
-    }
     // A photo's weighted landmark residuals per degree of freedom (variance components).
     const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
     if (options.estimate_noise) {
@@ -730,20 +676,14 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
   tmpl.side_bias = at[1];
   tmpl.mode_bias.assign(tmpl.modes.size(), zero_landmark_vectors());
   tmpl.side_mode_bias = tmpl.mode_bias;
-  // The spread about the linear response: per mode, the mean of the +- renders' offsets less the
-  // template's (what bias + mode_bias c misses there: the detector's curvature and its jitter).
-  std::array<double, kLandmarkCount> sum{};
   for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
     const auto plus = measure(tmpl.rig.positions + static_cast<float>(amplitude) * tmpl.modes[m]);
     const auto minus = measure(tmpl.rig.positions - static_cast<float>(amplitude) * tmpl.modes[m]);
     for (std::size_t k = 0; k < kLandmarkCount; ++k) {
       tmpl.mode_bias[m][k] = (plus[0][k] - minus[0][k]) / (2 * amplitude);
       tmpl.side_mode_bias[m][k] = (plus[1][k] - minus[1][k]) / (2 * amplitude);
-      sum[k] += (0.5 * (plus[0][k] + minus[0][k]) - at[0][k]).squaredNorm();
     }
   }
-  for (std::size_t k = 0; k < kLandmarkCount; ++k)
-    tmpl.spread[k] = std::sqrt(sum[k] / std::max<std::size_t>(1, tmpl.modes.size()));
 }
 
 }  // namespace facecast::rigbuild

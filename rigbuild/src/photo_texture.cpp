@@ -439,71 +439,8 @@ Eigen::Vector3d median_colour(const render::Image& photo,
 
 }  // namespace
 
-namespace {
-
-// Skin points between landmarks: across the cheeks, the nose's ridge, the chin and the jaw's
-// sides (pairs of landmarks and the fractions between them).
-const std::vector<std::pair<int, int>> kShadingPairs = {
-    {2, 31}, {14, 35}, {4, 48}, {12, 54}, {57, 8}, {27, 30}, {3, 31}, {13, 35},
-    {1, 31}, {15, 35}, {5, 48}, {11, 54}, {6, 58}, {10, 56}, {0, 36}, {16, 45}};
-const std::vector<double> kShadingFractions = {0.3, 0.45, 0.6};
-
-Eigen::Vector3d face_coordinates(const PhotoTemplate& tmpl, const Eigen::Vector3d& p) {
-  const auto& X = tmpl.rig.positions;
-  const auto at = [&](int k) {
-    return Eigen::Vector3d(X.row(tmpl.landmarks[static_cast<std::size_t>(k)]).cast<double>());
-  };
-  const double iod = (at(36) - at(45)).norm();
-  const Eigen::Vector3d d = (p - at(30)) / iod;
-  return {1.0, d.x(), d.y()};
-}
-
-}  // namespace
-
-Eigen::Matrix3d fit_face_shading(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, const render::Image& render,
-                                 const PhotoCamera& camera) {
-  const auto& X = tmpl.rig.positions;
-  const auto at = [&](int k) {
-    return Eigen::Vector3d(X.row(tmpl.landmarks[static_cast<std::size_t>(k)]).cast<double>());
-  };
-  const auto inside = [](const render::Image& img, const Eigen::Vector2d& q) {
-    return q.x() >= 0 && q.y() >= 0 && q.x() <= img.width - 1 && q.y() <= img.height - 1;
-  };
-  std::vector<Eigen::Vector3d> rows;
-  std::vector<Eigen::Vector3d> logs;
-  for (const auto& [a, b] : kShadingPairs)
-    for (double t : kShadingFractions) {
-      const auto ia = static_cast<std::size_t>(a), ib = static_cast<std::size_t>(b);
-      const Eigen::Vector2d q = marks.points[ia] + t * (marks.points[ib] - marks.points[ia]);
-      const Eigen::Vector3d p = at(a) + t * (at(b) - at(a));
-      const Eigen::Vector2d r = camera.project(p);
-      if (!inside(photo, q) || !inside(render, r)) continue;
-      const Eigen::Vector3f cp = sample(photo, q), cr = sample(render, r);
-      Eigen::Vector3d l;
-      for (int k = 0; k < 3; ++k) l(k) = std::log((cp(k) + 4.0) / (cr(k) + 4.0));
-      rows.push_back(face_coordinates(tmpl, p));
-      logs.push_back(l);
-    }
-  Eigen::Matrix3d out = Eigen::Matrix3d::Zero();
-  if (rows.size() < 12) return out;
-  Eigen::MatrixXd A(static_cast<Eigen::Index>(rows.size()), 3);
-  Eigen::MatrixXd B(static_cast<Eigen::Index>(rows.size()), 3);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    A.row(static_cast<Eigen::Index>(i)) = rows[i].transpose();
-    B.row(static_cast<Eigen::Index>(i)) = logs[i].transpose();
-  }
-  // Least squares with a small ridge on the gradients (few points on one side of the face).
-  Eigen::Matrix3d AtA = A.transpose() * A;
-  AtA(1, 1) += 1e-3 * static_cast<double>(rows.size());
-  AtA(2, 2) += 1e-3 * static_cast<double>(rows.size());
-  out = AtA.ldlt().solve(A.transpose() * B).transpose();
-  return out;
-}
-
 render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, int n,
-                                 const Eigen::Matrix3d* shading) {
+                                 const PhotoLandmarks& marks, int n) {
   const auto& lm = marks.points;
   // The photo's colours where dlib's points say they are: skin across the cheeks, the nose's
   // ridge and the chin; brows along their points; lips halfway between the outer and the inner
@@ -558,10 +495,6 @@ render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image&
         if (near_chain(p, 48, 59, true) < 0.05 * iod ||
             ((p - mouth).norm() < mouth_half && std::abs(p.y() - mouth.y()) < 0.12 * iod))
           c = lips;
-        if (shading) {
-          const Eigen::Vector3d f = *shading * face_coordinates(tmpl, p);
-          for (int k = 0; k < 3; ++k) c(k) *= std::exp(std::clamp(f(k), -1.5, 1.5));
-        }
         put(i, c);
       });
   return img;

@@ -275,11 +275,8 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.self_calibrate == d.self_calibrate);
   CHECK(c.calibration_texture == d.calibration_texture);
   CHECK(c.painted_distance == d.painted_distance);
-  CHECK(c.calibration_shading == d.calibration_shading);
   CHECK(c.side_noise == d.side_noise);
   CHECK(c.estimate_side_noise == d.estimate_side_noise);
-  CHECK(c.landmark_weights == d.landmark_weights);
-  CHECK(c.mode_evidence == d.mode_evidence);
   CHECK(c.side_turn == d.side_turn);
   CHECK(c.camera == d.camera);
   CHECK(c.side_calibration == d.side_calibration);

@@ -59,23 +59,9 @@ struct PhotoOptions {
   /// ... painted only when the photo's fitted perspective camera is at least this far from the
   /// model's origin (model units, cm; nearer, e.g. a selfie at arm's length: photo).
   double painted_distance = 100;
-  /// The painted template also carries the photo's light across the face (a lamp at one side):
-  /// the log ratio of the photo to a render of the flat painted template, fitted linearly across
-  /// the face at skin points between landmarks (fit_face_shading).
-  /// 0: off; 1: the gradient only (its mean level left to the renderer's lights); 2: the whole.
-  int calibration_shading = 0;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
-  /// Per-landmark noise of the front photo's points: "none" (all alike) or "spread" (each
-  /// landmark's noise from the detector response's spread across the renders it was measured on,
-  /// PhotoTemplate::spread: sqrt(1 + (spread / median spread)^2 / ... ) relative to the median;
-  /// the common level is still estimated).
-  std::string landmark_weights = "none";
-  /// The identity modes' prior precisions chosen by the evidence (type-II maximum likelihood,
-  /// MacKay's update alpha_m = gamma_m / c_m^2), never below the prior's 1: a mode the landmarks
-  /// do not support shrinks towards the template.
-  bool mode_evidence = false;
-  bool side_turn = true;  // the side camera = the front's with the head turned (a yaw)
+  bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
   /// The photos' camera: "orthographic" (scale-orthographic), "perspective" (one unknown focal
   /// length for the photos, the principal point at each one's centre) or "auto" (the one the
   /// evidence picks: fit_photo_shape).
@@ -118,9 +104,6 @@ struct PhotoTemplate {
   /// The same for side photos (the detector's convention differs on a turned face).
   std::array<Eigen::Vector3d, kLandmarkCount> side_bias = zero_landmark_vectors();
   std::vector<std::array<Eigen::Vector3d, kLandmarkCount>> side_mode_bias;
-  /// Per landmark, the spread of the detector's front offsets about the linear response (bias +
-  /// mode_bias c) across the renders it was measured on, model units (zero: not measured).
-  std::array<double, kLandmarkCount> spread{};
 };
 
 /// The template to build from: `given` (a --template argument) if not empty, else
