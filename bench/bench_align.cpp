@@ -9,6 +9,8 @@
 // set; BENCH_ALIGN_SET=function runs only the short function-word sentences ("to be", "of the":
 // festival, flite's four voices, and flite 30 % faster; align_cases.hpp). BENCH_ALIGN_VERBOSE=1
 // prints each word's error, =2 also each word's aligned span and the true onsets.
+// BENCH_ALIGN_PAD=S puts S seconds of faint noise before and after every recording
+// (test::pad_audio), as recordings of a quiet room hold it.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -45,7 +47,6 @@ double mean(const std::vector<double>& v) {
 
 int main() {
   const char* only = std::getenv("BENCH_ALIGN_ONLY");
-  // BENCH_ALIGN_PAD=seconds: each recording inside that much faint noise (test::pad_audio).
   const double pad = std::getenv("BENCH_ALIGN_PAD") ? std::atof(std::getenv("BENCH_ALIGN_PAD")) : 0;
   const char* set = std::getenv("BENCH_ALIGN_SET");
   const auto wanted = [&](const char* name) { return !set || std::string(set) == name; };
