@@ -237,6 +237,7 @@ PhotoOptions load_photo_options() {
       .read("self_calibrate", o.self_calibrate)
       .read("calibration_texture", o.calibration_texture)
       .read("painted_distance", o.painted_distance)
+      .read("calibration_light", o.calibration_light)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -333,10 +334,16 @@ namespace {
 // response asks for (the head moved along a mode) is a weight, not a new upload.
 class HeadCamera {
  public:
-  HeadCamera(rig::Rig head, const std::vector<rig::Positions>& modes)
+  // The cameras are `photo`'s (its field of view spans its height); the renders are of its size
+  // when `photo_size`, else the renderer's default 640 x 480 (the same vertical field of view: the
+  // head smaller or larger by 480 / the photo's height, centred).
+  HeadCamera(rig::Rig head, const std::vector<rig::Positions>& modes, const render::Image& photo,
+             bool photo_size)
       : head_(with_modes(std::move(head), modes)),
         base_(head_.positions),
-        renderer_(head_, options()) {
+        width_(photo.width),
+        height_(photo.height),
+        renderer_(head_, options(photo, photo_size)) {
     const auto n = static_cast<Eigen::Index>(modes.size());
     Eigen::MatrixXd m(head_.positions.size(), n);
     for (Eigen::Index k = 0; k < n; ++k)
@@ -346,9 +353,8 @@ class HeadCamera {
     gram_ = (m.transpose() * m).ldlt();
     modes_ = std::move(m);
   }
-  // The head at `positions` (the fitted head moved along its modes) seen by `camera` at `size`.
-  render::Image shoot(const rig::Positions& positions, const PhotoCamera& camera,
-                      const render::Image& size) {
+  // The head at `positions` (the fitted head moved along its modes) seen by `camera`.
+  render::Image shoot(const rig::Positions& positions, const PhotoCamera& camera) {
     const Eigen::VectorXd delta =
         Eigen::Map<const Eigen::VectorXf>(positions.data(), positions.size()).cast<double>() -
         Eigen::Map<const Eigen::VectorXf>(base_.data(), base_.size()).cast<double>();
@@ -356,7 +362,7 @@ class HeadCamera {
     std::vector<float> weights(static_cast<std::size_t>(w.size()));
     for (Eigen::Index k = 0; k < w.size(); ++k)
       weights[static_cast<std::size_t>(k)] = static_cast<float>(w(k));
-    renderer_.set_camera(render_camera(camera, head_.positions, size.width, size.height));
+    renderer_.set_camera(render_camera(camera, head_.positions, width_, height_));
     return renderer_.render(weights);
   }
 
@@ -367,8 +373,12 @@ class HeadCamera {
       head.shapes.push_back(rig::Blendshape::from_dense("identity" + std::to_string(k), modes[k]));
     return head;
   }
-  static render::RenderOptions options() {
+  static render::RenderOptions options(const render::Image& photo, bool photo_size) {
     render::RenderOptions ro;
+    if (photo_size) {
+      ro.width = photo.width;
+      ro.height = photo.height;
+    }
     ro.contexts = 1;
     ro.trilinear = true;
     ro.lod_pixels = 0;
@@ -376,6 +386,7 @@ class HeadCamera {
   }
   rig::Rig head_;
   rig::Positions base_;
+  int width_, height_;
   render::Renderer renderer_;
   Eigen::MatrixXd modes_;
   Eigen::LDLT<Eigen::MatrixXd> gram_;
@@ -410,11 +421,12 @@ bool has_detector_response(const PhotoTemplate& t) {
 // otherwise explain with identity (docs/algorithms.md#photo-avatar). The side photo's response is
 // not measured: fitted alone, a render of a turned head gives a camera turned by up to 15 degrees
 // less, and offsets measured against it pulled the second fit's turn as far (against the known
-// side camera: window mixtures 1.11 -> 1.32, turns off by up to 10 degrees). `used`: the texture
-// the head wore ("painted" or "photo").
+// side camera: window mixtures 1.11 -> 1.32, turns off by up to 10 degrees). `report` gets the
+// texture the head wore (calibration_texture: "painted" or "photo") and the light it was given
+// (calibration_light).
 PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first,
                              const render::Image& front, const render::Image* side,
-                             const PhotoOptions& options, std::string* used) {
+                             const PhotoOptions& options, nlohmann::json& report) {
   // The painted template (calibration_texture): a texture baked from the photo through the first
   // fit puts the photo's features where that fit's landmark vertices are, so the detector finds on
   // the render about the points the first fit already explained, and the fit's own error comes
@@ -443,7 +455,7 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   if (painted && shot_camera.perspective() && 1 / shot_camera.kappa < options.painted_distance)
     painted = false;
   if (!painted) shot_camera = first.fit.front;
-  if (used) *used = painted ? "painted" : "photo";
+  report["calibration_texture"] = painted ? "painted" : "photo";
   const rig::Positions& base = painted ? tmpl.rig.positions : first.fit.positions;
   const render::Image texture = painted ? paint_face_texture(tmpl, front, first.front, 512)
                                         : bake_photo_texture(tmpl, first.fit, front, side, options);
@@ -451,6 +463,31 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   PhotoFit eyes = first.fit;  // the eyes painted where the rendered head has them
   eyes.positions = base;
   paint_eyes(head, tmpl, eyes, front);
+  if (painted && options.calibration_light) {
+    // The photo's light (a lamp at one side, a light from above) that the renderer's lights do
+    // not give the flat painted template: the ratio of the photo to a render of it, as a
+    // function of the normal, painted into its colours.
+    const render::Image flat = HeadCamera(head, tmpl.modes, front, true).shoot(base, shot_camera);
+    const FaceLight light =
+        fit_face_light(tmpl, front, first.fit, first.fit.front, flat, shot_camera);
+    if (light.samples > 0) {
+      head = textured_head(tmpl, base, paint_face_texture(tmpl, front, first.front, 512, &light));
+      paint_eyes(head, tmpl, eyes, front);
+    }
+    // The ratio facing the camera and turned 45 degrees towards the head's left, right, top and
+    // bottom (its own frame).
+    nlohmann::json& r = report["calibration_light"];
+    r["samples"] = light.samples;
+    const double h = std::sqrt(0.5);
+    for (const auto& [name, n] : {std::pair{"front", Eigen::Vector3d(0, 0, 1)},
+                                  {"left", Eigen::Vector3d(h, 0, h)},
+                                  {"right", Eigen::Vector3d(-h, 0, h)},
+                                  {"top", Eigen::Vector3d(0, h, h)},
+                                  {"bottom", Eigen::Vector3d(0, -h, h)}}) {
+      const Eigen::Vector3d v = light(n);
+      r[name] = {v(0), v(1), v(2)};
+    }
+  }
   PhotoTemplate calibrated = tmpl;
   calibrated.rig.positions = base;
   PhotoOptions quick = options;
@@ -467,11 +504,16 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   // photo 0.13 against 0.155 cm).
   quick.box_steps = painted ? std::min(options.box_steps, 1) : 0;
   quick.min_face = std::min(options.min_face, 32);  // a head moved along a mode may look smaller
-  HeadCamera camera(std::move(head), tmpl.modes);
+  // The painted template is photographed at the photo's size (its pixels are compared with the
+  // photo's for the light, and dlib reads it at the photo's scale: development heads' window
+  // mixtures 0.68 -> 0.63, the template's own photo 0.17 -> 0.13 cm, with calibration_light). The
+  // first fit's head in the baked photo texture keeps the renderer's 640 x 480: at a portrait
+  // selfie's 480 x 640 the template's own selfie came back 0.25 cm off against 0.10.
+  HeadCamera camera(std::move(head), tmpl.modes, front, painted);
   measure_detector_response(
       calibrated,
       [&](const rig::Positions& p) {
-        return std::make_pair(camera.shoot(p, shot_camera, front), render::Image{});
+        return std::make_pair(camera.shoot(p, shot_camera), render::Image{});
       },
       quick, 2.0,
       [&](const render::Image& shot, bool) {
@@ -515,11 +557,12 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
-  std::string calibration_note, calibration_texture;
+  std::string calibration_note;
+  nlohmann::json calibration = {{"calibration_texture", ""}};
   if (!has_detector_response(tmpl)) {
     try {
       for (int round = 0; round < options.self_calibrate; ++round)
-        out.fit = self_calibrated_fit(tmpl, out, front, side, options, &calibration_texture);
+        out.fit = self_calibrated_fit(tmpl, out, front, side, options, calibration);
     } catch (const Error& e) {
       // A render the detector cannot read (a head moved far along a mode): the fit stays as it was.
       calibration_note = std::string("self-calibration skipped: ") + e.what();
@@ -561,7 +604,6 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                                                            out.fit.coefficient_sd.size())},
                 {"landmark_noise", out.fit.noise},
                 {"camera_model", out.fit.camera_model},
-                {"calibration_texture", calibration_texture},
                 {"camera_evidence", out.fit.camera_evidence},
                 {"rbf_rms_move", out.fit.moved_rms},
                 {"eyes", eyes},
@@ -573,6 +615,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                 {"shapes", out.rig.shapes.size()},
                 {"notes", notes},
                 {"seconds", timing}};
+  out.report.update(calibration);
   if (out.fit.side)
     out.report["side"] = {
         {"landmarks", points_json(out.side)}, {"faces", out.side.faces},

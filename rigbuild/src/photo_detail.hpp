@@ -52,14 +52,34 @@ void for_each_skin_texel(
     const PhotoTemplate& tmpl, const rig::Positions& positions, int w, int h, int tiles,
     const std::function<void(std::size_t, const Eigen::Vector3d&, const Eigen::Vector3d&)>& f);
 
+/// The photo's light on the face relative to the renderer's: per channel, the ratio of the photo
+/// to a render of the painted template as a function of the surface normal n (the head's frame),
+/// in real spherical harmonics up to order 2 (Ramamoorthi and Hanrahan's irradiance basis).
+struct FaceLight {
+  Eigen::Matrix<double, 3, 9> coefficients = Eigen::Matrix<double, 3, 9>::Zero();
+  int samples = 0;                   // skin points it was fitted on
+  Eigen::Vector3d towards{0, 0, 1};  // the render's camera axis (the normals it saw face it)
+  /// The ratio per channel at normal n, kept within [0.25, 4].
+  Eigen::Vector3d operator()(const Eigen::Vector3d& n) const;
+};
+
+/// Fits FaceLight: at the template's skin vertices on the face (facing both cameras, away from
+/// the brows, eyes, nostrils and lips), the photo where `fit` (through `photo_camera`) puts the
+/// vertex against `render` (the painted template through `render_camera`), robustly (Tukey).
+FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, const PhotoFit& fit,
+                         const PhotoCamera& photo_camera, const render::Image& render,
+                         const PhotoCamera& render_camera);
+
 /// A stylised face on the template's skin (2 N x N, as bake_photo_texture's), its features where
 /// the template's landmark vertices put them (brows along 17-21 and 22-26, lips along the outer
 /// lip contour and across the mouth), in the colours the photo shows at dlib's points (`marks`):
 /// analysis by synthesis's renders (a texture baked from the photo through the first fit would
 /// carry that fit's landmark errors into the renders, and the detector would find its own points
 /// again).
+/// `light`, when given, multiplies each texel's colour by light(n), n its normal (FaceLight).
 render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, int n);
+                                 const PhotoLandmarks& marks, int n,
+                                 const FaceLight* light = nullptr);
 
 /// `positions` on the template's topology as a rig without shapes, its skin materials sampling
 /// `texture` (2 N x N: u scaled onto the skin's UV tiles).

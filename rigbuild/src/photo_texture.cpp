@@ -416,6 +416,29 @@ double segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   return (a + t * d - p).norm();
 }
 
+// The template's landmark vertices, and a point's distance to a chain of them (a feature's
+// contour: the brows, eyes, nose and lips the painted face draws).
+struct TemplateMarks {
+  explicit TemplateMarks(const PhotoTemplate& t) : tmpl(t), iod((at(36) - at(45)).norm()) {}
+  Eigen::Vector3d at(int k) const {
+    return Eigen::Vector3d(
+        tmpl.rig.positions.row(tmpl.landmarks[static_cast<std::size_t>(k)]).cast<double>());
+  }
+  // The distance from p to the polyline of landmarks from..to (closed: back to `from`).
+  double chain(const Eigen::Vector3d& p, int from, int to, bool closed) const {
+    double d = std::numeric_limits<double>::max();
+    for (int k = from; k < to; ++k) d = std::min(d, segment_distance(p, at(k), at(k + 1)));
+    if (closed) d = std::min(d, segment_distance(p, at(to), at(from)));
+    return d;
+  }
+  double brows(const Eigen::Vector3d& p) const {
+    return std::min(chain(p, 17, 21, false), chain(p, 22, 26, false));
+  }
+
+  const PhotoTemplate& tmpl;
+  const double iod;  // inter-ocular distance (outer eye corners)
+};
+
 // Per channel, the median of the photo's colours at the points a + t (b - a), t in `ts`, for the
 // landmark pairs given; `fallback` when the photo shows none of them.
 Eigen::Vector3d median_colour(const render::Image& photo,
@@ -437,10 +460,109 @@ Eigen::Vector3d median_colour(const render::Image& photo,
   return {median(v[0]), median(v[1]), median(v[2])};
 }
 
+// The least n . (towards the camera) of the normals the light is fitted on.
+constexpr double kFacing = 0.3;
+
+// Real spherical harmonics up to order 2 at unit normal n (unnormalised: the constant, the three
+// linear terms, the five quadratic ones).
+Eigen::Matrix<double, 9, 1> harmonics(const Eigen::Vector3d& n) {
+  Eigen::Matrix<double, 9, 1> y;
+  y << 1, n.x(), n.y(), n.z(), n.x() * n.y(), n.x() * n.z(), n.y() * n.z(),
+      n.x() * n.x() - n.y() * n.y(), 3 * n.z() * n.z() - 1;
+  return y;
+}
+
 }  // namespace
 
+Eigen::Vector3d FaceLight::operator()(const Eigen::Vector3d& n) const {
+  // The fit sees normals that face the camera (n . towards >= kFacing): one turned further away
+  // takes the light of the nearest seen direction, not the harmonics' extrapolation.
+  Eigen::Vector3d m = n;
+  const double c = n.dot(towards);
+  const Eigen::Vector3d across = n - c * towards;
+  if (c < kFacing && across.norm() > 1e-9)
+    m = across.normalized() * std::sqrt(1 - kFacing * kFacing) + kFacing * towards;
+  return (coefficients * harmonics(m)).cwiseMax(0.25).cwiseMin(4.0);
+}
+
+FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, const PhotoFit& fit,
+                         const PhotoCamera& photo_camera, const render::Image& render,
+                         const PhotoCamera& render_camera) {
+  const rig::Rig& rig = tmpl.rig;
+  const auto at = [](const rig::Positions& x, Eigen::Index v) {
+    return Eigen::Vector3d(x.row(v).cast<double>().transpose());
+  };
+  const TemplateMarks marks(tmpl);
+  const auto lm = [&](int k) { return marks.at(k); };
+  const double iod = marks.iod;
+  const auto inside = [](const render::Image& img, const Eigen::Vector2d& q) {
+    return q.x() >= 0 && q.y() >= 0 && q.x() <= img.width - 1 && q.y() <= img.height - 1;
+  };
+  const rig::Positions normals = rig::vertex_normals(rig.positions, rig.triangles);
+  const rig::Positions fit_normals = rig::vertex_normals(fit.positions, rig.triangles);
+  // The face: between the jaw's ends, from the chin to half an IOD above the brows, in front of
+  // the jaw's ends (the scalp, ears and neck are hair, shadow or clothes in a real photo).
+  const double left = std::min(lm(0).x(), lm(16).x()), right = std::max(lm(0).x(), lm(16).x());
+  const double top = std::max(lm(19).y(), lm(24).y()) + 0.5 * iod, bottom = lm(8).y();
+  const double back = std::min(lm(0).z(), lm(16).z());
+  std::vector<Eigen::Matrix<double, 9, 1>> rows;
+  std::vector<Eigen::Vector3d> ratios;
+  for (Eigen::Index v = 0; v < rig.vertex_count(); ++v) {
+    if (!tmpl.skin[static_cast<std::size_t>(v)]) continue;
+    const Eigen::Vector3d p = at(rig.positions, v), q = at(fit.positions, v);
+    if (p.x() < left || p.x() > right || p.y() < bottom || p.y() > top || p.z() < back) continue;
+    // Away from the painted features (the photo's lie where the person's are, up to the fit's
+    // error) and the nostrils.
+    if (marks.brows(p) < 0.15 * iod ||
+        std::min(marks.chain(p, 36, 41, true), marks.chain(p, 42, 47, true)) < 0.15 * iod ||
+        marks.chain(p, 48, 59, true) < 0.15 * iod || marks.chain(p, 31, 35, false) < 0.1 * iod)
+      continue;
+    const Eigen::Vector3d n = at(normals, v).normalized(), m = at(fit_normals, v).normalized();
+    if (n.dot(render_camera.towards(p)) < kFacing || m.dot(photo_camera.towards(q)) < kFacing)
+      continue;
+    const Eigen::Vector2d a = photo_camera.project(q), b = render_camera.project(p);
+    if (!inside(photo, a) || !inside(render, b)) continue;
+    const Eigen::Vector3f cp = sample(photo, a), cr = sample(render, b);
+    rows.push_back(harmonics(n));
+    ratios.push_back(((cp.cast<double>().array() + 2) / (cr.cast<double>().array() + 2)).matrix());
+  }
+  FaceLight out;
+  out.coefficients(0, 0) = out.coefficients(1, 0) = out.coefficients(2, 0) = 1;
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  if (m < 60) return out;  // too little of the face seen: the renderer's light stays
+  Eigen::MatrixXd A(m, 9);
+  Eigen::MatrixXd Y(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    A.row(i) = rows[static_cast<std::size_t>(i)].transpose();
+    Y.row(i) = ratios[static_cast<std::size_t>(i)].transpose();
+  }
+  // Iteratively reweighted least squares, Tukey's biweight at 4.685 robust spreads (skin the
+  // fit put where the photo shows brow, hair or background), a small ridge on the non-constant
+  // terms (the face's normals cover half the sphere).
+  for (int c = 0; c < 3; ++c) {
+    Eigen::VectorXd w = Eigen::VectorXd::Ones(m), x;
+    for (int round = 0; round < 6; ++round) {
+      Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
+      for (int k = 1; k < 9; ++k) N(k, k) += 1e-3 * static_cast<double>(m);
+      x = N.ldlt().solve(A.transpose() * w.asDiagonal() * Y.col(c));
+      const Eigen::VectorXd r = Y.col(c) - A * x;
+      std::vector<double> abs(static_cast<std::size_t>(m));
+      for (Eigen::Index i = 0; i < m; ++i) abs[static_cast<std::size_t>(i)] = std::abs(r(i));
+      const double scale = 4.685 * std::max(1.4826 * median(abs), 0.01);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const double u = r(i) / scale;
+        w(i) = std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0;
+      }
+    }
+    out.coefficients.row(c) = x.transpose();
+  }
+  out.samples = static_cast<int>(m);
+  out.towards = render_camera.towards();
+  return out;
+}
+
 render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image& photo,
-                                 const PhotoLandmarks& marks, int n) {
+                                 const PhotoLandmarks& marks, int n, const FaceLight* light) {
   const auto& lm = marks.points;
   // The photo's colours where dlib's points say they are: skin across the cheeks, the nose's
   // ridge and the chin; brows along their points; lips halfway between the outer and the inner
@@ -466,17 +588,9 @@ render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image&
                      {58, 67},
                      {59, 67}},
                     {0.5}, skin.cwiseProduct(Eigen::Vector3d(0.85, 0.55, 0.6)));
-  const auto& X = tmpl.rig.positions;
-  const auto at = [&](int k) {
-    return Eigen::Vector3d(X.row(tmpl.landmarks[static_cast<std::size_t>(k)]).cast<double>());
-  };
-  const double iod = (at(36) - at(45)).norm();
-  const auto near_chain = [&](const Eigen::Vector3d& p, int from, int to, bool closed) {
-    double d = std::numeric_limits<double>::max();
-    for (int k = from; k < to; ++k) d = std::min(d, segment_distance(p, at(k), at(k + 1)));
-    if (closed) d = std::min(d, segment_distance(p, at(to), at(from)));
-    return d;
-  };
+  const TemplateMarks features(tmpl);
+  const auto at = [&](int k) { return features.at(k); };
+  const double iod = features.iod;
   const Eigen::Vector3d mouth = 0.5 * (at(48) + at(54));
   const double mouth_half = (at(54) - mouth).norm();
   render::Image img{2 * n, n, 3,
@@ -488,13 +602,14 @@ render::Image paint_face_texture(const PhotoTemplate& tmpl, const render::Image&
   };
   for (std::size_t i = 0; i < img.pixels.size() / 3; ++i) put(i, skin);
   for_each_skin_texel(
-      tmpl, X, 2 * n, n, 2, [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d&) {
+      tmpl, tmpl.rig.positions, 2 * n, n, 2,
+      [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d& normal) {
         Eigen::Vector3d c = skin;
-        const double b = std::min(near_chain(p, 17, 21, false), near_chain(p, 22, 26, false));
-        if (b < 0.05 * iod && p.z() > at(27).z() - 0.5 * iod) c = brow;
-        if (near_chain(p, 48, 59, true) < 0.05 * iod ||
+        if (features.brows(p) < 0.05 * iod && p.z() > at(27).z() - 0.5 * iod) c = brow;
+        if (features.chain(p, 48, 59, true) < 0.05 * iod ||
             ((p - mouth).norm() < mouth_half && std::abs(p.y() - mouth.y()) < 0.12 * iod))
           c = lips;
+        if (light) c = c.cwiseProduct((*light)(normal));
         put(i, c);
       });
   return img;

@@ -59,6 +59,10 @@ struct PhotoOptions {
   /// ... painted only when the photo's fitted perspective camera is at least this far from the
   /// model's origin (model units, cm; nearer, e.g. a selfie at arm's length: photo).
   double painted_distance = 100;
+  /// The painted template also carries the photo's light: the ratio of the photo to a render of
+  /// the flat painted template, fitted over the face as a function of the surface normal
+  /// (spherical harmonics to order 2), multiplies its colours.
+  bool calibration_light = true;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
