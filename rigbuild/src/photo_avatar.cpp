@@ -229,6 +229,7 @@ PhotoOptions load_photo_options() {
       .read("template", o.template_path)
       .read("min_face", o.min_face)
       .read("max_side", o.max_side)
+      .read("weak_face_score", o.weak_face_score)
       .read("box_jitter", o.box_jitter)
       .read("box_steps", o.box_steps)
       .read("iterations", o.iterations)
@@ -256,6 +257,8 @@ PhotoOptions load_photo_options() {
       .read("shapes", o.shapes);
   if (o.min_face < 16) c.fail("min_face", "must be at least 16");
   if (o.max_side < 128) c.fail("max_side", "must be at least 128");
+  if (!(o.weak_face_score >= -2 && o.weak_face_score <= 0))
+    c.fail("weak_face_score", "must be in [-2, 0]");
   if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");

@@ -79,6 +79,62 @@ std::array<Eigen::Vector2d, kLandmarkCount> predict_landmarks(const render::Imag
   return points;
 }
 
+// The face box dlib's HOG detector finds in `img` (the photo at its working size).
+struct Found {
+  dlib::rectangle box;  // in `img`'s pixels
+  int faces = 0;        // 0: none
+  bool weak = false;    // found only below the detector's threshold
+  double score = 0;     // the SVM score of a weak one
+};
+
+// In passes, each only when the ones before found nothing: at the detector's threshold, the
+// largest face (the working size's, then twice it: the detector's window is 80 pixels, and a face
+// in a large photo of a person to the waist is smaller once scaled down); then the best-scoring
+// face above `weak_score` (a face turned well aside or lit from one side scores below the
+// threshold; 0: no such pass).
+Found find_face(const dlib::array2d<dlib::rgb_pixel>& img, double weak_score) {
+  // Made once per thread (building it reads its HOG filters: a tenth of a second).
+  thread_local dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();
+  dlib::array2d<dlib::rgb_pixel> up;
+  const auto doubled = [&]() -> const dlib::array2d<dlib::rgb_pixel>& {
+    if (up.size() == 0) dlib::pyramid_up(img, up, dlib::pyramid_down<2>());
+    return up;
+  };
+  const auto halved = [](const dlib::rectangle& r, double f) {
+    return f == 1.0 ? r
+                    : dlib::rectangle(std::lround(r.left() * f), std::lround(r.top() * f),
+                                      std::lround(r.right() * f), std::lround(r.bottom() * f));
+  };
+  Found out;
+  for (int pass = 0; pass < 2; ++pass) {
+    const double factor = pass == 0 ? 1.0 : 0.5;
+    const std::vector<dlib::rectangle> faces = detector(pass == 0 ? img : doubled());
+    if (faces.empty()) continue;
+    const dlib::rectangle best =
+        *std::max_element(faces.begin(), faces.end(),
+                          [](const auto& a, const auto& b) { return a.area() < b.area(); });
+    out.box = halved(best, factor);
+    out.faces = static_cast<int>(faces.size());
+    return out;
+  }
+  if (weak_score >= 0) return out;
+  for (int pass = 0; pass < 2; ++pass) {
+    const double factor = pass == 0 ? 1.0 : 0.5;
+    std::vector<std::pair<double, dlib::rectangle>> faces;
+    detector(pass == 0 ? img : doubled(), faces, weak_score);
+    if (faces.empty()) continue;
+    const auto best = *std::max_element(
+        faces.begin(), faces.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (out.faces == 0 || best.first > out.score) {
+      out.box = halved(best.second, factor);
+      out.faces = static_cast<int>(faces.size());
+      out.weak = true;
+      out.score = best.first;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
@@ -90,21 +146,21 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
   const double scale =
       std::min(1.0, options.max_side / static_cast<double>(std::max(photo.width, photo.height)));
   const dlib::array2d<dlib::rgb_pixel> small = to_dlib(photo, scale);
-  // Made once per thread (building it reads its HOG filters: a tenth of a second).
-  thread_local dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();
-  const std::vector<dlib::rectangle> faces = detector(small);
-  if (faces.empty()) throw Error(what + ": no face found");
-  const dlib::rectangle best = *std::max_element(
-      faces.begin(), faces.end(), [](const auto& a, const auto& b) { return a.area() < b.area(); });
+  const Found found = find_face(small, options.weak_face_score);
+  if (found.faces == 0) throw Error(what + ": no face found");
+  const dlib::rectangle best = found.box;
   PhotoLandmarks out;
   out.width = photo.width;
   out.height = photo.height;
-  out.faces = static_cast<int>(faces.size());
+  out.faces = found.faces;
   out.box = best.width() / scale;
   if (out.box < options.min_face)
     throw Error(what + ": face too small (" + std::to_string(static_cast<int>(out.box)) +
                 " pixels wide; at least " + std::to_string(options.min_face) + " needed)");
-  if (out.faces > 1)
+  if (found.weak)
+    out.note = what + ": a face found only below the detector's threshold (score " +
+               std::to_string(found.score).substr(0, 5) + "); check its landmarks";
+  else if (out.faces > 1)
     out.note = what + ": " + std::to_string(out.faces) + " faces found, the largest used";
   out.rect = {std::round(best.left() / scale), std::round(best.top() / scale),
               std::round(best.right() / scale), std::round(best.bottom() / scale)};

@@ -37,10 +37,14 @@ inline std::array<Eigen::Vector3d, kLandmarkCount> zero_landmark_vectors() {
 /// Defaults mirrored in configs/rigbuild/photo.json (load_photo_options).
 struct PhotoOptions {
   std::string predictor = "/usr/share/dlib/shape_predictor_68_face_landmarks.dat";
-  std::string template_path;     // --template default: a template folder or rig file ("" = the
-                                 // shipped template, ict_facekit.glb)
-  int min_face = 80;             // a face box narrower than this (pixels) is "too small"
-  int max_side = 640;            // photos are scaled down to this longest side for detection
+  std::string template_path;  // --template default: a template folder or rig file ("" = the
+                              // shipped template, ict_facekit.glb)
+  int min_face = 80;          // a face box narrower than this (pixels) is "too small"
+  int max_side = 640;         // photos are scaled down to this longest side for detection
+  /// No face at the detector's threshold (at the working size or twice it): the best-scoring face
+  /// above this offset to it (dlib's adjust_threshold; a face turned well aside scores below) is
+  /// taken, with a note in the report; 0: none.
+  double weak_face_score = -0.5;
   double box_jitter = 0.06;      // landmarks averaged over face boxes moved by up to this
   int box_steps = 2;             // fraction of their size, in this many steps each way
   int iterations = 8;            // camera / coefficient alternations
