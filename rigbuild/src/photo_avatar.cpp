@@ -235,6 +235,7 @@ PhotoOptions load_photo_options() {
       .read("iterations", o.iterations)
       .read("landmark_noise", o.landmark_noise)
       .read("estimate_noise", o.estimate_noise)
+      .read("estimate_group_noise", o.estimate_group_noise)
       .read("self_calibrate", o.self_calibrate)
       .read("calibration_texture", o.calibration_texture)
       .read("painted_distance", o.painted_distance)
@@ -606,6 +607,12 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                                                        out.fit.coefficient_sd.data() +
                                                            out.fit.coefficient_sd.size())},
                 {"landmark_noise", out.fit.noise},
+                {"landmark_group_noise",
+                 {{"jaw", out.fit.group_noise[0]},
+                  {"brows", out.fit.group_noise[1]},
+                  {"nose", out.fit.group_noise[2]},
+                  {"eyes", out.fit.group_noise[3]},
+                  {"mouth", out.fit.group_noise[4]}}},
                 {"camera_model", out.fit.camera_model},
                 {"camera_evidence", out.fit.camera_evidence},
                 {"rbf_rms_move", out.fit.moved_rms},

@@ -20,6 +20,16 @@ namespace {
 
 constexpr int kJawEnd = 16;  // landmarks 0..16: the jaw line, silhouette points
 
+// dlib's landmarks by feature: the jaw line, brows, nose, eyes, mouth. Each group's noise is
+// estimated on its own (estimate_group_noise).
+constexpr int kGroups = 5;
+// A group's variance estimate is pulled towards the photo's as if by this many more degrees of
+// freedom at the photo's variance (a group of 9 points has about 12 of its own).
+constexpr double kGroupPrior = 10;
+int landmark_group(int k) {
+  return k <= kJawEnd ? 0 : k <= 26 ? 1 : k <= 35 ? 2 : k <= 47 ? 3 : 4;
+}
+
 // A vertex on the fit's outline paired with the photo's edge: its projection should move along
 // `normal` (the outline's, outwards, photo pixels) onto the line through `target`.
 struct OutlinePoint {
@@ -40,6 +50,11 @@ struct View {
   const std::array<Eigen::Vector3d, kLandmarkCount>* bias = nullptr;
   const std::vector<std::array<Eigen::Vector3d, kLandmarkCount>>* mode_bias = nullptr;
   double noise = 1;  // this photo's landmark noise relative to the front photo's
+  // Each landmark group's noise relative to the photo's (estimate_group_noise).
+  std::array<double, kGroups> group_noise{1, 1, 1, 1, 1};
+  double sd(int k) const {
+    return noise * group_noise[static_cast<std::size_t>(landmark_group(k))];
+  }
   // A turned head: this photo's rotation is the front photo's times a turn about the head's
   // vertical axis (R_front Ry(turn)) instead of a free rotation.
   bool turned = false;
@@ -255,7 +270,8 @@ constexpr Eigen::Index kCameraParameters = 6;  // per photo: rotation (3), scale
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
                        double iod, double noise, double outline_noise,
                        std::vector<Eigen::Vector2d>* scatter = nullptr,
-                       Eigen::VectorXd* sd = nullptr) {
+                       Eigen::VectorXd* sd = nullptr,
+                       std::array<Eigen::Vector2d, kGroups>* groups = nullptr) {
   const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
   // The last parameter: the photos' shared inverse focal length q (kappa_v = s_v q; one camera
   // took both photos).
@@ -268,6 +284,8 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
+  std::vector<Eigen::MatrixXd> Hg(kGroups, Eigen::MatrixXd::Zero(n, n));
+  std::array<double, kGroups> group_rss{}, group_count{};
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     if (scatter) Hv.push_back(Eigen::MatrixXd::Zero(n, n));
     const View& view = views[vi];
@@ -314,8 +332,8 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       Eigen::Vector2d r = view.marks->points[i] - cam.project(x);
       r.y() = -r.y();  // y up
       for (Eigen::Index m = 0; m < K; ++m) D.col(m) = view.mode(static_cast<int>(m), k);
-      const Eigen::MatrixXd J = jacobian(x, D) * (unit / view.noise);
-      r *= unit / view.noise;
+      const Eigen::MatrixXd J = jacobian(x, D) * (unit / view.sd(k));
+      r *= unit / view.sd(k);
       const Eigen::MatrixXd JtJ = J.transpose() * J;
       H += JtJ;
       g += J.transpose() * r;
@@ -323,6 +341,12 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
         Hv[vi] += JtJ;
         rss[vi] += r.squaredNorm();
         count[vi] += 2;
+        if (groups && vi == 0) {
+          const auto gi = static_cast<std::size_t>(landmark_group(k));
+          Hg[gi] += JtJ;
+          group_rss[gi] += r.squaredNorm();
+          group_count[gi] += 2;
+        }
       }
     }
     for (const OutlinePoint& q : view.outline) {
@@ -377,6 +401,9 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
     scatter->clear();
     for (std::size_t vi = 0; vi < views.size(); ++vi)
       scatter->emplace_back(rss[vi], count[vi] - ldlt.solve(Hv[vi]).trace());
+    if (groups)
+      for (std::size_t gi = 0; gi < kGroups; ++gi)
+        (*groups)[gi] = {group_rss[gi], group_count[gi] - ldlt.solve(Hg[gi]).trace()};
   }
   if (sd) {
     const Eigen::MatrixXd covariance =
@@ -425,10 +452,10 @@ std::vector<RbfCentre> calibration_moves(const rig::Positions& p, const Eigen::V
     for (int k : view.used) {
       const int v = view.vertex[static_cast<std::size_t>(k)];
       const Eigen::Vector3d x = view.point(p, c, k);
-      const Eigen::Matrix<double, 2, 3> A = view.camera.jacobian(x) / view.noise;
+      const Eigen::Matrix<double, 2, 3> A = view.camera.jacobian(x) / view.sd(k);
       Eigen::Vector2d r = view.marks->points[static_cast<std::size_t>(k)] - view.camera.project(x);
       r.y() = -r.y();
-      r /= view.noise;
+      r /= view.sd(k);
       auto it = std::find(order.begin(), order.end(), v);
       std::size_t i = static_cast<std::size_t>(it - order.begin());
       if (it == order.end()) {
@@ -536,11 +563,31 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
           match_outline(tmpl, p, region, window(it) * v.camera.s * iod, 0.05 * v.camera.s * iod, v);
       }
     std::vector<Eigen::Vector2d> scatter;
+    std::array<Eigen::Vector2d, kGroups> groups;
     for (int step = 0; step < 3; ++step)
       gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise,
-                        step == 2 ? &scatter : nullptr, step == 2 ? &fit.coefficient_sd : nullptr);
+                        step == 2 ? &scatter : nullptr, step == 2 ? &fit.coefficient_sd : nullptr,
+                        step == 2 ? &groups : nullptr);
     // A photo's weighted landmark residuals per degree of freedom (variance components).
     const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
+    if (options.estimate_group_noise && it > 0) {
+      // Variance components within the front photo: each landmark group's weighted residuals per
+      // degree of freedom (pulled towards the photo's by kGroupPrior) against the photo's set its
+      // noise relative to the others (the detector's convention is kept less well on the brows
+      // and the jaw line than at the eye corners), within [1/3, 3], normalised to a mean square
+      // of 1 over the points (the photo's noise stays the pooled one, the prior keeps its weight).
+      auto& f = views[0].group_noise;
+      const double all = std::max(1e-12, variance(scatter[0]));
+      for (std::size_t gi = 0; gi < kGroups; ++gi) {
+        const double dof = std::max(0.0, groups[gi](1));
+        const double v = (groups[gi](0) + kGroupPrior * all) / (dof + kGroupPrior);
+        f[gi] = std::clamp(f[gi] * std::sqrt(v / all), 1.0 / 3, 3.0);
+      }
+      double mean_square = 0;
+      for (int k = 0; k < kLandmarkCount; ++k)
+        mean_square += std::pow(f[static_cast<std::size_t>(landmark_group(k))], 2) / kLandmarkCount;
+      for (double& x : f) x /= std::sqrt(mean_square);
+    }
     if (options.estimate_noise) {
       // The front landmarks' residuals per degree of freedom estimate their noise (the detector's
       // scatter and its convention's offsets from the template's vertices alike): the prior holds
@@ -559,7 +606,10 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   }
   fit.model_positions = p;
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
-    // The landmarks' misfit in inter-ocular distances (the camera model's evidence).
+    // The landmarks' misfit in inter-ocular distances (the camera model's evidence), the groups
+    // unweighted: each camera model's fit weighs them its own way, and a misfit weighed by a fit's
+    // own group noise favours the fit that explains least (selfies' orthographic fits chose to
+    // trust the points a flat camera could explain).
     const View& v = views[vi];
     double sum = 0;
     for (int k : v.used)
@@ -575,6 +625,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     fit.side_noise = views[1].noise;
   }
   fit.noise = noise;
+  fit.group_noise = views[0].group_noise;
 
   const auto centres =
       calibration_moves(p, fit.coefficients, views, options.side_calibration, &fit.moved_rms);

@@ -4,6 +4,7 @@
 // brow landmarks, red lips inside its lip landmarks) rendered from the front and turned.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <optional>
@@ -373,6 +374,20 @@ inline rig::Positions warped_head(const rigbuild::PhotoTemplate& t, unsigned see
   for (Eigen::Index v = 0; v < X.rows(); ++v)
     for (int c = 0; c < 3; ++c) out(v, c) += static_cast<float>(w(3 * v + c));
   return out;
+}
+
+/// The template's own photo is taken three times, the head moved by these (model units: 0.03 cm,
+/// about half a pixel in a selfie) across and up: a fit's error on one shot moves by up to a
+/// tenth of a centimetre with such a move (0.18-0.26 cm on one selfie), so figures take the
+/// median of the three.
+inline std::array<Eigen::RowVector3f, 3> own_photo_shifts() {
+  return {Eigen::RowVector3f(0, 0, 0), Eigen::RowVector3f(0.03f, 0, 0),
+          Eigen::RowVector3f(0, 0.03f, 0)};
+}
+
+inline double median_of_three(std::array<double, 3> v) {
+  std::sort(v.begin(), v.end());
+  return v[1];
 }
 
 /// Shape error of `p` against `truth` over the face skin (u < 1) after the best similarity: the

@@ -50,6 +50,7 @@ struct PhotoOptions {
   int iterations = 8;            // camera / coefficient alternations
   double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
   bool estimate_noise = true;    // ... estimated from the residuals (landmark_noise: its floor)
+  bool estimate_group_noise = true;  // ... and per landmark group (jaw, brows, nose, eyes, mouth)
   /// Without a measured detector response in the template: a head in the photo's colours
   /// (calibration_texture) is photographed through the photo's fitted camera, at the template and
   /// moved along each mode; the detector's offsets on it become the bias and its change per mode,
@@ -176,6 +177,8 @@ struct PhotoFit {
   Eigen::VectorXd coefficients;    // identity-mode weights
   Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
   double noise = 0;  // the front landmarks' noise estimated (inter-ocular distances; PhotoOptions)
+  /// Each landmark group's noise relative to `noise`: jaw line, brows, nose, eyes, mouth.
+  std::array<double, 5> group_noise{1, 1, 1, 1, 1};
   PhotoCamera front;
   std::optional<PhotoCamera> side;
   std::array<int, kLandmarkCount> front_vertex{};  // landmark vertices (jaw: silhouette ones)
