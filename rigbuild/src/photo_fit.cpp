@@ -284,7 +284,7 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
-  std::vector<Eigen::MatrixXd> Hg(kGroups, Eigen::MatrixXd::Zero(n, n));
+  std::vector<Eigen::MatrixXd> Hg(groups ? kGroups : 0, Eigen::MatrixXd::Zero(n, n));
   std::array<double, kGroups> group_rss{}, group_count{};
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     if (scatter) Hv.push_back(Eigen::MatrixXd::Zero(n, n));

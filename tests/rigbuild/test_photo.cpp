@@ -397,14 +397,13 @@ TEST_CASE("photo fit: a noisy landmark group is weighed by its own noise", "[pho
     const PhotoFit a = fit_photo_shape(tmpl, marks, nullptr, opt);
     const PhotoFit b = fit_photo_shape(tmpl, marks, nullptr, one);
     const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
-    with += aligned_error(tmpl, a.model_positions, truth.target.positions) / before;
-    without += aligned_error(tmpl, b.model_positions, truth.target.positions) / before;
+    const double ra = aligned_error(tmpl, a.model_positions, truth.target.positions) / before;
+    const double rb = aligned_error(tmpl, b.model_positions, truth.target.positions) / before;
+    with += ra;
+    without += rb;
     std::cout << "noisy jaw line, seed " << seed << ": group noise";
     for (double f : a.group_noise) std::cout << " " << f;
-    std::cout << "; fitted/template "
-              << aligned_error(tmpl, a.model_positions, truth.target.positions) / before
-              << ", with one noise "
-              << aligned_error(tmpl, b.model_positions, truth.target.positions) / before << "\n";
+    std::cout << "; fitted/template " << ra << ", with one noise " << rb << "\n";
     for (std::size_t g = 1; g < a.group_noise.size(); ++g)
       CHECK(a.group_noise[0] > 2 * a.group_noise[g]);
     CHECK(b.group_noise == std::array<double, 5>{1, 1, 1, 1, 1});
