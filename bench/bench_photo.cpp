@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   const rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
-  const render::Image image = render::read_image(photo);
+  const render::Image image = render::read_photo(photo);
   for (const auto& [name, path] : {std::pair<std::string, std::filesystem::path>{
                                        "shipped template", rigbuild::shipped_template_path()},
                                    {"ICT FaceKit folder", dir}})

@@ -21,9 +21,9 @@ struct PhotoArgs {
 void from_photo(const PhotoArgs& a) {
   rigbuild::PhotoOptions opt = rigbuild::load_photo_options();
   const std::filesystem::path tmpl_path = rigbuild::photo_template_path(opt, a.tmpl);
-  const render::Image front = render::read_image(a.front);
+  const render::Image front = render::read_photo(a.front);
   std::optional<render::Image> side;
-  if (!a.side.empty()) side = render::read_image(a.side);
+  if (!a.side.empty()) side = render::read_photo(a.side);
   const ProgressFn progress = terminal_progress();
   report(progress, "template", 0.0);
   const rigbuild::PhotoTemplate tmpl = rigbuild::load_photo_template(tmpl_path);

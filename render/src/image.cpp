@@ -155,7 +155,13 @@ void write_image(const std::filesystem::path& path, const Image& image, int jpeg
   write_file_atomic(path, bytes);
 }
 
-Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
+namespace {
+
+// decode_image's body; `orientation` gets a JPEG's EXIF Orientation (1 for PNG and WebP, whose
+// rare EXIF chunks are not read).
+Image decode(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits,
+             int& orientation) {
+  orientation = 1;
   const std::string name(what);
   const int max_side = limits.max_image_side;
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
@@ -195,6 +201,7 @@ Image decode_image(std::string_view bytes, std::string_view what, const rig::Dec
   // thread: renderers are made on worker threads already (and OIIO's own pool hides its writes
   // into our buffer from ThreadSanitizer).
   in->threads(1);
+  orientation = spec.get_int_attribute("Orientation", 1);
   const OIIO::stride_t pixel = 4;
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
     throw Error(name + ": cannot decode: " + one_line(in->geterror()));
@@ -208,7 +215,8 @@ Image decode_image(std::string_view bytes, std::string_view what, const rig::Dec
   return img;
 }
 
-Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
+// read_image's body; `orientation` gets the file's EXIF Orientation (1 where it has none).
+Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, int& orientation) {
   // PNG, JPEG and WebP headers are read by us before OpenImageIO opens the file (some of its
   // readers allocate per image on open); other formats' sizes from the header OpenImageIO read.
   {
@@ -223,6 +231,7 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
   if (!in)
     throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
   const OIIO::ImageSpec& spec = in->spec();
+  orientation = spec.get_int_attribute("Orientation", 1);
   const auto side = static_cast<long long>(limits.max_image_side);
   if (spec.width < 1 || spec.height < 1 || spec.width > side || spec.height > side ||
       spec.nchannels < 1 || spec.nchannels > 64 ||
@@ -257,6 +266,86 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
     for (int c = 0; c < 3; ++c)
       img.pixels[p * 3 + c] = raw[p * spec.nchannels + std::min(c, spec.nchannels - 1)];
   return img;
+}
+
+// RGBA to RGB (alpha dropped).
+Image rgb(Image image) {
+  if (image.channels == 3) return image;
+  Image out{image.width, image.height, 3, {}};
+  out.pixels.resize(static_cast<std::size_t>(image.width) * image.height * 3);
+  for (std::size_t p = 0, n = out.pixels.size() / 3; p < n; ++p)
+    for (std::size_t c = 0; c < 3; ++c)
+      out.pixels[p * 3 + c] =
+          image.pixels[p * static_cast<std::size_t>(image.channels) +
+                       std::min(c, static_cast<std::size_t>(image.channels) - 1)];
+  return out;
+}
+
+}  // namespace
+
+Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
+  int orientation = 1;
+  return decode(bytes, what, limits, orientation);
+}
+
+Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
+  int orientation = 1;
+  return read(path, limits, orientation);
+}
+
+Image apply_orientation(const Image& image, int orientation) {
+  if (orientation < 2 || orientation > 8) return image;
+  const int w = image.width, h = image.height;
+  const bool turned = orientation >= 5;  // the shown picture is the stored one transposed
+  Image out{turned ? h : w, turned ? w : h, image.channels, {}};
+  out.pixels.resize(image.pixels.size());
+  const auto n = static_cast<std::size_t>(image.channels);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      // Where the stored pixel (x, y) is shown (the tag's 0th row and column: EXIF 2.3, 4.6.4).
+      int u = x, v = y;
+      switch (orientation) {
+        case 2:
+          u = w - 1 - x;
+          break;
+        case 3:
+          u = w - 1 - x, v = h - 1 - y;
+          break;
+        case 4:
+          v = h - 1 - y;
+          break;
+        case 5:
+          u = y, v = x;
+          break;
+        case 6:
+          u = h - 1 - y, v = x;
+          break;
+        case 7:
+          u = h - 1 - y, v = w - 1 - x;
+          break;
+        default:
+          u = y, v = w - 1 - x;
+          break;  // 8
+      }
+      std::copy_n(image.pixels.begin() +
+                      static_cast<std::ptrdiff_t>((static_cast<std::size_t>(y) * w + x) * n),
+                  n,
+                  out.pixels.begin() + static_cast<std::ptrdiff_t>(
+                                           (static_cast<std::size_t>(v) * out.width + u) * n));
+    }
+  return out;
+}
+
+Image decode_photo(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
+  int orientation = 1;
+  Image image = decode(bytes, what, limits, orientation);
+  return apply_orientation(rgb(std::move(image)), orientation);
+}
+
+Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
+  int orientation = 1;
+  Image image = read(path, limits, orientation);
+  return apply_orientation(image, orientation);
 }
 
 ImageDifference compare_images(const Image& a, const Image& b, int threshold) {

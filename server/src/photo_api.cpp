@@ -32,7 +32,7 @@ json parse_object(const Request& req, int max_depth) {
 }
 
 // A photo field: base64 JPEG/PNG bytes, or a data URL ("data:image/jpeg;base64,...") as a
-// browser's FileReader or canvas.toDataURL gives it; as 3-channel RGB.
+// browser's FileReader or canvas.toDataURL gives it; as 3-channel RGB, upright.
 render::Image photo_field(const json& v, const std::string& field,
                           const rig::DecodeLimits& limits) {
   if (!v.is_string()) throw Error(field + ": expected a base64 JPEG or PNG (or a data URL)");
@@ -44,19 +44,9 @@ render::Image photo_field(const json& v, const std::string& field,
     text.remove_prefix(comma + 1);
   }
   if (text.empty()) throw Error(field + ": empty");
-  // The header's size is checked against the limits before the photo is decoded.
-  const render::Image rgba = render::decode_image(base64_decode(text, field), field, limits);
-  if (rgba.channels == 3) return rgba;
-  render::Image rgb;
-  rgb.width = rgba.width;
-  rgb.height = rgba.height;
-  rgb.pixels.resize(static_cast<std::size_t>(rgb.width) * rgb.height * 3);
-  for (int y = 0; y < rgb.height; ++y)
-    for (int x = 0; x < rgb.width; ++x)
-      for (int c = 0; c < 3; ++c)
-        rgb.pixels[(static_cast<std::size_t>(y) * rgb.width + x) * 3 +
-                   static_cast<std::size_t>(c)] = rgba.at(x, y, std::min(c, rgba.channels - 1));
-  return rgb;
+  // The header's size is checked against the limits before the photo is decoded; a phone's
+  // portrait stored sideways is turned upright by its EXIF Orientation.
+  return render::decode_photo(base64_decode(text, field), field, limits);
 }
 
 // The photo template of configs/rigbuild/photo.json (by default the shipped one), loaded once:

@@ -1,13 +1,15 @@
 // Headless rendering on Mesa: golden images (with a tolerance) of the default avatar and the ICT
-// FaceKit, GPU blending against CPU blending, threads, image files.
+// FaceKit, GPU blending against CPU blending, threads, image files, photos' EXIF orientation.
 // FACECAST_UPDATE_GOLDEN=1 rewrites the golden PNGs in tests/render/golden/.
 #include <algorithm>
+#include <array>
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <iostream>
 #include <thread>
 
 #include "build_paths.hpp"
+#include "exif.hpp"
 #include "facecast/avatar/avatar.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -208,4 +210,51 @@ TEST_CASE("images: JPEG in memory, PNG/JPEG/EXR files, bad input", "[render]") {
   REQUIRE(parsed.size() == 2);
   CHECK(parsed[1].first == "mouthSmileLeft");
   CHECK(parsed[1].second == 1.0f);
+}
+
+TEST_CASE("photos are turned upright by their EXIF orientation", "[render]") {
+  // Stored 64 x 48: its top-left 16 x 16 corner red, its top-right green, the rest grey.
+  Image stored{64, 48, 3, std::vector<std::uint8_t>(64 * 48 * 3, 128)};
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x)
+      for (int c = 0; c < 3; ++c) {
+        stored.pixels[(static_cast<std::size_t>(y) * 64 + x) * 3 + c] = c == 0 ? 230 : 20;
+        stored.pixels[(static_cast<std::size_t>(y) * 64 + 63 - x) * 3 + c] = c == 1 ? 230 : 20;
+      }
+  const std::string jpeg = encode_jpeg(stored, 95);
+  // Where the stored top-left and top-right corners are shown (EXIF 2.3, Orientation: "the 0th
+  // row is the visual top / right-hand side ..."), as (right?, bottom?) of the shown picture.
+  struct Corner {
+    bool right, bottom;
+  };
+  const std::pair<Corner, Corner> shown[8] = {
+      {{false, false}, {true, false}}, {{true, false}, {false, false}},   // 1, 2
+      {{true, true}, {false, true}},   {{false, true}, {true, true}},     // 3, 4
+      {{false, false}, {false, true}}, {{true, false}, {true, true}},     // 5, 6
+      {{true, true}, {true, false}},   {{false, true}, {false, false}}};  // 7, 8
+  for (int o = 1; o <= 8; ++o) {
+    INFO("orientation " << o);
+    const std::string tagged = test::with_exif_orientation(jpeg, o);
+    const auto file = test::scratch_dir() / ("oriented" + std::to_string(o) + ".jpg");
+    write_file_atomic(file, tagged);
+    for (const Image& photo : {decode_photo(tagged, "photo"), read_photo(file)}) {
+      REQUIRE(photo.channels == 3);
+      CHECK(photo.width == (o >= 5 ? 48 : 64));
+      CHECK(photo.height == (o >= 5 ? 64 : 48));
+      const auto colour_at = [&](Corner k) {
+        const int x = k.right ? photo.width - 8 : 7, y = k.bottom ? photo.height - 8 : 7;
+        return std::array<int, 3>{photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2)};
+      };
+      const auto red = colour_at(shown[o - 1].first), green = colour_at(shown[o - 1].second);
+      CHECK(red[0] > 180);
+      CHECK(red[1] < 70);
+      CHECK(green[1] > 180);
+      CHECK(green[0] < 70);
+    }
+    // decode_image and read_image keep the stored pixels (an avatar's textures are not turned).
+    CHECK(decode_image(tagged, "texture").width == 64);
+    CHECK(read_image(file).width == 64);
+  }
+  CHECK(apply_orientation(stored, 0).pixels == stored.pixels);  // out of range: as stored
+  CHECK(apply_orientation(stored, 9).pixels == stored.pixels);
 }

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "client.hpp"
+#include "exif.hpp"
 #include "facecast/core/files.hpp"
 #include "facecast/render/image.hpp"
 #include "facecast/rig/rig_io.hpp"
@@ -176,6 +177,32 @@ TEST_CASE("astronaut.png becomes a listed, textured, speaking rig", "[photo][slo
   REQUIRE_FALSE(streamed.error);
   CHECK(streamed.start["rig"] == id);
   CHECK(streamed.end["frames"] == streamed.start["frames"]);
+}
+
+TEST_CASE("a phone's portrait stored sideways is read upright", "[photo]") {
+  const auto path = astronaut();
+  if (!facecast::test::require_data(path)) return;
+  TestServer s;
+  const auto landmarks = [&](const std::string& photo) {
+    const auto r = http_request(s.port(), http::verb::post, "/api/photo/landmarks",
+                                nlohmann::json{{"photo", photo}}.dump());
+    INFO(r.body);
+    REQUIRE(r.status == 200);
+    return r.json();
+  };
+  const auto upright = facecast::render::read_image(path);
+  const auto expected = landmarks(base64(facecast::render::encode_jpeg(upright, 95)));
+  // The pixels sideways, with an EXIF Orientation of 6 (turn 90 degrees clockwise to show), as a
+  // phone stores a portrait.
+  const auto turned = landmarks(base64(facecast::test::with_exif_orientation(
+      facecast::render::encode_jpeg(facecast::render::apply_orientation(upright, 8), 95), 6)));
+  CHECK(turned["width"] == 512);
+  double largest = 0;
+  for (std::size_t k = 0; k < 68; ++k)
+    for (std::size_t c = 0; c < 2; ++c)
+      largest = std::max(largest, std::abs(turned["points"][k][c].get<double>() -
+                                           expected["points"][k][c].get<double>()));
+  CHECK(largest < 2.0);  // the two JPEGs' blocks differ: the predictor moves by a pixel at most
 }
 
 TEST_CASE("photos are checked against the decode limits from their header", "[photo][limits]") {

@@ -40,6 +40,16 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
 Image decode_image(std::string_view bytes, std::string_view what,
                    const rig::DecodeLimits& limits = {});
 
+/// The stored pixels turned and mirrored as an EXIF Orientation tag (1-8) says they are shown:
+/// 6 and 8 are a phone's portraits stored sideways. Other values leave the image as it is.
+Image apply_orientation(const Image& image, int orientation);
+
+/// A photo as viewers and browsers show it: read like read_image (a file) or decode_image (bytes),
+/// as 3-channel RGB, turned upright by its EXIF Orientation tag (JPEG's).
+Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits = {});
+Image decode_photo(std::string_view bytes, std::string_view what,
+                   const rig::DecodeLimits& limits = {});
+
 struct ImageDifference {
   double mean_abs = 0;       // mean absolute channel difference, 0..255
   double fraction_over = 0;  // fraction of pixels with a channel differing by more than threshold
