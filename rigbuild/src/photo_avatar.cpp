@@ -230,6 +230,9 @@ PhotoOptions load_photo_options() {
       .read("min_face", o.min_face)
       .read("max_side", o.max_side)
       .read("weak_face_score", o.weak_face_score)
+      .read("max_roll", o.max_roll)
+      .read("roll_step", o.roll_step)
+      .read("level_eyes", o.level_eyes)
       .read("box_jitter", o.box_jitter)
       .read("box_steps", o.box_steps)
       .read("iterations", o.iterations)
@@ -260,6 +263,9 @@ PhotoOptions load_photo_options() {
   if (o.max_side < 128) c.fail("max_side", "must be at least 128");
   if (!(o.weak_face_score >= -2 && o.weak_face_score <= 0))
     c.fail("weak_face_score", "must be in [-2, 0]");
+  if (!(o.max_roll >= 0 && o.max_roll <= 90)) c.fail("max_roll", "must be in [0, 90]");
+  if (!(o.roll_step >= 5 && o.roll_step <= 90)) c.fail("roll_step", "must be in [5, 90]");
+  if (!(o.level_eyes >= 0 && o.level_eyes <= 90)) c.fail("level_eyes", "must be in [0, 90]");
   if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
@@ -521,7 +527,8 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
       },
       quick, 2.0,
       [&](const render::Image& shot, bool) {
-        if (painted) return detect_photo_landmarks(shot, "render", quick);
+        // Read as the photo was: its face found in the view turned by its roll.
+        if (painted) return detect_photo_landmarks(shot, "render", quick, first.front.roll);
         // The face is found within twice the photo's face box around it (a quarter of a
         // portrait's pixels for the face detector).
         const PhotoLandmarks& seen = first.front;
@@ -531,7 +538,7 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
         const int y0 = std::clamp(static_cast<int>(cy) - half, 0, shot.height - 1);
         const render::Image part = crop(shot, x0, y0, std::min(2 * half, shot.width - x0),
                                         std::min(2 * half, shot.height - y0));
-        PhotoLandmarks found = detect_photo_landmarks(part, "render", quick);
+        PhotoLandmarks found = detect_photo_landmarks(part, "render", quick, seen.roll);
         for (auto& p : found.points) p += Eigen::Vector2d(x0, y0);
         found.width = shot.width;
         found.height = shot.height;
@@ -598,6 +605,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   out.report = {{"front",
                  {{"landmarks", points_json(out.front)},
                   {"faces", out.front.faces},
+                  {"roll", out.front.roll},
                   {"camera", camera_json(out.fit.front)},
                   {"rms_pixels", out.fit.front_rms}}},
                 {"coefficients",
@@ -627,10 +635,13 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                 {"seconds", timing}};
   out.report.update(calibration);
   if (out.fit.side)
-    out.report["side"] = {
-        {"landmarks", points_json(out.side)}, {"faces", out.side.faces},
-        {"used", side_points(out.side)},      {"camera", camera_json(*out.fit.side)},
-        {"rms_pixels", out.fit.side_rms},     {"noise", out.fit.side_noise}};
+    out.report["side"] = {{"landmarks", points_json(out.side)},
+                          {"faces", out.side.faces},
+                          {"roll", out.side.roll},
+                          {"used", side_points(out.side)},
+                          {"camera", camera_json(*out.fit.side)},
+                          {"rms_pixels", out.fit.side_rms},
+                          {"noise", out.fit.side_noise}};
   report(progress, "done", 1.0);
   return out;
 }

@@ -149,6 +149,7 @@ http::message_generator RigApi::post_photo_landmarks(const Request& req) {
                       {"points", points_json(marks)},
                       {"faces", marks.faces},
                       {"box", marks.box},
+                      {"roll", marks.roll},
                       {"note", marks.note}});
 }
 

@@ -138,6 +138,45 @@ inline std::filesystem::path astronaut_path() {
   return {};
 }
 
+/// A photo turned by `degrees` (clockwise as shown: a head tilted to its left shoulder) about its
+/// centre onto a canvas that holds it whole, the corners grey, bilinear; `to_turned` maps a point
+/// of the photo into it.
+struct TurnedPhoto {
+  render::Image image;
+  Eigen::Vector2d centre, turned_centre;
+  double angle = 0;  // radians
+  Eigen::Vector2d to_turned(const Eigen::Vector2d& p) const {
+    return Eigen::Rotation2Dd(angle) * (p - centre) + turned_centre;
+  }
+};
+
+inline TurnedPhoto turned_photo(const render::Image& photo, double degrees) {
+  TurnedPhoto t;
+  t.angle = degrees * 3.14159265358979323846 / 180;
+  const double c = std::abs(std::cos(t.angle)), s = std::abs(std::sin(t.angle));
+  const int w = static_cast<int>(std::ceil(photo.width * c + photo.height * s));
+  const int h = static_cast<int>(std::ceil(photo.width * s + photo.height * c));
+  t.centre = Eigen::Vector2d(photo.width / 2.0, photo.height / 2.0);
+  t.turned_centre = Eigen::Vector2d(w / 2.0, h / 2.0);
+  t.image = {w, h, 3, std::vector<std::uint8_t>(static_cast<std::size_t>(w) * h * 3, 128)};
+  const Eigen::Rotation2Dd back(-t.angle);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Eigen::Vector2d p = back * (Eigen::Vector2d(x, y) - t.turned_centre) + t.centre;
+      const int x0 = static_cast<int>(std::floor(p.x())), y0 = static_cast<int>(std::floor(p.y()));
+      if (x0 < 0 || y0 < 0 || x0 + 1 >= photo.width || y0 + 1 >= photo.height) continue;
+      const double ax = p.x() - x0, ay = p.y() - y0;
+      for (int k = 0; k < 3; ++k) {
+        const double v =
+            (1 - ay) * ((1 - ax) * photo.at(x0, y0, k) + ax * photo.at(x0 + 1, y0, k)) +
+            ay * ((1 - ax) * photo.at(x0, y0 + 1, k) + ax * photo.at(x0 + 1, y0 + 1, k));
+        t.image.pixels[(static_cast<std::size_t>(y) * w + x) * 3 + static_cast<std::size_t>(k)] =
+            static_cast<std::uint8_t>(std::lround(v));
+      }
+    }
+  return t;
+}
+
 struct PhotoShoot {
   render::Image front, side;
 };

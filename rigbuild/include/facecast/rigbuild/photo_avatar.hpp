@@ -45,6 +45,13 @@ struct PhotoOptions {
   /// above this offset to it (dlib's adjust_threshold; a face turned well aside scores below) is
   /// taken, with a note in the report; 0: none.
   double weak_face_score = -0.5;
+  /// No upright face at the threshold: the detector looks at the photo turned by roll_step,
+  /// 2 roll_step, ... degrees either way up to max_roll (a tilted head; 0: not).
+  double max_roll = 45;
+  double roll_step = 15;
+  /// The landmarks are predicted again in a view turned upright when their eyes' line is tilted
+  /// by more than this many degrees (0: never).
+  double level_eyes = 8;
   double box_jitter = 0.06;      // landmarks averaged over face boxes moved by up to this
   int box_steps = 2;             // fraction of their size, in this many steps each way
   int iterations = 8;            // camera / coefficient alternations
@@ -133,11 +140,14 @@ struct PhotoLandmarks {
   std::array<double, 4> rect{};  // the face box: left, top, right, bottom (pixels)
   std::string note;              // e.g. "3 faces found, the largest used"
   int width = 0, height = 0;     // the photo's size (0: unknown; no perspective camera then)
+  double roll = 0;  // degrees the face was turned upright by for the predictor (0: as it stood)
 };
 
 /// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
+/// `expected_roll` (degrees): a face is looked for first in the photo turned by this much (a
+/// render of a head posed as a photo's, read as that photo was: PhotoLandmarks::roll).
 PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
-                                      const PhotoOptions& options);
+                                      const PhotoOptions& options, double expected_roll = 0);
 
 /// A photo's camera. Scale-orthographic (kappa = 0): pixel = (s (R p).x + tx, ty - s (R p).y);
 /// perspective (kappa > 0, 1 / the camera's distance from the model's origin along its axis):
