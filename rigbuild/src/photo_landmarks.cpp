@@ -45,24 +45,25 @@ dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image, double scale)
 }
 
 // A view of a photo turned by `angle` (radians; positive turns the view's x axis towards the
-// photo's y, clockwise as the picture shows it) about `centre`, `side` pixels square, at the
-// photo's scale: the view's pixel q is the photo's centre + R(angle) (q - the view's centre),
-// bilinear. A face tilted by `angle` in the photo stands upright in it.
+// photo's y, clockwise as the picture shows it) about `centre`, `side` pixels square, `zoom`
+// view pixels to a photo pixel (<= 1): the view's pixel q is the photo's centre + R(angle) (q -
+// the view's centre) / zoom, bilinear. A face tilted by `angle` in the photo stands upright in it.
 struct TurnedView {
   Eigen::Vector2d centre;  // in the photo
   double angle = 0;
   int side = 0;
+  double zoom = 1;
   dlib::array2d<dlib::rgb_pixel> img;
 
   Eigen::Vector2d to_photo(const Eigen::Vector2d& q) const {
-    return centre + Eigen::Rotation2Dd(angle) * (q - Eigen::Vector2d::Constant(side / 2.0));
+    return centre + Eigen::Rotation2Dd(angle) * (q - Eigen::Vector2d::Constant(side / 2.0)) / zoom;
   }
 };
 
 template <typename At>
 TurnedView turned_view(int width, int height, const At& at, const Eigen::Vector2d& centre,
-                       double angle, int side) {
-  TurnedView v{centre, angle, side, {}};
+                       double angle, int side, double zoom = 1) {
+  TurnedView v{centre, angle, side, zoom, {}};
   v.img.set_size(side, side);
   for (int y = 0; y < side; ++y)
     for (int x = 0; x < side; ++x) {
@@ -273,11 +274,14 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
   // the detector, learnt mostly upright faces).
   const auto at = [&](int x, int y, int c) { return photo.at(x, y, c); };
   const auto predict_turned = [&](double angle) {
-    const int side = static_cast<int>(std::ceil(2.5 * std::max(half_w, half_h) * 2));
-    const TurnedView view = turned_view(photo.width, photo.height, at, centre, angle, side);
-    const double c = side / 2.0;
-    auto points =
-        predict_landmarks(view.img, {c - half_w, c - half_h, c + half_w, c + half_h}, options);
+    // The face box and half as much around it, at most kViewFace pixels wide (a face filling a
+    // large photo is read smaller, not from a view of gigabytes).
+    constexpr double kViewFace = 1024;
+    const double zoom = std::min(1.0, kViewFace / (2 * std::max(half_w, half_h)));
+    const int side = static_cast<int>(std::ceil(1.5 * 2 * std::max(half_w, half_h) * zoom));
+    const TurnedView view = turned_view(photo.width, photo.height, at, centre, angle, side, zoom);
+    const double c = side / 2.0, hw = half_w * zoom, hh = half_h * zoom;
+    auto points = predict_landmarks(view.img, {c - hw, c - hh, c + hw, c + hh}, options);
     for (auto& p : points) p = view.to_photo(p);
     return points;
   };
