@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <utility>
 
 #include "facecast/core/error.hpp"
 #include "facecast/core/files.hpp"
@@ -72,6 +73,19 @@ std::string lower_extension(const std::filesystem::path& path) {
   return ext;
 }
 
+// RGBA to RGB (alpha dropped).
+Image rgb(Image image) {
+  if (image.channels == 3) return image;
+  Image out{image.width, image.height, 3, {}};
+  out.pixels.resize(static_cast<std::size_t>(image.width) * image.height * 3);
+  for (std::size_t p = 0, n = out.pixels.size() / 3; p < n; ++p)
+    for (std::size_t c = 0; c < 3; ++c)
+      out.pixels[p * 3 + c] =
+          image.pixels[p * static_cast<std::size_t>(image.channels) +
+                       std::min(c, static_cast<std::size_t>(image.channels) - 1)];
+  return out;
+}
+
 // PNG through libpng's simplified API, into RGBA (8-bit sRGB whatever the file's depth, palette or
 // gamma). Not through OpenImageIO: its PNG reader leaks its error message on every truncated image
 // (libpng's longjmp skips the string's destructor), which an upload could repeat without end.
@@ -123,14 +137,7 @@ Image decode_webp(std::string_view bytes, const std::string& name, int max_side)
 }  // namespace
 
 std::string encode_jpeg(const Image& image, int quality) {
-  if (image.channels == 4) {  // JPEG has no alpha
-    Image rgb{image.width, image.height, 3, {}};
-    rgb.pixels.reserve(static_cast<std::size_t>(image.width) * image.height * 3);
-    for (std::size_t i = 0; i < image.pixels.size(); i += 4)
-      rgb.pixels.insert(rgb.pixels.end(), image.pixels.begin() + static_cast<std::ptrdiff_t>(i),
-                        image.pixels.begin() + static_cast<std::ptrdiff_t>(i + 3));
-    return encode(rgb, "frame.jpg", quality, false);
-  }
+  if (image.channels == 4) return encode(rgb(image), "frame.jpg", quality, false);  // no alpha
   return encode(image, "frame.jpg", quality, false);
 }
 
@@ -268,19 +275,6 @@ Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, i
   return img;
 }
 
-// RGBA to RGB (alpha dropped).
-Image rgb(Image image) {
-  if (image.channels == 3) return image;
-  Image out{image.width, image.height, 3, {}};
-  out.pixels.resize(static_cast<std::size_t>(image.width) * image.height * 3);
-  for (std::size_t p = 0, n = out.pixels.size() / 3; p < n; ++p)
-    for (std::size_t c = 0; c < 3; ++c)
-      out.pixels[p * 3 + c] =
-          image.pixels[p * static_cast<std::size_t>(image.channels) +
-                       std::min(c, static_cast<std::size_t>(image.channels) - 1)];
-  return out;
-}
-
 }  // namespace
 
 Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
@@ -293,7 +287,7 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
   return read(path, limits, orientation);
 }
 
-Image apply_orientation(const Image& image, int orientation) {
+Image apply_orientation(Image image, int orientation) {
   if (orientation < 2 || orientation > 8) return image;
   const int w = image.width, h = image.height;
   const bool turned = orientation >= 5;  // the shown picture is the stored one transposed
@@ -345,7 +339,7 @@ Image decode_photo(std::string_view bytes, std::string_view what, const rig::Dec
 Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
   int orientation = 1;
   Image image = read(path, limits, orientation);
-  return apply_orientation(image, orientation);
+  return apply_orientation(std::move(image), orientation);
 }
 
 ImageDifference compare_images(const Image& a, const Image& b, int threshold) {

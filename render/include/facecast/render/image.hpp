@@ -42,7 +42,7 @@ Image decode_image(std::string_view bytes, std::string_view what,
 
 /// The stored pixels turned and mirrored as an EXIF Orientation tag (1-8) says they are shown:
 /// 6 and 8 are a phone's portraits stored sideways. Other values leave the image as it is.
-Image apply_orientation(const Image& image, int orientation);
+Image apply_orientation(Image image, int orientation);
 
 /// A photo as viewers and browsers show it: read like read_image (a file) or decode_image (bytes),
 /// as 3-channel RGB, turned upright by its EXIF Orientation tag (JPEG's).
