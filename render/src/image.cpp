@@ -287,6 +287,34 @@ Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& lim
   return read(path, limits, orientation);
 }
 
+Image scale_down(const Image& image, double scale) {
+  if (!(scale > 0 && scale <= 1)) throw Error("scale_down: scale must be in (0, 1]");
+  const int w = std::max(1, static_cast<int>(std::lround(image.width * scale)));
+  const int h = std::max(1, static_cast<int>(std::lround(image.height * scale)));
+  const int n = image.channels;
+  Image out{w, h, n, std::vector<std::uint8_t>(static_cast<std::size_t>(w) * h * n)};
+  const double step = 1.0 / scale;
+  std::vector<int> sum(static_cast<std::size_t>(n));
+  for (int y = 0; y < h; ++y) {
+    const int y0 = static_cast<int>(y * step),
+              y1 = std::min(std::max(y0 + 1, static_cast<int>((y + 1) * step)), image.height);
+    for (int x = 0; x < w; ++x) {
+      const int x0 = static_cast<int>(x * step),
+                x1 = std::min(std::max(x0 + 1, static_cast<int>((x + 1) * step)), image.width);
+      std::fill(sum.begin(), sum.end(), 0);
+      int count = 0;
+      for (int yy = y0; yy < y1; ++yy)
+        for (int xx = x0; xx < x1; ++xx, ++count)
+          for (int c = 0; c < n; ++c) sum[static_cast<std::size_t>(c)] += image.at(xx, yy, c);
+      count = std::max(count, 1);
+      for (int c = 0; c < n; ++c)
+        out.pixels[(static_cast<std::size_t>(y) * w + x) * n + static_cast<std::size_t>(c)] =
+            static_cast<std::uint8_t>(sum[static_cast<std::size_t>(c)] / count);
+    }
+  }
+  return out;
+}
+
 Image apply_orientation(Image image, int orientation) {
   if (orientation < 2 || orientation > 8) return image;
   const int w = image.width, h = image.height;

@@ -18,29 +18,14 @@
 namespace facecast::rigbuild {
 namespace {
 
-// The photo scaled by `scale` (<= 1) with a box filter: each output pixel averages the source
-// pixels it covers.
-dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image, double scale) {
-  const int w = std::max(1, static_cast<int>(std::lround(image.width * scale)));
-  const int h = std::max(1, static_cast<int>(std::lround(image.height * scale)));
-  dlib::array2d<dlib::rgb_pixel> img(h, w);
-  const double step = 1.0 / scale;
-  for (int y = 0; y < h; ++y) {
-    const int y0 = static_cast<int>(y * step),
-              y1 = std::max(y0 + 1, static_cast<int>((y + 1) * step));
-    for (int x = 0; x < w; ++x) {
-      const int x0 = static_cast<int>(x * step),
-                x1 = std::max(x0 + 1, static_cast<int>((x + 1) * step));
-      int sum[3] = {0, 0, 0}, n = 0;
-      for (int yy = y0; yy < std::min(y1, image.height); ++yy)
-        for (int xx = x0; xx < std::min(x1, image.width); ++xx, ++n)
-          for (int c = 0; c < 3; ++c) sum[c] += image.at(xx, yy, c);
-      n = std::max(n, 1);
-      img[y][x] = dlib::rgb_pixel(static_cast<unsigned char>(sum[0] / n),
-                                  static_cast<unsigned char>(sum[1] / n),
-                                  static_cast<unsigned char>(sum[2] / n));
-    }
-  }
+// The photo scaled by `scale` (<= 1) with a box filter (render::scale_down), as dlib's image.
+dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& photo, double scale) {
+  const render::Image scaled = scale < 1 ? render::scale_down(photo, scale) : render::Image{};
+  const render::Image& image = scale < 1 ? scaled : photo;
+  dlib::array2d<dlib::rgb_pixel> img(image.height, image.width);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      img[y][x] = dlib::rgb_pixel(image.at(x, y, 0), image.at(x, y, 1), image.at(x, y, 2));
   return img;
 }
 

@@ -258,3 +258,29 @@ TEST_CASE("photos are turned upright by their EXIF orientation", "[render]") {
   CHECK(apply_orientation(stored, 0).pixels == stored.pixels);  // out of range: as stored
   CHECK(apply_orientation(stored, 9).pixels == stored.pixels);
 }
+
+TEST_CASE("images are scaled down by the mean of the pixels each covers", "[render]") {
+  // 5 x 3, RGBA, each channel a function of the pixel: halved to 3 x 2 (the size rounded), the
+  // output pixel (x, y) is the mean of the source's [2x, 2x + 2) x [2y, 2y + 2), cut at the edge.
+  Image image{5, 3, 4, {}};
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x)
+      for (int c = 0; c < 4; ++c)
+        image.pixels.push_back(static_cast<std::uint8_t>(10 * x + 50 * y + c));
+  const Image half = scale_down(image, 0.5);
+  REQUIRE(half.width == 3);
+  REQUIRE(half.height == 2);
+  REQUIRE(half.channels == 4);
+  const auto mean = [&](int x, int y, int c) {
+    int sum = 0, n = 0;
+    for (int yy = 2 * y; yy < std::min(2 * y + 2, 3); ++yy)
+      for (int xx = 2 * x; xx < std::min(2 * x + 2, 5); ++xx, ++n) sum += image.at(xx, yy, c);
+    return sum / n;
+  };
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x)
+      for (int c = 0; c < 4; ++c) CHECK(half.at(x, y, c) == mean(x, y, c));
+  CHECK(scale_down(image, 1.0).pixels == image.pixels);
+  CHECK_THROWS_WITH(scale_down(image, 0), Catch::Contains("scale must be in (0, 1]"));
+  CHECK_THROWS(scale_down(image, 1.5));
+}

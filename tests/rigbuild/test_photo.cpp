@@ -230,6 +230,42 @@ TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[phot
   }
 }
 
+TEST_CASE("photo avatar: a photo over max_photo_side is worked on scaled down", "[photo][slow]") {
+  // astronaut.png with each pixel made 2 x 2 and max_photo_side 512: the command works on her
+  // photo as it is (the box filter halves it back exactly), so the fit is hers and the landmarks
+  // come back in the large photo's pixels.
+  const auto path = test::astronaut_path();
+  if (!test::require_data(path)) return;
+  const render::Image photo = render::read_photo(path);
+  render::Image large{2 * photo.width, 2 * photo.height, 3, {}};
+  large.pixels.resize(static_cast<std::size_t>(large.width) * large.height * 3);
+  for (int y = 0; y < large.height; ++y)
+    for (int x = 0; x < large.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        large.pixels[(static_cast<std::size_t>(y) * large.width + x) * 3 +
+                     static_cast<std::size_t>(c)] = photo.at(x / 2, y / 2, c);
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  opt.max_photo_side = 512;
+  const PhotoTemplate tmpl = load_photo_template(photo_template_path(opt, ""));
+  const PhotoAvatar small = avatar_from_photos(tmpl, photo, nullptr, opt);
+  const PhotoAvatar a = avatar_from_photos(tmpl, large, nullptr, opt);
+  CHECK(small.photo_scale == 1.0);
+  CHECK(a.photo_scale == 0.5);
+  CHECK(a.report["photo_scale"].get<double>() == 0.5);
+  CHECK(a.front.width == large.width);
+  for (int k = 0; k < kLandmarkCount; ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    CHECK((a.front.points[i] - (2 * small.front.points[i] + Eigen::Vector2d(0.5, 0.5))).norm() <
+          1e-9);
+  }
+  CHECK(a.front.box == 2 * small.front.box);
+  const double moved = test::face_error(tmpl, a.fit.positions, small.fit.positions);
+  std::cout << "astronaut.png at twice her size: the fitted head " << moved
+            << " cm from her photo's\n";
+  CHECK(moved < 1e-3);
+}
+
 TEST_CASE("photo texture: no background in it, on backgrounds of four colours", "[photo][slow]") {
   const auto dir = test::ict_dir();
   if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
@@ -288,6 +324,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.template_path == d.template_path);
   CHECK(c.min_face == d.min_face);
   CHECK(c.max_side == d.max_side);
+  CHECK(c.max_photo_side == d.max_photo_side);
   CHECK(c.weak_face_score == d.weak_face_score);
   CHECK(c.max_roll == d.max_roll);
   CHECK(c.roll_step == d.roll_step);

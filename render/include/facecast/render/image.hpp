@@ -44,6 +44,10 @@ Image decode_image(std::string_view bytes, std::string_view what,
 /// 6 and 8 are a phone's portraits stored sideways. Other values leave the image as it is.
 Image apply_orientation(Image image, int orientation);
 
+/// The image scaled by `scale` (0 < scale <= 1; the size rounded) with a box filter: each output
+/// pixel is the mean of the source pixels it covers.
+Image scale_down(const Image& image, double scale);
+
 /// A photo as viewers and browsers show it: read like read_image (a file) or decode_image (bytes),
 /// as 3-channel RGB, turned upright by its EXIF Orientation tag (JPEG's).
 Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits = {});

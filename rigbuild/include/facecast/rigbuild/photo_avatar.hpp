@@ -41,6 +41,9 @@ struct PhotoOptions {
                               // shipped template, ict_facekit.glb)
   int min_face = 80;          // a face box narrower than this (pixels) is "too small"
   int max_side = 640;         // photos are scaled down to this longest side for detection
+  /// avatar_from_photos works on photos scaled down to at most this longest side (the landmarks,
+  /// the fit, its renders and the texture; the report's landmarks are in the photos' pixels).
+  int max_photo_side = 2048;
   /// No face at the detector's threshold (at the working size or twice it): the best-scoring face
   /// above this offset to it (dlib's adjust_threshold; a face turned well aside scores below) is
   /// taken, with a note in the report; 0: none.
@@ -266,6 +269,9 @@ struct PhotoAvatar {
   bool has_side = false;
   double texture_coverage = 0;
   double texture_refused = 0;  // skin texels a photo saw only as background (bake_photo_texture)
+  /// The photos were worked on scaled by this (max_photo_side): `fit`'s cameras are in the scaled
+  /// photos' pixels, `front` and `side` in the photos' own.
+  double photo_scale = 1;
   nlohmann::json report;
 };
 
