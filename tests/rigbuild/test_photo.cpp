@@ -307,14 +307,16 @@ TEST_CASE("photo texture: no background in it, on backgrounds of four colours", 
     std::cout << "background " << seen.transpose() << ": texels of its colour " << 100 * before
               << " % -> " << 100 * after << " %; coverage " << coverage_off << " -> " << coverage_on
               << " (refused " << refused << ")\n";
-    // What is left is inside the face: the eyes' whites (light grey) and pupils (dark).
+    // What is left is inside the face: the eyes' whites and the teeth (light grey) and the pupils
+    // (dark).
     CHECK(after <= 0.003);
     CHECK(after <= 0.2 * before);
     CHECK(coverage_on > 0.85 * coverage_off);
     CHECK(a.report["texture"]["background_refused"].get<double>() == Approx(refused));
-    if (bg == backgrounds[2])
-      render::write_image(test::artifacts_dir("photo") / "texture_background.png",
-                          side_by_side({shoot.front, off, on}));
+    render::write_image(
+        test::artifacts_dir("photo") /
+            ("texture_background_" + std::to_string(&bg - backgrounds.data()) + ".png"),
+        side_by_side({shoot.front, off, on}));
   }
 }
 
