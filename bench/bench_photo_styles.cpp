@@ -10,11 +10,14 @@
 //
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
-//        [--response STYLE,.. [--front-response]]
+//        [--response STYLE,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]
 // --response: the detector's response measured on the template photographed in the named styles
 // (the benchmark's, or photo_support.hpp's training styles pale, lamp, phone, deep), averaged over
 // them and used by every fit (analysis by synthesis then skipped): the route of a table measured
 // once and shipped with the template; --front-response: the front photo's only.
+// --scale: every style's photos F times as many pixels across (the same lens: a larger face);
+// --blur, --jpeg: the photos softened by a Gaussian and stored as JPEG, as a phone's camera does
+// (the fit's renders are neither).
 // The default seeds are 3001.. (count 3): held out from every choice of the fit's options
 // (tuning: 11-38; earlier held-out figures: 404-1313; development of this benchmark: 2001-2004).
 #include <algorithm>
@@ -44,6 +47,9 @@ struct Args {
   std::string camera;                 // photo.json's camera model overridden ("": as configured)
   std::vector<std::string> response;  // styles the detector's response is measured in (averaged)
   bool front_response = false;        // ... the front's only
+  double scale = 1;                   // the styles' photos this many times as many pixels across
+  double blur = 0;                    // the photos blurred (Gaussian, pixels)
+  int jpeg = 0;                       // the photos stored as JPEG of this quality (0: not)
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -78,11 +84,17 @@ Args parse(int argc, char** argv) {
       a.response = split(value());
     } else if (arg == "--front-response") {
       a.front_response = true;
+    } else if (arg == "--scale") {
+      a.scale = std::stod(value());
+    } else if (arg == "--blur") {
+      a.blur = std::stod(value());
+    } else if (arg == "--jpeg") {
+      a.jpeg = std::stoi(value());
     } else {
       throw Error(
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
           "[--no-warp] [--no-own] [--camera auto|orthographic|perspective] "
-          "[--response a,b,.. [--front-response]]");
+          "[--response a,b,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]");
     }
   }
   if (a.seeds.empty())
@@ -223,12 +235,23 @@ int main(int argc, char** argv) try {
     std::printf("detector response measured in %d styles (%.0f s)\n", n,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
-  for (const auto& [style, yaw] : styles) {
+  for (const auto& [named, turn] : styles) {
     if (!args.styles.empty() &&
-        std::find(args.styles.begin(), args.styles.end(), style.name) == args.styles.end())
+        std::find(args.styles.begin(), args.styles.end(), named.name) == args.styles.end())
       continue;
+    test::PhotoStyle style = named;
+    const double yaw = turn;
+    style.width = static_cast<int>(std::lround(style.width * args.scale));
+    style.height = static_cast<int>(std::lround(style.height * args.scale));
     const auto ts = std::chrono::steady_clock::now();
     const render::Image texture = test::skin_texture(tmpl, 512, style);
+    // Photographed as the style's camera stores it (--blur, --jpeg).
+    const auto photograph = [&](const rig::Positions& p) {
+      test::PhotoShoot s = test::photograph(tmpl, p, yaw, style, texture);
+      s.front = test::as_camera_stores(std::move(s.front), args.blur, args.jpeg);
+      s.side = test::as_camera_stores(std::move(s.side), args.blur, args.jpeg);
+      return s;
+    };
     std::cout << "\nstyle " << style.name << ": " << style.width << "x" << style.height << ", "
               << style.fov_y_deg << "-degree lens (focal " << std::lround(test::focal_pixels(style))
               << " px)"
@@ -241,7 +264,7 @@ int main(int argc, char** argv) try {
       for (unsigned seed : args.seeds) {
         const rig::Positions truth =
             warped ? test::warped_head(tmpl, seed) : test::identity_mixture(tmpl, seed);
-        const test::PhotoShoot shoot = test::photograph(tmpl, truth, yaw, style, texture);
+        const test::PhotoShoot shoot = photograph(truth);
         if (seed == args.seeds.front())
           render::write_image(dir / ("style_" + style.name + "_" + kind + ".png"),
                               rigbuild::side_by_side({shoot.front, shoot.side}));
@@ -273,7 +296,7 @@ int main(int argc, char** argv) try {
       const auto shifts = test::own_photo_shifts();
       for (std::size_t i = 0; i < shifts.size(); ++i) {
         const rig::Positions at = tmpl.rig.positions.rowwise() + shifts[i];
-        const test::PhotoShoot shoot = test::photograph(tmpl, at, yaw, style, texture);
+        const test::PhotoShoot shoot = photograph(at);
         const Fit a = run_fit(tmpl, shoot, false, at, opt);
         const Fit b = run_fit(tmpl, shoot, true, at, opt);
         front[i] = a.ok ? a.error : -1.0;

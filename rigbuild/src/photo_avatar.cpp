@@ -256,6 +256,7 @@ PhotoOptions load_photo_options() {
       .read("outline_start", o.outline_start)
       .read("rbf_smoothing", o.rbf_smoothing)
       .read("rbf_radius", o.rbf_radius)
+      .read("rbf_after_synthesis", o.rbf_after_synthesis)
       .read("texture_size", o.texture_size)
       .read("side_gamma", o.side_gamma)
       .read("mask_background", o.mask_background)
@@ -548,8 +549,16 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
         return found;
       });
   calibrated.rig.positions = tmpl.rig.positions;
-  return fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options, &front,
-                         side, &first.fit);
+  PhotoFit fit = fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options,
+                                 &front, side, &first.fit);
+  // With the detector's response modelled, the residuals left are mostly its scatter: moved into
+  // the shape they cost more than they carry (rbf_after_synthesis;
+  // docs/benchmarks.md#photo-avatar).
+  if (!options.rbf_after_synthesis) {
+    fit.positions = fit.model_positions;
+    fit.moved_rms = 0;
+  }
+  return fit;
 }
 
 // Landmarks read on a copy of `photo` scaled by `scale` (render::scale_down: the copy's pixel i

@@ -415,6 +415,41 @@ inline rig::Positions warped_head(const rigbuild::PhotoTemplate& t, unsigned see
   return out;
 }
 
+/// `photo` as a camera softens and stores it: a Gaussian blur of `sigma` pixels (0: none), then
+/// JPEG at `quality` (0: not encoded), decoded as a reader would.
+inline render::Image as_camera_stores(render::Image photo, double sigma, int quality) {
+  if (sigma > 0) {
+    const int r = static_cast<int>(std::ceil(3 * sigma));
+    std::vector<double> k(static_cast<std::size_t>(2 * r + 1));
+    double sum = 0;
+    for (int i = -r; i <= r; ++i)
+      sum += k[static_cast<std::size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
+    for (double& x : k) x /= sum;
+    const int w = photo.width, h = photo.height, c = photo.channels;
+    for (const bool across : {true, false}) {
+      std::vector<std::uint8_t> out(photo.pixels.size());
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int ch = 0; ch < c; ++ch) {
+            double v = 0;
+            for (int i = -r; i <= r; ++i) {
+              const int u = std::clamp(across ? x + i : x, 0, w - 1);
+              const int t = std::clamp(across ? y : y + i, 0, h - 1);
+              v += k[static_cast<std::size_t>(i + r)] * photo.at(u, t, ch);
+            }
+            out[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
+                 static_cast<std::size_t>(x)) *
+                    static_cast<std::size_t>(c) +
+                static_cast<std::size_t>(ch)] =
+                static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+          }
+      photo.pixels = std::move(out);
+    }
+  }
+  if (quality > 0) photo = render::decode_image(render::encode_jpeg(photo, quality), "photo");
+  return photo;
+}
+
 /// The template's own photo is taken three times, the head moved by these (model units: 0.03 cm,
 /// about half a pixel in a selfie) across and up: a fit's error on one shot moves by up to a
 /// tenth of a centimetre with such a move (0.18-0.26 cm on one selfie), so figures take the

@@ -353,6 +353,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.outline_start == d.outline_start);
   CHECK(c.rbf_smoothing == d.rbf_smoothing);
   CHECK(c.rbf_radius == d.rbf_radius);
+  CHECK(c.rbf_after_synthesis == d.rbf_after_synthesis);
   CHECK(c.texture_size == d.texture_size);
   CHECK(c.side_gamma == d.side_gamma);
   CHECK(c.mask_background == d.mask_background);

@@ -93,11 +93,15 @@ struct PhotoOptions {
   double outline_start = 2.5;     // ... times this in the first round, narrowing to it by round 4
   double rbf_smoothing = 1.0;     // RBF regularisation: 0 moves the landmarks exactly
   double rbf_radius = 1.2;        // RBF support radius, in inter-ocular distances of the template
-  int texture_size = 1024;        // texture height; the width is twice (face and back of head)
-  double side_gamma = 1.0;        // blend exponent on the normal's components (1: the seed's)
-  bool mask_background = true;    // outside the face, no background or clothes in the texture
-  bool shapes = true;             // transfer the template's expressions onto the fitted head
-  BuildOptions build;             // that transfer (configs/rigbuild/build.json)
+  /// The RBF calibration also moves the analysis-by-synthesis fit's residuals (off: that fit's
+  /// head is the identity modes' alone; the first fit, whose head the analysis photographs, keeps
+  /// it).
+  bool rbf_after_synthesis = false;
+  int texture_size = 1024;      // texture height; the width is twice (face and back of head)
+  double side_gamma = 1.0;      // blend exponent on the normal's components (1: the seed's)
+  bool mask_background = true;  // outside the face, no background or clothes in the texture
+  bool shapes = true;           // transfer the template's expressions onto the fitted head
+  BuildOptions build;           // that transfer (configs/rigbuild/build.json)
 };
 
 /// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
