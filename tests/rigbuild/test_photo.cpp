@@ -642,15 +642,32 @@ TEST_CASE("photo fit as the command runs it: analysis by synthesis measures the 
   PhotoOptions opt = load_photo_options();
   opt.shapes = false;
   REQUIRE(opt.self_calibrate == 1);
-  const auto fit = [&](const test::PhotoShoot& shoot, int rounds) {
+  const auto avatar = [&](const test::PhotoShoot& shoot, int rounds) {
     opt.self_calibrate = rounds;
-    return avatar_from_photos(tmpl, shoot.front, &shoot.side, opt).fit.positions;
+    return avatar_from_photos(tmpl, shoot.front, &shoot.side, opt);
+  };
+  const auto fit = [&](const test::PhotoShoot& shoot, int rounds) {
+    return avatar(shoot, rounds).fit.positions;
   };
   const test::PhotoShoot own = test::photograph(tmpl, tmpl.rig.positions, 40.0);
   const double own_before = aligned_error(tmpl, fit(own, 0), tmpl.rig.positions);
-  const double own_after = aligned_error(tmpl, fit(own, 1), tmpl.rig.positions);
+  const PhotoAvatar calibrated = avatar(own, 1);
+  const double own_after = aligned_error(tmpl, calibrated.fit.positions, tmpl.rig.positions);
+  // The head after analysis by synthesis is the identity modes' (rbf_after_synthesis off); with
+  // it on, the RBF calibration moves it by the landmarks' residuals.
+  CHECK(!opt.rbf_after_synthesis);
+  CHECK(calibrated.fit.positions == calibrated.fit.model_positions);
+  CHECK(calibrated.report["rbf_rms_move"].get<double>() == 0);
+  opt.rbf_after_synthesis = true;
+  const PhotoAvatar moved = avatar(own, 1);
+  opt.rbf_after_synthesis = false;
+  CHECK(moved.report["rbf_rms_move"].get<double>() > 0);
+  CHECK((moved.fit.positions - moved.fit.model_positions).norm() > 0);
+  CHECK(moved.fit.model_positions == calibrated.fit.model_positions);
   std::cout << "the template's own photo, front + side: " << own_before << " cm without, "
-            << own_after << " cm with analysis by synthesis\n";
+            << own_after << " cm with analysis by synthesis ("
+            << aligned_error(tmpl, moved.fit.positions, tmpl.rig.positions)
+            << " cm with the RBF calibration after it)\n";
   // 0.174 measured with the painted template lit as the photo (calibration_light; 0.118 unlit,
   // 0.146 with the baked texture, 0.37 without).
   CHECK(own_after < 0.2);
