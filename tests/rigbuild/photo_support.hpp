@@ -428,6 +428,7 @@ inline render::Image as_camera_stores(render::Image photo, double sigma, int qua
     const int w = photo.width, h = photo.height, c = photo.channels;
     for (const bool across : {true, false}) {
       std::vector<std::uint8_t> out(photo.pixels.size());
+      std::size_t at = 0;  // row by row, pixel by pixel, channel by channel: the pixels' order
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
           for (int ch = 0; ch < c; ++ch) {
@@ -437,11 +438,7 @@ inline render::Image as_camera_stores(render::Image photo, double sigma, int qua
               const int t = std::clamp(across ? y : y + i, 0, h - 1);
               v += k[static_cast<std::size_t>(i + r)] * photo.at(u, t, ch);
             }
-            out[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
-                 static_cast<std::size_t>(x)) *
-                    static_cast<std::size_t>(c) +
-                static_cast<std::size_t>(ch)] =
-                static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+            out[at++] = static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
           }
       photo.pixels = std::move(out);
     }
