@@ -58,7 +58,7 @@ struct PhotoOptions {
   double box_jitter = 0.06;      // landmarks averaged over face boxes moved by up to this
   int box_steps = 2;             // fraction of their size, in this many steps each way
   int iterations = 8;            // camera / coefficient alternations
-  double landmark_noise = 0.01;  // landmark noise, inter-ocular distances: the modes' prior weight
+  double landmark_noise = 0.02;  // landmark noise, inter-ocular distances: the modes' prior weight
   bool estimate_noise = true;    // ... estimated from the residuals (landmark_noise: its floor)
   bool estimate_group_noise = true;  // ... and per landmark group (jaw, brows, nose, eyes, mouth)
   /// Without a measured detector response in the template: a head in the photo's colours
