@@ -11,6 +11,7 @@
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
 //        [--response STYLE,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]
+//        [--coefficients]
 // --response: the detector's response measured on the template photographed in the named styles
 // (the benchmark's, or photo_support.hpp's training styles pale, lamp, phone, deep), averaged over
 // them and used by every fit (analysis by synthesis then skipped): the route of a table measured
@@ -18,6 +19,11 @@
 // --scale: every style's photos F times as many pixels across (the same lens: a larger face);
 // --blur, --jpeg: the photos softened by a Gaussian and stored as JPEG, as a phone's camera does
 // (the fit's renders are neither).
+// --coefficients: each mixture's identity coefficients, true and fitted (front + side) with their
+// posterior standard deviations, and per style the fitted coefficients' errors in those standard
+// deviations (RMS z: about 1 when the fit's noise model holds, above 1 when the detector's offsets
+// it does not model pull the modes) and the mean standard deviation (with c ~ N(0, 1) as the
+// heads are drawn, about the error ratio a fit whose noise model holds can reach).
 // The default seeds are 3001.. (count 3): held out from every choice of the fit's options
 // (tuning: 11-38; earlier held-out figures: 404-1313; development of this benchmark: 2001-2004).
 #include <algorithm>
@@ -50,6 +56,7 @@ struct Args {
   double scale = 1;                   // the styles' photos this many times as many pixels across
   double blur = 0;                    // the photos blurred (Gaussian, pixels)
   int jpeg = 0;                       // the photos stored as JPEG of this quality (0: not)
+  bool coefficients = false;          // the mixtures' coefficients printed, true and fitted
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -90,11 +97,14 @@ Args parse(int argc, char** argv) {
       a.blur = std::stod(value());
     } else if (arg == "--jpeg") {
       a.jpeg = std::stoi(value());
+    } else if (arg == "--coefficients") {
+      a.coefficients = true;
     } else {
       throw Error(
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
           "[--no-warp] [--no-own] [--camera auto|orthographic|perspective] "
-          "[--response a,b,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]");
+          "[--response a,b,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY] "
+          "[--coefficients]");
     }
   }
   if (a.seeds.empty())
@@ -108,6 +118,7 @@ struct Fit {
   double error = 0;  // against the truth, model units
   double turn = 0;   // the side photo's fitted turn, degrees
   double focal = 0;  // the front camera's focal length, pixels (0: scale-orthographic)
+  Eigen::VectorXd coefficients, sd;  // the identity coefficients and their posterior deviations
   std::string note;
 };
 
@@ -121,6 +132,8 @@ Fit run_fit(const rigbuild::PhotoTemplate& tmpl, const test::PhotoShoot& shoot, 
     f.error = test::face_error(tmpl, a.fit.positions, truth);
     f.turn = test::fitted_turn_degrees(a.fit);
     f.focal = a.fit.front.focal();
+    f.coefficients = a.fit.coefficients;
+    f.sd = a.fit.coefficient_sd;
     for (const auto& n : a.report["notes"]) f.note += n.get<std::string>() + "; ";
     if (const std::string c = a.report["calibration_texture"]; !c.empty()) f.note += c;
   } catch (const Error& e) {
@@ -134,6 +147,7 @@ struct Summary {
   int side_lower = 0, failed = 0;
   std::vector<double> turn_error;  // fitted - true, degrees
   std::vector<double> focal;       // fitted focal lengths (0: orthographic), front + side fits
+  std::vector<double> z, sd;       // front + side coefficients' errors in their deviations; these
 
   void add(const Fit& a, const Fit& b, double before, double true_turn) {
     if (!a.ok || !b.ok) {
@@ -278,6 +292,16 @@ int main(int argc, char** argv) try {
             kind, seed, before, a.ok ? a.error / before : -1.0, b.ok ? b.error / before : -1.0,
             b.turn, b.focal, notes.empty() ? "" : "; ", notes.c_str());
         s.add(a, b, before, yaw);
+        if (args.coefficients && !warped && b.ok) {
+          const Eigen::VectorXd c = test::identity_coefficients(tmpl, seed);
+          std::printf("    coefficients, true / fitted (sd):");
+          for (Eigen::Index k = 0; k < c.size(); ++k) {
+            std::printf(" %+.2f / %+.2f (%.2f)", c(k), b.coefficients(k), b.sd(k));
+            s.z.push_back((b.coefficients(k) - c(k)) / b.sd(k));
+            s.sd.push_back(b.sd(k));
+          }
+          std::printf("\n");
+        }
       }
       std::printf(
           "  %s: fitted/template front %.2f (max %.2f), front+side %.2f (max %.2f); the "
@@ -285,6 +309,13 @@ int main(int argc, char** argv) try {
           "%d failed\n",
           kind, mean(s.front), max_of(s.front), mean(s.both), max_of(s.both), s.side_lower,
           s.both.size(), mean(s.turn_error), max_abs(s.turn_error), s.failed);
+      if (!s.z.empty()) {
+        double zz = 0;
+        for (double z : s.z) zz += z * z;
+        std::printf(
+            "  %s coefficients (front + side): RMS error / sd %.2f over %zu; mean sd %.2f\n", kind,
+            std::sqrt(zz / static_cast<double>(s.z.size())), s.z.size(), mean(s.sd));
+      }
       return s;
     };
     heads("mixture", false);

@@ -356,14 +356,24 @@ inline double focal_pixels(const PhotoStyle& style) {
   return 0.5 * style.height / std::tan(0.5 * style.fov_y_deg * M_PI / 180.0);
 }
 
+/// The identity coefficients of identity_mixture's head: drawn from N(0, sigma^2) (seeded).
+inline Eigen::VectorXd identity_coefficients(const rigbuild::PhotoTemplate& t, unsigned seed,
+                                             double sigma = 1.0) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, sigma);
+  Eigen::VectorXd c(static_cast<Eigen::Index>(t.modes.size()));
+  for (Eigen::Index k = 0; k < c.size(); ++k) c(k) = n(rng);
+  return c;
+}
+
 /// A head of known shape: the template moved by its identity modes with coefficients drawn from
 /// N(0, sigma^2) (seeded).
 inline rig::Positions identity_mixture(const rigbuild::PhotoTemplate& t, unsigned seed,
                                        double sigma = 1.0) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, sigma);
+  const Eigen::VectorXd c = identity_coefficients(t, seed, sigma);
   rig::Positions p = t.rig.positions;
-  for (const auto& mode : t.modes) p += static_cast<float>(n(rng)) * mode;
+  for (std::size_t k = 0; k < t.modes.size(); ++k)
+    p += static_cast<float>(c(static_cast<Eigen::Index>(k))) * t.modes[k];
   return p;
 }
 
