@@ -147,7 +147,8 @@ struct Summary {
   int side_lower = 0, failed = 0;
   std::vector<double> turn_error;  // fitted - true, degrees
   std::vector<double> focal;       // fitted focal lengths (0: orthographic), front + side fits
-  std::vector<double> z, sd;  // front + side mixtures' coefficient errors / their posterior sd; sd
+  std::vector<double> z;           // front + side mixtures: (fitted - true) / posterior sd
+  std::vector<double> sd;          // ... and those posterior sds
 
   void add(const Fit& a, const Fit& b, double before, double true_turn) {
     if (!a.ok || !b.ok) {
