@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
+#include <thread>
 
 #include "facecast/rigbuild/template.hpp"
 #include "sanitizers.hpp"
@@ -39,6 +40,18 @@ void write_text(const std::filesystem::path& p, const std::string& text) {
 }
 
 }  // namespace
+
+bool wait_until_ready(unsigned short port, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    try {
+      if (http_request(port, http::verb::get, "/readyz", {}, {}, 5).status == 200) return true;
+    } catch (const std::exception&) {  // not listening yet
+    }
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
 
 double slowdown() {
 #if defined(FACECAST_TSAN)

@@ -70,6 +70,10 @@ std::string raw_request(unsigned short port, const std::string& bytes, double ti
 /// A loopback port nothing listens on now (the kernel's pick, released again).
 unsigned short free_port();
 
+/// Polls GET /readyz every 50 ms until it answers 200 or `seconds` pass (a server warms up in
+/// seconds, several times longer under a sanitizer: give 30 * slowdown()); whether it did.
+bool wait_until_ready(unsigned short port, double seconds);
+
 /// The producer token of the channel "show" that the channel tests configure.
 inline const char* const kProducerToken = "producer-secret-1";
 

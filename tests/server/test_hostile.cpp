@@ -56,8 +56,7 @@ class Target {
                    std::vector<std::string>{"--config", (dir_ / "server.json").string(), "--data",
                                             (dir_ / "data").string()},
                    30 * slowdown(), (dir_ / "serve.log").string());
-    for (int i = 0; i < 200 && http_request(port(), http::verb::get, "/readyz").status != 200; ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    REQUIRE(wait_until_ready(port(), 30 * slowdown()));
     rss0_ = rss_mb(serve_->pid());
     watch_ = std::thread([this] {
       while (!stop_) {

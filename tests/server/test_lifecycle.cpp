@@ -66,8 +66,7 @@ TEST_CASE("facecast serve drains on SIGTERM: the utterance finishes, then 1001",
   CHECK(port != 0);
   CHECK(port != 8080);
   // Ready once warmed up.
-  for (int i = 0; i < 200 && http_request(port, http::verb::get, "/readyz").status != 200; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  CHECK(wait_until_ready(port, 30 * slowdown()));
   CHECK(http_request(port, http::verb::get, "/readyz").json()["status"] == "ready");
   {
     WsClient c(port);
