@@ -23,11 +23,12 @@ void with_channel(ServerOptions& o) {
   o.channel_idle = 0;  // idle-life streams have their own test
 }
 
-// Reads text messages until one of `type` (others are kept in `seen`).
+// Reads text messages until one of `type` (others are kept in `seen`), for up to `timeout`
+// seconds at full speed (longer under a sanitizer).
 nlohmann::json wait_for(WsClient& c, const std::string& type, double timeout = 10,
                         std::vector<nlohmann::json>* seen = nullptr) {
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(timeout));
+                                           std::chrono::duration<double>(timeout * slowdown()));
   while (Clock::now() < deadline) {
     const auto m = c.read(std::chrono::duration<double>(deadline - Clock::now()).count());
     if (!m) break;
@@ -41,7 +42,7 @@ nlohmann::json wait_for(WsClient& c, const std::string& type, double timeout = 1
 
 std::unique_ptr<WsClient> subscriber(unsigned short port, WsClient::Options options = {}) {
   auto c = std::make_unique<WsClient>(port, options);
-  REQUIRE(c->read_json(10)["type"] == "hello");
+  REQUIRE(c->read_json(10 * slowdown())["type"] == "hello");
   c->send(nlohmann::json{{"type", "subscribe"}, {"channel", "show"}});
   if (options.receive_buffer == 0) {
     const auto j = wait_for(*c, "subscribed");
@@ -52,7 +53,7 @@ std::unique_ptr<WsClient> subscriber(unsigned short port, WsClient::Options opti
 
 std::unique_ptr<WsClient> producer(unsigned short port) {
   auto c = std::make_unique<WsClient>(port);
-  REQUIRE(c->read_json(10)["type"] == "hello");
+  REQUIRE(c->read_json(10 * slowdown())["type"] == "hello");
   c->send(nlohmann::json{{"type", "produce"}, {"channel", "show"}, {"token", kProducerToken}});
   CHECK(wait_for(*c, "producing")["channel"] == "show");
   return c;
@@ -93,7 +94,7 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
   auto stalled = subscriber(s.port(), tiny);
 
   auto prod = std::make_unique<WsClient>(s.port());
-  REQUIRE(prod->read_json(10)["type"] == "hello");
+  REQUIRE(prod->read_json(10 * slowdown())["type"] == "hello");
   // Without the producer token nothing can be said on the channel.
   prod->send(nlohmann::json{{"type", "speak"}, {"id", "x"}, {"text", "hi."}, {"channel", "show"}});
   CHECK(wait_for(*prod, "error")["code"] == "forbidden");
@@ -156,7 +157,7 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
   REQUIRE(posted.status == 202);
   CHECK(posted.json()["id"] == "h1");
   // A late joiner gets the stream from the current frame on.
-  const auto first = collect_stream(*subs[0], "h1", 30);
+  const auto first = collect_stream(*subs[0], "h1", 30 * slowdown());
   (void)first;
   const auto j =
       nlohmann::json::parse(http_request(s.port(), http::verb::get, "/api/channels/show").body);
@@ -170,7 +171,7 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
                             {"text",
                              "This is a long sentence that will be interrupted by the "
                              "producer before it is over, so it fades to rest."}});
-  (void)collect_stream(*subs[1], "h1", 30);
+  (void)collect_stream(*subs[1], "h1", 30 * slowdown());
   const auto started = wait_for(*subs[1], "stream_start");
   REQUIRE(started["id"] == "s2");
   std::this_thread::sleep_for(std::chrono::milliseconds(700));
@@ -178,11 +179,11 @@ TEST_CASE("a channel streams one utterance to every subscriber", "[ws][channel]"
   const auto late_start = wait_for(*late, "stream_start");
   CHECK(late_start["id"] == "s2");
   prod->send(nlohmann::json{{"type", "cancel"}, {"id", "s2"}, {"channel", "show"}});
-  const auto late_r = collect_stream(*late, "s2", 30, &late_start);
+  const auto late_r = collect_stream(*late, "s2", 30 * slowdown(), &late_start);
   REQUIRE_FALSE(late_r.weights.empty());
   CHECK(late_r.weights.front().header.first > 20);  // joined at the current frame, not at 0
   CHECK(late_r.end["cancelled"] == true);
-  const auto full = collect_stream(*subs[1], "s2", 30, &started);
+  const auto full = collect_stream(*subs[1], "s2", 30 * slowdown(), &started);
   CHECK(full.end["cancelled"] == true);
   CHECK(full.weights.front().header.first == 0);
   CHECK(full.weights.back().header.first + full.weights.back().header.count ==
@@ -241,7 +242,7 @@ std::uint32_t check_open_stream(const OpenStream& r, const std::vector<std::stri
 TEST_CASE("incremental text on a connection's own stream", "[ws][incremental]") {
   TestServer s;
   WsClient c(s.port());
-  REQUIRE(c.read_json(10)["type"] == "hello");
+  REQUIRE(c.read_json(10 * slowdown())["type"] == "hello");
   c.send(nlohmann::json{{"type", "speak"}, {"id", "p1"}, {"text", "Hello the"}, {"more", true}});
   c.send(nlohmann::json{{"type", "append"}, {"id", "p1"}, {"text", "re. How are"}});
   c.send(nlohmann::json{{"type", "append"}, {"id", "p0"}, {"text", "x"}});  // unknown id
@@ -312,7 +313,7 @@ TEST_CASE("a channel plays idle life between utterances and gives way to speech"
   const auto idle = wait_for(*viewer, "stream_start");
   CHECK(idle["id"] == "~idle");
   CHECK(idle["audio"].is_null());
-  const auto r = collect_stream(*viewer, "~idle", 10, &idle);
+  const auto r = collect_stream(*viewer, "~idle", 10 * slowdown(), &idle);
   check_contiguous(r, 0);
   CHECK(r.end["cancelled"] == false);
   const double fps = idle["fps"];
@@ -330,8 +331,8 @@ TEST_CASE("a channel plays idle life between utterances and gives way to speech"
   auto prod = producer(s.port());
   prod->send(nlohmann::json{
       {"type", "speak"}, {"id", "s1"}, {"channel", "show"}, {"text", "Hello, everyone."}});
-  const auto idle_end = collect_stream(*viewer, "~idle", 10, &next);
-  const auto speech = collect_stream(*viewer, "s1", 30);
+  const auto idle_end = collect_stream(*viewer, "~idle", 10 * slowdown(), &next);
+  const auto speech = collect_stream(*viewer, "s1", 30 * slowdown());
   CHECK(speech.end["cancelled"] == false);
   check_contiguous(speech, 0);
   const auto after = wait_for(*viewer, "stream_start");
