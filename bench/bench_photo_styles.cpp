@@ -11,14 +11,15 @@
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
 //        [--response STYLE,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]
-//        [--coefficients]
+//        [--exif] [--coefficients]
 // --response: the detector's response measured on the template photographed in the named styles
 // (the benchmark's, or photo_support.hpp's training styles pale, lamp, phone, deep), averaged over
 // them and used by every fit (analysis by synthesis then skipped): the route of a table measured
 // once and shipped with the template; --front-response: the front photo's only.
 // --scale: every style's photos F times as many pixels across (the same lens: a larger face);
 // --blur, --jpeg: the photos softened by a Gaussian and stored as JPEG, as a phone's camera does
-// (the fit's renders are neither).
+// (the fit's renders are neither); --exif: the photos carry their lens's 35-mm equivalent focal
+// length, whole millimetres, as phones and most cameras write it into EXIF.
 // --coefficients: each mixture's identity coefficients, true and fitted (front + side) with their
 // posterior standard deviations, and per style the fitted coefficients' errors in those standard
 // deviations (RMS z: about 1 when the fit's noise model holds, above 1 when the detector's offsets
@@ -56,6 +57,7 @@ struct Args {
   double scale = 1;                   // the styles' photos this many times as many pixels across
   double blur = 0;                    // the photos blurred (Gaussian, pixels)
   int jpeg = 0;                       // the photos stored as JPEG of this quality (0: not)
+  bool exif = false;                  // the photos carry their lens's focal length (EXIF)
   bool coefficients = false;          // the mixtures' coefficients printed, true and fitted
 };
 
@@ -97,6 +99,8 @@ Args parse(int argc, char** argv) {
       a.blur = std::stod(value());
     } else if (arg == "--jpeg") {
       a.jpeg = std::stoi(value());
+    } else if (arg == "--exif") {
+      a.exif = true;
     } else if (arg == "--coefficients") {
       a.coefficients = true;
     } else {
@@ -104,7 +108,7 @@ Args parse(int argc, char** argv) {
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
           "[--no-warp] [--no-own] [--camera auto|orthographic|perspective] "
           "[--response a,b,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY] "
-          "[--coefficients]");
+          "[--exif] [--coefficients]");
     }
   }
   if (a.seeds.empty())
@@ -260,11 +264,13 @@ int main(int argc, char** argv) try {
     style.height = static_cast<int>(std::lround(style.height * args.scale));
     const auto ts = std::chrono::steady_clock::now();
     const render::Image texture = test::skin_texture(tmpl, 512, style);
-    // Photographed as the style's camera stores it (--blur, --jpeg).
+    // Photographed as the style's camera stores it (--blur, --jpeg, --exif).
+    const double focal_35mm = args.exif ? std::round(test::focal_35mm(style)) : 0.0;
     const auto photograph = [&](const rig::Positions& p) {
       test::PhotoShoot s = test::photograph(tmpl, p, yaw, style, texture);
       s.front = test::as_camera_stores(std::move(s.front), args.blur, args.jpeg);
       s.side = test::as_camera_stores(std::move(s.side), args.blur, args.jpeg);
+      s.front.focal_35mm = s.side.focal_35mm = focal_35mm;
       return s;
     };
     std::cout << "\nstyle " << style.name << ": " << style.width << "x" << style.height << ", "

@@ -50,6 +50,8 @@ std::string encode(const Image& image, const std::string& format_name, int quali
                        linear_half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::UINT8);
   if (quality > 0)
     spec.attribute("Compression", "jpeg:" + std::to_string(std::clamp(quality, 1, 100)));
+  if (image.focal_35mm > 0)  // an EXIF SHORT, whole millimetres
+    spec.attribute("Exif:FocalLengthIn35mmFilm", static_cast<int>(std::lround(image.focal_35mm)));
   if (!out->set_ioproxy(&proxy) || !out->open(format_name, spec))
     throw Error("cannot encode " + format_name + ": " + out->geterror(), ErrorCode::kInternal);
   bool ok = false;
@@ -164,11 +166,25 @@ void write_image(const std::filesystem::path& path, const Image& image, int jpeg
 
 namespace {
 
-// decode_image's body; `orientation` gets a JPEG's EXIF Orientation (1 for PNG and WebP, whose
-// rare EXIF chunks are not read).
+// What a photo's EXIF says about how it is shown and taken.
+struct Exif {
+  int orientation = 1;    // the Orientation tag (1: as stored)
+  double focal_35mm = 0;  // FocalLengthIn35mmFilm, mm (0: none, or outside 1..5000)
+};
+
+Exif exif_of(const OIIO::ImageSpec& spec) {
+  Exif out;
+  out.orientation = spec.get_int_attribute("Orientation", 1);
+  const int focal = spec.get_int_attribute("Exif:FocalLengthIn35mmFilm", 0);
+  if (focal >= 1 && focal <= 5000) out.focal_35mm = focal;
+  return out;
+}
+
+// decode_image's body; `exif` gets a JPEG's (none for PNG and WebP, whose rare EXIF chunks are not
+// read).
 Image decode(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits,
-             int& orientation) {
-  orientation = 1;
+             Exif& exif) {
+  exif = {};
   const std::string name(what);
   const int max_side = limits.max_image_side;
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
@@ -208,7 +224,7 @@ Image decode(std::string_view bytes, std::string_view what, const rig::DecodeLim
   // thread: renderers are made on worker threads already (and OIIO's own pool hides its writes
   // into our buffer from ThreadSanitizer).
   in->threads(1);
-  orientation = spec.get_int_attribute("Orientation", 1);
+  exif = exif_of(spec);
   const OIIO::stride_t pixel = 4;
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, img.pixels.data(), pixel))
     throw Error(name + ": cannot decode: " + one_line(in->geterror()));
@@ -222,8 +238,8 @@ Image decode(std::string_view bytes, std::string_view what, const rig::DecodeLim
   return img;
 }
 
-// read_image's body; `orientation` gets the file's EXIF Orientation (1 where it has none).
-Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, int& orientation) {
+// read_image's body; `exif` gets the file's (none where it has none).
+Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, Exif& exif) {
   // PNG, JPEG and WebP headers are read by us before OpenImageIO opens the file (some of its
   // readers allocate per image on open); other formats' sizes from the header OpenImageIO read.
   {
@@ -238,7 +254,7 @@ Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, i
   if (!in)
     throw Error(path.string() + ": cannot read image: " + OIIO::geterror(), ErrorCode::kNotFound);
   const OIIO::ImageSpec& spec = in->spec();
-  orientation = spec.get_int_attribute("Orientation", 1);
+  exif = exif_of(spec);
   const auto side = static_cast<long long>(limits.max_image_side);
   if (spec.width < 1 || spec.height < 1 || spec.width > side || spec.height > side ||
       spec.nchannels < 1 || spec.nchannels > 64 ||
@@ -278,13 +294,13 @@ Image read(const std::filesystem::path& path, const rig::DecodeLimits& limits, i
 }  // namespace
 
 Image decode_image(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
-  int orientation = 1;
-  return decode(bytes, what, limits, orientation);
+  Exif exif;
+  return decode(bytes, what, limits, exif);
 }
 
 Image read_image(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
-  int orientation = 1;
-  return read(path, limits, orientation);
+  Exif exif;
+  return read(path, limits, exif);
 }
 
 Image scale_down(const Image& image, double scale) {
@@ -293,6 +309,7 @@ Image scale_down(const Image& image, double scale) {
   const int h = std::max(1, static_cast<int>(std::lround(image.height * scale)));
   const int n = image.channels;
   Image out{w, h, n, std::vector<std::uint8_t>(static_cast<std::size_t>(w) * h * n)};
+  out.focal_35mm = image.focal_35mm;  // the same angle of view
   const double step = 1.0 / scale;
   std::vector<int> sum(static_cast<std::size_t>(n));
   for (int y = 0; y < h; ++y) {
@@ -359,15 +376,19 @@ Image apply_orientation(Image image, int orientation) {
 }
 
 Image decode_photo(std::string_view bytes, std::string_view what, const rig::DecodeLimits& limits) {
-  int orientation = 1;
-  Image image = decode(bytes, what, limits, orientation);
-  return apply_orientation(rgb(std::move(image)), orientation);
+  Exif exif;
+  Image stored = rgb(decode(bytes, what, limits, exif));  // before exif is read
+  Image image = apply_orientation(std::move(stored), exif.orientation);
+  image.focal_35mm = exif.focal_35mm;
+  return image;
 }
 
 Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits) {
-  int orientation = 1;
-  Image image = read(path, limits, orientation);
-  return apply_orientation(std::move(image), orientation);
+  Exif exif;
+  Image stored = read(path, limits, exif);  // before exif is read
+  Image image = apply_orientation(std::move(stored), exif.orientation);
+  image.focal_35mm = exif.focal_35mm;
+  return image;
 }
 
 ImageDifference compare_images(const Image& a, const Image& b, int threshold) {

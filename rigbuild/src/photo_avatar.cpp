@@ -248,6 +248,8 @@ PhotoOptions load_photo_options() {
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
       .read("camera", o.camera)
+      .read("exif_focal_sd", o.exif_focal_sd)
+      .read("exif_distance", o.exif_distance)
       .read("side_calibration", o.side_calibration)
       .read("front_outline", o.front_outline)
       .read("side_outline", o.side_outline)
@@ -279,6 +281,8 @@ PhotoOptions load_photo_options() {
     c.fail("calibration_texture", "must be \"painted\" or \"photo\"");
   if (o.camera != "auto" && o.camera != "orthographic" && o.camera != "perspective")
     c.fail("camera", "must be \"auto\", \"orthographic\" or \"perspective\"");
+  if (!(o.exif_focal_sd > 0 && o.exif_focal_sd <= 1)) c.fail("exif_focal_sd", "must be in (0, 1]");
+  if (!(o.exif_distance >= 0)) c.fail("exif_distance", "must be at least 0");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
   if (!(o.outline_noise > 0)) c.fail("outline_noise", "must be positive");
@@ -465,8 +469,11 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   }
   // Nearer than painted_distance (a selfie at arm's length) the painted renders' offsets moved the
   // fitted focal length 2x too long (1175 px for 554 on the template's own selfie, 0.28 cm off
-  // against 0.10 with the baked texture): there the first fit's head in the baked texture stays.
-  if (painted && shot_camera.perspective() && 1 / shot_camera.kappa < options.painted_distance)
+  // against 0.10 with the baked texture): there the first fit's head in the baked texture stays,
+  // unless the photo's EXIF holds the focal length (held-out selfies' mixtures 1.00 -> 0.66).
+  const bool exif_lens = first.fit.exif_focal;
+  if (painted && !exif_lens && shot_camera.perspective() &&
+      1 / shot_camera.kappa < options.painted_distance)
     painted = false;
   if (!painted) shot_camera = first.fit.front;
   report["calibration_texture"] = painted ? "painted" : "photo";
@@ -531,8 +538,15 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
       },
       quick, 2.0,
       [&](const render::Image& shot, bool) {
+        // A lens the photo's EXIF gave that the fit kept (fit_photo_shape): the renders' is the
+        // camera they are shot through.
+        const double focal = exif_lens ? shot_camera.focal() : 0.0;
         // Read as the photo was: its face found in the view turned by its roll.
-        if (painted) return detect_photo_landmarks(shot, "render", quick, first.front.roll);
+        if (painted) {
+          PhotoLandmarks found = detect_photo_landmarks(shot, "render", quick, first.front.roll);
+          found.focal = focal;
+          return found;
+        }
         // The face is found within twice the photo's face box around it (a quarter of a
         // portrait's pixels for the face detector).
         const PhotoLandmarks& seen = first.front;
@@ -546,6 +560,7 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
         for (auto& p : found.points) p += Eigen::Vector2d(x0, y0);
         found.width = shot.width;
         found.height = shot.height;
+        found.focal = focal;
         return found;
       });
   calibrated.rig.positions = tmpl.rig.positions;
@@ -568,6 +583,7 @@ PhotoLandmarks scaled_landmarks(PhotoLandmarks marks, const render::Image& photo
   for (auto& p : marks.points) p = Eigen::Vector2d(back(p.x()), back(p.y()));
   for (auto& r : marks.rect) r = back(r);
   marks.box /= scale;
+  marks.focal /= scale;
   marks.width = photo.width;
   marks.height = photo.height;
   return marks;
@@ -606,6 +622,12 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
+  double unused_focal = 0;
+  if (out.front.focal > 0 && !out.fit.exif_focal) {
+    // A far camera: its lens is not used after the first fit either (fit_photo_shape).
+    unused_focal = out.front.focal;
+    out.front.focal = out.side.focal = 0;
+  }
   std::string calibration_note;
   nlohmann::json calibration = {{"calibration_texture", ""}};
   if (!has_detector_response(tmpl)) {
@@ -648,6 +670,9 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                  {{"landmarks", points_json(out.front)},
                   {"faces", out.front.faces},
                   {"roll", out.front.roll},
+                  {"exif_focal_pixels",
+                   out.front.focal > 0 ? out.front.focal : unused_focal / out.photo_scale},
+                  {"exif_focal_used", out.fit.exif_focal},
                   {"camera", camera_json(out.fit.front)},
                   {"rms_pixels", out.fit.front_rms}}},
                 {"coefficients",

@@ -237,6 +237,10 @@ PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::str
   PhotoLandmarks out;
   out.width = photo.width;
   out.height = photo.height;
+  // A 35-mm equivalent focal length is the one that gives the photo's diagonal the angle a 36 x 24
+  // mm frame's would have.
+  if (photo.focal_35mm > 0)
+    out.focal = photo.focal_35mm * std::hypot(photo.width, photo.height) / std::hypot(36.0, 24.0);
   out.faces = found.faces;
   out.box = found.box.width() / scale;
   if (out.box < options.min_face)

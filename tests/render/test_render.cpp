@@ -1,6 +1,6 @@
 // Headless rendering on Mesa: golden images (with a tolerance) of the default avatar and the ICT
-// FaceKit, GPU blending against CPU blending, threads, image files, photos' EXIF orientation.
-// FACECAST_UPDATE_GOLDEN=1 rewrites the golden PNGs in tests/render/golden/.
+// FaceKit, GPU blending against CPU blending, threads, image files, photos' EXIF orientation and
+// focal length. FACECAST_UPDATE_GOLDEN=1 rewrites the golden PNGs in tests/render/golden/.
 #include <algorithm>
 #include <array>
 #include <catch2/catch.hpp>
@@ -257,6 +257,23 @@ TEST_CASE("photos are turned upright by their EXIF orientation", "[render]") {
   }
   CHECK(apply_orientation(stored, 0).pixels == stored.pixels);  // out of range: as stored
   CHECK(apply_orientation(stored, 9).pixels == stored.pixels);
+}
+
+TEST_CASE("a photo's EXIF 35-mm focal length is written and read back", "[render]") {
+  Image photo{48, 64, 3, std::vector<std::uint8_t>(48 * 64 * 3, 128)};
+  photo.focal_35mm = 26.4;  // a phone's main camera; EXIF keeps whole millimetres
+  const std::string jpeg = encode_jpeg(photo, 90);
+  CHECK(decode_photo(jpeg, "photo").focal_35mm == 26);
+  const auto file = test::scratch_dir() / "focal.jpg";
+  write_image(file, photo);
+  CHECK(read_photo(file).focal_35mm == 26);
+  CHECK(scale_down(read_photo(file), 0.5).focal_35mm == 26);  // the same angle of view
+  // None given, none in the file; a value no lens has is ignored.
+  photo.focal_35mm = 0;
+  CHECK(decode_photo(encode_jpeg(photo), "photo").focal_35mm == 0);
+  CHECK(decode_photo(encode_png(photo), "photo").focal_35mm == 0);
+  photo.focal_35mm = 9000;
+  CHECK(decode_photo(encode_jpeg(photo), "photo").focal_35mm == 0);
 }
 
 TEST_CASE("images are scaled down by the mean of the pixels each covers", "[render]") {

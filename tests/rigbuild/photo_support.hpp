@@ -356,6 +356,12 @@ inline double focal_pixels(const PhotoStyle& style) {
   return 0.5 * style.height / std::tan(0.5 * style.fov_y_deg * M_PI / 180.0);
 }
 
+/// ... as EXIF's FocalLengthIn35mmFilm has it: on a 36 x 24 mm frame with the photo's angle of view
+/// across its diagonal, mm.
+inline double focal_35mm(const PhotoStyle& style) {
+  return focal_pixels(style) * std::hypot(36.0, 24.0) / std::hypot(style.width, style.height);
+}
+
 /// The identity coefficients of identity_mixture's head: drawn from N(0, sigma^2) (seeded).
 inline Eigen::VectorXd identity_coefficients(const rigbuild::PhotoTemplate& t, unsigned seed,
                                              double sigma = 1.0) {

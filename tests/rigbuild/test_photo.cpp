@@ -345,6 +345,8 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.estimate_side_noise == d.estimate_side_noise);
   CHECK(c.side_turn == d.side_turn);
   CHECK(c.camera == d.camera);
+  CHECK(c.exif_focal_sd == d.exif_focal_sd);
+  CHECK(c.exif_distance == d.exif_distance);
   CHECK(c.side_calibration == d.side_calibration);
   CHECK(c.front_outline == d.front_outline);
   CHECK(c.side_outline == d.side_outline);
@@ -777,6 +779,48 @@ TEST_CASE("photo avatar as the command runs it, in photo styles: the side turn a
       CHECK(error < 0.7 * flat_error);
     }
   }
+}
+
+TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length holds its camera",
+          "[photo][slow]") {
+  // A phone writes its lens's 35-mm equivalent focal length into the JPEG; read as the command
+  // reads the photos (render::read_photo), it becomes the perspective camera's prior: the fitted
+  // focal length stays within a few percent of the lens's, the side photo's turn within 5 degrees,
+  // and the selfie's head is painted for analysis by synthesis (the focal length no longer moves).
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  const PhotoTemplate tmpl = load_photo_template(photo_template_path(opt, ""));
+  const auto dir = test::artifacts_dir("photo");
+  const auto styles = test::photo_styles(dir / "room_background.png");
+  const auto selfie = std::find_if(styles.begin(), styles.end(),
+                                   [](const auto& s) { return s.first.name == "selfie"; });
+  REQUIRE(selfie != styles.end());
+  const auto& [style, yaw] = *selfie;
+  const rig::Positions truth = test::identity_mixture(tmpl, 2002);
+  test::PhotoShoot shoot =
+      test::photograph(tmpl, truth, yaw, style, test::skin_texture(tmpl, 512, style));
+  shoot.front.focal_35mm = shoot.side.focal_35mm = std::round(test::focal_35mm(style));
+  render::write_image(dir / "selfie_exif_front.jpg", shoot.front, 95);
+  render::write_image(dir / "selfie_exif_side.jpg", shoot.side, 95);
+  const render::Image front = render::read_photo(dir / "selfie_exif_front.jpg");
+  const render::Image side = render::read_photo(dir / "selfie_exif_side.jpg");
+  REQUIRE(front.focal_35mm == 30);  // 554 px across a 480 x 640 photo's 800-pixel diagonal
+  const PhotoAvatar a = avatar_from_photos(tmpl, front, &side, opt);
+  const double lens = test::focal_pixels(style);
+  const double ratio = test::face_error(tmpl, a.fit.positions, truth) /
+                       test::face_error(tmpl, tmpl.rig.positions, truth);
+  const double turn = test::fitted_turn_degrees(a.fit);
+  std::cout << "selfie with EXIF focal length " << front.focal_35mm << " mm (" << lens
+            << " px): fitted focal " << a.fit.front.focal() << " px, turn " << turn << " (true "
+            << yaw << "), fitted/template " << ratio << "\n";
+  CHECK(a.report["front"]["exif_focal_pixels"].get<double>() == Approx(lens).epsilon(0.01));
+  CHECK(a.report["front"]["exif_focal_used"] == true);
+  CHECK(a.fit.exif_focal);
+  CHECK(a.fit.camera_model == "perspective");
+  CHECK(a.fit.front.focal() == Approx(lens).epsilon(0.06));
+  CHECK(std::abs(turn - yaw) < 5);
+  CHECK(a.report["calibration_texture"] == "painted");
+  CHECK(ratio < 1);
 }
 
 TEST_CASE("photo avatar as the command runs it: the painted template is lit as the photo is",

@@ -15,6 +15,9 @@ namespace facecast::render {
 struct Image {
   int width = 0, height = 0, channels = 3;
   std::vector<std::uint8_t> pixels;  // width * height * channels
+  /// A photo's lens as its EXIF FocalLengthIn35mmFilm gives it, mm on a 36 x 24 mm frame (0:
+  /// unknown). Read by read_photo and decode_photo (JPEG), written into JPEGs when set.
+  double focal_35mm = 0;
 
   std::uint8_t at(int x, int y, int c) const {
     return pixels[(static_cast<std::size_t>(y) * width + x) * channels + c];
@@ -49,7 +52,8 @@ Image apply_orientation(Image image, int orientation);
 Image scale_down(const Image& image, double scale);
 
 /// A photo as viewers and browsers show it: read like read_image (a file) or decode_image (bytes),
-/// as 3-channel RGB, turned upright by its EXIF Orientation tag (JPEG's).
+/// as 3-channel RGB, turned upright by its EXIF Orientation tag (JPEG's), with its EXIF 35-mm
+/// focal length (Image::focal_35mm; a value outside 1..5000 mm is ignored).
 Image read_photo(const std::filesystem::path& path, const rig::DecodeLimits& limits = {});
 Image decode_photo(std::string_view bytes, std::string_view what,
                    const rig::DecodeLimits& limits = {});

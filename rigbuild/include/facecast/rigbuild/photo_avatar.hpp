@@ -72,7 +72,8 @@ struct PhotoOptions {
   /// photo, whose features then sit where the first fit put its landmark vertices).
   std::string calibration_texture = "painted";
   /// ... painted only when the photo's fitted perspective camera is at least this far from the
-  /// model's origin (model units, cm; nearer, e.g. a selfie at arm's length: photo).
+  /// model's origin (model units, cm; nearer, e.g. a selfie at arm's length: photo), or its EXIF
+  /// gives its lens (exif_distance).
   double painted_distance = 100;
   /// The painted template also carries the photo's light: the ratio of the photo to a render of
   /// the flat painted template, fitted over the face as a function of the surface normal
@@ -85,6 +86,12 @@ struct PhotoOptions {
   /// length for the photos, the principal point at each one's centre) or "auto" (the one the
   /// evidence picks: fit_photo_shape).
   std::string camera = "auto";
+  /// A photo whose EXIF gives its lens (PhotoLandmarks::focal) gets a perspective camera ("auto")
+  /// whose focal length has that as its prior, with this standard deviation relative to it ...
+  double exif_focal_sd = 0.02;
+  /// ... when that camera is nearer than this to the model's origin (model units, cm; farther, the
+  /// model is chosen by the evidence as without EXIF).
+  double exif_distance = 100;
   bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
   bool front_outline = false;     // the fit matches the face's outline to the front photo's edges
   bool side_outline = true;       // ... and to the side photo's
@@ -147,7 +154,8 @@ struct PhotoLandmarks {
   std::array<double, 4> rect{};  // the face box: left, top, right, bottom (pixels)
   std::string note;              // e.g. "3 faces found, the largest used"
   int width = 0, height = 0;     // the photo's size (0: unknown; no perspective camera then)
-  double roll = 0;  // degrees the face was turned upright by for the predictor (0: as it stood)
+  double focal = 0;  // the lens's focal length, pixels, from the photo's EXIF (0: unknown)
+  double roll = 0;   // degrees the face was turned upright by for the predictor (0: as it stood)
 };
 
 /// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
@@ -211,6 +219,9 @@ struct PhotoFit {
   /// by the evidence, chi^2 (orthographic) - chi^2 (perspective) - the penalty (> 0: perspective).
   std::string camera_model = "orthographic";
   double camera_evidence = 0;
+  /// The front photo's EXIF focal length was the perspective camera's prior (a camera nearer than
+  /// PhotoOptions::exif_distance).
+  bool exif_focal = false;
   /// Per landmark, the calibration's move of its front vertex (model units).
   std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
 };
@@ -224,7 +235,10 @@ std::vector<int> side_points(const PhotoLandmarks& side);
 /// perspective one is kept when chi^2 = RSS_front / sigma^2 + RSS_side / (sigma n_side)^2 + |c|^2
 /// (sigma, n_side: the orthographic fit's noises) is lower by more than ln(residuals), the
 /// Bayesian information criterion's price of its parameter; landmarks of unknown photo size
-/// (PhotoLandmarks::width 0) keep the orthographic camera. `start` (optional): an earlier fit
+/// (PhotoLandmarks::width 0) keep the orthographic camera. A front photo whose EXIF gives its lens
+/// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior when
+/// the camera comes out nearer than options.exif_distance (PhotoFit::exif_focal); farther, the
+/// fit goes on as without it. `start` (optional): an earlier fit
 /// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
