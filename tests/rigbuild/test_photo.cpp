@@ -821,6 +821,21 @@ TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length hol
   CHECK(std::abs(turn - yaw) < 5);
   CHECK(a.report["calibration_texture"] == "painted");
   CHECK(ratio < 1);
+  // A studio portrait's long lens puts the camera far (exif_distance): its EXIF changes nothing.
+  const auto studio = std::find_if(styles.begin(), styles.end(),
+                                   [](const auto& s) { return s.first.name == "studio"; });
+  REQUIRE(studio != styles.end());
+  test::PhotoShoot portrait = test::photograph(tmpl, truth, studio->second, studio->first,
+                                               test::skin_texture(tmpl, 512, studio->first));
+  const PhotoAvatar plain = avatar_from_photos(tmpl, portrait.front, &portrait.side, opt);
+  portrait.front.focal_35mm = portrait.side.focal_35mm =
+      std::round(test::focal_35mm(studio->first));
+  const PhotoAvatar tagged = avatar_from_photos(tmpl, portrait.front, &portrait.side, opt);
+  CHECK(tagged.report["front"]["exif_focal_pixels"].get<double>() ==
+        Approx(test::focal_pixels(studio->first)).epsilon(0.01));
+  CHECK(tagged.report["front"]["exif_focal_used"] == false);
+  CHECK_FALSE(tagged.fit.exif_focal);
+  CHECK(tagged.fit.positions.isApprox(plain.fit.positions, 0.0f));
 }
 
 TEST_CASE("photo avatar as the command runs it: the painted template is lit as the photo is",

@@ -238,8 +238,8 @@ std::vector<int> side_points(const PhotoLandmarks& side);
 /// (PhotoLandmarks::width 0) keep the orthographic camera. A front photo whose EXIF gives its lens
 /// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior when
 /// the camera comes out nearer than options.exif_distance (PhotoFit::exif_focal); farther, the
-/// fit goes on as without it. `start` (optional): an earlier fit
-/// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
+/// fit goes on as without it. `start` (optional): an earlier fit whose cameras (and side turn)
+/// the fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
                          const render::Image* front_photo = nullptr,
