@@ -72,6 +72,14 @@ nlohmann::json points_json(const PhotoLandmarks& m) {
   return a;
 }
 
+// The expressions' weights the fit kept, by name ({} for a neutral face).
+nlohmann::json expression_json(const PhotoTemplate& tmpl, const PhotoFit& fit) {
+  nlohmann::json out = nlohmann::json::object();
+  for (Eigen::Index e = 0; e < fit.expression.size(); ++e)
+    out[tmpl.expression_names[static_cast<std::size_t>(e)]] = fit.expression(e);
+  return out;
+}
+
 nlohmann::json camera_json(const PhotoCamera& c) {
   nlohmann::json R = nlohmann::json::array();
   for (int i = 0; i < 3; ++i) R.push_back({c.R(i, 0), c.R(i, 1), c.R(i, 2)});
@@ -130,9 +138,8 @@ nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoF
     const std::string n = lower(rig.materials[m].name);
     shell_material[m] = !has(n, "iris") && (has(n, "sclera") || has(n, "eyeball"));
   }
-  const auto at = [&](int v) -> Eigen::Vector3d {
-    return fit.positions.row(v).cast<double>().transpose();
-  };
+  const rig::Positions posed = posed_positions(tmpl, fit);  // as the photo shows the head
+  const auto at = [&](int v) -> Eigen::Vector3d { return posed.row(v).cast<double>().transpose(); };
   nlohmann::json out = nlohmann::json::array();
   for (int eye = 1; eye <= 2; ++eye) {
     std::vector<int> sclera;  // the shell's triangles (the cornea's bulge included)
@@ -250,6 +257,8 @@ PhotoOptions load_photo_options() {
       .read("camera", o.camera)
       .read("exif_focal_sd", o.exif_focal_sd)
       .read("exif_distance", o.exif_distance)
+      .read("expressions", o.expressions)
+      .read("expression_sd", o.expression_sd)
       .read("side_calibration", o.side_calibration)
       .read("front_outline", o.front_outline)
       .read("side_outline", o.side_outline)
@@ -283,6 +292,9 @@ PhotoOptions load_photo_options() {
     c.fail("camera", "must be \"auto\", \"orthographic\" or \"perspective\"");
   if (!(o.exif_focal_sd > 0 && o.exif_focal_sd <= 1)) c.fail("exif_focal_sd", "must be in (0, 1]");
   if (!(o.exif_distance >= 0)) c.fail("exif_distance", "must be at least 0");
+  if (o.expressions.size() > 16) c.fail("expressions", "at most 16 shapes");
+  if (!(o.expression_sd > 0 && o.expression_sd <= 10))
+    c.fail("expression_sd", "must be in (0, 10]");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
   if (!(o.outline_noise > 0)) c.fail("outline_noise", "must be positive");
@@ -343,6 +355,26 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
     if (v < 0) throw Error(path.string() + ": the template lacks some of the 68 landmarks");
   classify_vertices(t);
   return t;
+}
+
+PhotoTemplate with_photo_expressions(PhotoTemplate tmpl, const PhotoOptions& options) {
+  tmpl.expressions.clear();
+  tmpl.expression_names.clear();
+  for (const std::string& name : options.expressions) {
+    // An ICT FaceKit names the sides name_L / name_R where ARKit says nameLeft / nameRight.
+    std::string ict = name;
+    for (const auto& [side, suffix] :
+         {std::pair<std::string_view, std::string_view>{"Left", "_L"}, {"Right", "_R"}})
+      if (ict.size() > side.size() && ict.ends_with(side))
+        ict = ict.substr(0, ict.size() - side.size()) + std::string(suffix);
+    for (const auto& s : tmpl.rig.shapes)
+      if (s.name == name || s.name == ict) {
+        tmpl.expressions.push_back(s.dense(tmpl.rig.vertex_count()));
+        tmpl.expression_names.push_back(name);
+        break;
+      }
+  }
+  return tmpl;
 }
 
 namespace {
@@ -477,20 +509,27 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
     painted = false;
   if (!painted) shot_camera = first.fit.front;
   report["calibration_texture"] = painted ? "painted" : "photo";
-  const rig::Positions& base = painted ? tmpl.rig.positions : first.fit.positions;
+  // The head photographed wears the photo's expression (a smile moves dlib's points as it moves
+  // the mouth): the template, or the first fit's head, posed with the first fit's weights.
+  PhotoFit posed = first.fit;
+  if (painted) posed.positions = tmpl.rig.positions;
+  const rig::Positions base = posed_positions(tmpl, posed);
   const render::Image texture = painted ? paint_face_texture(tmpl, front, first.front, 512)
                                         : bake_photo_texture(tmpl, first.fit, front, side, options);
   rig::Rig head = textured_head(tmpl, base, texture);
   PhotoFit eyes = first.fit;  // the eyes painted where the rendered head has them
   eyes.positions = base;
+  eyes.expression.resize(0);
   paint_eyes(head, tmpl, eyes, front);
+  PhotoTemplate calibrated = tmpl;
+  calibrated.rig.positions = base;
   if (painted && options.calibration_light) {
     // The photo's light (a lamp at one side, a light from above) that the renderer's lights do
     // not give the flat painted template: the ratio of the photo to a render of it, as a
     // function of the normal, painted into its colours.
     const render::Image flat = HeadCamera(head, tmpl.modes, front, true).shoot(base, shot_camera);
     const FaceLight light =
-        fit_face_light(tmpl, front, first.fit, first.fit.front, flat, shot_camera);
+        fit_face_light(calibrated, front, first.fit, first.fit.front, flat, shot_camera);
     if (light.samples > 0) {
       head = textured_head(tmpl, base, paint_face_texture(tmpl, front, first.front, 512, &light));
       paint_eyes(head, tmpl, eyes, front);
@@ -509,8 +548,6 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
       r[name] = {v(0), v(1), v(2)};
     }
   }
-  PhotoTemplate calibrated = tmpl;
-  calibrated.rig.positions = base;
   PhotoOptions quick = options;
   // The painted template's points are found as the photo's were (the whole render, the grid of
   // boxes): the detector's points move with its face box by a pixel or two, and a box found on a
@@ -591,9 +628,10 @@ PhotoLandmarks scaled_landmarks(PhotoLandmarks marks, const render::Image& photo
 
 }  // namespace
 
-PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& front_photo,
+PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& front_photo,
                                const render::Image* side_photo, const PhotoOptions& options,
                                const ProgressFn& progress) {
+  const PhotoTemplate tmpl = with_photo_expressions(given, options);
   const OpenMpWithinBudget omp_threads;  // Eigen's and CHOLMOD's regions, within the budget
   const auto t0 = std::chrono::steady_clock::now();
   PhotoAvatar out;
@@ -688,6 +726,8 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& tmpl, const render::Image& f
                   {"nose", out.fit.group_noise[2]},
                   {"eyes", out.fit.group_noise[3]},
                   {"mouth", out.fit.group_noise[4]}}},
+                {"expression", expression_json(tmpl, out.fit)},
+                {"expression_evidence", out.fit.expression_evidence},
                 {"camera_model", out.fit.camera_model},
                 {"camera_evidence", out.fit.camera_evidence},
                 {"rbf_rms_move", out.fit.moved_rms},

@@ -38,6 +38,12 @@ struct OutlinePoint {
   double weight = 1;
 };
 
+// The fit's coefficient m: identity mode m, or past the modes an expression shape.
+const rig::Positions& mode_shape(const PhotoTemplate& tmpl, int m) {
+  const auto i = static_cast<std::size_t>(m);
+  return i < tmpl.modes.size() ? tmpl.modes[i] : tmpl.expressions[i - tmpl.modes.size()];
+}
+
 // One photo in the fit: its landmarks, which of them it uses, its camera and the vertex each
 // used landmark is paired with.
 struct View {
@@ -75,11 +81,10 @@ struct View {
       x += c(static_cast<Eigen::Index>(m)) * (*mode_bias)[m][i];
     return x;
   }
-  // d point / d c_m.
+  // d point / d c_m (the expressions' weights after the modes).
   Eigen::Vector3d mode(int m, int k) const {
     const auto i = static_cast<std::size_t>(k);
-    Eigen::Vector3d d =
-        tmpl->modes[static_cast<std::size_t>(m)].row(vertex[i]).cast<double>().transpose();
+    Eigen::Vector3d d = mode_shape(*tmpl, m).row(vertex[i]).cast<double>().transpose();
     if (!contour[i] && static_cast<std::size_t>(m) < mode_bias->size())
       d += (*mode_bias)[static_cast<std::size_t>(m)][i];
     return d;
@@ -100,10 +105,11 @@ Eigen::Vector3d row(const rig::Positions& p, int v) {
   return p.row(v).cast<double>().transpose();
 }
 
+// The head with coefficients c: the identity modes' and, past them, the expressions' weights.
 rig::Positions apply_modes(const PhotoTemplate& tmpl, const Eigen::VectorXd& c) {
   rig::Positions p = tmpl.rig.positions;
-  for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
-    p += static_cast<float>(c(static_cast<Eigen::Index>(m))) * tmpl.modes[m];
+  for (Eigen::Index m = 0; m < c.size(); ++m)
+    if (c(m) != 0) p += static_cast<float>(c(m)) * mode_shape(tmpl, static_cast<int>(m));
   return p;
 }
 
@@ -271,18 +277,22 @@ constexpr Eigen::Index kCameraParameters = 6;  // per photo: rotation (3), scale
 
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
                        double iod, double noise, double outline_noise, double focal_sd,
-                       std::vector<Eigen::Vector2d>* scatter = nullptr,
+                       double expression_sd, std::vector<Eigen::Vector2d>* scatter = nullptr,
                        Eigen::VectorXd* sd = nullptr,
                        std::array<Eigen::Vector2d, kGroups>* groups = nullptr) {
-  const auto K = static_cast<Eigen::Index>(tmpl.modes.size());
+  // The identity modes' coefficients, then the expressions' weights (c's size says how many).
+  const auto K = c.size(), modes = static_cast<Eigen::Index>(tmpl.modes.size());
   // The last parameter: the photos' shared inverse focal length q (kappa_v = s_v q; one camera
   // took both photos).
   const Eigen::Index n = K + kCameraParameters * static_cast<Eigen::Index>(views.size()) + 1;
   const double inv_focal = views[0].perspective ? views[0].camera.kappa / views[0].camera.s : 0.0;
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n) * 1e-9;
-  H.topLeftCorner(K, K).diagonal().array() += noise * noise;
+  // The prior: N(0, 1) per mode, N(0, expression_sd^2) per expression weight.
+  Eigen::VectorXd prior = Eigen::VectorXd::Constant(K, noise * noise);
+  prior.tail(K - modes).array() /= expression_sd * expression_sd;
+  H.topLeftCorner(K, K).diagonal() += prior;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-  g.head(K) = -noise * noise * c;
+  g.head(K) = -prior.cwiseProduct(c);
   const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
@@ -354,7 +364,7 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
     for (const OutlinePoint& q : view.outline) {
       const Eigen::Vector3d x = row(p, q.vertex);
       for (Eigen::Index m = 0; m < K; ++m)
-        D.col(m) = row(tmpl.modes[static_cast<std::size_t>(m)], q.vertex);
+        D.col(m) = row(mode_shape(tmpl, static_cast<int>(m)), q.vertex);
       const Eigen::Vector2d up(q.normal.x(), -q.normal.y());
       const double w = std::sqrt(q.weight) * unit / outline_noise;
       const Eigen::RowVectorXd J = w * up.transpose() * jacobian(x, D);
@@ -416,10 +426,12 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   }
   if (sd) {
     const Eigen::MatrixXd covariance =
-        noise * noise * ldlt.solve(Eigen::MatrixXd::Identity(n, n)).topLeftCorner(K, K);
+        noise * noise * ldlt.solve(Eigen::MatrixXd::Identity(n, n)).topLeftCorner(modes, modes);
     *sd = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   }
   c += dx.head(K);
+  // An expression's weight stays in [0, 1] (a shape pushed past its range is not that expression).
+  c.tail(K - modes) = c.tail(K - modes).cwiseMax(0.0).cwiseMin(1.0);
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     PhotoCamera& cam = views[vi].camera;
     const Eigen::Index o = K + kCameraParameters * static_cast<Eigen::Index>(vi);
@@ -487,11 +499,11 @@ std::vector<RbfCentre> calibration_moves(const rig::Positions& p, const Eigen::V
 }
 
 // The fit; `contour`: jaw-line points matched to the silhouette (else fixed vertices whose
-// detector offsets were measured).
+// detector offsets were measured); `expressions`: the template's expressions are fitted too.
 PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                    const PhotoLandmarks* side, const PhotoOptions& options, bool contour,
                    const render::Image* front_photo, const render::Image* side_photo,
-                   bool perspective, const PhotoFit* start) {
+                   bool perspective, const PhotoFit* start, bool expressions) {
   const auto& X0 = tmpl.rig.positions;
   const double iod = (row(X0, tmpl.landmarks[36]) - row(X0, tmpl.landmarks[45])).norm();
   std::vector<View> views(side ? 2 : 1);
@@ -515,9 +527,11 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   const auto candidates = jaw_candidates(tmpl, 0.3 * iod);
 
   PhotoFit fit;
-  fit.coefficients = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(tmpl.modes.size()));
+  const auto modes = static_cast<Eigen::Index>(tmpl.modes.size());
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(
+      modes + (expressions ? static_cast<Eigen::Index>(tmpl.expressions.size()) : 0));
   rig::Positions p = X0;
-  for (auto& v : views) fit_camera(p, fit.coefficients, v);
+  for (auto& v : views) fit_camera(p, c, v);
   if (side && options.side_turn) {
     // The side photo's camera as the front's with the head turned: the turn is the yaw of the
     // relative rotation.
@@ -574,8 +588,8 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     std::vector<Eigen::Vector2d> scatter;
     std::array<Eigen::Vector2d, kGroups> groups;
     for (int step = 0; step < 3; ++step)
-      gauss_newton_step(tmpl, views, fit.coefficients, iod, noise, options.outline_noise,
-                        options.exif_focal_sd, step == 2 ? &scatter : nullptr,
+      gauss_newton_step(tmpl, views, c, iod, noise, options.outline_noise, options.exif_focal_sd,
+                        options.expression_sd, step == 2 ? &scatter : nullptr,
                         step == 2 ? &fit.coefficient_sd : nullptr, step == 2 ? &groups : nullptr);
     // A photo's weighted landmark residuals per degree of freedom (variance components).
     const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
@@ -611,9 +625,11 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
           options.side_noise,
           views[1].noise * std::sqrt(variance(scatter[1]) / std::max(1e-12, variance(scatter[0]))));
     }
-    p = apply_modes(tmpl, fit.coefficients);
+    p = apply_modes(tmpl, c);
   }
-  fit.model_positions = p;
+  fit.coefficients = c.head(modes);
+  fit.expression = c.tail(c.size() - modes);
+  fit.model_positions = apply_modes(tmpl, fit.coefficients);  // the neutral
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
     // The landmarks' misfit in inter-ocular distances (the camera model's evidence), the groups
     // unweighted: each camera model's fit weighs them its own way, and a misfit weighed by a fit's
@@ -622,26 +638,26 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     const View& v = views[vi];
     double sum = 0;
     for (int k : v.used)
-      sum += (v.camera.project(v.point(p, fit.coefficients, k)) -
-              v.marks->points[static_cast<std::size_t>(k)])
+      sum += (v.camera.project(v.point(p, c, k)) - v.marks->points[static_cast<std::size_t>(k)])
                  .squaredNorm();
     (vi == 0 ? fit.front_rss : fit.side_rss) = sum / std::pow(v.camera.s * iod, 2);
     fit.residuals += 2 * static_cast<int>(v.used.size());
   }
-  fit.front_rms = rms_pixels(p, fit.coefficients, views[0]);
+  fit.front_rms = rms_pixels(p, c, views[0]);
   if (side) {
-    fit.side_rms = rms_pixels(p, fit.coefficients, views[1]);
+    fit.side_rms = rms_pixels(p, c, views[1]);
     fit.side_noise = views[1].noise;
   }
   fit.noise = noise;
   fit.group_noise = views[0].group_noise;
 
-  const auto centres =
-      calibration_moves(p, fit.coefficients, views, options.side_calibration, &fit.moved_rms);
+  // The calibration's moves, measured on the head as photographed, move the neutral.
+  const auto centres = calibration_moves(p, c, views, options.side_calibration, &fit.moved_rms);
+  p = fit.model_positions;
   for (int k = 0; k < kLandmarkCount; ++k)
-    for (const auto& c : centres)
-      if (c.vertex == views[0].vertex[static_cast<std::size_t>(k)])
-        fit.landmark_moves[static_cast<std::size_t>(k)] = c.move;
+    for (const auto& centre : centres)
+      if (centre.vertex == views[0].vertex[static_cast<std::size_t>(k)])
+        fit.landmark_moves[static_cast<std::size_t>(k)] = centre.move;
   rbf_deform(p, centres, tmpl.rigid, options.rbf_radius * iod, 0.02 * iod, options.rbf_smoothing);
   fit.positions = std::move(p);
   fit.front = views[0].camera;
@@ -654,21 +670,29 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   return fit;
 }
 
-}  // namespace
+// A fit's landmark misfit in the noises `var` (front) and `side_var` plus its prior, chi^2 +
+// |c|^2 + |e / expression_sd|^2: the evidence's measure.
+double chi2(const PhotoFit& f, double var, double side_var, const PhotoOptions& options) {
+  return f.front_rss / var + f.side_rss / side_var + f.coefficients.squaredNorm() +
+         (f.expression / options.expression_sd).squaredNorm();
+}
 
-PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
-                         const PhotoLandmarks* side, const PhotoOptions& options,
-                         const render::Image* front_photo, const render::Image* side_photo,
-                         const PhotoFit* start) {
+// fit_photo_shape with or without the template's expressions: the camera model chosen.
+PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
+                          const PhotoLandmarks* side, const PhotoOptions& options,
+                          const render::Image* front_photo, const render::Image* side_photo,
+                          const PhotoFit* start, bool expressions) {
   const bool contour = tmpl.mode_bias.empty();
   const bool sized = front.width > 0 && (!side || side->width > 0);
-  if (options.camera == "orthographic" || !sized)
-    return fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, false, start);
+  const auto fit = [&](const PhotoLandmarks& marks, bool perspective) {
+    return fit_shape(tmpl, marks, side, options, contour, front_photo, side_photo, perspective,
+                     start, expressions);
+  };
+  if (options.camera == "orthographic" || !sized) return fit(front, false);
   if (options.camera == "perspective") {
-    PhotoFit fit =
-        fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, true, start);
-    fit.camera_model = "perspective";
-    return fit;
+    PhotoFit f = fit(front, true);
+    f.camera_model = "perspective";
+    return f;
   }
   if (front.focal > 0) {
     // The lens the front photo's EXIF gives, the focal length's prior: kept when it puts the
@@ -676,8 +700,7 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     // landmarks by about their noise, and the fit goes on as without it (held-out heads through a
     // 12-degree lens 1.2 m away: the side photo lowered the error on 2 of 8 with the EXIF focal
     // length, on 6 of 8 without).
-    PhotoFit near =
-        fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, true, start);
+    PhotoFit near = fit(front, true);
     if (near.front.perspective() && 1 / near.front.kappa < options.exif_distance) {
       near.camera_model = "perspective";
       near.exif_focal = true;
@@ -685,27 +708,55 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     }
     PhotoLandmarks far = front;
     far.focal = 0;
-    return fit_photo_shape(tmpl, far, side, options, front_photo, side_photo, start);
+    return fit_camera_model(tmpl, far, side, options, front_photo, side_photo, start, expressions);
   }
   // Chosen by the evidence: each model's landmark misfit in the orthographic fit's noise (the
-  // front's, and the side's relative to it) plus the identity prior, chi^2 + |c|^2, and for the
-  // perspective one a penalty of ln(residuals) for its extra parameter (the focal length the
-  // photos share: the Bayesian information criterion).
-  PhotoFit ortho =
-      fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, false, start);
-  PhotoFit persp =
-      fit_shape(tmpl, front, side, options, contour, front_photo, side_photo, true, start);
+  // front's, and the side's relative to it) plus the prior (chi2), and for the perspective one a
+  // penalty of ln(residuals) for its extra parameter (the focal length the photos share: the
+  // Bayesian information criterion).
+  PhotoFit ortho = fit(front, false);
+  PhotoFit persp = fit(front, true);
   const double var = ortho.noise * ortho.noise;
   const double side_var = var * std::max(1.0, ortho.side_noise * ortho.side_noise);
-  const auto chi2 = [&](const PhotoFit& f) {
-    return f.front_rss / var + f.side_rss / side_var + f.coefficients.squaredNorm();
-  };
   const double penalty = std::log(static_cast<double>(ortho.residuals));
-  const double evidence = chi2(ortho) - chi2(persp) - penalty;
+  const double evidence =
+      chi2(ortho, var, side_var, options) - chi2(persp, var, side_var, options) - penalty;
   PhotoFit& chosen = evidence > 0 ? persp : ortho;
   chosen.camera_model = evidence > 0 ? "perspective" : "orthographic";
   chosen.camera_evidence = evidence;
   return chosen;
+}
+
+}  // namespace
+
+PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
+                         const PhotoLandmarks* side, const PhotoOptions& options,
+                         const render::Image* front_photo, const render::Image* side_photo,
+                         const PhotoFit* start) {
+  PhotoFit neutral =
+      fit_camera_model(tmpl, front, side, options, front_photo, side_photo, start, false);
+  if (tmpl.expressions.empty()) return neutral;
+  // The expressions (a smile, the mouth open) kept by the evidence, as the camera model is: the
+  // misfit in the neutral fit's noise plus the prior, with a penalty of ln(residuals) per weight.
+  PhotoFit posed =
+      fit_camera_model(tmpl, front, side, options, front_photo, side_photo, start, true);
+  const double var = neutral.noise * neutral.noise;
+  const double side_var = var * std::max(1.0, neutral.side_noise * neutral.side_noise);
+  const double penalty = static_cast<double>(tmpl.expressions.size()) *
+                         std::log(static_cast<double>(neutral.residuals));
+  const double evidence =
+      chi2(neutral, var, side_var, options) - chi2(posed, var, side_var, options) - penalty;
+  PhotoFit& chosen = evidence > 0 ? posed : neutral;
+  chosen.expression_evidence = evidence;
+  return chosen;
+}
+
+rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit) {
+  rig::Positions p = fit.positions;
+  for (Eigen::Index e = 0; e < fit.expression.size(); ++e)
+    if (fit.expression(e) != 0)
+      p += static_cast<float>(fit.expression(e)) * tmpl.expressions[static_cast<std::size_t>(e)];
+  return p;
 }
 
 std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTemplate& tmpl,
@@ -724,7 +775,7 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
   const bool perspective = (options.camera == "perspective" || front.focal > 0) &&
                            front.width > 0 && (!side || side->width > 0);
   const PhotoFit fit =
-      fit_shape(plain, front, side, o, false, nullptr, nullptr, perspective, nullptr);
+      fit_shape(plain, front, side, o, false, nullptr, nullptr, perspective, nullptr, false);
   std::array<Eigen::Vector3d, kLandmarkCount> out = zero_landmark_vectors();
   for (int k = 0; k < kLandmarkCount; ++k)
     out[static_cast<std::size_t>(k)] = fit.landmark_moves[static_cast<std::size_t>(k)];

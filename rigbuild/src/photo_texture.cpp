@@ -339,23 +339,20 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
 
   const render::Image* photos[2] = {&front, side};
   const PhotoCamera* cams[2] = {&fit.front, fit.side ? &*fit.side : nullptr};
-  const double iod = (fit.positions.row(tmpl.landmarks[36]) - fit.positions.row(tmpl.landmarks[45]))
-                         .cast<double>()
-                         .norm();
+  const rig::Positions posed = posed_positions(tmpl, fit);  // as the photos show the head
+  const double iod =
+      (posed.row(tmpl.landmarks[36]) - posed.row(tmpl.landmarks[45])).cast<double>().norm();
   std::vector<DepthBuffer> depth;
   std::vector<PhotoRegions> regions;
   std::array<Eigen::Vector2d, kLandmarkCount> landmarks;
   for (int k = 0; k < kLandmarkCount; ++k)
-    landmarks[static_cast<std::size_t>(k)] =
-        fit.front.project(fit.positions.row(fit.front_vertex[static_cast<std::size_t>(k)])
-                              .cast<double>()
-                              .transpose());
+    landmarks[static_cast<std::size_t>(k)] = fit.front.project(
+        posed.row(fit.front_vertex[static_cast<std::size_t>(k)]).cast<double>().transpose());
   const SkinColour skin(front, landmarks);
   regions.reserve(2);
   for (int k = 0; k < 2; ++k)
     if (photos[k] && cams[k]) {
-      depth.emplace_back(fit.positions, rig.triangles, *cams[k], photos[k]->width,
-                         photos[k]->height);
+      depth.emplace_back(posed, rig.triangles, *cams[k], photos[k]->width, photos[k]->height);
       if (!options.mask_background) continue;
       // In the side photo the far half of the outline is hidden and encloses background: there
       // every pixel is judged by its colour (the front photo sees the face's features).
@@ -363,7 +360,7 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
                            k == 0 ? face_outline(landmarks) : std::vector<Eigen::Vector2d>{}, skin);
     }
   std::size_t background = 0;
-  for_each_skin_texel(tmpl, fit.positions, t.w, t.h, tiles,
+  for_each_skin_texel(tmpl, posed, t.w, t.h, tiles,
                       [&](std::size_t i, const Eigen::Vector3d& p, const Eigen::Vector3d& nrm) {
                         t.covered[i] = 1;
                         bool seen = false, taken = false;
@@ -499,7 +496,8 @@ FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, 
     return q.x() >= 0 && q.y() >= 0 && q.x() <= img.width - 1 && q.y() <= img.height - 1;
   };
   const rig::Positions normals = rig::vertex_normals(rig.positions, rig.triangles);
-  const rig::Positions fit_normals = rig::vertex_normals(fit.positions, rig.triangles);
+  const rig::Positions posed = posed_positions(tmpl, fit);
+  const rig::Positions fit_normals = rig::vertex_normals(posed, rig.triangles);
   // The face: between the jaw's ends, from the chin to half an IOD above the brows, in front of
   // the jaw's ends (the scalp, ears and neck are hair, shadow or clothes in a real photo).
   const double left = std::min(lm(0).x(), lm(16).x()), right = std::max(lm(0).x(), lm(16).x());
@@ -509,7 +507,7 @@ FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, 
   std::vector<Eigen::Vector3d> ratios;
   for (Eigen::Index v = 0; v < rig.vertex_count(); ++v) {
     if (!tmpl.skin[static_cast<std::size_t>(v)]) continue;
-    const Eigen::Vector3d p = at(rig.positions, v), q = at(fit.positions, v);
+    const Eigen::Vector3d p = at(rig.positions, v), q = at(posed, v);
     if (p.x() < left || p.x() > right || p.y() < bottom || p.y() > top || p.z() < back) continue;
     // Away from the painted features (the photo's lie where the person's are, up to the fit's
     // error) and the nostrils.

@@ -409,6 +409,61 @@ TEST_CASE("photo fit: exact landmarks of ICT identities give back their coeffici
   }
 }
 
+TEST_CASE("photo fit: a smile is fitted as an expression and left out of the neutral",
+          "[photo][ict]") {
+  // Exact landmarks of an ICT identity smiling, teeth showing (mouthSmile_L/R 0.6, jawOpen 0.15):
+  // with the template's expressions (an ICT folder's name_L found by nameLeft) the identity and
+  // the smile come back; without them the identity explains the smile. A neutral face keeps no
+  // expression (the evidence's penalty).
+  const auto dir = test::ict_dir();
+  if (!test::require_data(dir / "generic_neutral_mesh.obj")) return;
+  PhotoOptions opt = load_photo_options();
+  opt.landmark_noise = 0.003;
+  const PhotoTemplate tmpl = with_photo_expressions(load_photo_template(dir), opt);
+  REQUIRE(tmpl.expression_names == opt.expressions);
+  const test::IctTruth truth = test::make_ict_truth(dir, 7, kSigma);
+  const Eigen::Vector3d smile(0.15, 0.6, 0.6);  // jawOpen, mouthSmileLeft, mouthSmileRight
+  rig::Positions smiling = truth.target.positions;
+  for (std::size_t e = 0; e < 3; ++e)
+    smiling += static_cast<float>(smile(static_cast<Eigen::Index>(e))) * tmpl.expressions[e];
+  PhotoCamera cam;
+  cam.R = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  cam.s = 12;
+  cam.t = {256, 256};
+  const auto landmarks = [&](const rig::Positions& p) {
+    PhotoLandmarks marks;
+    marks.faces = 1;
+    for (std::size_t k = 0; k < kLandmarkCount; ++k)
+      marks.points[k] = cam.project(p.row(tmpl.landmarks[k]).cast<double>().transpose());
+    return marks;
+  };
+  const auto ratio = [&](const PhotoFit& fit) {
+    return aligned_error(tmpl, fit.model_positions, truth.target.positions) /
+           aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+  };
+  const PhotoFit posed = fit_photo_shape(tmpl, landmarks(smiling), nullptr, opt);
+  PhotoTemplate plain = tmpl;
+  plain.expressions.clear();
+  plain.expression_names.clear();
+  const PhotoFit unposed = fit_photo_shape(plain, landmarks(smiling), nullptr, opt);
+  std::cout << "exact landmarks of a smiling identity: expression " << posed.expression.transpose()
+            << " (true " << smile.transpose() << "), shape ratio " << ratio(posed)
+            << " (without expressions " << ratio(unposed) << ")\n";
+  REQUIRE(posed.expression.size() == 3);
+  CHECK(posed.expression_evidence > 0);
+  CHECK((posed.expression - smile).cwiseAbs().maxCoeff() < 0.1);
+  CHECK(ratio(posed) < 0.2);
+  CHECK(ratio(unposed) > 2 * ratio(posed));
+  // The avatar's neutral does not smile; the head as photographed does.
+  const auto corners = [&](const rig::Positions& p) {
+    return (p.row(tmpl.landmarks[48]) - p.row(tmpl.landmarks[54])).norm();
+  };
+  CHECK(corners(posed_positions(tmpl, posed)) > corners(posed.positions) * 1.05);
+  const PhotoFit neutral = fit_photo_shape(tmpl, landmarks(truth.target.positions), nullptr, opt);
+  CHECK(neutral.expression.size() == 0);
+  CHECK(neutral.expression_evidence < 0);
+}
+
 TEST_CASE("photo fit: a noisy landmark group is weighed by its own noise", "[photo][ict]") {
   // ICT identities' landmark vertices through a known camera, the jaw line's points scattered
   // ten times as far as the others' (dlib's jaw line follows the outline against whatever is

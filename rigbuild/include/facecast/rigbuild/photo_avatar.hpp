@@ -92,6 +92,11 @@ struct PhotoOptions {
   /// ... when that camera is nearer than this to the model's origin (model units, cm; farther, the
   /// model is chosen by the evidence as without EXIF).
   double exif_distance = 100;
+  /// The template's expression shapes the photos may show (ARKit names; an ICT FaceKit's
+  /// name_L / name_R are found by nameLeft / nameRight): fitted with the identity when the
+  /// evidence asks for them (fit_photo_shape), left out of the avatar's neutral ([]: none).
+  std::vector<std::string> expressions{"jawOpen", "mouthSmileLeft", "mouthSmileRight"};
+  double expression_sd = 0.5;     // their weights' prior standard deviation (weights in [0, 1])
   bool side_calibration = false;  // the RBF calibration moves the side photo's residuals too
   bool front_outline = false;     // the fit matches the face's outline to the front photo's edges
   bool side_outline = true;       // ... and to the side photo's
@@ -134,6 +139,10 @@ struct PhotoTemplate {
   /// The same for side photos (the detector's convention differs on a turned face).
   std::array<Eigen::Vector3d, kLandmarkCount> side_bias = zero_landmark_vectors();
   std::vector<std::array<Eigen::Vector3d, kLandmarkCount>> side_mode_bias;
+  /// Expression shapes a photo may show (deltas from the neutral; with_photo_expressions): fitted
+  /// beside the modes, never part of the fitted neutral.
+  std::vector<rig::Positions> expressions;
+  std::vector<std::string> expression_names;
 };
 
 /// The template to build from: `given` (a --template argument) if not empty, else
@@ -145,6 +154,10 @@ std::filesystem::path photo_template_path(const PhotoOptions& options, const std
 /// compact GLB with its modes in mesh.extras.facecast.identity (the shipped template).
 /// Throws Error naming the path when it has no modes or unknown landmarks.
 PhotoTemplate load_photo_template(const std::filesystem::path& path);
+
+/// `tmpl` with the expression shapes named in options.expressions that its rig has (ARKit names,
+/// or the ICT FaceKit's name_L / name_R for nameLeft / nameRight); the rest are left out.
+PhotoTemplate with_photo_expressions(PhotoTemplate tmpl, const PhotoOptions& options);
 
 /// The 68 points dlib finds in a photo (the largest face).
 struct PhotoLandmarks {
@@ -201,6 +214,10 @@ struct PhotoFit {
   rig::Positions model_positions;  // the low-dimensional fit only (before the RBF)
   Eigen::VectorXd coefficients;    // identity-mode weights
   Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
+  /// Weights of the template's expressions (PhotoTemplate::expressions) the photos show; empty
+  /// when the evidence kept the neutral. posed_positions: the head as photographed.
+  Eigen::VectorXd expression;
+  double expression_evidence = 0;  // chi^2 without - chi^2 with - the penalty (> 0: kept)
   double noise = 0;  // the front landmarks' noise estimated (inter-ocular distances; PhotoOptions)
   /// Each landmark group's noise relative to `noise`: jaw line, brows, nose, eyes, mouth.
   std::array<double, 5> group_noise{1, 1, 1, 1, 1};
@@ -225,6 +242,9 @@ struct PhotoFit {
   /// Per landmark, the calibration's move of its front vertex (model units).
   std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
 };
+
+/// The fitted head as the photos show it: the neutral posed with the fit's expression.
+rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit);
 
 /// The side photo's profile points (nose ridge and tip, lip centres, chin) and the near side's
 /// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
