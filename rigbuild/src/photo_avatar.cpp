@@ -379,6 +379,12 @@ PhotoTemplate with_photo_expressions(PhotoTemplate tmpl, const PhotoOptions& opt
 
 namespace {
 
+PhotoTemplate without_expressions(PhotoTemplate tmpl) {
+  tmpl.expressions.clear();
+  tmpl.expression_names.clear();
+  return tmpl;
+}
+
 // The fitted head, dressed in the photo's texture, photographed as the fitted cameras saw the
 // photos: one renderer whose morph targets are the identity modes, so a head the detector
 // response asks for (the head moved along a mode) is a weight, not a new upload.
@@ -496,8 +502,9 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
       (!side || first.side.width > 0)) {
     PhotoOptions p = options;
     p.camera = "perspective";
-    shot_camera =
-        fit_photo_shape(tmpl, first.front, side ? &first.side : nullptr, p, &front, side).front;
+    shot_camera = fit_photo_shape(without_expressions(tmpl), first.front,
+                                  side ? &first.side : nullptr, p, &front, side)
+                      .front;
   }
   // Nearer than painted_distance (a selfie at arm's length) the painted renders' offsets moved the
   // fitted focal length 2x too long (1175 px for 554 on the template's own selfie, 0.28 cm off
@@ -659,7 +666,11 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   timing["landmarks"] = seconds_since(t0);
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
-  out.fit = fit_photo_shape(tmpl, out.front, side ? &out.side : nullptr, options, &front, side);
+  // With analysis by synthesis to follow, the expressions are left to its fit: before the
+  // detector's offsets are modelled, they pass for a smile or an open jaw.
+  const bool calibrates = !has_detector_response(tmpl) && options.self_calibrate > 0;
+  out.fit = fit_photo_shape(calibrates ? without_expressions(tmpl) : tmpl, out.front,
+                            side ? &out.side : nullptr, options, &front, side);
   double unused_focal = 0;
   if (out.front.focal > 0 && !out.fit.exif_focal) {
     // A far camera: its lens is not used after the first fit either (fit_photo_shape).

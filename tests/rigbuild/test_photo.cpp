@@ -893,6 +893,38 @@ TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length hol
   CHECK(tagged.fit.positions.isApprox(plain.fit.positions, 0.0f));
 }
 
+TEST_CASE("photo avatar as the command runs it: a smiling photo gives a neutral head",
+          "[photo][slow]") {
+  // People smile in their photos: the template's own head smiling, teeth showing, photographed
+  // from the front. The fit poses the head with the template's expressions (kept by the
+  // evidence), so the smile is not read as identity and the avatar's neutral stays the template.
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  const PhotoTemplate tmpl = load_photo_template(photo_template_path(opt, ""));
+  const PhotoTemplate shapes = with_photo_expressions(tmpl, opt);
+  REQUIRE(shapes.expression_names ==
+          std::vector<std::string>{"jawOpen", "mouthSmileLeft", "mouthSmileRight"});
+  rig::Positions smiling = tmpl.rig.positions;
+  for (std::size_t e = 0; e < 3; ++e) smiling += (e == 0 ? 0.15f : 0.6f) * shapes.expressions[e];
+  const test::PhotoShoot shoot = test::photograph(tmpl, smiling, 40);
+  render::write_image(test::artifacts_dir("photo") / "smiling_front.png", shoot.front);
+  const PhotoAvatar a = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
+  PhotoOptions neutral_only = opt;
+  neutral_only.expressions.clear();
+  const PhotoAvatar b = avatar_from_photos(tmpl, shoot.front, nullptr, neutral_only);
+  const double error = test::face_error(tmpl, a.fit.positions, tmpl.rig.positions);
+  const double unposed = test::face_error(tmpl, b.fit.positions, tmpl.rig.positions);
+  std::cout << "the template smiling: expression " << a.report["expression"].dump() << ", evidence "
+            << a.fit.expression_evidence << "; the neutral " << error
+            << " cm off (without expressions " << unposed << " cm)\n";
+  CHECK(a.report["expression"]["mouthSmileLeft"].get<double>() > 0.3);
+  CHECK(a.report["expression"]["mouthSmileRight"].get<double>() > 0.3);
+  CHECK(a.fit.expression_evidence > 0);
+  CHECK(b.report["expression"].empty());
+  CHECK(error < 0.2);
+  CHECK(error < 0.7 * unposed);
+}
+
 TEST_CASE("photo avatar as the command runs it: the painted template is lit as the photo is",
           "[photo][slow]") {
   // Analysis by synthesis's painted template carries the photo's light (calibration_light): a
