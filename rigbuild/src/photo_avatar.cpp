@@ -370,7 +370,7 @@ PhotoTemplate with_photo_expressions(PhotoTemplate tmpl, const PhotoOptions& opt
     for (const auto& s : tmpl.rig.shapes)
       if (s.name == name || s.name == ict) {
         tmpl.expressions.push_back(s.dense(tmpl.rig.vertex_count()));
-        tmpl.expression_names.push_back(name);
+        tmpl.expression_names.push_back(s.name);
         break;
       }
   }

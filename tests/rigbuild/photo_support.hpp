@@ -515,11 +515,21 @@ inline render::Image render_as_photo(const rig::Rig& rig, const rigbuild::PhotoC
   return r.render(render::weights_for(rig, named));
 }
 
+/// The expression weights the fit posed the head with (the report's `expression`), by name.
+inline std::vector<std::pair<std::string, float>> posed(const rigbuild::PhotoAvatar& a) {
+  std::vector<std::pair<std::string, float>> out;
+  for (const auto& [name, w] : a.report.at("expression").items())
+    out.emplace_back(name, w.get<float>());
+  return out;
+}
+
 /// Mean distance between the photo's landmarks and those dlib finds on the result rendered with
-/// the estimated camera, in the photo's inter-ocular distances.
+/// the estimated camera and posed with the fitted expression, in the photo's inter-ocular
+/// distances.
+
 inline double reprojection_error(const rigbuild::PhotoAvatar& a, const render::Image& photo,
                                  const rigbuild::PhotoOptions& opt) {
-  const render::Image seen = render_as_photo(a.rig, a.fit.front, photo);
+  const render::Image seen = render_as_photo(a.rig, a.fit.front, photo, posed(a));
   const rigbuild::PhotoLandmarks got = rigbuild::detect_photo_landmarks(seen, "render", opt);
   double sum = 0;
   for (std::size_t k = 0; k < got.points.size(); ++k)

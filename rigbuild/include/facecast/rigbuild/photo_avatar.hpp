@@ -142,7 +142,7 @@ struct PhotoTemplate {
   /// Expression shapes a photo may show (deltas from the neutral; with_photo_expressions): fitted
   /// beside the modes, never part of the fitted neutral.
   std::vector<rig::Positions> expressions;
-  std::vector<std::string> expression_names;
+  std::vector<std::string> expression_names;  // the rig's own names for them
 };
 
 /// The template to build from: `given` (a --template argument) if not empty, else
