@@ -517,7 +517,9 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   if (!painted) shot_camera = first.fit.front;
   report["calibration_texture"] = painted ? "painted" : "photo";
   // The head photographed wears the photo's expression (a smile moves dlib's points as it moves
-  // the mouth): the template, or the first fit's head, posed with the first fit's weights.
+  // the mouth): the template, or the first fit's head, posed with the first fit's weights. The
+  // first round's first fit leaves the expressions out (avatar_from_photos), so this poses the
+  // head from a second round on (self_calibrate 2).
   PhotoFit posed = first.fit;
   if (painted) posed.positions = tmpl.rig.positions;
   const rig::Positions base = posed_positions(tmpl, posed);

@@ -526,7 +526,6 @@ inline std::vector<std::pair<std::string, float>> posed(const rigbuild::PhotoAva
 /// Mean distance between the photo's landmarks and those dlib finds on the result rendered with
 /// the estimated camera and posed with the fitted expression, in the photo's inter-ocular
 /// distances.
-
 inline double reprojection_error(const rigbuild::PhotoAvatar& a, const render::Image& photo,
                                  const rigbuild::PhotoOptions& opt) {
   const render::Image seen = render_as_photo(a.rig, a.fit.front, photo, posed(a));
