@@ -537,6 +537,10 @@ Image Renderer::render(std::span<const float> weights, const rig::BodyPose& pose
   return image;
 }
 
+void open_displays() {
+  detail::displays();
+}
+
 void Renderer::create_contexts() const {
   // Taking every slot at once makes acquire() create the missing ones.
   std::vector<Slot*> taken;

@@ -104,27 +104,25 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
 }
 
 // The correspondence (into r, with the landmarks when they were found; into `template_parts`
-// the template's where the topologies differ) and, on another thread meanwhile, the template's
-// shapes and gradients, which need none (the landmarks and the registration's factorizations
-// leave a core idle much of the time).
-TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl, const rig::Rig& target,
-                                            const MeshParts& target_parts,
+// the template's where the topologies differ), while `source`, the template's shapes and
+// gradients, which need none, are made on another thread (the landmarks and the registration's
+// factorizations leave a core idle much of the time).
+TemplateShapes correspond_and_differentiate(const rig::Rig& tmpl,
+                                            std::future<TemplateShapes> source,
+                                            const rig::Rig& target, const MeshParts& target_parts,
                                             const BuildOptions& options, const ProgressFn& progress,
                                             std::optional<TemplateParts>& template_parts,
                                             BuildResult& r) {
   auto& time = r.timings;
-  auto gradients = async_within_budget([&] {
-    TemplateShapes shapes;
-    time.gradients = seconds_of([&] { shapes = template_shapes(tmpl); });
-    return shapes;
-  });
   r.correspondence = timed(progress, "correspondence", time.correspondence, [&] {
     return correspond(tmpl, target, target_parts, options, r.landmarks, template_parts, progress);
   });
   time.landmarks = r.landmarks ? r.landmarks->seconds : 0.0;
   time.registration = r.correspondence.registration_seconds;
   report(progress, "gradients", 0.0);
-  return gradients.get();
+  TemplateShapes shapes = source.get();
+  time.gradients = shapes.seconds;
+  return shapes;
 }
 
 namespace {
@@ -177,6 +175,15 @@ std::vector<Points> solve_and_hold(const rig::Rig& tmpl, const TemplateShapes& s
 BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildOptions& options,
                       const ProgressFn& progress) {
   const OpenMpWithinBudget omp_threads;  // Eigen's and CHOLMOD's regions, within the budget
+  check_inputs(tmpl, target, options);   // before the template's shapes are made from it
+  return build_rig(tmpl, async_within_budget([&tmpl] { return template_shapes(tmpl); }), target,
+                   options, progress);
+}
+
+BuildResult build_rig(const rig::Rig& tmpl, std::future<TemplateShapes> source_ready,
+                      const rig::Rig& target, const BuildOptions& options,
+                      const ProgressFn& progress) {
+  const OpenMpWithinBudget omp_threads;
   const auto t_start = Clock::now();
   check_inputs(tmpl, target, options);
   BuildResult r;
@@ -184,8 +191,8 @@ BuildResult build_rig(const rig::Rig& tmpl, const rig::Rig& target, const BuildO
   const Points rest = rig::to_points(target.positions);
   const TargetMesh mesh(rest, target.triangles);  // its parts and edge graph, computed once
   std::optional<TemplateParts> tmpl_parts;        // the template's, where the topologies differ
-  const TemplateShapes source =
-      correspond_and_differentiate(tmpl, target, mesh.parts, options, progress, tmpl_parts, r);
+  const TemplateShapes source = correspond_and_differentiate(
+      tmpl, std::move(source_ready), target, mesh.parts, options, progress, tmpl_parts, r);
   const Moved moved = classify_motion(r.correspondence, source, options.still_tolerance);
   const Placement placement =
       place_components(tmpl, mesh, tmpl_parts, r.correspondence, source, moved, options);

@@ -10,6 +10,8 @@
 #include "facecast/rig/rig.hpp"
 #include "facecast/rigbuild/geometry.hpp"
 
+#include <dlib/image_processing/frontal_face_detector.h>
+
 namespace dlib {
 class shape_predictor;
 }
@@ -18,6 +20,8 @@ namespace facecast::rigbuild {
 
 /// dlib's 68-point shape predictor at `path`, read once per process (landmarks.cpp).
 const dlib::shape_predictor& shape_predictor(const std::string& path);
+/// dlib's HOG face detector, built once per process (landmarks.cpp): copy it to use it.
+const dlib::frontal_face_detector& face_detector();
 
 /// A camera in front of the head (render::frame_avatar with `margin`, face framing): the first,
 /// wide view.

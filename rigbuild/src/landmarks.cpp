@@ -57,6 +57,13 @@ bool is_jaw(int k) {
 
 }  // namespace
 
+// dlib builds the detector from its serialized form in a few tenths of a second: once per
+// process, copied per use or per thread (its operator() is not const).
+const dlib::frontal_face_detector& face_detector() {
+  static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
+  return prototype;
+}
+
 // The shape predictor, read once per path (about 100 MB); shared by every thread (its operator()
 // is const).
 const dlib::shape_predictor& shape_predictor(const std::string& path) {
@@ -91,13 +98,6 @@ dlib::array2d<dlib::rgb_pixel> to_dlib(const render::Image& image) {
 
 // dlib's largest face in `image` (the HOG scan over the pyramid: tens of milliseconds on a
 // 400 px view, so it runs on the wide view only).
-// dlib builds the detector from its serialized form in about a second: once per process, copied
-// per use (its operator() is not const).
-const dlib::frontal_face_detector& face_detector() {
-  static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
-  return prototype;
-}
-
 std::optional<dlib::rectangle> find_face(const dlib::array2d<dlib::rgb_pixel>& img) {
   dlib::frontal_face_detector detector = face_detector();
   const std::vector<dlib::rectangle> faces = detector(img);

@@ -2,6 +2,7 @@
 // motion copied onto the target vertex by vertex. See docs/algorithms.md#deformation-transfer.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <chrono>
 
 #include "parallel.hpp"
 #include "stages.hpp"
@@ -9,6 +10,7 @@
 namespace facecast::rigbuild {
 
 TemplateShapes template_shapes(const rig::Rig& tmpl) {
+  const auto t0 = std::chrono::steady_clock::now();
   TemplateShapes s;
   s.rest = rig::to_points(tmpl.positions);
   s.faces = tmpl.triangles;
@@ -24,6 +26,7 @@ TemplateShapes template_shapes(const rig::Rig& tmpl) {
     }
     source_gradients(rest_inv, s.shapes[k], s.faces, s.gradients[k]);
   });
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }
 

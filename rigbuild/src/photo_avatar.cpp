@@ -6,11 +6,13 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "facecast/core/config.hpp"
 #include "facecast/core/config_reader.hpp"
 #include "facecast/core/error.hpp"
 #include "facecast/render/renderer.hpp"
+#include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
 #include "parallel.hpp"
@@ -333,7 +335,11 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
     std::sort(files.begin(), files.end());
     for (const auto& f : files) t.modes.push_back(rig::read_obj_positions(f) - t.rig.positions);
   } else {
-    t.rig = rig::load_rig(path);
+    // A glTF template is read once: its rig and, when it is a compact one, the modes in its extras.
+    const std::string ext = path.extension().string();
+    std::optional<rig::AvatarDocument> doc;
+    if (ext == ".glb" || ext == ".gltf" || ext == ".vrm") doc = rig::AvatarDocument::read(path);
+    t.rig = doc ? rig::make_view(*doc).rig : rig::load_rig(path);
     std::vector<rig::Blendshape> keep;
     for (auto& s : t.rig.shapes) {
       if (s.name.rfind("identity", 0) == 0)
@@ -342,7 +348,7 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
         keep.push_back(std::move(s));
     }
     t.rig.shapes = std::move(keep);
-    if (t.modes.empty() && path.extension() == ".glb") t.modes = read_template_identity(path);
+    if (t.modes.empty() && doc) t.modes = read_template_identity(*doc);
   }
   if (t.modes.empty())
     throw Error(path.string() +
@@ -659,6 +665,10 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   const render::Image& front = out.photo_scale < 1 ? front_small : front_photo;
   const render::Image* side = out.photo_scale < 1 && side_photo ? &side_small : side_photo;
   nlohmann::json timing;
+  // Analysis by synthesis renders the head: the GL driver is loaded meanwhile.
+  const bool calibrates = !has_detector_response(tmpl) && options.self_calibrate > 0;
+  std::future<void> gl;
+  if (calibrates) gl = async_within_budget([] { render::open_displays(); });
   report(progress, "landmarks", 0.0);
   out.front = detect_photo_landmarks(front, "front photo", options);
   if (side) {
@@ -666,11 +676,16 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
     out.has_side = true;
   }
   timing["landmarks"] = seconds_since(t0);
+  // The template's shapes and their gradients, which the expressions' transfer needs and the fit
+  // does not, are made on another thread meanwhile (the fit leaves a core idle in its serial
+  // parts).
+  const bool builds = options.shapes && !tmpl.rig.shapes.empty();
+  std::future<TemplateShapes> source;
+  if (builds) source = async_within_budget([&tmpl] { return template_shapes(tmpl.rig); });
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   // With analysis by synthesis to follow, the expressions are left to its fit: before the
   // detector's offsets are modelled, they pass for a smile or an open jaw.
-  const bool calibrates = !has_detector_response(tmpl) && options.self_calibrate > 0;
   out.fit = fit_photo_shape(calibrates ? without_expressions(tmpl) : tmpl, out.front,
                             side ? &out.side : nullptr, options, &front, side);
   double unused_focal = 0;
@@ -681,8 +696,9 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   }
   std::string calibration_note;
   nlohmann::json calibration = {{"calibration_texture", ""}};
-  if (!has_detector_response(tmpl)) {
+  if (calibrates) {
     try {
+      if (gl.valid()) gl.get();
       for (int round = 0; round < options.self_calibrate; ++round)
         out.fit = self_calibrated_fit(tmpl, out, front, side, options, calibration);
     } catch (const Error& e) {
@@ -699,11 +715,11 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   const nlohmann::json eyes = paint_eyes(head, tmpl, out.fit, front);
   timing["texture"] = seconds_since(t);
   t = std::chrono::steady_clock::now();
-  if (options.shapes && !tmpl.rig.shapes.empty()) {
+  if (builds) {
     const ProgressFn inner = [&](std::string_view stage, double f) {
       report(progress, stage, 0.35 + 0.6 * f);
     };
-    out.rig = build_rig(tmpl.rig, head, options.build, inner).rig;
+    out.rig = build_rig(tmpl.rig, std::move(source), head, options.build, inner).rig;
   } else {
     out.rig = std::move(head);
   }

@@ -12,8 +12,10 @@
 #include <numbers>
 
 #include "facecast/core/error.hpp"
+#include "facecast/core/threads.hpp"
 #include "facecast/rigbuild/photo_avatar.hpp"
 #include "landmark_views.hpp"
+#include "parallel.hpp"
 
 namespace facecast::rigbuild {
 namespace {
@@ -89,22 +91,26 @@ std::array<Eigen::Vector2d, kLandmarkCount> predict_landmarks(
   for (int x = -n; x <= n; ++x)
     for (int y = -n; y <= n; ++y)
       for (int s = -n; s <= n; ++s) moves.push_back({x * step, y * step, 1 + s * step});
-  std::array<Eigen::Vector2d, kLandmarkCount> points;
-  points.fill(Eigen::Vector2d::Zero());
-  for (const auto& m : moves) {
+  // The boxes are read on the loop's workers (the predictor is const and shared) and summed in
+  // their order, so the average does not depend on the number of threads.
+  std::vector<dlib::full_object_detection> shapes(moves.size());
+  parallel_for(moves.size(), [&](std::size_t i) {
+    const auto& m = moves[i];
     const dlib::drectangle c =
         dlib::centered_drect(dlib::dpoint(dlib::center(dlib::drectangle(box)).x() + m[0] * w,
                                           dlib::center(dlib::drectangle(box)).y() + m[1] * h),
                              w * m[2], h * m[2]);
-    const dlib::full_object_detection shape =
-        sp(full, dlib::rectangle(std::lround(c.left()), std::lround(c.top()),
-                                 std::lround(c.right()), std::lround(c.bottom())));
+    shapes[i] = sp(full, dlib::rectangle(std::lround(c.left()), std::lround(c.top()),
+                                         std::lround(c.right()), std::lround(c.bottom())));
+  });
+  std::array<Eigen::Vector2d, kLandmarkCount> points;
+  points.fill(Eigen::Vector2d::Zero());
+  for (const auto& shape : shapes)
     for (int k = 0; k < kLandmarkCount; ++k)
       points[static_cast<std::size_t>(k)] +=
           Eigen::Vector2d(static_cast<double>(shape.part(k).x()),
                           static_cast<double>(shape.part(k).y())) /
           static_cast<double>(moves.size());
-  }
   return points;
 }
 
@@ -127,8 +133,8 @@ struct Found {
 // or lit from one side scores below the threshold; 0: no such pass).
 Found find_face(const dlib::array2d<dlib::rgb_pixel>& img, const PhotoOptions& options,
                 double expected_roll) {
-  // Made once per thread (building it reads its HOG filters: a tenth of a second).
-  thread_local dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();
+  // Copied once per thread from the one built per process.
+  thread_local dlib::frontal_face_detector detector = face_detector();
   dlib::array2d<dlib::rgb_pixel> up;
   const auto doubled = [&]() -> const dlib::array2d<dlib::rgb_pixel>& {
     if (up.size() == 0) dlib::pyramid_up(img, up, dlib::pyramid_down<2>());
@@ -222,6 +228,12 @@ double eye_line_angle(const std::array<Eigen::Vector2d, kLandmarkCount>& points)
 }
 
 }  // namespace
+
+void load_photo_detector(const PhotoOptions& options) {
+  auto detector = async_within_budget([] { face_detector(); });  // the two are read side by side
+  shape_predictor(options.predictor);
+  detector.get();
+}
 
 PhotoLandmarks detect_photo_landmarks(const render::Image& photo, const std::string& what,
                                       const PhotoOptions& options, double expected_roll) {

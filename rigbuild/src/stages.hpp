@@ -16,6 +16,7 @@
 //   with_shapes, measure_gaps  the deltas and the report's measures (solve.cpp)
 #include <array>
 #include <cstdint>
+#include <future>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,6 +33,7 @@ struct TemplateShapes {
   Triangles faces;
   std::vector<Points> shapes;
   std::vector<Gradients> gradients;
+  double seconds = 0;  // how long template_shapes took
   std::size_t size() const { return shapes.size(); }
 };
 
@@ -134,6 +136,11 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
                           std::optional<AutoMarkers>& found,
                           std::optional<TemplateParts>& template_parts, const ProgressFn& progress);
 TemplateShapes template_shapes(const rig::Rig& tmpl);
+/// build_rig with the template's shapes being made meanwhile (template_shapes(tmpl), started by
+/// the caller: avatar_from_photos starts it while it fits the head that becomes `target`).
+BuildResult build_rig(const rig::Rig& tmpl, std::future<TemplateShapes> source_ready,
+                      const rig::Rig& target, const BuildOptions& options,
+                      const ProgressFn& progress);
 /// A vertex moves when the point it maps to moves at least still_tolerance * the template's
 /// bounding-box diagonal.
 Moved classify_motion(const Correspondence& c, const TemplateShapes& source,

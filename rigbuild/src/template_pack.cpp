@@ -288,14 +288,17 @@ TemplateSummary shipped_template_summary() {
 }
 
 std::vector<rig::Positions> read_template_identity(const std::filesystem::path& path) {
-  // The document decodes the meshopt views on load; the modes' accessors are read from them.
-  const rig::AvatarDocument doc = rig::AvatarDocument::read(path);
+  return read_template_identity(rig::AvatarDocument::read(path));
+}
+
+std::vector<rig::Positions> read_template_identity(const rig::AvatarDocument& doc) {
+  // The document decoded the meshopt views on load; the modes' accessors are read from them.
   const tinygltf::Model& m = doc.model();
   std::vector<rig::Positions> modes;
   if (m.meshes.empty()) return modes;
   const tinygltf::Value& list = m.meshes[0].extras.Get("facecast").Get("identity");
   if (!list.IsArray()) return modes;
-  const std::string at = path.string() + ": meshes[0].extras.facecast.identity";
+  const std::string at = doc.name() + ": meshes[0].extras.facecast.identity";
   if (m.nodes.empty() || m.nodes[0].scale.size() != 3) throw Error(at + ": node 0 has no scale");
   const double scale = m.nodes[0].scale[0];
   for (std::size_t k = 0; k < list.ArrayLen(); ++k) {

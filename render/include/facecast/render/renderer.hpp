@@ -112,6 +112,11 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Opens the process's EGL displays now, which loads the GL driver (a few tenths of a second with
+/// Mesa's llvmpipe), rather than at the first frame: a caller can do it on another thread while it
+/// does other work. Throws like Renderer::render().
+void open_displays();
+
 /// Parses "name=value,name=value" (spaces allowed around items); throws facecast::Error naming the
 /// bad item.
 std::vector<std::pair<std::string, float>> parse_weight_list(std::string_view text);

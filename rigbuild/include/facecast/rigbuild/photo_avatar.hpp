@@ -171,6 +171,11 @@ struct PhotoLandmarks {
   double roll = 0;   // degrees the face was turned upright by for the predictor (0: as it stood)
 };
 
+/// Reads dlib's face detector and its 68-point predictor (options.predictor) once per process, as
+/// the first detect_photo_landmarks would: about a second, which a caller can spend meanwhile on
+/// the template. Throws Error naming the predictor's path when it is missing or unreadable.
+void load_photo_detector(const PhotoOptions& options);
+
 /// Throws a one-line Error naming `what` when no face is found or it is smaller than min_face.
 /// `expected_roll` (degrees): a face is looked for first in the photo turned by this much (a
 /// render of a head posed as a photo's, read as that photo was: PhotoLandmarks::roll).

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "facecast/rig/avatar_document.hpp"
 #include "facecast/rig/rig.hpp"
 
 namespace facecast::rigbuild {
@@ -67,5 +68,7 @@ double quantization_step(const rig::Rig& rig);
 /// The identity modes a compact GLB holds (compact_glb_bytes), in order; empty when it has none.
 /// Throws Error naming the file when they are malformed.
 std::vector<rig::Positions> read_template_identity(const std::filesystem::path& glb);
+/// The same from a document already read.
+std::vector<rig::Positions> read_template_identity(const rig::AvatarDocument& doc);
 
 }  // namespace facecast::rigbuild
