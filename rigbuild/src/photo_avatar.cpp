@@ -333,7 +333,14 @@ PhotoTemplate load_photo_template(const std::filesystem::path& path) {
       if (e.path().stem().string().rfind("identity", 0) == 0 && e.path().extension() == ".obj")
         files.push_back(e.path());
     std::sort(files.begin(), files.end());
-    for (const auto& f : files) t.modes.push_back(rig::read_obj_positions(f) - t.rig.positions);
+    t.modes.resize(files.size());  // parsed on the cores, as the expressions are
+    parallel_for(files.size(), [&](std::size_t i) {
+      rig::Positions p = rig::read_obj_positions(files[i]);
+      if (p.rows() != t.rig.positions.rows())
+        throw Error(files[i].string() + ": " + std::to_string(p.rows()) +
+                    " vertices, but the neutral has " + std::to_string(t.rig.positions.rows()));
+      t.modes[i] = p - t.rig.positions;
+    });
   } else {
     // A glTF template is read once: its rig and, when it is a compact one, the modes in its extras.
     const std::string ext = path.extension().string();

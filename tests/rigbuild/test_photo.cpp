@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <iterator>
 #include <random>
@@ -162,6 +164,22 @@ TEST_CASE("photo avatar: bad photos are one-line errors", "[photo]") {
        {std::pair{noise, "noise"}, {gradient, "gradient"}, {render::read_image(room), "room"}})
     CHECK_THROWS_WITH(detect_photo_landmarks(image, name, opt),
                       std::string(name) + ": no face found");
+}
+
+TEST_CASE("photo template: a folder's identity mode of another vertex count is a one-line error",
+          "[photo]") {
+  const auto dir = test::artifacts_dir("photo") / "mismatched_template";
+  std::filesystem::create_directories(dir);
+  const auto write = [&](const char* name, int vertices) {
+    std::ofstream out(dir / name);
+    for (int v = 0; v < vertices; ++v) out << "v " << v << " " << v % 2 << " 0\n";
+    out << "f 1 2 3\n";
+  };
+  write("generic_neutral_mesh.obj", 3);
+  write("identity000.obj", 3);
+  write("identity001.obj", 4);
+  CHECK_THROWS_WITH(load_photo_template(dir),
+                    (dir / "identity001.obj").string() + ": 4 vertices, but the neutral has 3");
 }
 
 TEST_CASE("photo avatar from astronaut.png: a textured, speaking avatar", "[photo][slow]") {
