@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   build-essential cmake ninja-build pkg-config git ccache
   libboost1.81-dev libeigen3-dev libtinygltf-dev nlohmann-json3-dev libcli11-dev
-  libnanoflann-dev libsuitesparse-dev libopenblas0-serial catch2
+  libnanoflann-dev libsuitesparse-dev libopenblas0-pthread catch2
   libespeak-ng-dev espeak-ng-data unicode-data rime-data-pinyin-simp libbz2-dev
   libopenimageio-dev libpng-dev libwebp-dev ffmpeg libegl-dev libopengl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   fonts-dejavu-core
@@ -48,6 +48,13 @@ if ((${#missing[@]})); then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
+# CHOLMOD and dlib call BLAS from several threads at once, which OpenBLAS's pthread build takes and
+# its serial build does not (it shares its work buffers between callers without a lock): chosen
+# here, also where a serial build is installed and was chosen before.
+multiarch=$(dpkg-architecture -qDEB_HOST_MULTIARCH)
+for lib in libblas.so.3 liblapack.so.3 libopenblas.so.0; do
+  update-alternatives --quiet --set "$lib-$multiarch" "/usr/lib/$multiarch/openblas-pthread/$lib"
+done
 
 # Node packages (versions pinned in package-lock.json): serving needs three.js and three-vrm (the
 # page's dependencies); the tests' tools are devDependencies.

@@ -12,6 +12,7 @@
 
 #include "edge_image.hpp"
 #include "facecast/core/error.hpp"
+#include "facecast/core/threads.hpp"
 #include "geometry.hpp"
 #include "photo_detail.hpp"
 
@@ -789,24 +790,35 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
     return detect_photo_landmarks(shot, side ? "template side" : "template front", options);
   };
   using Offsets = std::array<Eigen::Vector3d, kLandmarkCount>;
-  // Per photo alone (all 68 points), the offsets on the head at `positions`: front, side.
-  const auto measure = [&](const rig::Positions& positions) {
+  // The template, then each mode at +-amplitude.
+  std::vector<rig::Positions> heads{tmpl.rig.positions};
+  for (const auto& mode : tmpl.modes) {
+    heads.push_back(tmpl.rig.positions + static_cast<float>(amplitude) * mode);
+    heads.push_back(tmpl.rig.positions - static_cast<float>(amplitude) * mode);
+  }
+  // Photographed on this thread (a renderer's context is its thread's), read on the loop's
+  // workers: dlib's detector and predictor take about ten times as long as a render.
+  std::vector<std::pair<render::Image, render::Image>> shots;
+  shots.reserve(heads.size());
+  for (const auto& positions : heads) shots.push_back(shoot(positions));
+  // Per photo alone (all 68 points), the offsets on each head: front, side.
+  std::vector<std::array<Offsets, 2>> measured(heads.size());
+  parallel_for(heads.size(), [&](std::size_t i) {
     PhotoTemplate t = tmpl;
-    t.rig.positions = positions;
-    const auto [front, side] = shoot(positions);
-    std::array<Offsets, 2> out{measure_landmark_bias(t, find(front, false), nullptr, options),
-                               zero_landmark_vectors()};
-    if (side.width > 0) out[1] = measure_landmark_bias(t, find(side, true), nullptr, options);
-    return out;
-  };
-  const auto at = measure(tmpl.rig.positions);
-  tmpl.bias = at[0];
-  tmpl.side_bias = at[1];
+    t.rig.positions = heads[i];
+    const auto& [front, side] = shots[i];
+    measured[i] = {measure_landmark_bias(t, find(front, false), nullptr, options),
+                   zero_landmark_vectors()};
+    if (side.width > 0)
+      measured[i][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
+  });
+  tmpl.bias = measured[0][0];
+  tmpl.side_bias = measured[0][1];
   tmpl.mode_bias.assign(tmpl.modes.size(), zero_landmark_vectors());
   tmpl.side_mode_bias = tmpl.mode_bias;
   for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
-    const auto plus = measure(tmpl.rig.positions + static_cast<float>(amplitude) * tmpl.modes[m]);
-    const auto minus = measure(tmpl.rig.positions - static_cast<float>(amplitude) * tmpl.modes[m]);
+    const auto& plus = measured[1 + 2 * m];
+    const auto& minus = measured[2 + 2 * m];
     for (std::size_t k = 0; k < kLandmarkCount; ++k) {
       tmpl.mode_bias[m][k] = (plus[0][k] - minus[0][k]) / (2 * amplitude);
       tmpl.side_mode_bias[m][k] = (plus[1][k] - minus[1][k]) / (2 * amplitude);

@@ -1,10 +1,12 @@
 // A rig build under a ThreadBudget (facecast/core/threads.hpp; its loops are tested in tests/core):
 // OpenMP regions get one thread unless lent more, the work a build starts beside its own thread
 // runs on a lent thread or later on its own, and a rig build keeps to that.
+#include <dlib/matrix.h>
 #include <omp.h>
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+#include <random>
 #include <thread>
 #include <tuple>
 
@@ -130,4 +132,41 @@ TEST_CASE("work started beside a build's own stays within its budget", "[threads
     auto work = async_within_budget([] { return std::this_thread::get_id(); });
     CHECK(work.get() != caller);
   }
+}
+
+TEST_CASE("BLAS products made on several threads at once equal the ones made alone", "[threads]") {
+  // dlib's shape predictor (photo landmarks, read on the loops' workers) and CHOLMOD multiply
+  // through the system's BLAS from several threads at once. Debian's serial OpenBLAS shares its
+  // work buffers between callers without a lock: two fits of one photo in one process came out
+  // different. install-deps.sh chooses the pthread build, which rigbuild runs on the caller's
+  // thread (parallel.cpp).
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<long> size(2, 48);
+  std::uniform_real_distribution<double> value(-1, 1);
+  struct Product {
+    dlib::matrix<double> a, b, alone;
+  };
+  std::vector<Product> products(400);
+  for (auto& p : products) {
+    const long m = size(rng), k = size(rng), n = size(rng);
+    p.a.set_size(m, k);
+    p.b.set_size(k, n);
+    for (auto& x : p.a) x = value(rng);
+    for (auto& x : p.b) x = value(rng);
+    p.alone = p.a * p.b;  // dlib's BLAS binding: dgemm
+  }
+  std::vector<int> differing(2, 0);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < differing.size(); ++t) {
+    threads.emplace_back([&, t] {
+      for (int round = 0; round < 20; ++round)
+        for (const auto& p : products) {
+          const dlib::matrix<double> c = p.a * p.b;
+          if (c != p.alone) ++differing[t];
+        }
+    });
+  }
+  for (auto& t : threads) t.join();
+  CHECK(differing[0] == 0);
+  CHECK(differing[1] == 0);
 }
