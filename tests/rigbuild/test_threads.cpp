@@ -1,6 +1,7 @@
 // A rig build under a ThreadBudget (facecast/core/threads.hpp; its loops are tested in tests/core):
 // OpenMP regions get one thread unless lent more, the work a build starts beside its own thread
 // runs on a lent thread or later on its own, and a rig build keeps to that.
+#include <dlfcn.h>
 #include <dlib/matrix.h>
 #include <omp.h>
 
@@ -169,4 +170,8 @@ TEST_CASE("BLAS products made on several threads at once equal the ones made alo
   for (auto& t : threads) t.join();
   CHECK(differing[0] == 0);
   CHECK(differing[1] == 0);
+  // ... and OpenBLAS runs on the caller's thread, as the thread budget counts it.
+  using GetThreads = int (*)();
+  if (void* get = dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))
+    CHECK(reinterpret_cast<GetThreads>(get)() == 1);
 }
