@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 #include <set>
+#include <thread>
 
 #include "edge_image.hpp"
 #include "facecast/core/error.hpp"
@@ -797,21 +798,25 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
     heads.push_back(tmpl.rig.positions - static_cast<float>(amplitude) * mode);
   }
   // Photographed on this thread (a renderer's context is its thread's), read on the loop's
-  // workers: dlib's detector and predictor take about ten times as long as a render.
-  std::vector<std::pair<render::Image, render::Image>> shots;
-  shots.reserve(heads.size());
-  for (const auto& positions : heads) shots.push_back(shoot(positions));
+  // workers: dlib's detector and predictor take about ten times as long as a render. A batch of
+  // one head per core at a time, so that not every photo is held at once.
+  const std::size_t batch = std::max(1u, std::thread::hardware_concurrency());
   // Per photo alone (all 68 points), the offsets on each head: front, side.
   std::vector<std::array<Offsets, 2>> measured(heads.size());
-  parallel_for(heads.size(), [&](std::size_t i) {
-    PhotoTemplate t = tmpl;
-    t.rig.positions = heads[i];
-    const auto& [front, side] = shots[i];
-    measured[i] = {measure_landmark_bias(t, find(front, false), nullptr, options),
-                   zero_landmark_vectors()};
-    if (side.width > 0)
-      measured[i][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
-  });
+  for (std::size_t first = 0; first < heads.size(); first += batch) {
+    std::vector<std::pair<render::Image, render::Image>> shots;
+    for (std::size_t i = first; i < std::min(heads.size(), first + batch); ++i)
+      shots.push_back(shoot(heads[i]));
+    parallel_for(shots.size(), [&](std::size_t j) {
+      PhotoTemplate t = tmpl;
+      t.rig.positions = heads[first + j];
+      const auto& [front, side] = shots[j];
+      measured[first + j] = {measure_landmark_bias(t, find(front, false), nullptr, options),
+                             zero_landmark_vectors()};
+      if (side.width > 0)
+        measured[first + j][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
+    });
+  }
   tmpl.bias = measured[0][0];
   tmpl.side_bias = measured[0][1];
   tmpl.mode_bias.assign(tmpl.modes.size(), zero_landmark_vectors());
