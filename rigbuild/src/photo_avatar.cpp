@@ -715,22 +715,35 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   }
   timing["fit"] = seconds_since(t);
   report(progress, "texture", 0.25);
+  // The expressions need only the head's geometry: they are built on another thread while the
+  // texture is baked (which changes only materials and textures), then moved onto the textured
+  // head. Only the build reports progress from here on.
+  std::future<std::vector<rig::Blendshape>> expressions;
+  double expression_seconds = 0;
+  if (builds) {
+    expressions = async_within_budget([&, source = std::move(source)]() mutable {
+      const auto start = std::chrono::steady_clock::now();
+      rig::Rig geometry = tmpl.rig;
+      geometry.shapes.clear();
+      geometry.positions = out.fit.positions;
+      geometry.normals = rig::vertex_normals(geometry.positions, geometry.triangles);
+      const ProgressFn inner = [&](std::string_view stage, double f) {
+        report(progress, stage, 0.35 + 0.6 * f);
+      };
+      auto shapes =
+          build_rig(tmpl.rig, std::move(source), geometry, options.build, inner).rig.shapes;
+      expression_seconds = seconds_since(start);
+      return shapes;
+    });
+  }
   t = std::chrono::steady_clock::now();
   const render::Image texture = bake_photo_texture(tmpl, out.fit, front, side, options,
                                                    &out.texture_coverage, &out.texture_refused);
-  rig::Rig head = textured_head(tmpl, out.fit.positions, texture);
-  const nlohmann::json eyes = paint_eyes(head, tmpl, out.fit, front);
+  out.rig = textured_head(tmpl, out.fit.positions, texture);
+  const nlohmann::json eyes = paint_eyes(out.rig, tmpl, out.fit, front);
   timing["texture"] = seconds_since(t);
-  t = std::chrono::steady_clock::now();
-  if (builds) {
-    const ProgressFn inner = [&](std::string_view stage, double f) {
-      report(progress, stage, 0.35 + 0.6 * f);
-    };
-    out.rig = build_rig(tmpl.rig, std::move(source), head, options.build, inner).rig;
-  } else {
-    out.rig = std::move(head);
-  }
-  timing["expressions"] = seconds_since(t);
+  if (builds) out.rig.shapes = expressions.get();
+  timing["expressions"] = expression_seconds;
   timing["total"] = seconds_since(t0);
   if (out.photo_scale < 1) {  // the landmarks in the caller's photos' pixels
     out.front = scaled_landmarks(out.front, front_photo, out.photo_scale);
