@@ -62,7 +62,9 @@ export declare class StreamPlayer {
   end(msg: StreamEnd): PlayerStream | null;
   media(item: MediaItem): void;
   stopAll(): void;
-  /** stops the audio of utterance `id` (after a cancel) */
+  /** ends now the streams sent to the end that still play or wait here (not a cancel's return to rest); returns how many */
+  stopSent(): number;
+  /** after a cancel: stops utterance `id`'s audio, its frames go on from the newest received (the server's return to rest follows); where the cancel came too late, it ends when its end arrives */
   silence(id: string): void;
   /** the utterance time of a stream now, on its playback clock */
   timeOf(stream: PlayerStream | null): number | null;

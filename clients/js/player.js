@@ -10,6 +10,7 @@ import { PlayerStream } from './stream.js';
 
 const LEAD = 0.2; // s of local buffer between a stream's first media and its playback (absorbs a busy main thread)
 const AUDIO_WAIT = 0.4; // s to wait for announced audio before the frames run on their own clock
+const DONE_AFTER = 0.05; // s past its last frame, image or sample that an ended stream is done
 
 const perfNow = () => performance.now() / 1000;
 
@@ -72,11 +73,11 @@ export class StreamPlayer {
     };
   }
 
-  /** stream_start: a new stream, queued behind the one playing. */
+  /** stream_start: a new stream, queued behind the ones playing or waiting (update() moves on). */
   start(msg) {
     const s = new PlayerStream(msg, perfNow());
     this.streams.set(msg.stream, s);
-    if (!this.current || this.done(this.current)) this.current = s;
+    if (!this.current) this.current = s;
     return s;
   }
 
@@ -87,6 +88,8 @@ export class StreamPlayer {
     s.ended = true;
     s.cancelled = !!msg.cancelled;
     s.endInfo = msg;
+    // Silenced by a stop, but sent to the end before the cancel reached the server: ended now.
+    if (s.silenced && !s.cancelled) this.#skipToEnd(s);
     return s;
   }
 
@@ -97,15 +100,51 @@ export class StreamPlayer {
     this.current = null;
   }
 
-  /** Stops the audio of utterance `id` (after a cancel the server still sends the return to rest). */
+  /**
+   * After a cancel (a stop): stops the audio of utterance `id`, and its frames go on from the
+   * newest one received, where the server's return to rest follows (the server sends ahead of
+   * what is shown). Where the cancel comes too late, the stream ends when its end arrives.
+   */
   silence(id) {
     for (const s of this.streams.values()) {
       if (s.id !== id) continue;
+      s.silenced = true;
       // The audio that was scheduled ahead no longer keeps the stream alive.
       const t = s.clock ? this.clockNow(s.clock) - s.t0 : 0;
       s.audioEnd = Math.min(s.audioEnd, Math.max(0, t));
       s.stopAudio();
+      const newest = Math.max(s.frames.at(-1)?.t ?? -Infinity, s.jpegs.at(-1)?.t ?? -Infinity);
+      if (newest > -Infinity) this.#skipTo(s, newest);
     }
+  }
+
+  /**
+   * Ends now the streams the server has finished sending (a cancel no longer reaches them) that
+   * still play or wait here, but a cancelled one's return to rest: with cancel and silence for
+   * the ones still being sent, a stop button stops everything. Returns how many it ended.
+   */
+  stopSent() {
+    let stopped = 0;
+    for (const s of this.streams.values()) {
+      if (!s.ended || s.cancelled || this.done(s)) continue;
+      s.stopAudio();
+      s.audioEnd = 0;
+      this.#skipToEnd(s);
+      stopped += 1;
+    }
+    return stopped;
+  }
+
+  /** Moves stream s's clock past its end: it is done. */
+  #skipToEnd(s) {
+    this.#skipTo(s, s.endOf() + 2 * DONE_AFTER);
+  }
+
+  /** Moves stream s's clock on so that its time is `t` now (it never goes back). */
+  #skipTo(s, t) {
+    if (!s.clock) return;
+    const now = this.clockNow(s.clock) - s.t0;
+    if (t > now) s.t0 -= t - now;
   }
 
   /** A media item of the client: a WeightsFrame, an audio chunk or a JPEG frame. */
@@ -194,7 +233,7 @@ export class StreamPlayer {
   done(s) {
     if (!s.ended) return false;
     if (!s.clock) return true;
-    return s.pendingJpegs === 0 && this.clockNow(s.clock) - s.t0 > s.endOf() + 0.05;
+    return s.pendingJpegs === 0 && this.clockNow(s.clock) - s.t0 > s.endOf() + DONE_AFTER;
   }
 
   /** The utterance time of stream s now (its playback clock), or null before its clock starts. */

@@ -122,5 +122,57 @@ function feed(p, buf) {
   }
 }
 
+{
+  // Streams play in their order; a stop ends at once the streams the server has finished sending
+  // (a cancel no longer reaches them), and a cancelled one goes on from its newest frame, where
+  // the server's return to rest follows (a stop button, web/speak/queue.js).
+  let now = 1000; // ms
+  const realNow = performance.now.bind(performance);
+  performance.now = () => now;
+  const p = new StreamPlayer();
+  const utterance = (n, frames = 3) => {
+    const s = p.start({ id: `u${n}`, stream: n, fps: 10, names: ['jawOpen'], extra: [], audio: null, duration: frames / 10 });
+    feed(p, message(KIND.WEIGHTS, n, 0, frames, 0, new Float32Array(frames).fill(n / 10)));
+    return s;
+  };
+  const ended = (n, cancelled = false) => p.end({ id: `u${n}`, stream: n, frames: 3, dropped: 0, cancelled });
+  try {
+    utterance(1);
+    ended(1);
+    utterance(2);
+    ended(2);
+    now += 2000; // u1 and u2 have played out; no animation frame came meanwhile (a busy page)
+    utterance(3);
+    let r = p.update();
+    check('a stream that starts after a busy spell queues behind the earlier one', r.stream.id === 'u2', r.stream.id);
+    const s4 = utterance(4);
+    ended(4);
+    const s5 = utterance(5, 8); // still being sent: a stop cancels it on the server
+    now += 300;
+    r = p.update();
+    check('the queue plays on', r.stream.id === 'u3' && !r.done, `${r.stream.id} done=${r.done}`);
+    ended(3);
+    p.silence('u5');
+    check("a silenced stream goes on from its newest frame", Math.abs(p.timeOf(s5) - 0.7) < 1e-9, String(p.timeOf(s5)));
+    const stopped = p.stopSent();
+    check('a stop ends the streams sent to the end', stopped === 2 && p.done(p.streams.get(3)) && p.done(s4), `${stopped} ended`);
+    for (let i = 0; i < 3; i++) r = p.update();
+    check('the silenced stream is shown next, at once', r.stream.id === 'u5' && !r.done && Math.abs(r.t - 0.7) < 1e-9, `${r.stream.id} t=${r.t}`);
+    ended(5, true);
+    check('a cancelled stream is not ended by a second stop', p.stopSent() === 0 && !p.done(s5));
+    // A cancel that reaches the server after it sent the whole stream: the stream ends uncancelled.
+    now += 1000;
+    const s6 = utterance(6);
+    now += 300;
+    p.update();
+    p.silence('u6');
+    check('a silenced stream is not over before its end arrives', !p.done(s6));
+    ended(6);
+    check('a silenced stream that ends uncancelled is done when it ends', p.done(s6));
+  } finally {
+    performance.now = realNow;
+  }
+}
+
 console.log(`web.unit: ${passed} passed, ${failed} failed`);
 process.exit(failed ? 1 : 0);

@@ -96,5 +96,7 @@ export function stop() {
     if (client.connected) client.cancel(id);
     player.silence(id);
   }
+  // Utterances the server has finished sending may still play or wait here: they end too.
+  player.stopSent();
   updateButtons();
 }
