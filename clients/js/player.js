@@ -113,9 +113,14 @@ export class StreamPlayer {
       const t = s.clock ? this.clockNow(s.clock) - s.t0 : 0;
       s.audioEnd = Math.min(s.audioEnd, Math.max(0, t));
       s.stopAudio();
-      const newest = Math.max(s.frames.at(-1)?.t ?? -Infinity, s.jpegs.at(-1)?.t ?? -Infinity);
+      const newest = this.#newest(s);
       if (newest > -Infinity) this.#skipTo(s, newest);
     }
+  }
+
+  /** The pts of the newest frame or image stream s has received (-Infinity: none yet). */
+  #newest(s) {
+    return Math.max(s.frames.at(-1)?.t ?? -Infinity, s.jpegs.at(-1)?.t ?? -Infinity);
   }
 
   /**
@@ -170,11 +175,14 @@ export class StreamPlayer {
 
   startClock(s, kind, pts) {
     s.clock = kind;
-    s.t0 = Math.max(this.clockNow(kind) + LEAD - pts, this.queueFloor(s, kind));
+    // A stream silenced before its media came starts at once.
+    if (s.silenced) s.t0 = this.clockNow(kind) - pts;
+    else s.t0 = Math.max(this.clockNow(kind) + LEAD - pts, this.queueFloor(s, kind));
   }
 
   onAudio(s, chunk) {
     this.stats.audioChunks += 1;
+    if (s.silenced) return; // sent before the cancel reached the server
     const sr = s.audio?.sample_rate || chunk.sampleRate || 22050;
     const n = chunk.pcm.length;
     if (!n) return;
@@ -209,19 +217,21 @@ export class StreamPlayer {
     s.addFrame(item.time, item.values);
     this.stats.weightFrames += 1;
     if (!s.firstMediaAt) s.firstMediaAt = perfNow();
-    if (!s.clock && !s.audio) this.startClock(s, 'perf', item.time);
+    if (!s.clock && (!s.audio || s.silenced)) this.startClock(s, 'perf', item.time);
+    if (s.silenced) this.#skipTo(s, this.#newest(s)); // after a stop, what comes is shown at once
   }
 
   onJpeg(s, item) {
     this.stats.jpegFrames += 1;
     if (!s.firstMediaAt) s.firstMediaAt = perfNow();
-    if (!s.clock && !s.audio) this.startClock(s, 'perf', item.time);
+    if (!s.clock && (!s.audio || s.silenced)) this.startClock(s, 'perf', item.time);
     s.pendingJpegs += 1;
     createImageBitmap(new Blob([item.jpeg], { type: 'image/jpeg' }))
       .then((bitmap) => {
         s.pendingJpegs -= 1;
         if (!this.streams.has(s.stream)) return bitmap.close?.();
         s.addJpeg(item.time, bitmap);
+        if (s.silenced) this.#skipTo(s, this.#newest(s));
       })
       .catch(() => {
         s.pendingJpegs -= 1;

@@ -169,6 +169,14 @@ function feed(p, buf) {
     check('a silenced stream is not over before its end arrives', !p.done(s6));
     ended(6);
     check('a silenced stream that ends uncancelled is done when it ends', p.done(s6));
+    // Silenced before its media came: what comes is shown at once, up to its newest frame, and
+    // audio the server sent before the cancel is not played.
+    const s7 = p.start({ id: 'u7', stream: 7, fps: 10, names: ['jawOpen'], extra: [], audio: { sample_rate: 16000 }, duration: 0.5 });
+    p.silence('u7');
+    feed(p, message(KIND.AUDIO, 7, 0, 1600, 0, new Int16Array(1600)));
+    feed(p, message(KIND.WEIGHTS, 7, 0, 5, 0, new Float32Array(5).fill(0.7)));
+    check("a silenced stream's late audio is not played", s7.audioEnd === 0 && s7.sources.length === 0, String(s7.audioEnd));
+    check('a stream silenced before its media is shown at its newest frame', Math.abs(p.timeOf(s7) - 0.4) < 1e-9, String(p.timeOf(s7)));
   } finally {
     performance.now = realNow;
   }
