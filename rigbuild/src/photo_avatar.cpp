@@ -259,6 +259,7 @@ PhotoOptions load_photo_options() {
       .read("camera", o.camera)
       .read("exif_focal_sd", o.exif_focal_sd)
       .read("exif_distance", o.exif_distance)
+      .read("near_landmark_noise", o.near_landmark_noise)
       .read("expressions", o.expressions)
       .read("expression_sd", o.expression_sd)
       .read("side_calibration", o.side_calibration)
@@ -298,6 +299,7 @@ PhotoOptions load_photo_options() {
   if (!(o.expression_sd > 0 && o.expression_sd <= 10))
     c.fail("expression_sd", "must be in (0, 10]");
   if (!(o.landmark_noise > 0)) c.fail("landmark_noise", "must be positive");
+  if (!(o.near_landmark_noise > 0)) c.fail("near_landmark_noise", "must be positive");
   if (!(o.side_noise > 0)) c.fail("side_noise", "must be positive");
   if (!(o.outline_noise > 0)) c.fail("outline_noise", "must be positive");
   if (!(o.outline_window > 0 && o.outline_window < 0.5))

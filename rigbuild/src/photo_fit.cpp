@@ -686,13 +686,13 @@ PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front
                           const PhotoFit* start, bool expressions) {
   const bool contour = tmpl.mode_bias.empty();
   const bool sized = front.width > 0 && (!side || side->width > 0);
-  const auto fit = [&](const PhotoLandmarks& marks, bool perspective) {
-    return fit_shape(tmpl, marks, side, options, contour, front_photo, side_photo, perspective,
-                     start, expressions);
+  const auto fit = [&](const PhotoLandmarks& marks, bool perspective, const PhotoOptions& o) {
+    return fit_shape(tmpl, marks, side, o, contour, front_photo, side_photo, perspective, start,
+                     expressions);
   };
-  if (options.camera == "orthographic" || !sized) return fit(front, false);
+  if (options.camera == "orthographic" || !sized) return fit(front, false, options);
   if (options.camera == "perspective") {
-    PhotoFit f = fit(front, true);
+    PhotoFit f = fit(front, true, options);
     f.camera_model = "perspective";
     return f;
   }
@@ -701,8 +701,13 @@ PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front
     // camera nearer than exif_distance (a selfie). Farther, the lens's perspective moves the
     // landmarks by about their noise, and the fit goes on as without it (held-out heads through a
     // 12-degree lens 1.2 m away: the side photo lowered the error on 2 of 8 with the EXIF focal
-    // length, on 6 of 8 without).
-    PhotoFit near = fit(front, true);
+    // length, on 6 of 8 without). Near, the landmarks' noise floor is near_landmark_noise: the
+    // lens at arm's length moves dlib's points more than the analysis by synthesis's renders
+    // reproduce (held-out selfies at landmark_noise: coefficients' errors 1.7 of their posterior
+    // sd; docs/benchmarks.md#photo-avatar).
+    PhotoOptions near_options = options;
+    near_options.landmark_noise = std::max(options.landmark_noise, options.near_landmark_noise);
+    PhotoFit near = fit(front, true, near_options);
     if (near.front.perspective() && 1 / near.front.kappa < options.exif_distance) {
       near.camera_model = "perspective";
       near.exif_focal = true;
@@ -716,8 +721,8 @@ PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front
   // front's, and the side's relative to it) plus the prior (chi2), and for the perspective one a
   // penalty of ln(residuals) for its extra parameter (the focal length the photos share: the
   // Bayesian information criterion).
-  PhotoFit ortho = fit(front, false);
-  PhotoFit persp = fit(front, true);
+  PhotoFit ortho = fit(front, false, options);
+  PhotoFit persp = fit(front, true, options);
   const double var = ortho.noise * ortho.noise;
   const double side_var = var * std::max(1.0, ortho.side_noise * ortho.side_noise);
   const double penalty = std::log(static_cast<double>(ortho.residuals));

@@ -372,6 +372,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.camera == d.camera);
   CHECK(c.exif_focal_sd == d.exif_focal_sd);
   CHECK(c.exif_distance == d.exif_distance);
+  CHECK(c.near_landmark_noise == d.near_landmark_noise);
   CHECK(c.side_calibration == d.side_calibration);
   CHECK(c.front_outline == d.front_outline);
   CHECK(c.side_outline == d.side_outline);
@@ -898,6 +899,7 @@ TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length hol
   CHECK(a.report["front"]["exif_focal_used"] == true);
   CHECK(a.fit.exif_focal);
   CHECK(a.fit.camera_model == "perspective");
+  CHECK(a.fit.noise >= opt.near_landmark_noise);  // a near lens's floor (far: landmark_noise)
   CHECK(a.fit.front.focal() == Approx(lens).epsilon(0.06));
   CHECK(std::abs(turn - yaw) < 5);
   CHECK(a.report["calibration_texture"] == "painted");

@@ -92,6 +92,10 @@ struct PhotoOptions {
   /// ... when that camera is nearer than this to the model's origin (model units, cm; farther, the
   /// model is chosen by the evidence as without EXIF).
   double exif_distance = 100;
+  /// ... and then the landmarks' noise floor is this (not below landmark_noise): at arm's length
+  /// the lens moves dlib's points more than the analysis by synthesis's renders reproduce (held
+  /// at landmark_noise, selfies' coefficients came back 1.7 posterior sd off).
+  double near_landmark_noise = 0.03;
   /// The template's expression shapes the photos may show (ARKit names; an ICT FaceKit's
   /// name_L / name_R are found by nameLeft / nameRight): fitted with the identity when the
   /// evidence asks for them (fit_photo_shape), left out of the avatar's neutral ([]: none).
