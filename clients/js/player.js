@@ -113,8 +113,7 @@ export class StreamPlayer {
       const t = s.clock ? this.clockNow(s.clock) - s.t0 : 0;
       s.audioEnd = Math.min(s.audioEnd, Math.max(0, t));
       s.stopAudio();
-      const newest = this.#newest(s);
-      if (newest > -Infinity) this.#skipTo(s, newest);
+      this.#skipTo(s, this.#newest(s));
     }
   }
 
