@@ -3,6 +3,7 @@
 #include "facecast/rigbuild/photo_avatar.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include "facecast/rig/avatar_view.hpp"
 #include "facecast/rig/rig_io.hpp"
 #include "facecast/rigbuild/template.hpp"
+#include "geometry.hpp"
 #include "parallel.hpp"
 #include "photo_detail.hpp"
 #include "stages.hpp"
@@ -253,6 +255,7 @@ PhotoOptions load_photo_options() {
       .read("calibration_texture", o.calibration_texture)
       .read("painted_distance", o.painted_distance)
       .read("calibration_light", o.calibration_light)
+      .read("calibration_background", o.calibration_background)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -400,6 +403,23 @@ PhotoTemplate without_expressions(PhotoTemplate tmpl) {
   return tmpl;
 }
 
+// The colour behind the head in a photo (sRGB 0..1): per channel, the median of its top row and
+// the upper halves of its outer columns (the bottom edge often shows clothes).
+Eigen::Vector3f photo_background(const render::Image& photo) {
+  std::array<std::vector<double>, 3> v;
+  const auto add = [&](int x, int y) {
+    for (int k = 0; k < 3; ++k) v[static_cast<std::size_t>(k)].push_back(photo.at(x, y, k));
+  };
+  for (int x = 0; x < photo.width; ++x) add(x, 0);
+  for (int y = 1; y < photo.height / 2; ++y) {
+    add(0, y);
+    add(photo.width - 1, y);
+  }
+  return Eigen::Vector3f(static_cast<float>(median(v[0]) / 255),
+                         static_cast<float>(median(v[1]) / 255),
+                         static_cast<float>(median(v[2]) / 255));
+}
+
 // The fitted head, dressed in the photo's texture, photographed as the fitted cameras saw the
 // photos: one renderer whose morph targets are the identity modes, so a head the detector
 // response asks for (the head moved along a mode) is a weight, not a new upload.
@@ -407,14 +427,15 @@ class HeadCamera {
  public:
   // The cameras are `photo`'s (its field of view spans its height); the renders are of its size
   // when `photo_size`, else the renderer's default 640 x 480 (the same vertical field of view: the
-  // head smaller or larger by 480 / the photo's height, centred).
+  // head smaller or larger by 480 / the photo's height, centred). Behind the head: `background`
+  // (sRGB 0..1), else the renderer's.
   HeadCamera(rig::Rig head, const std::vector<rig::Positions>& modes, const render::Image& photo,
-             bool photo_size)
+             bool photo_size, const std::optional<Eigen::Vector3f>& background)
       : head_(with_modes(std::move(head), modes)),
         base_(head_.positions),
         width_(photo.width),
         height_(photo.height),
-        renderer_(head_, options(photo, photo_size)) {
+        renderer_(head_, options(photo, photo_size, background)) {
     const auto n = static_cast<Eigen::Index>(modes.size());
     Eigen::MatrixXd m(head_.positions.size(), n);
     for (Eigen::Index k = 0; k < n; ++k)
@@ -444,12 +465,14 @@ class HeadCamera {
       head.shapes.push_back(rig::Blendshape::from_dense("identity" + std::to_string(k), modes[k]));
     return head;
   }
-  static render::RenderOptions options(const render::Image& photo, bool photo_size) {
+  static render::RenderOptions options(const render::Image& photo, bool photo_size,
+                                       const std::optional<Eigen::Vector3f>& background) {
     render::RenderOptions ro;
     if (photo_size) {
       ro.width = photo.width;
       ro.height = photo.height;
     }
+    if (background) ro.background = *background;
     ro.contexts = 1;
     ro.trilinear = true;
     ro.lod_pixels = 0;
@@ -547,11 +570,18 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   paint_eyes(head, tmpl, eyes, front);
   PhotoTemplate calibrated = tmpl;
   calibrated.rig.positions = base;
+  // dlib traces the jaw line against what lies behind the face: the renders show the photo's
+  // background colour, not the renderer's dark grey (calibration_background; selfies with their
+  // lens, a dark face before a light room: held-out mixtures 0.72 -> 0.57, warped heads 0.76 ->
+  // 0.71 and none above the template, the template's own selfie 0.139 -> 0.042 cm).
+  std::optional<Eigen::Vector3f> background;
+  if (options.calibration_background) background = photo_background(front);
   if (painted && options.calibration_light) {
     // The photo's light (a lamp at one side, a light from above) that the renderer's lights do
     // not give the flat painted template: the ratio of the photo to a render of it, as a
     // function of the normal, painted into its colours.
-    const render::Image flat = HeadCamera(head, tmpl.modes, front, true).shoot(base, shot_camera);
+    const render::Image flat =
+        HeadCamera(head, tmpl.modes, front, true, background).shoot(base, shot_camera);
     const FaceLight light =
         fit_face_light(calibrated, front, first.fit, first.fit.front, flat, shot_camera);
     if (light.samples > 0) {
@@ -591,7 +621,7 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   // mixtures 0.68 -> 0.63, the template's own photo 0.17 -> 0.13 cm, with calibration_light). The
   // first fit's head in the baked photo texture keeps the renderer's 640 x 480: at a portrait
   // selfie's 480 x 640 the template's own selfie came back 0.25 cm off against 0.10.
-  HeadCamera camera(std::move(head), tmpl.modes, front, painted);
+  HeadCamera camera(std::move(head), tmpl.modes, front, painted, background);
   measure_detector_response(
       calibrated,
       [&](const rig::Positions& p) {

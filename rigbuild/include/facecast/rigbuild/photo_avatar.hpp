@@ -79,6 +79,10 @@ struct PhotoOptions {
   /// the flat painted template, fitted over the face as a function of the surface normal
   /// (spherical harmonics to order 2), multiplies its colours.
   bool calibration_light = true;
+  /// Those photographs show the photo's background colour behind the head (the median of its top
+  /// row and the upper halves of its sides), not the renderer's: dlib traces the jaw line
+  /// against it.
+  bool calibration_background = true;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
