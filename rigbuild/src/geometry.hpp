@@ -175,4 +175,8 @@ void check_components(const rig::Components& components, int vertex_count, const
 /// The median of `v` (the mean of the middle two for an even count); `v` must not be empty.
 double median(std::vector<double> v);
 
+/// The distance from `p` to the segment from `a` to `b`.
+double segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                        const Eigen::Vector3d& b);
+
 }  // namespace facecast::rigbuild

@@ -256,6 +256,8 @@ PhotoOptions load_photo_options() {
       .read("painted_distance", o.painted_distance)
       .read("calibration_light", o.calibration_light)
       .read("calibration_background", o.calibration_background)
+      .read("appearance_weight", o.appearance_weight)
+      .read("appearance_blur", o.appearance_blur)
       .read("side_noise", o.side_noise)
       .read("estimate_side_noise", o.estimate_side_noise)
       .read("side_turn", o.side_turn)
@@ -289,6 +291,10 @@ PhotoOptions load_photo_options() {
     c.fail("max_photo_side", "must be in 256..16384");
   if (!(o.box_jitter >= 0 && o.box_jitter < 0.3)) c.fail("box_jitter", "must be in [0, 0.3)");
   if (o.box_steps < 1 || o.box_steps > 4) c.fail("box_steps", "must be in 1..4");
+  if (!(o.appearance_weight >= 0 && o.appearance_weight <= 10))
+    c.fail("appearance_weight", "must be in [0, 10]");
+  if (!(o.appearance_blur >= 0.005 && o.appearance_blur <= 0.2))
+    c.fail("appearance_blur", "must be in [0.005, 0.2]");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (o.self_calibrate < 0 || o.self_calibrate > 3) c.fail("self_calibrate", "must be in 0..3");
   if (!(o.painted_distance >= 0)) c.fail("painted_distance", "must be at least 0");
@@ -657,6 +663,41 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   calibrated.rig.positions = tmpl.rig.positions;
   PhotoFit fit = fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options,
                                  &front, side, &first.fit);
+  if (painted && options.appearance_weight > 0) {
+    // The photo's pixels (appearance_weight): the painted head at the fit's identity, and moved
+    // by +-1 along each mode, photographed through the fit's front camera and blurred at a grid
+    // over the face's skin, against the photo. What the picture's change per mode explains of the
+    // photo's difference from the first render is evidence on the identity about the fit's; the
+    // shape is fitted again with it. The head is photographed neutral (HeadCamera shows the modes
+    // only): a smile's lips are left out with the features, its cheeks are misfit the robust
+    // weights take down.
+    const AppearanceGrid grid(first.front, options.appearance_blur);
+    const double step = 1.0;
+    rig::Positions at = base;
+    for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
+      at += static_cast<float>(fit.coefficients(static_cast<Eigen::Index>(m))) * tmpl.modes[m];
+    std::vector<Eigen::VectorXd> reads;
+    const render::Image shot = camera.shoot(at, fit.front);
+    Eigen::Vector3d behind;
+    for (int c = 0; c < 3; ++c) behind(c) = shot.at(0, 0, c) / 255.0;
+    reads.push_back(grid.read(shot));
+    for (const auto& mode : tmpl.modes)
+      for (const float sign : {1.0f, -1.0f})
+        reads.push_back(
+            grid.read(camera.shoot(at + sign * static_cast<float>(step) * mode, fit.front)));
+    IdentityEvidence e =
+        appearance_evidence(grid, front, reads, step, behind, options.appearance_weight);
+    if (e.information.rows() == fit.coefficients.size()) {
+      e.pull += e.information * fit.coefficients;
+      calibrated.appearance = e;
+      nlohmann::json& a = report["appearance"];
+      a["samples"] = e.samples;
+      a["noise"] = e.noise;
+      a["move"] = {e.warp(0), e.warp(1), e.warp(2), e.warp(3)};
+      fit = fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options, &front,
+                            side, &fit);
+    }
+  }
   // With the detector's response modelled, the residuals left are mostly its scatter: moved into
   // the shape they cost more than they carry (rbf_after_synthesis;
   // docs/benchmarks.md#photo-avatar).

@@ -95,4 +95,26 @@ rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& position
 nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoFit& fit,
                           const render::Image& front);
 
+/// Where a front photo is compared with renders pixel by pixel (appearance_evidence): a grid over
+/// dlib's face box and around it, every 2 sigma pixels, read blurred by a Gaussian of sigma.
+struct AppearanceGrid {
+  AppearanceGrid(const PhotoLandmarks& marks, double sigma_fraction);
+  double sigma = 1;                     // pixels: sigma_fraction of the face box's width
+  Eigen::Vector2d centre;               // the face box's centre
+  std::vector<Eigen::Vector2d> points;  // photo pixels
+  /// An image (the photo's size) blurred at the points: 3 values per point, 0..1.
+  Eigen::VectorXd read(const render::Image& image) const;
+};
+
+/// The photo matched to renders of a head in its colours and light through its camera: `shots`
+/// (AppearanceGrid::read) of the head, then moved by +amplitude and -amplitude along each identity
+/// mode in turn. Their differences give how the picture changes per mode; the photo less the
+/// head's render, a per channel gain and offset and a small similarity move of the photo solved
+/// with it (Tukey-weighted), measures the identity. `background`: the renders' colour behind the
+/// head (0..1; points no render shows the head at are left out). `weight` scales the evidence
+/// (the blurred samples are not independent).
+IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::Image& photo,
+                                     const std::vector<Eigen::VectorXd>& shots, double amplitude,
+                                     const Eigen::Vector3d& background, double weight);
+
 }  // namespace facecast::rigbuild

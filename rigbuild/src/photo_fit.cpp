@@ -295,6 +295,11 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
   H.topLeftCorner(K, K).diagonal() += prior;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
   g.head(K) = -prior.cwiseProduct(c);
+  if (tmpl.appearance.information.rows() == modes) {  // the photo's pixels (appearance_evidence)
+    H.topLeftCorner(modes, modes) += noise * noise * tmpl.appearance.information;
+    g.head(modes) +=
+        noise * noise * (tmpl.appearance.pull - tmpl.appearance.information * c.head(modes));
+  }
   const rig::Positions p = apply_modes(tmpl, c);
   std::vector<Eigen::MatrixXd> Hv;
   std::vector<double> rss(views.size(), 0.0), count(views.size(), 0.0);
@@ -673,9 +678,15 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
 }
 
 // A fit's landmark misfit in the noises `var` (front) and `side_var` plus its prior, chi^2 +
-// |c|^2 + |e / expression_sd|^2: the evidence's measure.
-double chi2(const PhotoFit& f, double var, double side_var, const PhotoOptions& options) {
-  return f.front_rss / var + f.side_rss / side_var + f.coefficients.squaredNorm() +
+// |c|^2 + |e / expression_sd|^2 (and the photo's pixels' term, tmpl.appearance): the evidence's
+// measure.
+double chi2(const PhotoTemplate& tmpl, const PhotoFit& f, double var, double side_var,
+            const PhotoOptions& options) {
+  double appearance = 0;
+  if (tmpl.appearance.information.rows() == f.coefficients.size())
+    appearance = f.coefficients.dot(tmpl.appearance.information * f.coefficients) -
+                 2 * tmpl.appearance.pull.dot(f.coefficients);
+  return f.front_rss / var + f.side_rss / side_var + f.coefficients.squaredNorm() + appearance +
          (f.expression / options.expression_sd).squaredNorm();
 }
 
@@ -726,8 +737,8 @@ PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front
   const double var = ortho.noise * ortho.noise;
   const double side_var = var * std::max(1.0, ortho.side_noise * ortho.side_noise);
   const double penalty = std::log(static_cast<double>(ortho.residuals));
-  const double evidence =
-      chi2(ortho, var, side_var, options) - chi2(persp, var, side_var, options) - penalty;
+  const double evidence = chi2(tmpl, ortho, var, side_var, options) -
+                          chi2(tmpl, persp, var, side_var, options) - penalty;
   PhotoFit& chosen = evidence > 0 ? persp : ortho;
   chosen.camera_model = evidence > 0 ? "perspective" : "orthographic";
   chosen.camera_evidence = evidence;
@@ -751,8 +762,8 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   const double side_var = var * std::max(1.0, neutral.side_noise * neutral.side_noise);
   const double penalty = static_cast<double>(tmpl.expressions.size()) *
                          std::log(static_cast<double>(neutral.residuals));
-  const double evidence =
-      chi2(neutral, var, side_var, options) - chi2(posed, var, side_var, options) - penalty;
+  const double evidence = chi2(tmpl, neutral, var, side_var, options) -
+                          chi2(tmpl, posed, var, side_var, options) - penalty;
   PhotoFit& chosen = evidence > 0 ? posed : neutral;
   chosen.expression_evidence = evidence;
   return chosen;

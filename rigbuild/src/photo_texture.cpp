@@ -406,13 +406,6 @@ render::Image bake_photo_texture(const PhotoTemplate& tmpl, const PhotoFit& fit,
 
 namespace {
 
-double segment_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                        const Eigen::Vector3d& b) {
-  const Eigen::Vector3d d = b - a;
-  const double t = std::clamp((p - a).dot(d) / std::max(1e-12, d.squaredNorm()), 0.0, 1.0);
-  return (a + t * d - p).norm();
-}
-
 // The template's landmark vertices, and a point's distance to a chain of them (a feature's
 // contour: the brows, eyes, nose and lips the painted face draws).
 struct TemplateMarks {

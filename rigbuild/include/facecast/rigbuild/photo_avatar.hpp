@@ -83,6 +83,11 @@ struct PhotoOptions {
   /// row and the upper halves of its sides), not the renderer's: dlib traces the jaw line
   /// against it.
   bool calibration_background = true;
+  /// Those photographs also measure the identity pixel by pixel (appearance_evidence): the front
+  /// photo blurred by a Gaussian of appearance_blur face-box widths, compared with the renders,
+  /// its evidence weighed by appearance_weight (0: not).
+  double appearance_weight = 0.005;
+  double appearance_blur = 0.08;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
@@ -127,6 +132,17 @@ struct PhotoOptions {
 /// PhotoOptions from configs/rigbuild/photo.json; throws Error naming the field.
 PhotoOptions load_photo_options();
 
+/// Evidence on the identity coefficients c from beyond the landmarks (the photo matched pixel by
+/// pixel to renders: appearance_evidence): a Gaussian likelihood, c^T information c - 2 pull^T c
+/// added to the fit's chi^2 (empty: none).
+struct IdentityEvidence {
+  Eigen::MatrixXd information;
+  Eigen::VectorXd pull;
+  int samples = 0;                                 // photo points it was measured on
+  double noise = 0;                                // their residuals' robust spread (0..1)
+  Eigen::Vector4d warp = Eigen::Vector4d::Zero();  // the photo's move: pixels x, y, scale, turn
+};
+
 /// A template the photo fit works with: the rig (neutral, expressions, materials, UVs), its
 /// identity modes (deltas from the neutral, one unit = one standard deviation) and its 68
 /// landmark vertices.
@@ -151,6 +167,7 @@ struct PhotoTemplate {
   /// beside the modes, never part of the fitted neutral.
   std::vector<rig::Positions> expressions;
   std::vector<std::string> expression_names;  // the rig's own names for them
+  IdentityEvidence appearance;  // the photo's pixels on the identity (analysis by synthesis)
 };
 
 /// The template to build from: `given` (a --template argument) if not empty, else
