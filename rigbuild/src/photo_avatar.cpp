@@ -688,14 +688,22 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
     IdentityEvidence e =
         appearance_evidence(grid, front, reads, step, behind, options.appearance_weight);
     if (e.information.rows() == fit.coefficients.size()) {
-      e.pull += e.information * fit.coefficients;
-      calibrated.appearance = e;
       nlohmann::json& a = report["appearance"];
       a["samples"] = e.samples;
       a["noise"] = e.noise;
       a["move"] = {e.warp(0), e.warp(1), e.warp(2), e.warp(3)};
-      fit = fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options, &front,
-                            side, &fit);
+      // The photo moved by more than a few percent of the face against renders through its fitted
+      // camera: something other than the identity drove the match (a room's edges at a selfie's
+      // outline pulled the scale 12-20 % on the benchmark's selfies), and the evidence is not used.
+      const bool used = e.warp.head<2>().norm() < 0.05 * first.front.box &&
+                        std::abs(e.warp(2)) < 0.05 && std::abs(e.warp(3)) < 0.05;
+      a["used"] = used;
+      if (used) {
+        e.pull += e.information * fit.coefficients;
+        calibrated.appearance = e;
+        fit = fit_photo_shape(calibrated, first.front, side ? &first.side : nullptr, options,
+                              &front, side, &fit);
+      }
     }
   }
   // With the detector's response modelled, the residuals left are mostly its scatter: moved into

@@ -1051,6 +1051,7 @@ TEST_CASE("photo avatar as the command runs it: the painted template is lit as t
     const nlohmann::json& move = appearance["move"];
     CHECK(std::hypot(move[0].get<double>(), move[1].get<double>()) < 0.05 * a.front.box);
     CHECK(std::abs(move[2].get<double>()) < 0.05);
+    CHECK(appearance["used"].get<bool>());
     std::vector<double> levels;
     for (const char* side : {"front", "left", "right", "top", "bottom"})
       levels.push_back(grey(light[side]));
