@@ -694,7 +694,7 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
       a["move"] = {e.warp(0), e.warp(1), e.warp(2), e.warp(3)};
       // The photo moved by more than a few percent of the face against renders through its fitted
       // camera: something other than the identity drove the match (a room's edges at a selfie's
-      // outline pulled the scale 12-20 % on the benchmark's selfies), and the evidence is not used.
+      // outline pulled the scale 8-20 % on the benchmark's selfies), and the evidence is not used.
       const bool used = e.warp.head<2>().norm() < 0.05 * first.front.box &&
                         std::abs(e.warp(2)) < 0.05 && std::abs(e.warp(3)) < 0.05;
       a["used"] = used;
