@@ -1,8 +1,8 @@
 // The photo matched pixel by pixel to renders of the painted template (analysis by synthesis's
-// dense term, as a morphable model is fitted to an image: Blanz and Vetter 1999): the renders the
-// detector's response is measured on give, per identity mode, how the picture changes with the
-// mode; the photo's difference from the template's render, blurred and sampled over the face,
-// weighed against them is evidence on the identity beyond the 68 points. See
+// dense term, as a morphable model is fitted to an image: Blanz and Vetter 1999): renders of the
+// painted head at the fitted identity and moved along each identity mode give how the picture
+// changes with the mode; the photo's difference from the first render, blurred and sampled over
+// the face's skin, weighed against them is evidence on the identity beyond the 68 points. See
 // docs/algorithms.md#photo-avatar.
 #include <algorithm>
 #include <array>
@@ -119,9 +119,9 @@ IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::I
       if ((s.segment<3>(3 * i) - background).cwiseAbs().maxCoeff() > 0.02)
         head[static_cast<std::size_t>(i)] = 1;
   // The photo's pixels at the grid moved by a similarity about the box's centre (translation t,
-  // scale 1 + a, turn theta): the first fit's camera, the renders', is a few pixels off the
-  // photo's (it explained the detector's offsets in part). Solved with the identity, the per
-  // channel gain and offset (the fitted light's error), Tukey-weighted, by Gauss-Newton.
+  // scale 1 + a, turn theta): the fit's camera, the renders', carries dlib's mean offset from the
+  // template's landmark vertices, a few pixels. Solved with the identity, the per channel gain and
+  // offset (the fitted light's error), Tukey-weighted, by Gauss-Newton.
   Eigen::Vector4d warp = Eigen::Vector4d::Zero();  // tx, ty, a, theta
   const Eigen::Index k = modes + kNuisance;
   Eigen::MatrixXd A(3 * n, k);

@@ -96,7 +96,8 @@ nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoF
                           const render::Image& front);
 
 /// Where a front photo is compared with renders pixel by pixel (appearance_evidence): a grid over
-/// dlib's face box and around it, every 2 sigma pixels, read blurred by a Gaussian of sigma.
+/// dlib's face box and around it, every 2 sigma pixels, read blurred by a Gaussian of sigma; points
+/// within 0.15 IOD of dlib's brows, eyes, nostrils and lips are left out.
 struct AppearanceGrid {
   AppearanceGrid(const PhotoLandmarks& marks, double sigma_fraction);
   double sigma = 1;                     // pixels: sigma_fraction of the face box's width
@@ -112,7 +113,8 @@ struct AppearanceGrid {
 /// head's render, a per channel gain and offset and a small similarity move of the photo solved
 /// with it (Tukey-weighted), measures the identity. `background`: the renders' colour behind the
 /// head (0..1; points no render shows the head at are left out). `weight` scales the evidence
-/// (the blurred samples are not independent).
+/// (the blurred samples are not independent). The evidence is on the identity's change from the
+/// first shot's (its pull: for the change; add information times the shot's coefficients for c).
 IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::Image& photo,
                                      const std::vector<Eigen::VectorXd>& shots, double amplitude,
                                      const Eigen::Vector3d& background, double weight);

@@ -83,9 +83,11 @@ struct PhotoOptions {
   /// row and the upper halves of its sides), not the renderer's: dlib traces the jaw line
   /// against it.
   bool calibration_background = true;
-  /// Those photographs also measure the identity pixel by pixel (appearance_evidence): the front
-  /// photo blurred by a Gaussian of appearance_blur face-box widths, compared with the renders,
-  /// its evidence weighed by appearance_weight (0: not).
+  /// The fit after them is followed by a measure of the identity pixel by pixel: the painted head
+  /// at its identity and moved along each mode, photographed through its camera, against the
+  /// front photo, both blurred by a Gaussian of appearance_blur face-box widths
+  /// (appearance_evidence); the evidence, weighed by appearance_weight, joins a third fit unless
+  /// the photo had to move by more than 5 % of the face to match (0: not measured).
   double appearance_weight = 0.005;
   double appearance_blur = 0.08;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
