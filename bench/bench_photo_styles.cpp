@@ -20,11 +20,13 @@
 // --blur, --jpeg: the photos softened by a Gaussian and stored as JPEG, as a phone's camera does
 // (the fit's renders are neither); --exif: the photos carry their lens's 35-mm equivalent focal
 // length, whole millimetres, as phones and most cameras write it into EXIF.
-// --coefficients: each mixture's identity coefficients, true and fitted (front + side) with their
-// posterior standard deviations, and per style the fitted coefficients' errors in those standard
-// deviations (RMS z: about 1 when the fit's noise model holds, above 1 when the detector's offsets
-// it does not model pull the modes) and the mean standard deviation (with c ~ N(0, 1) as the
-// heads are drawn, about the error ratio a fit whose noise model holds can reach).
+// --coefficients: each mixture's identity coefficients, true and fitted (front + side, then front
+// only) with their posterior standard deviations, and per style the mean error per mode (a bias
+// the style's photos put on a mode: +1.1 on mode 7 by the window), the fitted coefficients'
+// errors in those standard deviations (RMS z: about 1 when the fit's noise model holds, above 1
+// when the detector's offsets it does not model pull the modes) and the mean standard deviation
+// (with c ~ N(0, 1) as the heads are drawn, about the error ratio a fit whose noise model holds can
+// reach).
 // --smile W: the heads smile in the photos, teeth showing (mouthSmileLeft/Right at W, jawOpen at
 // W / 4), and the error is measured against their neutral (the expressions the fit kept are
 // noted per head).
@@ -146,6 +148,15 @@ Fit run_fit(const rigbuild::PhotoTemplate& tmpl, const test::PhotoShoot& shoot, 
     f.sd = a.fit.coefficient_sd;
     for (const auto& n : a.report["notes"]) f.note += n.get<std::string>() + "; ";
     if (const std::string c = a.report["calibration_texture"]; !c.empty()) f.note += c;
+    // The photos' pixels (appearance_evidence): used or left out, and the photo's move in scale.
+    for (const auto& [key, view] : {std::pair{"appearance", "front"}, {"appearance_side", "side"}})
+      if (a.report.contains(key)) {
+        const nlohmann::json& r = a.report[key];
+        char buffer[64];
+        std::snprintf(buffer, sizeof buffer, " pixels %s %s (scale %+.1f %%)", view,
+                      r.value("used", false) ? "used" : "out", 100 * r["move"][2].get<double>());
+        f.note += buffer;
+      }
     for (const auto& [name, w] : a.report["expression"].items())
       f.note += " " + name + " " + std::to_string(w.get<double>()).substr(0, 4);
   } catch (const Error& e) {
@@ -161,6 +172,7 @@ struct Summary {
   std::vector<double> focal;       // fitted focal lengths (0: orthographic), front + side fits
   std::vector<double> z;           // front + side mixtures: (fitted - true) / posterior sd
   std::vector<double> sd;          // ... and those posterior sds
+  Eigen::VectorXd bias;            // ... the mean of fitted - true per mode
 
   void add(const Fit& a, const Fit& b, double before, double true_turn) {
     if (!a.ok || !b.ok) {
@@ -323,9 +335,17 @@ int main(int argc, char** argv) try {
           for (Eigen::Index k = 0; k < c.size(); ++k) {
             std::printf(" %+.2f / %+.2f (%.2f)", c(k), b.coefficients(k), b.sd(k));
             s.z.push_back((b.coefficients(k) - c(k)) / b.sd(k));
+            if (s.bias.size() != c.size()) s.bias = Eigen::VectorXd::Zero(c.size());
+            s.bias(k) += (b.coefficients(k) - c(k)) / static_cast<double>(args.seeds.size());
             s.sd.push_back(b.sd(k));
           }
           std::printf("\n");
+          if (a.ok) {
+            std::printf("    front only, true / fitted (sd):");
+            for (Eigen::Index k = 0; k < c.size(); ++k)
+              std::printf(" %+.2f / %+.2f (%.2f)", c(k), a.coefficients(k), a.sd(k));
+            std::printf("\n");
+          }
         }
       }
       std::printf(
@@ -340,6 +360,9 @@ int main(int argc, char** argv) try {
         std::printf(
             "  %s coefficients (front + side): RMS error / sd %.2f over %zu; mean sd %.2f\n", kind,
             std::sqrt(zz / static_cast<double>(s.z.size())), s.z.size(), mean(s.sd));
+        std::printf("  %s coefficients' mean error per mode (a style's bias):", kind);
+        for (Eigen::Index k = 0; k < s.bias.size(); ++k) std::printf(" %+.2f", s.bias(k));
+        std::printf("\n");
       }
       return s;
     };

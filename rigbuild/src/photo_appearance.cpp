@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "geometry.hpp"
@@ -20,29 +22,47 @@ constexpr int kNuisance = 10;  // per channel gain and offset (6), the photo's s
 // left out: a real face's features are not where the painted template's rule puts them (its brows
 // and lips follow the template's landmark vertices), and their colours are the painting's guess.
 constexpr double kFeatureGap = 0.15;
+// The photo farther than this (face box widths) from the rendered head shows what lies behind it
+// (AppearanceGrid::set_backdrop): the renders' outline moves by less along a mode.
+constexpr double kBackdropMargin = 0.1;
 
 // The image blurred by a Gaussian of `sigma` pixels at `at`, per channel, 0..1, and its
 // derivatives along x and y (derivative of Gaussian). Pixels outside the image are left out; the
 // kernel is sampled every sigma / 8 pixels, so that a point costs the same on a large face as on a
-// small one.
+// small one. With `behind`, a render's pixels of that colour are its background: `backdrop`'s
+// pixel is read there (when not empty), and `head` is the kernel's share of the others.
 struct Blurred {
   Eigen::Vector3d value = Eigen::Vector3d::Zero(), dx = Eigen::Vector3d::Zero(),
                   dy = Eigen::Vector3d::Zero();
+  double head = 1;
 };
 
-Blurred blurred(const render::Image& img, const Eigen::Vector2d& at, double sigma) {
+bool is_behind(const std::uint8_t* p, const std::array<int, 3>& behind) {
+  return std::abs(p[0] - behind[0]) <= 1 && std::abs(p[1] - behind[1]) <= 1 &&
+         std::abs(p[2] - behind[2]) <= 1;
+}
+
+Blurred blurred(const render::Image& img, const Eigen::Vector2d& at, double sigma,
+                const std::optional<std::array<int, 3>>& behind = std::nullopt,
+                const render::Image* backdrop = nullptr) {
   const int stride = std::max(1, static_cast<int>(sigma / 8));
   const int r = static_cast<int>(std::ceil(3 * sigma / stride)) * stride;
   const int cx = static_cast<int>(std::lround(at.x())), cy = static_cast<int>(std::lround(at.y()));
   Blurred out;
-  double total = 0;
+  double total = 0, head = 0;
   const double inv = 1 / (2 * sigma * sigma);
   for (int y = cy - r; y <= cy + r; y += stride)
     for (int x = cx - r; x <= cx + r; x += stride) {
       if (x < 0 || y < 0 || x >= img.width || y >= img.height) continue;
       const double ox = x - at.x(), oy = y - at.y();
       const double w = std::exp(-(ox * ox + oy * oy) * inv);
-      const auto* p = &img.pixels[(static_cast<std::size_t>(y) * img.width + x) * img.channels];
+      const std::size_t i = static_cast<std::size_t>(y) * img.width + x;
+      const auto* p = &img.pixels[i * img.channels];
+      if (behind && is_behind(p, *behind)) {
+        if (backdrop) p = &backdrop->pixels[i * backdrop->channels];
+      } else {
+        head += w;
+      }
       const Eigen::Vector3d c(p[0], p[1], p[2]);
       out.value += w * c;
       out.dx += w * ox / (sigma * sigma) * c;
@@ -53,6 +73,7 @@ Blurred blurred(const render::Image& img, const Eigen::Vector2d& at, double sigm
   out.value /= 255 * total;
   out.dx /= 255 * total;
   out.dy /= 255 * total;
+  out.head = behind ? head / total : 1.0;
   return out;
 }
 
@@ -61,6 +82,7 @@ Blurred blurred(const render::Image& img, const Eigen::Vector2d& at, double sigm
 AppearanceGrid::AppearanceGrid(const PhotoLandmarks& marks, double sigma_fraction) {
   const double width = marks.rect[2] - marks.rect[0], height = marks.rect[3] - marks.rect[1];
   sigma = std::max(1.0, sigma_fraction * width);
+  box = width;
   centre =
       Eigen::Vector2d((marks.rect[0] + marks.rect[2]) / 2, (marks.rect[1] + marks.rect[3]) / 2);
   // dlib's box spans the brows to the chin and cheek to cheek: a fifth of it more each way takes
@@ -91,33 +113,116 @@ AppearanceGrid::AppearanceGrid(const PhotoLandmarks& marks, double sigma_fractio
     }
 }
 
-Eigen::VectorXd AppearanceGrid::read(const render::Image& render) const {
-  Eigen::VectorXd v(3 * static_cast<Eigen::Index>(points.size()));
-  for (std::size_t i = 0; i < points.size(); ++i)
-    v.segment<3>(3 * static_cast<Eigen::Index>(i)) = blurred(render, points[i], sigma).value;
-  return v;
+void AppearanceGrid::set_backdrop(const render::Image& photo, const render::Image& shot) {
+  behind = {shot.at(0, 0, 0), shot.at(0, 0, 1), shot.at(0, 0, 2)};
+  const int w = shot.width, h = shot.height;
+  const auto n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  // The distance from the head (chamfer 3-4, in thirds of a pixel).
+  constexpr int kFar = 1 << 28;
+  std::vector<int> d(n);
+  for (std::size_t i = 0; i < n; ++i)
+    d[i] = is_behind(&shot.pixels[i * static_cast<std::size_t>(shot.channels)], *behind) ? kFar : 0;
+  const auto at = [&](int x, int y) -> int& {
+    return d[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) +
+             static_cast<std::size_t>(x)];
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      int& v = at(x, y);
+      if (x > 0) v = std::min(v, at(x - 1, y) + 3);
+      if (y > 0) {
+        v = std::min(v, at(x, y - 1) + 3);
+        if (x > 0) v = std::min(v, at(x - 1, y - 1) + 4);
+        if (x + 1 < w) v = std::min(v, at(x + 1, y - 1) + 4);
+      }
+    }
+  for (int y = h - 1; y >= 0; --y)
+    for (int x = w - 1; x >= 0; --x) {
+      int& v = at(x, y);
+      if (x + 1 < w) v = std::min(v, at(x + 1, y) + 3);
+      if (y + 1 < h) {
+        v = std::min(v, at(x, y + 1) + 3);
+        if (x + 1 < w) v = std::min(v, at(x + 1, y + 1) + 4);
+        if (x > 0) v = std::min(v, at(x - 1, y + 1) + 4);
+      }
+    }
+  // The photo's pixels farther than kBackdropMargin of the face box from the head are what lies
+  // behind it; nearer, they are filled from those (pull-push: each level's known pixels averaged
+  // 2 x 2 into the next, unknown ones taking their parent's average on the way back).
+  const int margin = static_cast<int>(3 * kBackdropMargin * box);
+  struct Level {
+    int w, h;
+    std::vector<Eigen::Vector4d> sum;  // colour times weight, weight
+  };
+  std::vector<Level> levels{{w, h, std::vector<Eigen::Vector4d>(n, Eigen::Vector4d::Zero())}};
+  for (std::size_t i = 0; i < n; ++i)
+    if (d[i] > margin) {
+      const auto* p = &photo.pixels[i * static_cast<std::size_t>(photo.channels)];
+      levels[0].sum[i] = Eigen::Vector4d(p[0], p[1], p[2], 1);
+    }
+  while (levels.back().w > 1 || levels.back().h > 1) {
+    const Level& f = levels.back();
+    Level c{(f.w + 1) / 2, (f.h + 1) / 2, {}};
+    c.sum.assign(static_cast<std::size_t>(c.w) * static_cast<std::size_t>(c.h),
+                 Eigen::Vector4d::Zero());
+    for (int y = 0; y < f.h; ++y)
+      for (int x = 0; x < f.w; ++x)
+        c.sum[static_cast<std::size_t>(y / 2 * c.w + x / 2)] +=
+            f.sum[static_cast<std::size_t>(y * f.w + x)];
+    levels.push_back(std::move(c));
+  }
+  for (std::size_t l = levels.size() - 1; l-- > 0;) {
+    Level& f = levels[l];
+    const Level& c = levels[l + 1];
+    for (int y = 0; y < f.h; ++y)
+      for (int x = 0; x < f.w; ++x) {
+        Eigen::Vector4d& v = f.sum[static_cast<std::size_t>(y * f.w + x)];
+        const Eigen::Vector4d& parent = c.sum[static_cast<std::size_t>(y / 2 * c.w + x / 2)];
+        if (v(3) <= 0 && parent(3) > 0) v = parent / parent(3);
+      }
+  }
+  backdrop = photo;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector4d& v = levels[0].sum[i];
+    if (v(3) <= 0) continue;
+    for (int k = 0; k < 3; ++k)
+      backdrop
+          .pixels[i * static_cast<std::size_t>(backdrop.channels) + static_cast<std::size_t>(k)] =
+          static_cast<std::uint8_t>(std::clamp(std::lround(v(k) / v(3)), 0L, 255L));
+  }
+}
+
+AppearanceShot AppearanceGrid::read(const render::Image& render) const {
+  const auto n = static_cast<Eigen::Index>(points.size());
+  AppearanceShot out{Eigen::VectorXd(3 * n), Eigen::VectorXd(n)};
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Blurred b = blurred(render, points[static_cast<std::size_t>(i)], sigma, behind,
+                              backdrop.pixels.empty() ? nullptr : &backdrop);
+    out.colour.segment<3>(3 * i) = b.value;
+    out.head(i) = b.head;
+  }
+  return out;
 }
 
 IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::Image& photo,
-                                     const std::vector<Eigen::VectorXd>& shots, double amplitude,
-                                     const Eigen::Vector3d& background, double weight) {
+                                     const std::vector<AppearanceShot>& shots, double amplitude,
+                                     double weight) {
   IdentityEvidence out;
   const auto modes = static_cast<Eigen::Index>((shots.size() - 1) / 2);
   const auto n = static_cast<Eigen::Index>(grid.points.size());
   if (modes < 1 || n < 16) return out;
-  const Eigen::VectorXd& base = shots[0];
+  const Eigen::VectorXd& base = shots[0].colour;
   // Each mode's change of the picture per unit (central difference).
   Eigen::MatrixXd J(3 * n, modes);
   for (Eigen::Index m = 0; m < modes; ++m)
-    J.col(m) =
-        (shots[static_cast<std::size_t>(1 + 2 * m)] - shots[static_cast<std::size_t>(2 + 2 * m)]) /
-        (2 * amplitude);
+    J.col(m) = (shots[static_cast<std::size_t>(1 + 2 * m)].colour -
+                shots[static_cast<std::size_t>(2 + 2 * m)].colour) /
+               (2 * amplitude);
   // Where a render shows the head (the background there in none of them: only the photo's room).
   std::vector<char> head(static_cast<std::size_t>(n), 0);
   for (Eigen::Index i = 0; i < n; ++i)
-    for (const Eigen::VectorXd& s : shots)
-      if ((s.segment<3>(3 * i) - background).cwiseAbs().maxCoeff() > 0.02)
-        head[static_cast<std::size_t>(i)] = 1;
+    for (const AppearanceShot& s : shots)
+      if (s.head(i) > 0.02) head[static_cast<std::size_t>(i)] = 1;
   // The photo's pixels at the grid moved by a similarity about the box's centre (translation t,
   // scale 1 + a, turn theta): the fit's camera, the renders', carries dlib's mean offset from the
   // template's landmark vertices, a few pixels. Solved with the identity, the per channel gain and
@@ -130,6 +235,7 @@ IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::I
     if (!head[static_cast<std::size_t>(i)]) w.segment<3>(3 * i).setZero();
   double scale = 0;
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k);
+
   for (int round = 0; round < 8; ++round) {
     const double cs = std::cos(warp(3)), sn = std::sin(warp(3));
     A.setZero();

@@ -1,8 +1,10 @@
 #pragma once
 // Private pieces of the photo avatar (docs/algorithms.md#photo-avatar): the camera fit, the RBF
 // calibration and the depth buffer, shared by photo_*.cpp and the tests of rigbuild's stages.
+#include <array>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "facecast/rigbuild/photo_avatar.hpp"
@@ -95,28 +97,42 @@ rig::Rig textured_head(const PhotoTemplate& tmpl, const rig::Positions& position
 nlohmann::json paint_eyes(rig::Rig& rig, const PhotoTemplate& tmpl, const PhotoFit& fit,
                           const render::Image& front);
 
-/// Where a front photo is compared with renders pixel by pixel (appearance_evidence): a grid over
+/// A render read at an AppearanceGrid's points: 3 values per point (0..1), and the share of each
+/// point's blur that shows the head.
+struct AppearanceShot {
+  Eigen::VectorXd colour, head;
+};
+
+/// Where a photo is compared with renders pixel by pixel (appearance_evidence): a grid over
 /// dlib's face box and around it, every 2 sigma pixels, read blurred by a Gaussian of sigma; points
 /// within 0.15 IOD of dlib's brows, eyes, nostrils and lips are left out.
 struct AppearanceGrid {
   AppearanceGrid(const PhotoLandmarks& marks, double sigma_fraction);
   double sigma = 1;                     // pixels: sigma_fraction of the face box's width
+  double box = 1;                       // the face box's width, pixels
   Eigen::Vector2d centre;               // the face box's centre
   std::vector<Eigen::Vector2d> points;  // photo pixels
-  /// An image (the photo's size) blurred at the points: 3 values per point, 0..1.
-  Eigen::VectorXd read(const render::Image& image) const;
+  /// The renders' background colour (their pixels of it are not the head) and what the photo
+  /// shows behind the head in its place (empty: the renders' own pixels).
+  std::optional<std::array<int, 3>> behind;
+  render::Image backdrop;
+  /// The renders' background: `shot`'s corner pixel's colour; the backdrop: the photo away from
+  /// the head `shot` shows, filled in towards it and under it from there.
+  void set_backdrop(const render::Image& photo, const render::Image& shot);
+  /// A render (the photo's size) at the points, its background replaced by the backdrop.
+  AppearanceShot read(const render::Image& render) const;
 };
 
 /// The photo matched to renders of a head in its colours and light through its camera: `shots`
 /// (AppearanceGrid::read) of the head, then moved by +amplitude and -amplitude along each identity
 /// mode in turn. Their differences give how the picture changes per mode; the photo less the
 /// head's render, a per channel gain and offset and a small similarity move of the photo solved
-/// with it (Tukey-weighted), measures the identity. `background`: the renders' colour behind the
-/// head (0..1; points no render shows the head at are left out). `weight` scales the evidence
-/// (the blurred samples are not independent). The evidence is on the identity's change from the
-/// first shot's (its pull: for the change; add information times the shot's coefficients for c).
+/// with it (Tukey-weighted), measures the identity. Points no render shows the head at are left
+/// out. `weight` scales the evidence (the blurred samples are not independent). The evidence is on
+/// the identity's change from the first shot's (its pull: for the change; add information times
+/// the shot's coefficients for c).
 IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::Image& photo,
-                                     const std::vector<Eigen::VectorXd>& shots, double amplitude,
-                                     const Eigen::Vector3d& background, double weight);
+                                     const std::vector<AppearanceShot>& shots, double amplitude,
+                                     double weight);
 
 }  // namespace facecast::rigbuild

@@ -2,10 +2,12 @@
 // identity mixtures, given a skin-like texture and rendered from the front and the side.
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <iterator>
 #include <random>
@@ -93,7 +95,7 @@ TEST_CASE("appearance evidence: a photo's change along patterns gives back their
   const AppearanceGrid grid(marks, 0.04);
   REQUIRE(grid.points.size() > 100);
   const double step = 1.0;
-  std::vector<Eigen::VectorXd> shots{grid.read(picture({0, 0, 0}, 1, {0, 0}))};
+  std::vector<AppearanceShot> shots{grid.read(picture({0, 0, 0}, 1, {0, 0}))};
   for (int m = 0; m < 3; ++m)
     for (const double sign : {1.0, -1.0}) {
       std::vector<double> c(3, 0.0);
@@ -102,8 +104,7 @@ TEST_CASE("appearance evidence: a photo's change along patterns gives back their
     }
   const std::vector<double> truth{0.8, -1.2, 0.5};
   const render::Image photo = picture(truth, 1.05, {1.5, -1.0});
-  const IdentityEvidence e =
-      appearance_evidence(grid, photo, shots, step, Eigen::Vector3d::Constant(-1), 1.0);
+  const IdentityEvidence e = appearance_evidence(grid, photo, shots, step, 1.0);
   REQUIRE(e.information.rows() == 3);
   const Eigen::VectorXd mean = (e.information + Eigen::Matrix3d::Identity()).ldlt().solve(e.pull);
   for (int m = 0; m < 3; ++m)
@@ -112,9 +113,58 @@ TEST_CASE("appearance evidence: a photo's change along patterns gives back their
   CHECK(e.warp(1) == Approx(-1.0).margin(0.25));
   CHECK(e.samples == static_cast<int>(grid.points.size()));
   // The picture itself: nothing to explain, no pull.
-  const IdentityEvidence same = appearance_evidence(grid, picture({0, 0, 0}, 1, {0, 0}), shots,
-                                                    step, Eigen::Vector3d::Constant(-1), 1.0);
+  const IdentityEvidence same =
+      appearance_evidence(grid, picture({0, 0, 0}, 1, {0, 0}), shots, step, 1.0);
   CHECK((same.information + Eigen::Matrix3d::Identity()).ldlt().solve(same.pull).norm() < 0.05);
+}
+
+TEST_CASE("appearance backdrop: the renders' background becomes the photo's room", "[photo]") {
+  // A render: a skin disc on the renderer's green; the photo: the same disc, a little larger,
+  // before a room dark on the left and light on the right.
+  constexpr int kSize = 120;
+  const auto image = [](const std::function<std::array<int, 3>(int, int)>& colour) {
+    render::Image img{kSize, kSize, 3, std::vector<std::uint8_t>(kSize * kSize * 3)};
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x)
+        for (int k = 0; k < 3; ++k)
+          img.pixels[(static_cast<std::size_t>(y) * kSize + x) * 3 + k] =
+              static_cast<std::uint8_t>(colour(x, y)[static_cast<std::size_t>(k)]);
+    return img;
+  };
+  const auto inside = [](int x, int y, int r) {
+    return (x - 60) * (x - 60) + (y - 60) * (y - 60) <= r * r;
+  };
+  const std::array<int, 3> skin{200, 150, 120}, green{10, 200, 30};
+  const render::Image shot = image([&](int x, int y) { return inside(x, y, 25) ? skin : green; });
+  const render::Image photo = image([&](int x, int y) {
+    if (inside(x, y, 27)) return skin;
+    return x < 60 ? std::array<int, 3>{50, 50, 50} : std::array<int, 3>{240, 240, 240};
+  });
+  PhotoLandmarks marks;
+  marks.width = marks.height = kSize;
+  marks.rect = {35, 35, 85, 85};
+  for (std::size_t k = 0; k < kLandmarkCount; ++k) marks.points[k] = {-1000.0 - k, -1000.0};
+  AppearanceGrid grid(marks, 0.04);
+  grid.set_backdrop(photo, shot);
+  REQUIRE(grid.behind);
+  CHECK((*grid.behind == green));
+  // Away from the head, the photo itself; under it, the room's colours carried in (grey, never
+  // the photo's skin).
+  CHECK(grid.backdrop.at(3, 60, 0) == 50);
+  CHECK(grid.backdrop.at(116, 60, 0) == 240);
+  for (const auto& [x, y] : {std::pair{60, 60}, {60, 34}, {84, 60}}) {
+    const int r = grid.backdrop.at(x, y, 0), g = grid.backdrop.at(x, y, 1),
+              b = grid.backdrop.at(x, y, 2);
+    CHECK(r == g);
+    CHECK(g == b);
+  }
+  // A render read: the head where the disc is, the room's colour beside it.
+  grid.points = {{60, 60}, {8, 60}, {112, 60}};
+  const AppearanceShot read = grid.read(shot);
+  CHECK(read.head(0) == Approx(1.0));
+  CHECK(read.head(1) == Approx(0.0));
+  CHECK(read.colour(3) == Approx(50 / 255.0).margin(1e-6));
+  CHECK(read.colour(6) == Approx(240 / 255.0).margin(1e-6));
 }
 
 TEST_CASE("RBF calibration moves the centres exactly and carries rigid groups", "[photo]") {
@@ -428,6 +478,7 @@ TEST_CASE("configs/rigbuild/photo.json mirrors PhotoOptions' defaults", "[photo]
   CHECK(c.calibration_background == d.calibration_background);
   CHECK(c.appearance_weight == d.appearance_weight);
   CHECK(c.appearance_blur == d.appearance_blur);
+  CHECK(c.appearance_side == d.appearance_side);
   CHECK(c.side_noise == d.side_noise);
   CHECK(c.estimate_side_noise == d.estimate_side_noise);
   CHECK(c.side_turn == d.side_turn);

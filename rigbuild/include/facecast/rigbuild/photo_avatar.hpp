@@ -84,12 +84,14 @@ struct PhotoOptions {
   /// against it.
   bool calibration_background = true;
   /// The fit after them is followed by a measure of the identity pixel by pixel: the painted head
-  /// at its identity and moved along each mode, photographed through its camera, against the
-  /// front photo, both blurred by a Gaussian of appearance_blur face-box widths
-  /// (appearance_evidence); the evidence, weighed by appearance_weight, joins a third fit unless
-  /// the photo had to move by more than 5 % of the face to match (0: not measured).
+  /// at its identity and moved along each mode, photographed through its camera before what the
+  /// photo shows behind the head, against the front photo (and the side photo's, through its
+  /// camera, with appearance_side), both blurred by a Gaussian of appearance_blur face-box widths
+  /// (appearance_evidence); each photo's evidence, weighed by appearance_weight, joins a third
+  /// fit unless the photo had to move by more than 5 % of the face to match (0: not measured).
   double appearance_weight = 0.005;
   double appearance_blur = 0.08;
+  bool appearance_side = true;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
