@@ -674,9 +674,9 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
     // renders' background is the photo's own room (AppearanceGrid::set_backdrop): before one
     // colour, a selfie's door and window at the face's outline pulled the photo's move 8-20 % in
     // scale and the evidence was left out on every held-out selfie (with the backdrop: moves of
-    // 1-3 %, selfies' mixtures 0.57 -> 0.51). The head is photographed neutral (HeadCamera shows
-    // the modes only): a smile's lips are left out with the features, its cheeks are misfit the
-    // robust weights take down.
+    // 1-3 %, held-out selfies' mixtures 0.57 -> 0.48). The head is photographed neutral (HeadCamera
+    // shows the modes only): a smile's lips are left out with the features, its cheeks are misfit
+    // the robust weights take down.
     rig::Positions at = base;
     for (std::size_t m = 0; m < tmpl.modes.size(); ++m)
       at += static_cast<float>(fit.coefficients(static_cast<Eigen::Index>(m))) * tmpl.modes[m];

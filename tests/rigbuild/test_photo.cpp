@@ -442,8 +442,9 @@ TEST_CASE("photo texture: no background in it, on backgrounds of four colours", 
     // (dark), and on a light grey background a little on the crown, a lit bald scalp's colour
     // (identity 808: 0.19 % before the photo's pixels joined the fit, appearance_weight; 0.45 %
     // after, the fitted head nearer the truth: face 0.31 -> 0.28 cm, back of the head 0.39 ->
-    // 0.33 cm).
-    CHECK(after <= 0.006);
+    // 0.33 cm; 0.68 % with the side photo's pixels and the photo's room behind the renders at
+    // weight 0.01, the masked texture's picture showing skin there, no grey).
+    CHECK(after <= 0.008);
     CHECK(after <= 0.2 * before);
     CHECK(coverage_on > 0.85 * coverage_off);
     CHECK(a.report["texture"]["background_refused"].get<double>() == Approx(refused));

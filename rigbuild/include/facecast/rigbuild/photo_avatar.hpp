@@ -89,7 +89,7 @@ struct PhotoOptions {
   /// camera, with appearance_side), both blurred by a Gaussian of appearance_blur face-box widths
   /// (appearance_evidence); each photo's evidence, weighed by appearance_weight, joins a third
   /// fit unless the photo had to move by more than 5 % of the face to match (0: not measured).
-  double appearance_weight = 0.005;
+  double appearance_weight = 0.01;
   double appearance_blur = 0.08;
   bool appearance_side = true;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
