@@ -147,49 +147,24 @@ void AppearanceGrid::set_backdrop(const render::Image& photo, const render::Imag
       }
     }
   // The photo's pixels farther than kBackdropMargin of the face box from the head are what lies
-  // behind it; nearer, they are filled from those (pull-push: each level's known pixels averaged
-  // 2 x 2 into the next, unknown ones taking their parent's average on the way back).
+  // behind it; nearer, and under the head, they take the nearest of those's colour.
   const int margin = static_cast<int>(3 * kBackdropMargin * box);
-  struct Level {
-    int w, h;
-    std::vector<Eigen::Vector4d> sum;  // colour times weight, weight
-  };
-  std::vector<Level> levels{{w, h, std::vector<Eigen::Vector4d>(n, Eigen::Vector4d::Zero())}};
+  std::vector<Eigen::Vector3f> colour(n, Eigen::Vector3f::Zero());
+  std::vector<char> known(n, 0);
+  const auto channels = static_cast<std::size_t>(photo.channels);
   for (std::size_t i = 0; i < n; ++i)
     if (d[i] > margin) {
-      const auto* p = &photo.pixels[i * static_cast<std::size_t>(photo.channels)];
-      levels[0].sum[i] = Eigen::Vector4d(p[0], p[1], p[2], 1);
+      const auto* p = &photo.pixels[i * channels];
+      colour[i] = Eigen::Vector3f(p[0], p[1], p[2]);
+      known[i] = 1;
     }
-  while (levels.back().w > 1 || levels.back().h > 1) {
-    const Level& f = levels.back();
-    Level c{(f.w + 1) / 2, (f.h + 1) / 2, {}};
-    c.sum.assign(static_cast<std::size_t>(c.w) * static_cast<std::size_t>(c.h),
-                 Eigen::Vector4d::Zero());
-    for (int y = 0; y < f.h; ++y)
-      for (int x = 0; x < f.w; ++x)
-        c.sum[static_cast<std::size_t>(y / 2 * c.w + x / 2)] +=
-            f.sum[static_cast<std::size_t>(y * f.w + x)];
-    levels.push_back(std::move(c));
-  }
-  for (std::size_t l = levels.size() - 1; l-- > 0;) {
-    Level& f = levels[l];
-    const Level& c = levels[l + 1];
-    for (int y = 0; y < f.h; ++y)
-      for (int x = 0; x < f.w; ++x) {
-        Eigen::Vector4d& v = f.sum[static_cast<std::size_t>(y * f.w + x)];
-        const Eigen::Vector4d& parent = c.sum[static_cast<std::size_t>(y / 2 * c.w + x / 2)];
-        if (v(3) <= 0 && parent(3) > 0) v = parent / parent(3);
-      }
-  }
+  fill_unseen(colour, known, w, h);
   backdrop = photo;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector4d& v = levels[0].sum[i];
-    if (v(3) <= 0) continue;
-    for (int k = 0; k < 3; ++k)
-      backdrop
-          .pixels[i * static_cast<std::size_t>(backdrop.channels) + static_cast<std::size_t>(k)] =
-          static_cast<std::uint8_t>(std::clamp(std::lround(v(k) / v(3)), 0L, 255L));
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (known[i])
+      for (std::size_t k = 0; k < 3; ++k)
+        backdrop.pixels[i * channels + k] =
+            static_cast<std::uint8_t>(colour[i](static_cast<Eigen::Index>(k)));
 }
 
 AppearanceShot AppearanceGrid::read(const render::Image& render) const {
@@ -235,7 +210,6 @@ IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::I
     if (!head[static_cast<std::size_t>(i)]) w.segment<3>(3 * i).setZero();
   double scale = 0;
   Eigen::VectorXd x = Eigen::VectorXd::Zero(k);
-
   for (int round = 0; round < 8; ++round) {
     const double cs = std::cos(warp(3)), sn = std::sin(warp(3));
     A.setZero();

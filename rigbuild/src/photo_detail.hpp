@@ -48,6 +48,10 @@ struct DepthBuffer {
   std::ptrdiff_t pixel(const Eigen::Vector2d& at) const;  // index of the nearest pixel, -1: outside
 };
 
+/// Pixels of a w x h image (rows from the top) not `done` take the colour of the nearest one that
+/// is (breadth-first, 4-connected), and become done.
+void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, int w, int h);
+
 /// Calls f(texel index, surface point, unit normal) for every texel of a w x h texture (u scaled
 /// by 1 / `tiles`) that a skin triangle of `positions` covers.
 void for_each_skin_texel(

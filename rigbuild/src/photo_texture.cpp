@@ -218,7 +218,8 @@ void match_side_colours(Texels& t) {
   }
 }
 
-// Texels without colour take the nearest coloured texel's (breadth-first over the texture).
+}  // namespace
+
 void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, int w, int h) {
   std::deque<int> queue;
   for (int i = 0; i < w * h; ++i)
@@ -237,8 +238,6 @@ void fill_unseen(std::vector<Eigen::Vector3f>& colour, std::vector<char>& done, 
     }
   }
 }
-
-}  // namespace
 
 DepthBuffer::DepthBuffer(const rig::Positions& p, const Triangles& tri, const PhotoCamera& cam,
                          int w_, int h_)
