@@ -12,6 +12,8 @@
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
 //        [--response STYLE,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]
 //        [--exif] [--coefficients] [--smile WEIGHT]
+// --styles: the benchmark's styles (all three by default) or the training styles pale, lamp, phone,
+// deep (photo_support.hpp), which no option was chosen on either.
 // --response: the detector's response measured on the template photographed in the named styles
 // (the benchmark's, or photo_support.hpp's training styles pale, lamp, phone, deep), averaged over
 // them and used by every fit (analysis by synthesis then skipped): the route of a table measured
@@ -274,7 +276,12 @@ int main(int argc, char** argv) try {
     std::printf("detector response measured in %d styles (%.0f s)\n", n,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
-  for (const auto& [named, turn] : styles) {
+  // --styles may also name the training styles, which no option was chosen on.
+  auto named_styles = styles;
+  if (!args.styles.empty())
+    for (const auto& t : test::training_photo_styles(dir / "room_background.png"))
+      named_styles.push_back(t);
+  for (const auto& [named, turn] : named_styles) {
     if (!args.styles.empty() &&
         std::find(args.styles.begin(), args.styles.end(), named.name) == args.styles.end())
       continue;
