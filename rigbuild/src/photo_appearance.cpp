@@ -147,7 +147,7 @@ void AppearanceGrid::set_backdrop(const render::Image& photo, const render::Imag
       }
     }
   // The photo's pixels farther than kBackdropMargin of the face box from the head are what lies
-  // behind it; nearer, and under the head, they take the nearest of those's colour.
+  // behind it; nearer, and under the head, they take the colour of the nearest such pixel.
   const int margin = static_cast<int>(3 * kBackdropMargin * box);
   std::vector<Eigen::Vector3f> colour(n, Eigen::Vector3f::Zero());
   std::vector<char> known(n, 0);
