@@ -833,8 +833,19 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
         measured[first + j][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
     });
   }
-  tmpl.bias = measured[0][0];
-  tmpl.side_bias = measured[0][1];
+  // The offsets' model, bias + sum_m mode_bias_m c_m, fitted by least squares to the heads at
+  // c = 0 and c = +-amplitude e_m: their c sum to 0, so the bias is the offsets' mean over all of
+  // them and mode_bias_m the central difference. The mean over 21 photographs of the painted
+  // head, not the one at the template alone, leaves less of one render's chance in the convention
+  // (development heads, front + side mixtures: studio 0.36 -> 0.34, window 0.52 -> 0.50;
+  // docs/benchmarks.md#photo-avatar).
+  tmpl.bias = zero_landmark_vectors();
+  tmpl.side_bias = zero_landmark_vectors();
+  for (const auto& m : measured)
+    for (std::size_t k = 0; k < kLandmarkCount; ++k) {
+      tmpl.bias[k] += m[0][k] / static_cast<double>(measured.size());
+      tmpl.side_bias[k] += m[1][k] / static_cast<double>(measured.size());
+    }
   tmpl.mode_bias.assign(tmpl.modes.size(), zero_landmark_vectors());
   tmpl.side_mode_bias = tmpl.mode_bias;
   for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {

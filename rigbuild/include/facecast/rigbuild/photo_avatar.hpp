@@ -313,14 +313,14 @@ std::array<Eigen::Vector3d, kLandmarkCount> measure_landmark_bias(const PhotoTem
 using PhotoShootFn =
     std::function<std::pair<render::Image, render::Image>(const rig::Positions& positions)>;
 
-/// The detector's convention and how it changes with the identity, on a kind of photo: the bias
-/// (measure_landmark_bias on the template, front and side photo each alone) and, per identity mode,
-/// the bias's change per unit of the mode (the template moved by +-`amplitude` of the mode,
-/// photographed, measured; central difference). Stored in PhotoTemplate::bias, ::mode_bias and the
-/// side_* ones. The detector regresses towards its mean face, so it sees a fraction of a shape
-/// change; the fit then models what it sees.
-/// `detect` (optional) finds the points on a shot (`side`: the side one); by default
-/// detect_photo_landmarks.
+/// The detector's convention and how it changes with the identity, on a kind of photo: the
+/// template and the template moved by +-`amplitude` of each identity mode are photographed and
+/// measured (measure_landmark_bias, front and side photo each alone); the bias is the offsets'
+/// mean over all those heads and, per mode, its change per unit of the mode the central
+/// difference (the least-squares fit of offset = bias + sum_m mode_bias_m c_m to them). Stored in
+/// PhotoTemplate::bias, ::mode_bias and the side_* ones. The detector regresses towards its mean
+/// face, so it sees a fraction of a shape change; the fit then models what it sees. `detect`
+/// (optional) finds the points on a shot (`side`: the side one); by default detect_photo_landmarks.
 using PhotoDetectFn = std::function<PhotoLandmarks(const render::Image& shot, bool side)>;
 void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
                                const PhotoOptions& options, double amplitude = 2.0,
