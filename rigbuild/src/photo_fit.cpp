@@ -835,10 +835,10 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
   }
   // The offsets' model, bias + sum_m mode_bias_m c_m, fitted by least squares to the heads at
   // c = 0 and c = +-amplitude e_m: their c sum to 0, so the bias is the offsets' mean over all of
-  // them and mode_bias_m the central difference. The mean over 21 photographs of the painted
-  // head, not the one at the template alone, leaves less of one render's chance in the convention
-  // (development heads, front + side mixtures: studio 0.36 -> 0.34, window 0.52 -> 0.50;
-  // docs/benchmarks.md#photo-avatar).
+  // them and mode_bias_m the central difference. The mean over all the photographs (21 with ten
+  // modes), not the template's alone, leaves less of one render's chance in the convention
+  // (analysis by synthesis on development heads, front + side mixtures: studio 0.36 -> 0.34,
+  // window 0.52 -> 0.50; docs/benchmarks.md#photo-avatar).
   tmpl.bias = zero_landmark_vectors();
   tmpl.side_bias = zero_landmark_vectors();
   for (const auto& m : measured)
