@@ -11,6 +11,7 @@
 #include <optional>
 #include <vector>
 
+#include "facecast/rig/mesh.hpp"
 #include "geometry.hpp"
 #include "photo_detail.hpp"
 
@@ -262,6 +263,315 @@ IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::I
   out.samples = static_cast<int>(std::count(head.begin(), head.end(), 1));
   out.noise = scale;
   out.warp = warp;
+  return out;
+}
+
+namespace {
+
+// A photo in linear light, 0..1 per channel (its sRGB encoding undone: a highlight adds to the
+// skin's colour there, not after the encoding).
+struct LinearPhoto {
+  int width = 0, height = 0;
+  std::vector<Eigen::Vector3f> rgb;
+  explicit LinearPhoto(const render::Image& img) : width(img.width), height(img.height) {
+    rgb.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+    const auto channels = static_cast<std::size_t>(img.channels);
+    for (std::size_t i = 0; i < rgb.size(); ++i)
+      for (std::size_t c = 0; c < 3; ++c)
+        rgb[i](static_cast<Eigen::Index>(c)) =
+            rig::srgb_to_linear(img.pixels[i * channels + c] / 255.0f);
+  }
+  Eigen::Vector3d bilinear(double x, double y) const {
+    x = std::clamp(x, 0.0, width - 1.001);
+    y = std::clamp(y, 0.0, height - 1.001);
+    const int bx = static_cast<int>(x), by = static_cast<int>(y);
+    const double fx = x - bx, fy = y - by;
+    const auto at = [&](int dx, int dy) -> Eigen::Vector3d {
+      return rgb[static_cast<std::size_t>(by + dy) * static_cast<std::size_t>(width) +
+                 static_cast<std::size_t>(bx + dx)]
+          .cast<double>();
+    };
+    return (1 - fy) * ((1 - fx) * at(0, 0) + fx * at(1, 0)) +
+           fy * ((1 - fx) * at(0, 1) + fx * at(1, 1));
+  }
+  // Blurred by a Gaussian of sigma pixels carried by M (the front photo's pixels to this photo's
+  // over the same patch of skin), and its derivatives along x and y (central differences).
+  Blurred read(const Eigen::Vector2d& q, const Eigen::Matrix2d& M, double sigma) const {
+    const double stride = std::max(1.0, sigma / 3);
+    const int r = static_cast<int>(std::ceil(3 * sigma / stride));
+    const auto value = [&](const Eigen::Vector2d& c) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      double total = 0;
+      for (int j = -r; j <= r; ++j)
+        for (int i = -r; i <= r; ++i) {
+          const Eigen::Vector2d u(i * stride, j * stride);
+          const double w = std::exp(-u.squaredNorm() / (2 * sigma * sigma));
+          const Eigen::Vector2d o = c + M * u;
+          sum += w * bilinear(o.x(), o.y());
+          total += w;
+        }
+      return Eigen::Vector3d(sum / total);
+    };
+    Blurred b;
+    b.value = value(q);
+    b.dx = value(q + Eigen::Vector2d(0.5, 0)) - value(q - Eigen::Vector2d(0.5, 0));
+    b.dy = value(q + Eigen::Vector2d(0, 0.5)) - value(q - Eigen::Vector2d(0, 0.5));
+    return b;
+  }
+};
+
+Eigen::Matrix<double, 2, 3> image_jacobian(const PhotoCamera& cam, const Eigen::Vector3d& p) {
+  Eigen::Matrix<double, 2, 3> J = cam.jacobian(p);
+  J.row(1) = -J.row(1);  // pixels' y down
+  return J;
+}
+
+// stereo_evidence's points: the head's skin seen by both photos, facing both cameras, over
+// dlib's face box and around it as AppearanceGrid's; one vertex per 2 sigma cell of the front
+// photo (the one nearest the cell's centre), so that the blurred samples overlap little.
+std::vector<int> stereo_points(const PhotoTemplate& tmpl, const rig::Positions& at,
+                               const rig::Positions& normals, const PhotoLandmarks& marks,
+                               const render::Image& front, const PhotoCamera& front_camera,
+                               const render::Image& side, const PhotoCamera& side_camera,
+                               double sigma) {
+  const double width = marks.rect[2] - marks.rect[0], height = marks.rect[3] - marks.rect[1];
+  const double x0 = marks.rect[0] - 0.2 * width, x1 = marks.rect[2] + 0.2 * width;
+  const double y0 = marks.rect[1] - 0.35 * height, y1 = marks.rect[3] + 0.2 * height;
+  const double cell = 2 * sigma;
+  const int cols = std::max(1, static_cast<int>(std::ceil((x1 - x0) / cell)));
+  const int rows = std::max(1, static_cast<int>(std::ceil((y1 - y0) / cell)));
+  const DepthBuffer front_depth(at, tmpl.rig.triangles, front_camera, front.width, front.height);
+  const DepthBuffer side_depth(at, tmpl.rig.triangles, side_camera, side.width, side.height);
+  const auto point = [&](Eigen::Index v) -> Eigen::Vector3d {
+    return at.row(v).cast<double>().transpose();
+  };
+  const double iod = (point(tmpl.landmarks[36]) - point(tmpl.landmarks[45])).norm();
+  const double margin = 6 * sigma + 2;
+  const auto inside = [&](const Eigen::Vector2d& q, const render::Image& img) {
+    return q.x() >= margin && q.y() >= margin && q.x() <= img.width - 1 - margin &&
+           q.y() <= img.height - 1 - margin;
+  };
+  // The blur's reach around a point shows the head in either photo, none of it hidden by a nearer
+  // part (the nose before the far cheek) or beyond the outline: there the views differ.
+  const double reach = 3 * sigma;
+  const auto clear = [&](const DepthBuffer& depth, const PhotoCamera& cam, const Eigen::Vector3d& p,
+                         const Eigen::Vector2d& q) {
+    const double z = cam.depth(p), slack = 1.2 * reach / cam.s;
+    for (int a = 0; a < 8; ++a) {
+      const Eigen::Vector2d o =
+          q + reach * Eigen::Vector2d(std::cos(a * M_PI / 4), std::sin(a * M_PI / 4));
+      if (!depth.covered(o) || !depth.visible(o, z, slack)) return false;
+    }
+    return true;
+  };
+  std::vector<std::pair<int, double>> best(static_cast<std::size_t>(cols * rows), {-1, 1e30});
+  for (Eigen::Index v = 0; v < at.rows(); ++v) {
+    if (!tmpl.skin[static_cast<std::size_t>(v)]) continue;
+    const Eigen::Vector3d p = point(v);
+    const Eigen::Vector3d nrm = normals.row(v).cast<double>().transpose();
+    const Eigen::Vector2d f = front_camera.project(p), s = side_camera.project(p);
+    if (f.x() < x0 || f.x() >= x1 || f.y() < y0 || f.y() >= y1) continue;
+    if (!inside(f, front) || !inside(s, side)) continue;
+    if (nrm.dot(front_camera.towards(p)) < 0.3 || nrm.dot(side_camera.towards(p)) < 0.3) continue;
+    if (!front_depth.visible(f, front_camera.depth(p), 0.02 * iod) ||
+        !side_depth.visible(s, side_camera.depth(p), 0.02 * iod))
+      continue;
+    if (!clear(front_depth, front_camera, p, f) || !clear(side_depth, side_camera, p, s)) continue;
+    const int cx = static_cast<int>((f.x() - x0) / cell),
+              cy = static_cast<int>((f.y() - y0) / cell);
+    const Eigen::Vector2d middle(x0 + (cx + 0.5) * cell, y0 + (cy + 0.5) * cell);
+    auto& b = best[static_cast<std::size_t>(cy * cols + cx)];
+    if ((f - middle).squaredNorm() < b.second)
+      b = {static_cast<int>(v), (f - middle).squaredNorm()};
+  }
+  std::vector<int> vertices;
+  for (const auto& b : best)
+    if (b.first >= 0) vertices.push_back(b.first);
+  return vertices;
+}
+
+}  // namespace
+
+IdentityEvidence stereo_evidence(const PhotoTemplate& tmpl, const rig::Positions& at,
+                                 const PhotoLandmarks& marks, const render::Image& front,
+                                 const PhotoCamera& front_camera, const render::Image& side,
+                                 const PhotoCamera& side_camera, double sigma_fraction,
+                                 double weight) {
+  IdentityEvidence out;
+  const auto modes = static_cast<Eigen::Index>(tmpl.modes.size());
+  const double width = marks.rect[2] - marks.rect[0];
+  const double sigma = std::max(1.0, sigma_fraction * width);
+  const rig::Positions normals = rig::vertex_normals(at, tmpl.rig.triangles);
+  const std::vector<int> vertices =
+      stereo_points(tmpl, at, normals, marks, front, front_camera, side, side_camera, sigma);
+  const auto point = [&](Eigen::Index v) -> Eigen::Vector3d {
+    return at.row(v).cast<double>().transpose();
+  };
+  const auto n = static_cast<Eigen::Index>(vertices.size());
+  if (modes < 1 || n < 16) return out;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const int v : vertices) centre += point(v);
+  centre /= static_cast<double>(n);
+
+  const LinearPhoto front_light(front), side_light(side);
+  // The two colour components across the light's own (white) colour: a highlight, the light's
+  // colour added (the dichromatic model), moves neither, so the view-dependent sheen drops out.
+  Eigen::Matrix<double, 2, 3> chroma;
+  chroma << 1 / std::sqrt(2.0), -1 / std::sqrt(2.0), 0, 1 / std::sqrt(6.0), 1 / std::sqrt(6.0),
+      -2 / std::sqrt(6.0);
+  // Solved with the identity, profiled out: per channel, a gain and an offset varying over the
+  // face to second order in the front photo's position (the light on the skin seen from two
+  // sides); the lens (a change of kappa for both cameras: the fit keeps a long lens orthographic,
+  // the disparity between the views depends on it as on depth), re-projected each round; the
+  // head's move (below); the side camera's small move (turned about the points' centre, shifted,
+  // scaled about the centre's image: the fitted cameras' relative error).
+  constexpr int kTerms = 6, kChannels = 2, kMotion = 6, kHead = 5;
+  constexpr int kFixed = 2 * kChannels * kTerms + 1 + kHead;
+  const Eigen::Index k = modes + kFixed + kMotion;
+  const Eigen::Index lens = modes + 2 * kChannels * kTerms, head = lens + 1;
+  // The head's small move in both photos (turned about the points' centre, shifted across the
+  // front camera): the fitted pose is uncertain by a degree or a pixel, and a move there reads
+  // another patch of skin in each photo, which the side camera's move alone cannot follow. Its
+  // prior: the landmarks' pose within kTurnSd and kShiftSd (degrees, pixels; tried 0.5, 1, 2 and
+  // 4: development window mixtures 0.46, 0.44, 0.43, 0.46; free, it turned the template's own
+  // head 1-4 degrees and followed the shading with it).
+  constexpr double kTurnSd = 2, kShiftSd = 2;
+  const double turn_sd = kTurnSd * M_PI / 180, shift_sd = kShiftSd / front_camera.s;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+  const Eigen::Vector2d box_centre(0.5 * (marks.rect[0] + marks.rect[2]),
+                                   0.5 * (marks.rect[1] + marks.rect[3]));
+  PhotoCamera fc = front_camera, sc = side_camera;
+  for (auto [cam, img] : {std::pair{&fc, &front}, {&sc, &side}})
+    if (!cam->perspective()) cam->centre = {0.5 * (img->width - 1), 0.5 * (img->height - 1)};
+  // The lens's change moves a point away from the principal point by its depth.
+  const auto lens_move = [](const PhotoCamera& cam, const Eigen::Vector3d& p) -> Eigen::Vector2d {
+    const double z = cam.depth(p);
+    return (cam.project(p) - cam.centre) * z / std::max(1e-6, 1 - cam.kappa * z);
+  };
+  double max_depth = 0;
+  for (const int v : vertices)
+    max_depth = std::max({max_depth, std::abs(fc.depth(point(v))), std::abs(sc.depth(point(v)))});
+  Eigen::Matrix<double, kMotion, 1> motion = Eigen::Matrix<double, kMotion, 1>::Zero();
+  Eigen::MatrixXd A(kChannels * n, k);
+  Eigen::VectorXd y(kChannels * n), w = Eigen::VectorXd::Ones(kChannels * n),
+                                    x = Eigen::VectorXd::Zero(k);
+  double scale = 0;
+  for (int round = 0; round < 8; ++round) {
+    const Eigen::Vector2d side_centre = sc.project(centre);
+    A.setZero();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector3d p =
+          centre + turn * (point(vertices[static_cast<std::size_t>(i)]) - centre) + shift;
+      const Eigen::Matrix<double, 2, 3> Jf = image_jacobian(fc, p), Js = image_jacobian(sc, p);
+      Eigen::Matrix<double, 2, kMotion> camera_move;
+      for (int a = 0; a < 3; ++a)
+        camera_move.col(a) = Js * Eigen::Vector3d::Unit(a).cross(p - centre);
+      const Eigen::Vector2d pf = fc.project(p), ps0 = sc.project(p);
+      camera_move.col(3) = Eigen::Vector2d(1, 0);
+      camera_move.col(4) = Eigen::Vector2d(0, 1);
+      camera_move.col(5) = (ps0 - side_centre) / width;
+      const Eigen::Vector2d ps = ps0 + camera_move * motion;
+      // The side photo read over the front's patch of skin.
+      const Eigen::Vector3d nrm =
+          turn * normals.row(vertices[static_cast<std::size_t>(i)]).cast<double>().transpose();
+      const Eigen::Vector3d t1 = nrm.unitOrthogonal(), t2 = nrm.cross(t1);
+      Eigen::Matrix<double, 3, 2> T;
+      T << t1, t2;
+      const Eigen::Matrix2d F2 = Jf * T, S2 = Js * T;
+      const Eigen::Matrix2d to_side = std::abs(F2.determinant()) > 1e-9
+                                          ? Eigen::Matrix2d(S2 * F2.inverse())
+                                          : Eigen::Matrix2d::Identity();
+      const Blurred f = front_light.read(pf, Eigen::Matrix2d::Identity(), sigma);
+      const Blurred s = side_light.read(ps, to_side, sigma);
+      const Eigen::Vector2d fv = chroma * f.value, sv = chroma * s.value;
+      Eigen::Matrix<double, 2, 2> gf, gs;  // per channel, d/dx and d/dy
+      gf << chroma * f.dx, chroma * f.dy;
+      gs << chroma * s.dx, chroma * s.dy;
+      const Eigen::Vector2d q = (pf - box_centre) / width;
+      const double terms[kTerms] = {1, q.x(), q.y(), q.x() * q.x(), q.x() * q.y(), q.y() * q.y()};
+      const Eigen::Vector2d lens_f = lens_move(fc, p), lens_s = lens_move(sc, p);
+      for (int c = 0; c < kChannels; ++c) {
+        const Eigen::Index row = kChannels * i + c;
+        y(row) = sv(c) - fv(c);
+        for (Eigen::Index m = 0; m < modes; ++m) {
+          const Eigen::Vector3d d = turn * tmpl.modes[static_cast<std::size_t>(m)]
+                                               .row(vertices[static_cast<std::size_t>(i)])
+                                               .cast<double>()
+                                               .transpose();
+          A(row, m) = gf.row(c).dot(Jf * d) - gs.row(c).dot(Js * d);
+        }
+        for (int b = 0; b < kTerms; ++b) {
+          A(row, modes + kTerms * c + b) = fv(c) * terms[b];        // gain
+          A(row, modes + kTerms * (kChannels + c) + b) = terms[b];  // offset
+        }
+        A(row, lens) = gf.row(c).dot(lens_f) - gs.row(c).dot(lens_s);
+        for (int a = 0; a < 3; ++a) {
+          const Eigen::Vector3d dr = Eigen::Vector3d::Unit(a).cross(p - centre - shift);
+          A(row, head + a) = gf.row(c).dot(Jf * dr) - gs.row(c).dot(Js * dr);
+        }
+        for (int a = 0; a < 2; ++a) {
+          const Eigen::Vector3d dt = front_camera.R.row(a).transpose();
+          A(row, head + 3 + a) = gf.row(c).dot(Jf * dt) - gs.row(c).dot(Js * dt);
+        }
+        A.block(row, modes + kFixed, 1, kMotion) = -gs.row(c) * camera_move;
+      }
+    }
+    Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
+    N.diagonal().head(modes).array() += scale > 0 ? scale * scale : 1e-4 * N.trace() / k;
+    N.diagonal().tail(kFixed + kMotion).array() += 1e-9 * N.trace() / k;
+    Eigen::VectorXd rhs = A.transpose() * w.asDiagonal() * y;
+    const double noise2 = std::max(scale, 1e-4) * std::max(scale, 1e-4) / weight;
+    const Eigen::AngleAxisd current(turn);
+    const Eigen::Vector3d omega_now = current.angle() * current.axis();
+    for (int a = 0; a < 3; ++a) {
+      N(head + a, head + a) += noise2 / (turn_sd * turn_sd);
+      rhs(head + a) -= noise2 / (turn_sd * turn_sd) * omega_now(a);
+    }
+    for (int a = 0; a < 2; ++a) {
+      N(head + 3 + a, head + 3 + a) += noise2 / (shift_sd * shift_sd);
+      rhs(head + 3 + a) -= noise2 / (shift_sd * shift_sd) * front_camera.R.row(a).dot(shift);
+    }
+    x = N.ldlt().solve(rhs);
+    motion += x.tail<kMotion>();
+    const Eigen::Vector3d omega = x.segment<3>(head);
+    if (omega.norm() > 0)
+      turn = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix() * turn;
+    for (int a = 0; a < 2; ++a) shift += x(head + 3 + a) * front_camera.R.row(a).transpose();
+    // The lens moved, both cameras alike, a distance no nearer than twice the head's depth.
+    for (PhotoCamera* cam : {&fc, &sc})
+      cam->kappa = std::clamp(cam->kappa + x(lens), 0.0, 0.5 / std::max(1e-6, max_depth));
+    const Eigen::VectorXd r = y - A * x;
+    std::vector<double> abs(static_cast<std::size_t>(r.size()));
+    for (Eigen::Index i = 0; i < r.size(); ++i) abs[static_cast<std::size_t>(i)] = std::abs(r(i));
+    scale = std::max(1.4826 * median(abs), 1e-5);
+    for (Eigen::Index i = 0; i < r.size(); ++i) {
+      const double t = r(i) / (4.685 * scale);
+      w(i) = std::abs(t) < 1 ? (1 - t * t) * (1 - t * t) : 0;
+    }
+  }
+  Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
+  {
+    const double noise2 = scale * scale / weight;
+    for (int a = 0; a < 3; ++a) N(head + a, head + a) += noise2 / (turn_sd * turn_sd);
+    for (int a = 0; a < 2; ++a) N(head + 3 + a, head + 3 + a) += noise2 / (shift_sd * shift_sd);
+  }
+  const Eigen::VectorXd g =
+      A.transpose() * w.asDiagonal() * (y - A.rightCols<kMotion>() * x.tail<kMotion>());
+  const Eigen::MatrixXd Nnn =
+      N.bottomRightCorner(kFixed + kMotion, kFixed + kMotion) +
+      1e-9 * N.trace() / k * Eigen::MatrixXd::Identity(kFixed + kMotion, kFixed + kMotion);
+  const auto nuisance = Nnn.ldlt();
+  const Eigen::MatrixXd Ncn = N.topRightCorner(modes, kFixed + kMotion);
+  const double var = scale * scale / weight;
+  out.information = (N.topLeftCorner(modes, modes) - Ncn * nuisance.solve(Ncn.transpose())) / var;
+  out.pull = (g.head(modes) - Ncn * nuisance.solve(g.tail(kFixed + kMotion))) / var;
+  out.samples = static_cast<int>(n);
+  out.noise = scale;
+  // The side photo's move: its shift (pixels), scale and turn in its own plane (the rotation's
+  // part about the side camera's axis).
+  out.warp = Eigen::Vector4d(motion(3), motion(4), motion(5) / width,
+                             side_camera.towards().dot(motion.head<3>()));
   return out;
 }
 

@@ -139,4 +139,26 @@ IdentityEvidence appearance_evidence(const AppearanceGrid& grid, const render::I
                                      const std::vector<AppearanceShot>& shots, double amplitude,
                                      double weight);
 
+/// The two photos against each other (multi-view photo-consistency): a point of the head that
+/// both photos see shows the same skin in each, so where the fitted head puts it in the front
+/// photo and in the side photo their colours agree. Where the identity moves the skin towards or
+/// away from the cameras it moves the two readings apart: evidence on the identity that passes
+/// through neither a detector's convention nor a painted head. The photos are read in linear
+/// light, as the two colour components across the light's own (white) colour (a highlight adds
+/// the light's colour and moves neither), blurred by a Gaussian of sigma_fraction face-box widths,
+/// the side photo's carried over the same patch of skin. Solved with the identity, Tukey-weighted,
+/// and profiled out: a gain and offset per component varying over the face, the lens (kappa, the
+/// cameras re-projected), the head's small move (within a couple of degrees and pixels of the
+/// fitted pose) and the side camera's (rotation, shift, scale). `weight` scales the evidence
+/// (neighbouring samples are not independent). The points are skin vertices of `at` (the head at
+/// the fit's identity, as photographed) facing both cameras with the blur's reach unhidden in
+/// either, one per 2 sigma of the front photo over dlib's face box. The evidence is on the
+/// identity's change from `at`'s (add information times its coefficients for c); its warp is the
+/// side photo's move (pixels x, y, scale, turn).
+IdentityEvidence stereo_evidence(const PhotoTemplate& tmpl, const rig::Positions& at,
+                                 const PhotoLandmarks& marks, const render::Image& front,
+                                 const PhotoCamera& front_camera, const render::Image& side,
+                                 const PhotoCamera& side_camera, double sigma_fraction,
+                                 double weight);
+
 }  // namespace facecast::rigbuild

@@ -179,7 +179,27 @@ inline TurnedPhoto turned_photo(const render::Image& photo, double degrees) {
 
 struct PhotoShoot {
   render::Image front, side;
+  render::Camera front_camera, side_camera;  // the renderer's, as shot
 };
+
+/// The photo fit's camera (a perspective PhotoCamera, the principal point at the photo's centre)
+/// that projects as the renderer's `camera` does onto a width x height photo.
+inline rigbuild::PhotoCamera photo_camera(const render::Camera& camera, int width, int height) {
+  const Eigen::Vector3d eye = camera.eye.cast<double>();
+  const Eigen::Vector3d ahead = (camera.target.cast<double>() - eye).normalized();
+  const Eigen::Vector3d right = ahead.cross(camera.up.cast<double>()).normalized();
+  const Eigen::Vector3d up = right.cross(ahead);
+  rigbuild::PhotoCamera out;
+  out.R.row(0) = right.transpose();
+  out.R.row(1) = up.transpose();
+  out.R.row(2) = -ahead.transpose();
+  const double focal = 0.5 * height / std::tan(0.5 * camera.fov_y_deg * M_PI / 180.0);
+  out.kappa = 1 / -ahead.dot(eye);  // the eye at depth 1 / kappa
+  out.s = out.kappa * focal;
+  out.centre = {0.5 * (width - 1), 0.5 * (height - 1)};
+  out.t = {out.centre.x() - out.s * right.dot(eye), out.centre.y() + out.s * up.dot(eye)};
+  return out;
+}
 
 /// The template at `positions`, textured (`texture`: skin_texture's in the style), photographed in
 /// `style` from the front and turned by `yaw` degrees (the subject's right towards the camera):
@@ -212,10 +232,12 @@ inline PhotoShoot photograph(const rigbuild::PhotoTemplate& t, const rig::Positi
   PhotoShoot out;
   const std::vector<float> w(rig.shapes.size(), 0.0f);
   out.front = r.render(w);
+  out.front_camera = cam;
   const Eigen::AngleAxisf turn(static_cast<float>(-yaw * M_PI / 180.0), Eigen::Vector3f::UnitY());
   cam.eye = cam.target + turn * (cam.eye - cam.target);
   r.set_camera(cam);
   out.side = r.render(w);
+  out.side_camera = cam;
   return out;
 }
 

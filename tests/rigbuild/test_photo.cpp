@@ -167,6 +167,69 @@ TEST_CASE("appearance backdrop: the renders' background becomes the photo's room
   CHECK(read.colour(6) == Approx(240 / 255.0).margin(1e-6));
 }
 
+TEST_CASE("stereo evidence: the two photos through their cameras give back the head's depth",
+          "[photo]") {
+  const PhotoTemplate tmpl = load_photo_template(photo_template_path(PhotoOptions{}, ""));
+  const auto styles = test::photo_styles(test::artifacts_dir("photo") / "room_background.png");
+  const auto& [style, yaw] = styles[1];  // window: a lamp at one side, a 12-degree lens
+  const render::Image texture = test::skin_texture(tmpl, 512, style);
+  const auto modes = static_cast<Eigen::Index>(tmpl.modes.size());
+  const PhotoOptions options;
+  const auto at = [&](const Eigen::VectorXd& c) {
+    rig::Positions head = tmpl.rig.positions;
+    for (Eigen::Index m = 0; m < modes; ++m)
+      head += static_cast<float>(c(m)) * tmpl.modes[static_cast<std::size_t>(m)];
+    return head;
+  };
+  // The evidence about the head at `from`, on the photos of a head at c through their own
+  // cameras: its estimate of the change from `from` to c (the face box: the landmark vertices'
+  // extent in the front photo).
+  const auto estimate = [&](const Eigen::VectorXd& c, const Eigen::VectorXd& from) {
+    const rig::Positions head = at(c);
+    const test::PhotoShoot shot = test::photograph(tmpl, head, yaw, style, texture);
+    const PhotoCamera front =
+        test::photo_camera(shot.front_camera, shot.front.width, shot.front.height);
+    const PhotoCamera side =
+        test::photo_camera(shot.side_camera, shot.side.width, shot.side.height);
+    PhotoLandmarks marks;
+    marks.width = shot.front.width;
+    marks.height = shot.front.height;
+    marks.rect = {1e9, 1e9, -1e9, -1e9};
+    for (const int v : tmpl.landmarks) {
+      const Eigen::Vector2d q = front.project(head.row(v).cast<double>().transpose());
+      marks.rect = {std::min(marks.rect[0], q.x()), std::min(marks.rect[1], q.y()),
+                    std::max(marks.rect[2], q.x()), std::max(marks.rect[3], q.y())};
+    }
+    const IdentityEvidence e = stereo_evidence(tmpl, at(from), marks, shot.front, front, shot.side,
+                                               side, options.stereo_blur, options.stereo_weight);
+    REQUIRE(e.samples > 100);
+    REQUIRE(e.information.rows() == modes);
+    CHECK(e.information.ldlt().isPositive());
+    const Eigen::MatrixXd covariance = e.information.inverse();
+    return std::pair{Eigen::VectorXd(e.information.ldlt().solve(e.pull)),
+                     Eigen::VectorXd(covariance.diagonal().cwiseSqrt())};
+  };
+  // The template's own photos: no identity (within what the light's sheen and the renderer's
+  // sampling leave).
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(modes);
+  const auto [own, own_sd] = estimate(zero, zero);
+  INFO("own photos' estimate " << own.transpose() << "; sd " << own_sd.transpose());
+  CHECK(own.cwiseAbs().maxCoeff() < 0.6);
+  CHECK((own.array() / own_sd.array()).abs().maxCoeff() < 2);
+  // A head one standard deviation along a mode, measured about the head half way there (as a fit
+  // that went part of the way): the estimate is the other half, the other modes stay within
+  // their standard deviations.
+  for (const Eigen::Index m : {0, 2, 4}) {
+    const Eigen::VectorXd c = Eigen::VectorXd::Unit(modes, m);
+    auto [moved, sd] = estimate(c, 0.5 * c);
+    INFO("mode " << m << ": the estimate " << moved.transpose() << "; sd " << sd.transpose());
+    CHECK(std::abs(moved(m) - 0.5) < 0.35);
+    CHECK(sd(m) < 0.5);
+    moved(m) = 0;
+    CHECK((moved.array() / sd.array()).abs().maxCoeff() < 2);
+  }
+}
+
 TEST_CASE("RBF calibration moves the centres exactly and carries rigid groups", "[photo]") {
   rig::Positions p(5, 3);
   p << 0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 5, 5, 5.2, 5, 5;

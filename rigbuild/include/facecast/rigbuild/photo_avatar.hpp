@@ -92,6 +92,13 @@ struct PhotoOptions {
   double appearance_weight = 0.01;
   double appearance_blur = 0.08;
   bool appearance_side = true;
+  /// With a side photo, the two photos are also compared with each other through the fitted head
+  /// (stereo_evidence: where both see the same skin, in linear light, its colour across the
+  /// light's, blurred by a Gaussian of stereo_blur face-box widths), the evidence weighed by
+  /// stereo_weight joining that third fit unless the side photo had to move by more than 5 % of
+  /// the face to match (0: not measured).
+  double stereo_weight = 0.01;
+  double stereo_blur = 0.02;
   double side_noise = 1.0;          // the side photo's landmark noise relative to the front's
   bool estimate_side_noise = true;  // ... estimated from the residuals (side_noise: its floor)
   bool side_turn = true;            // the side camera = the front's with the head turned (a yaw)
