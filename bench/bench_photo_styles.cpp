@@ -150,12 +150,15 @@ Fit run_fit(const rigbuild::PhotoTemplate& tmpl, const test::PhotoShoot& shoot, 
     f.sd = a.fit.coefficient_sd;
     for (const auto& n : a.report["notes"]) f.note += n.get<std::string>() + "; ";
     if (const std::string c = a.report["calibration_texture"]; !c.empty()) f.note += c;
-    // The photos' pixels (appearance_evidence): used or left out, and the photo's move in scale.
-    for (const auto& [key, view] : {std::pair{"appearance", "front"}, {"appearance_side", "side"}})
+    // The photos' pixels (appearance_evidence) and the two photos against each other
+    // (stereo_evidence): used or left out, and the photo's move in scale.
+    for (const auto& [key, label] : {std::pair{"appearance", "pixels front"},
+                                     {"appearance_side", "pixels side"},
+                                     {"stereo", "stereo"}})
       if (a.report.contains(key)) {
         const nlohmann::json& r = a.report[key];
         char buffer[64];
-        std::snprintf(buffer, sizeof buffer, " pixels %s %s (scale %+.1f %%)", view,
+        std::snprintf(buffer, sizeof buffer, " %s %s (scale %+.1f %%)", label,
                       r.value("used", false) ? "used" : "out", 100 * r["move"][2].get<double>());
         f.note += buffer;
       }
