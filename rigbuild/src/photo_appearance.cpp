@@ -13,6 +13,7 @@
 
 #include "facecast/rig/mesh.hpp"
 #include "geometry.hpp"
+#include "parallel.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -460,7 +461,8 @@ IdentityEvidence stereo_evidence(const PhotoTemplate& tmpl, const rig::Positions
   for (int round = 0; round < 8; ++round) {
     const Eigen::Vector2d side_centre = sc.project(centre);
     A.setZero();
-    for (Eigen::Index i = 0; i < n; ++i) {
+    // Each point's rows, the photos read at it (most of the cost).
+    parallel_for(n, [&](Eigen::Index i) {
       const Eigen::Vector3d p =
           centre + turn * (point(vertices[static_cast<std::size_t>(i)]) - centre) + shift;
       const Eigen::Matrix<double, 2, 3> Jf = image_jacobian(fc, p), Js = image_jacobian(sc, p);
@@ -516,7 +518,7 @@ IdentityEvidence stereo_evidence(const PhotoTemplate& tmpl, const rig::Positions
         }
         A.block(row, modes + kFixed, 1, kMotion) = -gs.row(c) * camera_move;
       }
-    }
+    });
     Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
     N.diagonal().head(modes).array() += scale > 0 ? scale * scale : 1e-4 * N.trace() / k;
     N.diagonal().tail(kFixed + kMotion).array() += 1e-9 * N.trace() / k;
