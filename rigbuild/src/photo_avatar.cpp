@@ -734,9 +734,9 @@ PhotoFit self_calibrated_fit(const PhotoTemplate& tmpl, const PhotoAvatar& first
   }
   if (side && fit.side && options.stereo_weight > 0) {
     // The two photos against each other through the fitted head (stereo_weight): evidence on
-    // its depth that passes through neither the detector nor a painted head. Measured about this
-    // fit again after it had joined (a fourth fit): development mixtures studio 0.34, window 0.46
-    // against 0.35, 0.43.
+    // its depth that passes through neither the detector nor a painted head. Measured once more
+    // about the fit it gave, for a fourth fit, it did not help (development mixtures studio 0.34,
+    // window 0.46 against 0.35, 0.43).
     IdentityEvidence e = stereo_evidence(tmpl, at, first.front, front, fit.front, *side, *fit.side,
                                          options.stereo_blur, options.stereo_weight);
     nlohmann::json& a = report["stereo"];
