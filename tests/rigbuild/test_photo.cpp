@@ -171,7 +171,8 @@ TEST_CASE("stereo evidence: the two photos through their cameras give back the h
           "[photo]") {
   const PhotoTemplate tmpl = load_photo_template(photo_template_path(PhotoOptions{}, ""));
   const auto styles = test::photo_styles(test::artifacts_dir("photo") / "room_background.png");
-  const auto& [style, yaw] = styles[1];  // window: a lamp at one side, a 12-degree lens
+  const test::PhotoStyle& style = styles[1].first;  // window: a lamp at one side, a 12-degree lens
+  const double yaw = styles[1].second;
   const render::Image texture = test::skin_texture(tmpl, 512, style);
   const auto modes = static_cast<Eigen::Index>(tmpl.modes.size());
   const PhotoOptions options;
