@@ -11,7 +11,7 @@
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
 //        [--response STYLE,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY]
-//        [--exif] [--coefficients] [--smile WEIGHT]
+//        [--exif] [--coefficients] [--smile WEIGHT] [--mottle F]
 // --styles: the benchmark's styles (all three by default) or the training styles pale, lamp, phone,
 // deep (photo_support.hpp), which no option was chosen on either.
 // --response: the detector's response measured on the template photographed in the named styles
@@ -22,13 +22,16 @@
 // --blur, --jpeg: the photos softened by a Gaussian and stored as JPEG, as a phone's camera does
 // (the fit's renders are neither); --exif: the photos carry their lens's 35-mm equivalent focal
 // length, whole millimetres, as phones and most cameras write it into EXIF.
-// --coefficients: each mixture's identity coefficients, true and fitted (front + side, then front
-// only) with their posterior standard deviations, and per style the mean error per mode (a bias
+// --coefficients: each head's identity coefficients, true and fitted (front + side, then front
+// only; a warped head's true ones are its mixture's, the template's own photo's 0) with their
+// posterior standard deviations, and per style and kind the mean error per mode (a bias
 // the style's photos put on a mode: +1.1 on mode 7 by the window), the fitted coefficients'
 // errors in those standard deviations (RMS z: about 1 when the fit's noise model holds, above 1
 // when the detector's offsets it does not model pull the modes) and the mean standard deviation
 // (with c ~ N(0, 1) as the heads are drawn, about the error ratio a fit whose noise model holds can
 // reach).
+// --mottle F: the skin's soft colour variation, a fraction of its colour (photo_support.hpp's
+// default 0.06), in every style: how much the fit follows the skin's own shades.
 // --smile W: the heads smile in the photos, teeth showing (mouthSmileLeft/Right at W, jawOpen at
 // W / 4), and the error is measured against their neutral (the expressions the fit kept are
 // noted per head).
@@ -62,6 +65,7 @@ struct Args {
   std::vector<std::string> response;  // styles the detector's response is measured in (averaged)
   bool front_response = false;        // ... the front's only
   double scale = 1;                   // the styles' photos this many times as many pixels across
+  double mottle = -1;                 // the skin's soft variation (negative: the style's)
   double blur = 0;                    // the photos blurred (Gaussian, pixels)
   int jpeg = 0;                       // the photos stored as JPEG of this quality (0: not)
   bool exif = false;                  // the photos carry their lens's focal length (EXIF)
@@ -103,6 +107,8 @@ Args parse(int argc, char** argv) {
       a.front_response = true;
     } else if (arg == "--scale") {
       a.scale = std::stod(value());
+    } else if (arg == "--mottle") {
+      a.mottle = std::stod(value());
     } else if (arg == "--blur") {
       a.blur = std::stod(value());
     } else if (arg == "--jpeg") {
@@ -118,7 +124,7 @@ Args parse(int argc, char** argv) {
           "usage: bench_photo_styles [--seeds A,B,..] [--count N] [--styles a,b,..] "
           "[--no-warp] [--no-own] [--camera auto|orthographic|perspective] "
           "[--response a,b,.. [--front-response]] [--scale F] [--blur PIXELS] [--jpeg QUALITY] "
-          "[--exif] [--coefficients] [--smile WEIGHT]");
+          "[--exif] [--coefficients] [--smile WEIGHT] [--mottle F]");
     }
   }
   if (a.seeds.empty())
@@ -292,6 +298,7 @@ int main(int argc, char** argv) try {
     const double yaw = turn;
     style.width = static_cast<int>(std::lround(style.width * args.scale));
     style.height = static_cast<int>(std::lround(style.height * args.scale));
+    if (args.mottle >= 0) style.mottle = args.mottle;
     const auto ts = std::chrono::steady_clock::now();
     const render::Image texture = test::skin_texture(tmpl, 512, style);
     // Photographed as the style's camera stores it (--blur, --jpeg, --exif).
@@ -339,7 +346,7 @@ int main(int argc, char** argv) try {
             kind, seed, before, a.ok ? a.error / before : -1.0, b.ok ? b.error / before : -1.0,
             b.turn, b.focal, notes.empty() ? "" : "; ", notes.c_str());
         s.add(a, b, before, yaw);
-        if (args.coefficients && !warped && b.ok) {
+        if (args.coefficients && b.ok) {
           const Eigen::VectorXd c = test::identity_coefficients(tmpl, seed);
           std::printf("    coefficients, true / fitted (sd):");
           for (Eigen::Index k = 0; k < c.size(); ++k) {
@@ -396,6 +403,12 @@ int main(int argc, char** argv) try {
             "%.0f); focal %.0f%s%s\n",
             i + 1, front[i], both[i], b.turn, yaw, b.focal, notes.empty() ? "" : "; ",
             notes.c_str());
+        if (args.coefficients && b.ok) {
+          std::printf("    coefficients, true / fitted (sd):");
+          for (Eigen::Index k = 0; k < b.coefficients.size(); ++k)
+            std::printf(" +0.00 / %+.2f (%.2f)", b.coefficients(k), b.sd(k));
+          std::printf("\n");
+        }
       }
       std::printf("  own photo: error front %.3f cm, front+side %.3f cm (the median of 3 shots)\n",
                   test::median_of_three(front), test::median_of_three(both));
