@@ -272,15 +272,15 @@ void fit_camera(const rig::Positions& positions, const Eigen::VectorXd& c, View&
 // photo's EXIF focal length f (PhotoLandmarks::focal) where it has one, f_sd = `focal_sd`.
 // `scatter` (optional), per photo: its weighted landmark residuals' sum of squares and their
 // redundancy (their count less what the parameters absorb, tr(H^-1 J_v^T J_v)), before the step:
-// the variance components that set the side photo's noise (fit_shape). `sd` (optional): the
-// coefficients' posterior standard deviations, sqrt(diag(noise^2 H^-1)) over the modes (the data
-// terms and the prior, both in units of `noise`), at the step's start.
+// the variance components that set the side photo's noise (fit_shape). `covariance`
+// (optional): the coefficients' posterior covariance, noise^2 H^-1 over the modes (the data terms
+// and the prior, both in units of `noise`), at the step's start.
 constexpr Eigen::Index kCameraParameters = 6;  // per photo: rotation (3), scale, translation (2)
 
 void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eigen::VectorXd& c,
                        double iod, double noise, double outline_noise, double focal_sd,
                        double expression_sd, std::vector<Eigen::Vector2d>* scatter = nullptr,
-                       Eigen::VectorXd* sd = nullptr,
+                       Eigen::MatrixXd* covariance = nullptr,
                        std::array<Eigen::Vector2d, kGroups>* groups = nullptr) {
   // The identity modes' coefficients, then the expressions' weights (c's size says how many).
   const auto K = c.size(), modes = static_cast<Eigen::Index>(tmpl.modes.size());
@@ -431,11 +431,9 @@ void gauss_newton_step(const PhotoTemplate& tmpl, std::vector<View>& views, Eige
       for (std::size_t gi = 0; gi < kGroups; ++gi)
         (*groups)[gi] = {group_rss[gi], group_count[gi] - ldlt.solve(Hg[gi]).trace()};
   }
-  if (sd) {
-    const Eigen::MatrixXd covariance =
+  if (covariance)
+    *covariance =
         noise * noise * ldlt.solve(Eigen::MatrixXd::Identity(n, n)).topLeftCorner(modes, modes);
-    *sd = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-  }
   c += dx.head(K);
   // An expression's weight stays in [0, 1] (a shape pushed past its range is not that expression).
   c.tail(K - modes) = c.tail(K - modes).cwiseMax(0.0).cwiseMin(1.0);
@@ -597,7 +595,8 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     for (int step = 0; step < 3; ++step)
       gauss_newton_step(tmpl, views, c, iod, noise, options.outline_noise, options.exif_focal_sd,
                         options.expression_sd, step == 2 ? &scatter : nullptr,
-                        step == 2 ? &fit.coefficient_sd : nullptr, step == 2 ? &groups : nullptr);
+                        step == 2 ? &fit.coefficient_covariance : nullptr,
+                        step == 2 ? &groups : nullptr);
     // A photo's weighted landmark residuals per degree of freedom (variance components).
     const auto variance = [](const Eigen::Vector2d& v) { return v(0) / std::max(1.0, v(1)); };
     if (options.estimate_group_noise && it > 0) {
@@ -635,6 +634,7 @@ PhotoFit fit_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
     p = apply_modes(tmpl, c);
   }
   fit.coefficients = c.head(modes);
+  fit.coefficient_sd = fit.coefficient_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   fit.expression = c.tail(c.size() - modes);
   fit.model_positions = apply_modes(tmpl, fit.coefficients);  // the neutral
   for (std::size_t vi = 0; vi < views.size(); ++vi) {
@@ -767,6 +767,25 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   PhotoFit& chosen = evidence > 0 ? posed : neutral;
   chosen.expression_evidence = evidence;
   return chosen;
+}
+
+void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale) {
+  const Eigen::Index modes = fit.coefficients.size();
+  if (scale == 1 || fit.coefficient_covariance.rows() != modes) return;
+  const Eigen::MatrixXd precision = fit.coefficient_covariance.inverse();
+  const Eigen::MatrixXd wider =
+      precision + (scale * scale - 1) * Eigen::MatrixXd::Identity(modes, modes);
+  const Eigen::VectorXd c = wider.ldlt().solve(precision * fit.coefficients);
+  for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
+    const auto move = static_cast<float>(c(static_cast<Eigen::Index>(m)) -
+                                         fit.coefficients(static_cast<Eigen::Index>(m))) *
+                      tmpl.modes[m];
+    fit.positions += move;
+    fit.model_positions += move;
+  }
+  fit.coefficients = c;
+  fit.coefficient_covariance = scale * scale * wider.inverse();
+  fit.coefficient_sd = fit.coefficient_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
 rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit) {

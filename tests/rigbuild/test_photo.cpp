@@ -853,6 +853,35 @@ TEST_CASE(
   CHECK(!kept.front.perspective());
 }
 
+TEST_CASE("calibrated posterior: the evidence counted 1 / scale^2 times", "[photo]") {
+  // Two modes on three vertices, coefficients (1, -2) with posterior precision diag(4, 3): the
+  // evidence diag(3, 2) plus the prior N(0, I). Scale 2 counts the evidence a quarter: precision
+  // diag(1.75, 1.5), c = (4 / 7, -1), sd = 2 / sqrt(7, 6); both heads move with c.
+  PhotoTemplate tmpl;
+  tmpl.rig.positions = rig::Positions::Zero(3, 3);
+  tmpl.modes = {rig::Positions::Zero(3, 3), rig::Positions::Zero(3, 3)};
+  tmpl.modes[0](0, 0) = 1;
+  tmpl.modes[1](2, 1) = 1;
+  PhotoFit fit;
+  fit.coefficients = Eigen::Vector2d(1, -2);
+  fit.coefficient_covariance = Eigen::Vector2d(0.25, 1.0 / 3).asDiagonal();
+  fit.model_positions = tmpl.rig.positions + tmpl.modes[0] - 2 * tmpl.modes[1];
+  fit.positions = fit.model_positions;
+  fit.positions(1, 2) = 0.5;  // an RBF move the modes do not carry: kept
+  PhotoFit same = fit;
+  calibrate_posterior(tmpl, same, 1.0);
+  CHECK(same.coefficients == fit.coefficients);
+  calibrate_posterior(tmpl, fit, 2.0);
+  CHECK(fit.coefficients(0) == Approx(4.0 / 7));
+  CHECK(fit.coefficients(1) == Approx(-1.0));
+  CHECK(fit.coefficient_sd(0) == Approx(std::sqrt(4.0 / 7)));
+  CHECK(fit.coefficient_sd(1) == Approx(std::sqrt(4.0 / 6)));
+  CHECK(fit.model_positions(0, 0) == Approx(4.0 / 7));
+  CHECK(fit.model_positions(2, 1) == Approx(-1.0));
+  CHECK(fit.positions(0, 0) == Approx(4.0 / 7));
+  CHECK(fit.positions(1, 2) == Approx(0.5));
+}
+
 TEST_CASE("photo fit as the command runs it: the detector's offsets count as noise, not identity",
           "[photo][ict][slow]") {
   // No detector response learned (the command has none): dlib's convention differs from the

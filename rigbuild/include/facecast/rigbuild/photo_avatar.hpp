@@ -133,6 +133,10 @@ struct PhotoOptions {
   /// head is the identity modes' alone; the first fit, whose head the analysis photographs, keeps
   /// it).
   bool rbf_after_synthesis = false;
+  /// With a side photo, the analysis by synthesis fit's posterior made as wide as its errors were
+  /// on development heads of known shape (calibrate_posterior): the evidence on the coefficients
+  /// counted 1 / posterior_scale^2 times (1: as the fit has it).
+  double posterior_scale = 1.56;
   int texture_size = 1024;      // texture height; the width is twice (face and back of head)
   double side_gamma = 1.0;      // blend exponent on the normal's components (1: the seed's)
   bool mask_background = true;  // outside the face, no background or clothes in the texture
@@ -255,6 +259,7 @@ struct PhotoFit {
   rig::Positions model_positions;  // the low-dimensional fit only (before the RBF)
   Eigen::VectorXd coefficients;    // identity-mode weights
   Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
+  Eigen::MatrixXd coefficient_covariance;  // ... and covariance
   /// Weights of the template's expressions (PhotoTemplate::expressions) the photos show; empty
   /// when the evidence kept the neutral. posed_positions: the head as photographed.
   Eigen::VectorXd expression;
@@ -286,6 +291,12 @@ struct PhotoFit {
 
 /// The fitted head as the photos show it: the neutral posed with the fit's expression.
 rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit);
+
+/// The fit's posterior made `scale` times as wide in its evidence (counted 1 / scale^2 times): the
+/// coefficients c with posterior covariance C (prior N(0, I)) become (C^-1 + (scale^2 - 1) I)^-1
+/// C^-1 c, their covariance scale^2 times that inverse; both heads move along the modes by the
+/// change. The cameras and the expressions stay as fitted.
+void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale);
 
 /// The side photo's profile points (nose ridge and tip, lip centres, chin) and the near side's
 /// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
