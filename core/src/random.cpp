@@ -4,8 +4,11 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
+#include <unordered_set>
 
 #include "facecast/core/error.hpp"
 
@@ -39,13 +42,31 @@ std::string random_hex(std::size_t bytes) {
 }
 
 std::string time_ordered_hex() {
-  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                      std::chrono::system_clock::now().time_since_epoch())
-                      .count();
-  char head[16];
-  std::snprintf(head, sizeof head, "%012llx",
-                static_cast<unsigned long long>(ms) & 0xFFFFFFFFFFFFULL);
-  return head + random_hex(4);
+  // The random tails drawn in this process within the current millisecond: a tail drawn twice
+  // is drawn again (32 random bits collide by chance among a few thousand ids in one
+  // millisecond: the birthday bound).
+  static std::mutex mutex;
+  static long long last_ms = -1;
+  static std::unordered_set<std::uint32_t> tails;
+  std::uint32_t tail = 0;
+  long long ms = 0;
+  {
+    const std::lock_guard lock(mutex);
+    ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+             .count();
+    if (ms != last_ms) {
+      tails.clear();
+      last_ms = ms;
+    }
+    do random_bytes(&tail, sizeof tail);
+    while (!tails.insert(tail).second);
+  }
+  char out[24];
+  std::snprintf(out, sizeof out, "%012llx%08x",
+                static_cast<unsigned long long>(ms) & 0xFFFFFFFFFFFFULL,
+                static_cast<unsigned>(tail));
+  return out;
 }
 
 }  // namespace facecast

@@ -15,8 +15,9 @@ void random_bytes(void* out, std::size_t n);
 std::string random_hex(std::size_t bytes);
 
 /// A time-ordered unique id: 12 hex digits of Unix milliseconds, then 8 random hex digits (20 in
-/// all, sorting by creation time to the millisecond); unique across threads, processes and hosts
-/// without coordination (2^32 draws per millisecond).
+/// all, sorting by creation time to the millisecond). Unique within the process (a tail drawn
+/// twice in one millisecond is drawn again); across processes and hosts without coordination two
+/// ids of the same millisecond share their tail with chance 2^-32.
 std::string time_ordered_hex();
 
 }  // namespace facecast
