@@ -255,10 +255,10 @@ render::Camera render_camera(const PhotoCamera& camera, const rig::Positions& po
                              int height);
 
 struct PhotoFit {
-  rig::Positions positions;        // the fitted neutral, template topology
-  rig::Positions model_positions;  // the low-dimensional fit only (before the RBF)
-  Eigen::VectorXd coefficients;    // identity-mode weights
-  Eigen::VectorXd coefficient_sd;  // their posterior standard deviations (the last round's)
+  rig::Positions positions;                // the fitted neutral, template topology
+  rig::Positions model_positions;          // the low-dimensional fit only (before the RBF)
+  Eigen::VectorXd coefficients;            // identity-mode weights
+  Eigen::VectorXd coefficient_sd;          // their posterior standard deviations (the last round's)
   Eigen::MatrixXd coefficient_covariance;  // ... and covariance
   /// Weights of the template's expressions (PhotoTemplate::expressions) the photos show; empty
   /// when the evidence kept the neutral. posed_positions: the head as photographed.
