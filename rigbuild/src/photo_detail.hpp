@@ -71,7 +71,8 @@ struct FaceLight {
 
 /// Fits FaceLight: at the template's skin vertices on the face (facing both cameras, away from
 /// the brows, eyes, nostrils and lips), the photo where `fit` (through `photo_camera`) puts the
-/// vertex against `render` (the painted template through `render_camera`), robustly (Tukey).
+/// vertex against `render` (the painted template through `render_camera`), robustly (Tukey); a
+/// channel the photo clips (kSaturated) is left out of that channel's fit where it is.
 FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, const PhotoFit& fit,
                          const PhotoCamera& photo_camera, const render::Image& render,
                          const PhotoCamera& render_camera);

@@ -451,6 +451,8 @@ Eigen::Vector3d median_colour(const render::Image& photo,
 
 // The least n . (towards the camera) of the normals the light is fitted on.
 constexpr double kFacing = 0.3;
+// A photo's channel this bright (0..255) is taken as clipped (its light fit leaves it out).
+constexpr double kSaturated = 250;
 
 // Real spherical harmonics up to order 2 at unit normal n (unnormalised: the constant, the three
 // linear terms, the five quadratic ones).
@@ -497,6 +499,7 @@ FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, 
   const double back = std::min(lm(0).z(), lm(16).z());
   std::vector<Eigen::Matrix<double, 9, 1>> rows;
   std::vector<Eigen::Vector3d> ratios;
+  std::vector<Eigen::Vector3d> seen;  // per channel 1, or 0 where the photo is clipped
   for (Eigen::Index v = 0; v < rig.vertex_count(); ++v) {
     if (!tmpl.skin[static_cast<std::size_t>(v)]) continue;
     const Eigen::Vector3d p = at(rig.positions, v), q = at(posed, v);
@@ -515,33 +518,38 @@ FaceLight fit_face_light(const PhotoTemplate& tmpl, const render::Image& photo, 
     const Eigen::Vector3f cp = sample(photo, a), cr = sample(render, b);
     rows.push_back(harmonics(n));
     ratios.push_back(((cp.cast<double>().array() + 2) / (cr.cast<double>().array() + 2)).matrix());
+    // A channel the photo saturates says only that the light is at least this bright there.
+    seen.push_back((cp.cast<double>().array() < kSaturated).cast<double>().matrix());
   }
   FaceLight out;
   out.coefficients(0, 0) = out.coefficients(1, 0) = out.coefficients(2, 0) = 1;
   const auto m = static_cast<Eigen::Index>(rows.size());
   if (m < 60) return out;  // too little of the face seen: the renderer's light stays
   Eigen::MatrixXd A(m, 9);
-  Eigen::MatrixXd Y(m, 3);
+  Eigen::MatrixXd Y(m, 3), S(m, 3);
   for (Eigen::Index i = 0; i < m; ++i) {
     A.row(i) = rows[static_cast<std::size_t>(i)].transpose();
     Y.row(i) = ratios[static_cast<std::size_t>(i)].transpose();
+    S.row(i) = seen[static_cast<std::size_t>(i)].transpose();
   }
   // Iteratively reweighted least squares, Tukey's biweight at 4.685 robust spreads (skin the
   // fit put where the photo shows brow, hair or background), a small ridge on the non-constant
   // terms (the face's normals cover half the sphere).
   for (int c = 0; c < 3; ++c) {
-    Eigen::VectorXd w = Eigen::VectorXd::Ones(m), x;
+    if (S.col(c).sum() < 60) continue;  // too little of the face unclipped: the renderer's light
+    Eigen::VectorXd w = S.col(c), x;
     for (int round = 0; round < 6; ++round) {
       Eigen::MatrixXd N = A.transpose() * w.asDiagonal() * A;
       for (int k = 1; k < 9; ++k) N(k, k) += 1e-3 * static_cast<double>(m);
       x = N.ldlt().solve(A.transpose() * w.asDiagonal() * Y.col(c));
       const Eigen::VectorXd r = Y.col(c) - A * x;
-      std::vector<double> abs(static_cast<std::size_t>(m));
-      for (Eigen::Index i = 0; i < m; ++i) abs[static_cast<std::size_t>(i)] = std::abs(r(i));
+      std::vector<double> abs;
+      for (Eigen::Index i = 0; i < m; ++i)
+        if (S(i, c) > 0) abs.push_back(std::abs(r(i)));
       const double scale = 4.685 * std::max(1.4826 * median(abs), 0.01);
       for (Eigen::Index i = 0; i < m; ++i) {
         const double u = r(i) / scale;
-        w(i) = std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0;
+        w(i) = S(i, c) > 0 && std::abs(u) < 1 ? (1 - u * u) * (1 - u * u) : 0;
       }
     }
     out.coefficients.row(c) = x.transpose();

@@ -1210,6 +1210,44 @@ TEST_CASE("photo avatar as the command runs it: the painted template is lit as t
   }
 }
 
+TEST_CASE(
+    "photo avatar as the command runs it: a channel the photo clips does not flatten its light",
+    "[photo][slow]") {
+  // The pale style's lamp (at the head's right and above) drives its red channel past 255 over
+  // the lit half of the face; green and blue stay within range. The lamp is white, so each
+  // channel's fitted light must fall off from the head's right to its left alike: read where red
+  // is clipped, red's would be flatter (it says only "at least 255" there).
+  PhotoOptions opt = load_photo_options();
+  opt.shapes = false;
+  const PhotoTemplate tmpl = load_photo_template(photo_template_path(opt, ""));
+  const auto styles =
+      test::training_photo_styles(test::artifacts_dir("photo") / "room_background.png");
+  const auto pale = std::find_if(styles.begin(), styles.end(),
+                                 [](const auto& s) { return s.first.name == "pale"; });
+  REQUIRE(pale != styles.end());
+  const test::PhotoShoot shoot =
+      test::photograph(tmpl, tmpl.rig.positions, pale->second, pale->first,
+                       test::skin_texture(tmpl, 512, pale->first));
+  int clipped = 0;
+  for (std::size_t i = 0; i < shoot.front.pixels.size(); i += 3)
+    clipped += shoot.front.pixels[i] == 255;
+  REQUIRE(clipped > 2000);
+  const PhotoAvatar a = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
+  REQUIRE(a.report["calibration_texture"] == "painted");
+  const nlohmann::json& light = a.report["calibration_light"];
+  std::cout << "pale: " << clipped << " pixels clipped in red; light " << light.dump() << "\n";
+  const auto falloff = [&](int c) {
+    return std::log(light["right"][c].get<double>() / light["left"][c].get<double>());
+  };
+  CHECK(falloff(1) > 0.2);                                       // brighter at the lamp's side
+  CHECK(std::abs(falloff(0) - falloff(1)) < 0.25 * falloff(1));  // clipped red read: 31 % flatter
+  CHECK(std::abs(falloff(2) - falloff(1)) < 0.25 * falloff(1));
+  // Facing the camera, where red is clipped over most of the face, the light is as white as the
+  // lamp (clipped red read: 0.93 of green).
+  const nlohmann::json& front = light["front"];
+  CHECK(std::abs(front[0].get<double>() / front[1].get<double>() - 1) < 0.04);
+}
+
 TEST_CASE("photo landmarks: a small face in a large photo and a face turned well aside are found",
           "[photo][slow]") {
   // Two faces the face detector misses at its threshold on the working size: astronaut.png's
