@@ -830,7 +830,8 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
                             side ? &out.side : nullptr, options, &front, side);
   double unused_focal = 0;
   if (out.front.focal > 0 && !out.fit.exif_focal) {
-    // A far camera: its lens is not used after the first fit either (fit_photo_shape).
+    // A lens the first fit could not use (its perspective camera came out degenerate): not
+    // used after it either (fit_photo_shape).
     unused_focal = out.front.focal;
     out.front.focal = out.side.focal = 0;
   }

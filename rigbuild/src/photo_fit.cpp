@@ -708,25 +708,29 @@ PhotoFit fit_camera_model(const PhotoTemplate& tmpl, const PhotoLandmarks& front
     return f;
   }
   if (front.focal > 0) {
-    // The lens the front photo's EXIF gives, the focal length's prior: kept when it puts the
-    // camera nearer than exif_distance (a selfie). Farther, the lens's perspective moves the
-    // landmarks by about their noise, and the fit goes on as without it (held-out heads through a
-    // 12-degree lens 1.2 m away: the side photo lowered the error on 2 of 8 with the EXIF focal
-    // length, on 6 of 8 without). Near, the landmarks' noise floor is near_landmark_noise: the
-    // lens at arm's length moves dlib's points more than the analysis by synthesis's renders
-    // reproduce (held-out selfies at landmark_noise: coefficients' errors 1.7 of their posterior
-    // sd; docs/benchmarks.md#photo-avatar).
+    // The lens the front photo's EXIF gives, the focal length's prior, at any distance: a lens
+    // of 12-20 degrees puts the camera 1.2-2 m away, and although its perspective moves the
+    // landmarks by about their noise, it shrinks the ears and the skull's outline by 5-8 % against
+    // the face, which the photos' pixels see (an orthographic fit's renders needed the photo
+    // scaled by 4-8 % to match under a lamp; docs/benchmarks.md#photo-avatar). Nearer than
+    // exif_distance (a selfie) the landmarks' noise floor is near_landmark_noise: the lens at
+    // arm's length moves dlib's points more than the analysis by synthesis's renders reproduce
+    // (held-out selfies at landmark_noise: coefficients' errors 1.7 of their posterior sd).
     PhotoOptions near_options = options;
     near_options.landmark_noise = std::max(options.landmark_noise, options.near_landmark_noise);
-    PhotoFit near = fit(front, true, near_options);
-    if (near.front.perspective() && 1 / near.front.kappa < options.exif_distance) {
-      near.camera_model = "perspective";
-      near.exif_focal = true;
-      return near;
+    PhotoFit lens = fit(front, true, near_options);
+    if (lens.front.perspective() && 1 / lens.front.kappa >= options.exif_distance &&
+        near_options.landmark_noise > options.landmark_noise)
+      lens = fit(front, true, options);
+    if (lens.front.perspective()) {
+      lens.camera_model = "perspective";
+      lens.exif_focal = true;
+      return lens;
     }
-    PhotoLandmarks far = front;
-    far.focal = 0;
-    return fit_camera_model(tmpl, far, side, options, front_photo, side_photo, start, expressions);
+    PhotoLandmarks unknown = front;
+    unknown.focal = 0;
+    return fit_camera_model(tmpl, unknown, side, options, front_photo, side_photo, start,
+                            expressions);
   }
   // Chosen by the evidence: each model's landmark misfit in the orthographic fit's noise (the
   // front's, and the side's relative to it) plus the prior (chi2), and for the perspective one a

@@ -1115,21 +1115,34 @@ TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length hol
   CHECK(std::abs(turn - yaw) < 5);
   CHECK(a.report["calibration_texture"] == "painted");
   CHECK(ratio < 1);
-  // A studio portrait's long lens puts the camera far (exif_distance): its EXIF changes nothing.
-  const auto studio = std::find_if(styles.begin(), styles.end(),
-                                   [](const auto& s) { return s.first.name == "studio"; });
-  REQUIRE(studio != styles.end());
-  test::PhotoShoot portrait = test::photograph(tmpl, truth, studio->second, studio->first,
-                                               test::skin_texture(tmpl, 512, studio->first));
+  // A 12-degree lens two metres away (the window style) is no selfie: its EXIF focal length is
+  // kept all the same (the skull's outline, 10 cm behind the face, looks 5 % smaller than an
+  // orthographic camera shows it), with the far noise floor (landmark_noise).
+  const auto window = std::find_if(styles.begin(), styles.end(),
+                                   [](const auto& s) { return s.first.name == "window"; });
+  REQUIRE(window != styles.end());
+  test::PhotoShoot portrait = test::photograph(tmpl, truth, window->second, window->first,
+                                               test::skin_texture(tmpl, 512, window->first));
   const PhotoAvatar plain = avatar_from_photos(tmpl, portrait.front, &portrait.side, opt);
   portrait.front.focal_35mm = portrait.side.focal_35mm =
-      std::round(test::focal_35mm(studio->first));
+      std::round(test::focal_35mm(window->first));
   const PhotoAvatar tagged = avatar_from_photos(tmpl, portrait.front, &portrait.side, opt);
+  const double window_lens = test::focal_pixels(window->first);
+  const double untagged = test::face_error(tmpl, plain.fit.positions, truth),
+               with_lens = test::face_error(tmpl, tagged.fit.positions, truth);
+  std::cout << "window with EXIF focal length " << portrait.front.focal_35mm << " mm ("
+            << window_lens << " px): " << tagged.fit.camera_model << ", focal "
+            << tagged.fit.front.focal() << " px, turn " << test::fitted_turn_degrees(tagged.fit)
+            << " (true " << window->second << "), error " << with_lens << " cm; without EXIF "
+            << plain.fit.camera_model << ", " << untagged << " cm\n";
   CHECK(tagged.report["front"]["exif_focal_pixels"].get<double>() ==
-        Approx(test::focal_pixels(studio->first)).epsilon(0.01));
-  CHECK(tagged.report["front"]["exif_focal_used"] == false);
-  CHECK_FALSE(tagged.fit.exif_focal);
-  CHECK(tagged.fit.positions.isApprox(plain.fit.positions, 0.0f));
+        Approx(window_lens).epsilon(0.01));
+  CHECK(tagged.report["front"]["exif_focal_used"] == true);
+  CHECK(tagged.fit.exif_focal);
+  CHECK(tagged.fit.camera_model == "perspective");
+  CHECK(tagged.fit.front.focal() == Approx(window_lens).epsilon(0.06));
+  CHECK(std::abs(test::fitted_turn_degrees(tagged.fit) - window->second) < 5);
+  CHECK(with_lens < untagged);
 }
 
 TEST_CASE("photo avatar as the command runs it: a smiling photo gives a neutral head",

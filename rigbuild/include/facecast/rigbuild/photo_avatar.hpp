@@ -107,14 +107,14 @@ struct PhotoOptions {
   /// evidence picks: fit_photo_shape).
   std::string camera = "auto";
   /// A photo whose EXIF gives its lens (PhotoLandmarks::focal) gets a perspective camera ("auto")
-  /// whose focal length has that as its prior, with this standard deviation relative to it ...
+  /// whose focal length has that as its prior, with this standard deviation relative to it, at
+  /// any distance.
   double exif_focal_sd = 0.02;
-  /// ... when that camera is nearer than this to the model's origin (model units, cm; farther, the
-  /// model is chosen by the evidence as without EXIF).
+  /// When that camera is nearer than this to the model's origin (model units, cm: a selfie) ...
   double exif_distance = 100;
-  /// ... and then the landmarks' noise floor is this (not below landmark_noise): at arm's length
-  /// the lens moves dlib's points more than the analysis by synthesis's renders reproduce (held
-  /// at landmark_noise, selfies' coefficients came back 1.7 posterior sd off).
+  /// ... the landmarks' noise floor is this (not below landmark_noise): at arm's length the lens
+  /// moves dlib's points more than the analysis by synthesis's renders reproduce (held at
+  /// landmark_noise, selfies' coefficients came back 1.7 posterior sd off).
   double near_landmark_noise = 0.03;
   /// The template's expression shapes the photos may show (ARKit names; an ICT FaceKit's
   /// name_L / name_R are found by nameLeft / nameRight): fitted with the identity when the
@@ -282,8 +282,7 @@ struct PhotoFit {
   /// by the evidence, chi^2 (orthographic) - chi^2 (perspective) - the penalty (> 0: perspective).
   std::string camera_model = "orthographic";
   double camera_evidence = 0;
-  /// The front photo's EXIF focal length was the perspective camera's prior (a camera nearer than
-  /// PhotoOptions::exif_distance).
+  /// The front photo's EXIF focal length was the perspective camera's prior.
   bool exif_focal = false;
   /// Per landmark, the calibration's move of its front vertex (model units).
   std::array<Eigen::Vector3d, kLandmarkCount> landmark_moves = zero_landmark_vectors();
@@ -308,10 +307,10 @@ std::vector<int> side_points(const PhotoLandmarks& side);
 /// (sigma, n_side: the orthographic fit's noises) is lower by more than ln(residuals), the
 /// Bayesian information criterion's price of its parameter; landmarks of unknown photo size
 /// (PhotoLandmarks::width 0) keep the orthographic camera. A front photo whose EXIF gives its lens
-/// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior when
-/// the camera comes out nearer than options.exif_distance (PhotoFit::exif_focal); farther, the
-/// fit goes on as without it. `start` (optional): an earlier fit whose cameras (and side turn)
-/// the fit starts from instead of fitting each photo's alone.
+/// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior
+/// (PhotoFit::exif_focal), with the landmarks' noise floor at options.near_landmark_noise when
+/// the camera comes out nearer than options.exif_distance. `start` (optional): an earlier fit
+/// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
                          const render::Image* front_photo = nullptr,
