@@ -3,10 +3,11 @@
 // the options of configs/rigbuild/photo.json, on heads of known shape photographed in several
 // styles (tests/rigbuild/photo_support.hpp: skin tone, baked light, background, lens, distance).
 // Per style: the fitted/template shape error on identity mixtures and on warped heads (a warp no
-// identity mode spans), front photo alone and front + side; the template's own photo's error in
-// cm; the side photo's fitted turn against the true one; the camera model the fit chose and its
-// focal length against the true one. The expressions' transfer (the command's last stage) is
-// left out: it runs after the fit and does not change it.
+// identity mode spans; beside it the nearest the modes reach, photo_support.hpp span_error), front
+// photo alone and front + side; the template's own photo's error in cm; the side photo's fitted
+// turn against the true one; the camera model the fit chose and its focal length against the true
+// one. The expressions' transfer (the command's last stage) is left out: it runs after the fit
+// and does not change it.
 //
 // Usage: bench_photo_styles [--seeds 3001,3002,...] [--count N] [--styles studio,window,selfie]
 //        [--no-warp] [--no-own] [--camera auto|orthographic|perspective]
@@ -184,6 +185,7 @@ struct Summary {
   std::vector<double> z;           // front + side mixtures: (fitted - true) / posterior sd
   std::vector<double> sd;          // ... and those posterior sds
   Eigen::VectorXd bias;            // ... the mean of fitted - true per mode
+  std::vector<double> span;        // warped heads: the modes' nearest / template (span_error)
 
   void add(const Fit& a, const Fit& b, double before, double true_turn) {
     if (!a.ok || !b.ok) {
@@ -346,6 +348,10 @@ int main(int argc, char** argv) try {
             kind, seed, before, a.ok ? a.error / before : -1.0, b.ok ? b.error / before : -1.0,
             b.turn, b.focal, notes.empty() ? "" : "; ", notes.c_str());
         s.add(a, b, before, yaw);
+        if (warped) {
+          s.span.push_back(test::span_error(tmpl, truth) / before);
+          std::printf("    the modes' nearest / template %.2f\n", s.span.back());
+        }
         if (args.coefficients && b.ok) {
           const Eigen::VectorXd c = test::identity_coefficients(tmpl, seed);
           std::printf("    coefficients, true / fitted (sd):");
@@ -371,6 +377,9 @@ int main(int argc, char** argv) try {
           "%d failed\n",
           kind, mean(s.front), max_of(s.front), mean(s.both), max_of(s.both), s.side_lower,
           s.both.size(), mean(s.turn_error), max_abs(s.turn_error), s.failed);
+      if (!s.span.empty())
+        std::printf("  %s: the modes' nearest / template %.2f (max %.2f)\n", kind, mean(s.span),
+                    max_of(s.span));
       if (!s.z.empty()) {
         double zz = 0;
         for (double z : s.z) zz += z * z;

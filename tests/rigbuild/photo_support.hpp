@@ -499,19 +499,61 @@ inline double median_of_three(std::array<double, 3> v) {
   return v[1];
 }
 
+/// The face's skin: the skin vertices of the face's UV tile (u < 1).
+inline std::vector<int> face_vertices(const rigbuild::PhotoTemplate& t) {
+  std::vector<int> face;
+  for (int v = 0; v < t.rig.vertex_count(); ++v)
+    if (t.skin[static_cast<std::size_t>(v)] && t.rig.uvs(v, 0) < 1.0f) face.push_back(v);
+  return face;
+}
+
 /// Shape error of `p` against `truth` over the face skin (u < 1) after the best similarity: the
 /// RMS distance (model units).
 inline double face_error(const rigbuild::PhotoTemplate& t, const rig::Positions& p,
                          const rig::Positions& truth) {
-  std::vector<int> face;
-  for (int v = 0; v < t.rig.vertex_count(); ++v)
-    if (t.skin[static_cast<std::size_t>(v)] && t.rig.uvs(v, 0) < 1.0f) face.push_back(v);
+  const std::vector<int> face = face_vertices(t);
   rig::Points a(static_cast<Eigen::Index>(face.size()), 3), b(a.rows(), 3);
   for (std::size_t i = 0; i < face.size(); ++i) {
     a.row(static_cast<Eigen::Index>(i)) = p.row(face[i]).cast<double>();
     b.row(static_cast<Eigen::Index>(i)) = truth.row(face[i]).cast<double>();
   }
   return rigbuild::procrustes(a, b, true).rms;
+}
+
+/// The nearest the identity modes reach to `truth` in face_error's measure (coefficients by least
+/// squares over the face skin, alternated with the similarity): what a fit of the modes alone can
+/// reach at best (a warped head's off-span part stays).
+inline double span_error(const rigbuild::PhotoTemplate& t, const rig::Positions& truth) {
+  const std::vector<int> face = face_vertices(t);
+  const auto n = static_cast<Eigen::Index>(face.size());
+  const auto K = static_cast<Eigen::Index>(t.modes.size());
+  Eigen::MatrixXd M(3 * n, K);
+  Eigen::VectorXd x0(3 * n);
+  rig::Points b(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const int v = face[static_cast<std::size_t>(i)];
+    for (int c = 0; c < 3; ++c) {
+      x0(3 * i + c) = t.rig.positions(v, c);
+      for (Eigen::Index m = 0; m < K; ++m)
+        M(3 * i + c, m) = t.modes[static_cast<std::size_t>(m)](v, c);
+    }
+    b.row(i) = truth.row(v).cast<double>();
+  }
+  const auto qr = M.colPivHouseholderQr();
+  Eigen::VectorXd x = x0;
+  double rms = 0;
+  for (int round = 0; round < 8; ++round) {
+    rig::Points a(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) a.row(i) = x.segment<3>(3 * i).transpose();
+    // The truth onto the fit; its distance in the truth's units.
+    const rigbuild::Similarity s = rigbuild::procrustes(b, a, true);
+    rms = s.rms / s.scale;
+    const rig::Points moved = s.apply(b);
+    Eigen::VectorXd y(3 * n);
+    for (Eigen::Index i = 0; i < n; ++i) y.segment<3>(3 * i) = moved.row(i).transpose();
+    x = x0 + M * qr.solve(y - x0);
+  }
+  return rms;
 }
 
 /// The side photo's turn the fit found: the yaw of the front camera's rotation to the side's,

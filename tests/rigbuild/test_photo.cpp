@@ -30,19 +30,6 @@ namespace {
 // Spread of the random identities (standard deviations of the modes).
 constexpr double kSigma = 1.0;
 
-// Error of `p` against the truth over the face skin after the best similarity: RMS distance.
-double aligned_error(const PhotoTemplate& t, const rig::Positions& p, const rig::Positions& truth) {
-  std::vector<int> face;
-  for (int v = 0; v < t.rig.vertex_count(); ++v)
-    if (t.skin[static_cast<std::size_t>(v)] && t.rig.uvs(v, 0) < 1.0f) face.push_back(v);
-  Points a(static_cast<Eigen::Index>(face.size()), 3), b(a.rows(), 3);
-  for (std::size_t i = 0; i < face.size(); ++i) {
-    a.row(static_cast<Eigen::Index>(i)) = p.row(face[i]).cast<double>();
-    b.row(static_cast<Eigen::Index>(i)) = truth.row(face[i]).cast<double>();
-  }
-  return procrustes(a, b, true).rms;
-}
-
 }  // namespace
 
 TEST_CASE("camera: a scale-orthographic projection is recovered from its points", "[photo]") {
@@ -274,15 +261,15 @@ TEST_CASE("photo fit of ICT identities: shape error against the truth, front and
   for (unsigned seed : seeds) {
     const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
     const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0);
-    const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    const double before = test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
     const PhotoAvatar a = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
     const PhotoAvatar b = avatar_from_photos(tmpl, shoot.front, &shoot.side, opt);
-    const double front = aligned_error(tmpl, a.fit.positions, truth.target.positions) / before;
-    const double side = aligned_error(tmpl, b.fit.positions, truth.target.positions) / before;
+    const double front = test::face_error(tmpl, a.fit.positions, truth.target.positions) / before;
+    const double side = test::face_error(tmpl, b.fit.positions, truth.target.positions) / before;
     std::cout << "  model only: front "
-              << aligned_error(tmpl, a.fit.model_positions, truth.target.positions) / before
+              << test::face_error(tmpl, a.fit.model_positions, truth.target.positions) / before
               << ", front+side "
-              << aligned_error(tmpl, b.fit.model_positions, truth.target.positions) / before
+              << test::face_error(tmpl, b.fit.model_positions, truth.target.positions) / before
               << "; rms px " << a.fit.front_rms << " / " << b.fit.front_rms << ", "
               << b.fit.side_rms << "; side noise " << b.fit.side_noise << "\n";
     const double reproj = test::reprojection_error(a, shoot.front, opt);
@@ -597,8 +584,8 @@ TEST_CASE("photo fit: exact landmarks of ICT identities give back their coeffici
       marks.points[k] =
           cam.project(truth.target.positions.row(tmpl.landmarks[k]).cast<double>().transpose());
     const PhotoFit fit = fit_photo_shape(tmpl, marks, nullptr, opt);
-    const double ratio = aligned_error(tmpl, fit.model_positions, truth.target.positions) /
-                         aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    const double ratio = test::face_error(tmpl, fit.model_positions, truth.target.positions) /
+                         test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
     std::cout << "exact landmarks, seed " << seed << ": coefficient error "
               << (fit.coefficients - c).norm() / c.norm() << " (relative), shape ratio " << ratio
               << ", camera scale " << fit.front.s << " (true 12)\n";
@@ -643,8 +630,8 @@ TEST_CASE("photo fit: a smile is fitted as an expression and left out of the neu
     return marks;
   };
   const auto ratio = [&](const PhotoFit& fit) {
-    return aligned_error(tmpl, fit.model_positions, truth.target.positions) /
-           aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    return test::face_error(tmpl, fit.model_positions, truth.target.positions) /
+           test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
   };
   const PhotoFit posed = fit_photo_shape(tmpl, landmarks(smiling), nullptr, opt);
   PhotoTemplate plain = tmpl;
@@ -701,9 +688,9 @@ TEST_CASE("photo fit: a noisy landmark group is weighed by its own noise", "[pho
     }
     const PhotoFit a = fit_photo_shape(tmpl, marks, nullptr, opt);
     const PhotoFit b = fit_photo_shape(tmpl, marks, nullptr, one);
-    const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
-    const double ra = aligned_error(tmpl, a.model_positions, truth.target.positions) / before;
-    const double rb = aligned_error(tmpl, b.model_positions, truth.target.positions) / before;
+    const double before = test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    const double ra = test::face_error(tmpl, a.model_positions, truth.target.positions) / before;
+    const double rb = test::face_error(tmpl, b.model_positions, truth.target.positions) / before;
     with += ra;
     without += rb;
     std::cout << "noisy jaw line, seed " << seed << ": group noise";
@@ -745,9 +732,9 @@ TEST_CASE("photo fit: exact front and turned side landmarks give back the identi
   }
   const PhotoFit a = fit_photo_shape(tmpl, f, nullptr, opt);
   const PhotoFit b = fit_photo_shape(tmpl, f, &s, opt);
-  const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
-  const double ra = aligned_error(tmpl, a.model_positions, truth.target.positions) / before;
-  const double rb = aligned_error(tmpl, b.model_positions, truth.target.positions) / before;
+  const double before = test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
+  const double ra = test::face_error(tmpl, a.model_positions, truth.target.positions) / before;
+  const double rb = test::face_error(tmpl, b.model_positions, truth.target.positions) / before;
   REQUIRE(b.side);
   const Eigen::Matrix3d rel = b.front.R.transpose() * b.side->R;
   const double got = std::atan2(rel(0, 2), rel(0, 0));
@@ -823,15 +810,15 @@ TEST_CASE(
     return m;
   };
   const PhotoLandmarks f = marks(front), s = marks(side);
-  const double before = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
+  const double before = test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
   PhotoOptions ortho = opt;
   ortho.camera = "orthographic";
   const PhotoFit flat = fit_photo_shape(tmpl, f, &s, ortho);
   const PhotoFit fit = fit_photo_shape(tmpl, f, &s, opt);
   REQUIRE(fit.side);
   const double flat_ratio =
-      aligned_error(tmpl, flat.model_positions, truth.target.positions) / before;
-  const double ratio = aligned_error(tmpl, fit.model_positions, truth.target.positions) / before;
+      test::face_error(tmpl, flat.model_positions, truth.target.positions) / before;
+  const double ratio = test::face_error(tmpl, fit.model_positions, truth.target.positions) / before;
   std::cout << "exact perspective landmarks: " << fit.camera_model << " (evidence "
             << fit.camera_evidence << "), focal " << fit.front.focal() << " / " << fit.side->focal()
             << " px (true 554), turn " << test::fitted_turn_degrees(fit)
@@ -904,7 +891,7 @@ TEST_CASE("photo fit as the command runs it: the detector's offsets count as noi
     fits[estimate] = avatar_from_photos(tmpl, shoot.front, nullptr, opt);
   }
   const auto error = [&](const PhotoAvatar& a) {
-    return aligned_error(tmpl, a.fit.positions, tmpl.rig.positions);
+    return test::face_error(tmpl, a.fit.positions, tmpl.rig.positions);
   };
   const PhotoFit& fit = fits[1].fit;
   std::cout << "the template's own photo: error " << error(fits[0])
@@ -944,9 +931,9 @@ TEST_CASE("photo fit as the command runs it: analysis by synthesis measures the 
     return avatar(shoot, rounds).fit.positions;
   };
   const test::PhotoShoot own = test::photograph(tmpl, tmpl.rig.positions, 40.0);
-  const double own_before = aligned_error(tmpl, fit(own, 0), tmpl.rig.positions);
+  const double own_before = test::face_error(tmpl, fit(own, 0), tmpl.rig.positions);
   const PhotoAvatar calibrated = avatar(own, 1);
-  const double own_after = aligned_error(tmpl, calibrated.fit.positions, tmpl.rig.positions);
+  const double own_after = test::face_error(tmpl, calibrated.fit.positions, tmpl.rig.positions);
   // The head after analysis by synthesis is the identity modes' (rbf_after_synthesis off); with
   // it on, the RBF calibration moves it by the landmarks' residuals.
   CHECK(!opt.rbf_after_synthesis);
@@ -960,7 +947,7 @@ TEST_CASE("photo fit as the command runs it: analysis by synthesis measures the 
   CHECK(moved.fit.model_positions == calibrated.fit.model_positions);
   std::cout << "the template's own photo, front + side: " << own_before << " cm without, "
             << own_after << " cm with analysis by synthesis ("
-            << aligned_error(tmpl, moved.fit.positions, tmpl.rig.positions)
+            << test::face_error(tmpl, moved.fit.positions, tmpl.rig.positions)
             << " cm with the RBF calibration after it)\n";
   // 0.097 now (landmark_noise 0.02); 0.174 measured with the painted template lit as the photo
   // and the floor at 0.01 (calibration_light; 0.118 unlit, 0.146 with the baked texture, 0.37
@@ -976,9 +963,9 @@ TEST_CASE("photo fit as the command runs it: analysis by synthesis measures the 
   for (unsigned seed : seeds) {
     const test::IctTruth truth = test::make_ict_truth(dir, seed, kSigma);
     const test::PhotoShoot shoot = test::photograph(tmpl, truth.target.positions, 40.0);
-    const double unfitted = aligned_error(tmpl, tmpl.rig.positions, truth.target.positions);
-    const double b = aligned_error(tmpl, fit(shoot, 0), truth.target.positions) / unfitted;
-    const double a = aligned_error(tmpl, fit(shoot, 1), truth.target.positions) / unfitted;
+    const double unfitted = test::face_error(tmpl, tmpl.rig.positions, truth.target.positions);
+    const double b = test::face_error(tmpl, fit(shoot, 0), truth.target.positions) / unfitted;
+    const double a = test::face_error(tmpl, fit(shoot, 1), truth.target.positions) / unfitted;
     std::cout << "identity seed " << seed << ", front + side: fitted/template " << b << " without, "
               << a << " with analysis by synthesis\n";
     before += b / static_cast<double>(seeds.size());
