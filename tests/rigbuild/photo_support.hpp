@@ -541,19 +541,17 @@ inline double span_error(const rigbuild::PhotoTemplate& t, const rig::Positions&
   }
   const auto qr = M.colPivHouseholderQr();
   Eigen::VectorXd x = x0;
-  double rms = 0;
+  rig::Points a(n, 3);
   for (int round = 0; round < 8; ++round) {
-    rig::Points a(n, 3);
     for (Eigen::Index i = 0; i < n; ++i) a.row(i) = x.segment<3>(3 * i).transpose();
-    // The truth onto the fit; its distance in the truth's units.
-    const rigbuild::Similarity s = rigbuild::procrustes(b, a, true);
-    rms = s.rms / s.scale;
-    const rig::Points moved = s.apply(b);
+    // The truth moved onto the fit; the coefficients fitted to it.
+    const rig::Points moved = rigbuild::procrustes(b, a, true).apply(b);
     Eigen::VectorXd y(3 * n);
     for (Eigen::Index i = 0; i < n; ++i) y.segment<3>(3 * i) = moved.row(i).transpose();
     x = x0 + M * qr.solve(y - x0);
   }
-  return rms;
+  for (Eigen::Index i = 0; i < n; ++i) a.row(i) = x.segment<3>(3 * i).transpose();
+  return rigbuild::procrustes(a, b, true).rms;  // as face_error measures it
 }
 
 /// The side photo's turn the fit found: the yaw of the front camera's rotation to the side's,
