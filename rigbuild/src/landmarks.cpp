@@ -13,10 +13,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <future>
+#include <istream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <streambuf>
 
 #include "facecast/core/error.hpp"
 #include "facecast/render/renderer.hpp"
@@ -57,10 +59,28 @@ bool is_jaw(int k) {
 
 }  // namespace
 
-// dlib builds the detector from its serialized form in a few tenths of a second: once per
-// process, copied per use or per thread (its operator() is not const).
+namespace detail {
+// dlib's detector serialized uncompressed at build time (tools/face_detector_gen.cpp).
+extern const unsigned char kFaceDetector[];
+extern const std::size_t kFaceDetectorSize;
+}  // namespace detail
+
+// Read from the build's uncompressed copy in a few milliseconds (dlib's own compressed copy,
+// get_frontal_face_detector, takes 0.3 s): once per process, copied per use or per thread (its
+// operator() is not const).
 const dlib::frontal_face_detector& face_detector() {
-  static const dlib::frontal_face_detector prototype = dlib::get_frontal_face_detector();
+  static const dlib::frontal_face_detector prototype = [] {
+    struct Bytes : std::streambuf {
+      Bytes(const unsigned char* p, std::size_t n) {
+        char* c = const_cast<char*>(reinterpret_cast<const char*>(p));  // read only
+        setg(c, c, c + n);
+      }
+    } bytes(detail::kFaceDetector, detail::kFaceDetectorSize);
+    std::istream in(&bytes);
+    dlib::frontal_face_detector d;
+    dlib::deserialize(d, in);
+    return d;
+  }();
   return prototype;
 }
 

@@ -15,7 +15,10 @@
 #include "facecast/rigbuild/build.hpp"
 #include "facecast/rigbuild/landmarks.hpp"
 #include "facecast/rigbuild/template.hpp"
+#include "landmark_views.hpp"
 #include "test_data.hpp"
+
+#include <dlib/image_processing/frontal_face_detector.h>
 
 using namespace facecast;
 using namespace facecast::rigbuild;
@@ -123,6 +126,16 @@ TEST_CASE("landmarks on ICT identities land within 2% of the face's diagonal of 
                         landmark_picture(found));
   }
   WARN("worst mean landmark error: " << 100 * worst_mean << " %");
+}
+
+TEST_CASE("the face detector compiled in is dlib's, byte for byte", "[rigbuild][landmarks]") {
+  // The build writes dlib's detector uncompressed (rigbuild/tools/face_detector_gen.cpp); the
+  // library reads that copy, not dlib's compressed one.
+  std::ostringstream built, dlibs;
+  dlib::serialize(face_detector(), built);
+  dlib::serialize(dlib::get_frontal_face_detector(), dlibs);
+  CHECK(built.str().size() > 100000);
+  CHECK(built.str() == dlibs.str());
 }
 
 TEST_CASE("configs/rigbuild/landmarks.json mirrors LandmarkOptions' defaults",
