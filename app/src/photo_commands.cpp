@@ -27,10 +27,10 @@ void from_photo(const PhotoArgs& a) {
   if (!a.side.empty()) side = render::read_photo(a.side);
   const ProgressFn progress = terminal_progress();
   report(progress, "template", 0.0);
-  // dlib's models (a second) are read while the template is.
+  // dlib's shape predictor (0.6 s) is read while the template is, and while the avatar's first
+  // steps that need neither (the template's shapes, the face's box) run: the landmarks wait for it.
   auto detector = std::async(std::launch::async, [&] { rigbuild::load_photo_detector(opt); });
   const rigbuild::PhotoTemplate tmpl = rigbuild::load_photo_template(tmpl_path);
-  detector.get();
   const rigbuild::PhotoAvatar avatar = [&] {
     try {
       return rigbuild::avatar_from_photos(tmpl, front, side ? &*side : nullptr, opt, progress);

@@ -809,6 +809,12 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   const bool calibrates = !has_detector_response(tmpl) && options.self_calibrate > 0;
   std::future<void> gl;
   if (calibrates) gl = async_within_budget([] { render::open_displays(); });
+  // The template's shapes and their gradients, which the expressions' transfer needs and the
+  // landmarks and the fit do not, are made on another thread meanwhile (a core is idle while
+  // dlib's shape predictor is still being read, and in the fit's serial parts).
+  const bool builds = options.shapes && !tmpl.rig.shapes.empty();
+  std::future<TemplateShapes> source;
+  if (builds) source = async_within_budget([&tmpl] { return template_shapes(tmpl.rig); });
   report(progress, "landmarks", 0.0);
   out.front = detect_photo_landmarks(front, "front photo", options);
   if (side) {
@@ -816,12 +822,6 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
     out.has_side = true;
   }
   timing["landmarks"] = seconds_since(t0);
-  // The template's shapes and their gradients, which the expressions' transfer needs and the fit
-  // does not, are made on another thread meanwhile (the fit leaves a core idle in its serial
-  // parts).
-  const bool builds = options.shapes && !tmpl.rig.shapes.empty();
-  std::future<TemplateShapes> source;
-  if (builds) source = async_within_budget([&tmpl] { return template_shapes(tmpl.rig); });
   report(progress, "fit", 0.15);
   auto t = std::chrono::steady_clock::now();
   // With analysis by synthesis to follow, the expressions are left to its fit: before the
