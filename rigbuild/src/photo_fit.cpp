@@ -6,6 +6,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <deque>
+#include <future>
 #include <limits>
 #include <optional>
 #include <set>
@@ -15,6 +17,7 @@
 #include "facecast/core/error.hpp"
 #include "facecast/core/threads.hpp"
 #include "geometry.hpp"
+#include "parallel.hpp"
 #include "photo_detail.hpp"
 
 namespace facecast::rigbuild {
@@ -836,26 +839,36 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
     heads.push_back(tmpl.rig.positions + static_cast<float>(amplitude) * mode);
     heads.push_back(tmpl.rig.positions - static_cast<float>(amplitude) * mode);
   }
-  // Photographed on this thread (a renderer's context is its thread's), read on the loop's
-  // workers: dlib's detector and predictor take about ten times as long as a render. A batch of
-  // one head per core at a time, so that not every photo is held at once.
-  const std::size_t batch = std::max(1u, std::thread::hardware_concurrency());
+  // Photographed on this thread (a renderer's context is its thread's), each read on another
+  // thread as soon as it is taken, while the next is photographed: dlib's detector and predictor
+  // take about ten times as long as a render. At most one photo per core is held at a time.
+  const std::size_t most = std::max(1u, std::thread::hardware_concurrency());
   // Per photo alone (all 68 points), the offsets on each head: front, side.
   std::vector<std::array<Offsets, 2>> measured(heads.size());
-  for (std::size_t first = 0; first < heads.size(); first += batch) {
-    std::vector<std::pair<render::Image, render::Image>> shots;
-    for (std::size_t i = first; i < std::min(heads.size(), first + batch); ++i)
-      shots.push_back(shoot(heads[i]));
-    parallel_for(shots.size(), [&](std::size_t j) {
-      PhotoTemplate t = tmpl;
-      t.rig.positions = heads[first + j];
-      const auto& [front, side] = shots[j];
-      measured[first + j] = {measure_landmark_bias(t, find(front, false), nullptr, options),
-                             zero_landmark_vectors()};
-      if (side.width > 0)
-        measured[first + j][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
-    });
+  // Each head's template: less what a landmark fit without expressions never reads (the rig's
+  // shapes and textures, the expressions), which copying twice per head took a tenth of the time.
+  PhotoTemplate lean = tmpl;
+  lean.rig.shapes.clear();
+  lean.rig.textures.clear();
+  lean.expressions.clear();
+  lean.expression_names.clear();
+  std::deque<std::future<void>> reading;  // after `measured`: on a throw, waited for before it goes
+  for (std::size_t i = 0; i < heads.size(); ++i) {
+    auto shots = shoot(heads[i]);
+    if (reading.size() >= most) {
+      reading.front().get();
+      reading.pop_front();
+    }
+    reading.push_back(async_within_budget([&, i, shots = std::move(shots)] {
+      PhotoTemplate t = lean;
+      t.rig.positions = heads[i];
+      const auto& [front, side] = shots;
+      measured[i] = {measure_landmark_bias(t, find(front, false), nullptr, options),
+                     zero_landmark_vectors()};
+      if (side.width > 0) measured[i][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
+    }));
   }
+  for (auto& r : reading) r.get();
   // The offsets' model, bias + sum_m mode_bias_m c_m, fitted by least squares to the heads at
   // c = 0 and c = +-amplitude e_m: their c sum to 0, so the bias is the offsets' mean over all of
   // them and mode_bias_m the central difference. The mean over all the photographs (21 with ten
