@@ -4,12 +4,13 @@
 #include <algorithm>
 #include <chrono>
 
+#include "facecast/core/error.hpp"
 #include "parallel.hpp"
 #include "stages.hpp"
 
 namespace facecast::rigbuild {
 
-TemplateShapes template_shapes(const rig::Rig& tmpl) {
+TemplateShapes template_shapes(const rig::Rig& tmpl, const std::atomic<bool>* abandon) {
   const auto t0 = std::chrono::steady_clock::now();
   TemplateShapes s;
   s.rest = rig::to_points(tmpl.positions);
@@ -18,6 +19,7 @@ TemplateShapes template_shapes(const rig::Rig& tmpl) {
   s.shapes.resize(tmpl.shapes.size());
   s.gradients.resize(tmpl.shapes.size());
   parallel_for(tmpl.shapes.size(), [&](std::size_t k) {  // independent: all cores
+    if (abandon && *abandon) return;
     s.shapes[k] = s.rest;
     const auto& shape = tmpl.shapes[k];
     for (std::size_t i = 0; i < shape.vertices.size(); ++i) {
@@ -26,6 +28,7 @@ TemplateShapes template_shapes(const rig::Rig& tmpl) {
     }
     source_gradients(rest_inv, s.shapes[k], s.faces, s.gradients[k]);
   });
+  if (abandon && *abandon) throw Error("template shapes: abandoned");
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }

@@ -3,6 +3,7 @@
 #include "facecast/rigbuild/photo_avatar.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <cctype>
 #include <chrono>
@@ -811,10 +812,20 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
   if (calibrates) gl = async_within_budget([] { render::open_displays(); });
   // The template's shapes and their gradients, which the expressions' transfer needs and the
   // landmarks and the fit do not, are made on another thread meanwhile (a core is idle while
-  // dlib's shape predictor is still being read, and in the fit's serial parts).
+  // dlib's shape predictor is still being read, and in the fit's serial parts). Abandoned when
+  // something throws before the build takes them over: a photo without a face fails at once.
   const bool builds = options.shapes && !tmpl.rig.shapes.empty();
+  std::atomic<bool> abandon = false;
   std::future<TemplateShapes> source;
-  if (builds) source = async_within_budget([&tmpl] { return template_shapes(tmpl.rig); });
+  if (builds)
+    source = async_within_budget([&tmpl, &abandon] { return template_shapes(tmpl.rig, &abandon); });
+  struct AbandonOnThrow {  // destroyed before `source` waits for the thread
+    std::atomic<bool>& flag;
+    const std::future<TemplateShapes>& shapes;
+    ~AbandonOnThrow() {
+      if (shapes.valid()) flag = true;
+    }
+  } abandon_on_throw{abandon, source};
   report(progress, "landmarks", 0.0);
   out.front = detect_photo_landmarks(front, "front photo", options);
   if (side) {

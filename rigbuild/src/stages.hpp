@@ -15,6 +15,7 @@
 //   carry_attached             parts lying on the skin ride on it (placement.cpp)
 //   with_shapes, measure_gaps  the deltas and the report's measures (solve.cpp)
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <future>
 #include <optional>
@@ -135,7 +136,9 @@ Correspondence correspond(const rig::Rig& tmpl, const rig::Rig& target,
                           const MeshParts& target_parts, const BuildOptions& options,
                           std::optional<AutoMarkers>& found,
                           std::optional<TemplateParts>& template_parts, const ProgressFn& progress);
-TemplateShapes template_shapes(const rig::Rig& tmpl);
+/// `abandon` (optional): once set, the shapes not yet made are skipped and Error is thrown (the
+/// caller will not read them: avatar_from_photos's photo had no face).
+TemplateShapes template_shapes(const rig::Rig& tmpl, const std::atomic<bool>* abandon = nullptr);
 /// build_rig with the template's shapes being made meanwhile (template_shapes(tmpl), started by
 /// the caller: avatar_from_photos starts it while it fits the head that becomes `target`).
 BuildResult build_rig(const rig::Rig& tmpl, std::future<TemplateShapes> source_ready,

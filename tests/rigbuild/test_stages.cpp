@@ -1,6 +1,7 @@
 // The rig builder's stages and geometry toolbox on small inputs (no shared data needed).
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
+#include <atomic>
 #include <cmath>
 
 #include "facecast/core/error.hpp"
@@ -124,6 +125,22 @@ TEST_CASE("connected components given for another mesh are rejected naming the i
                     "correspondence: target components: 5 vertex labels for 10 vertices");
   CHECK_THROWS_WITH(with_lid_middles(r, r, other, rest, {}),
                     "lid middles: target components: 5 vertex labels for 10 vertices");
+}
+
+TEST_CASE("the template's shapes: made whole, or abandoned with an error", "[rigbuild][stages]") {
+  rig::Rig tmpl = skin_and_tooth();
+  rig::Positions d = rig::Positions::Zero(10, 3);
+  d(2, 2) = 0.2f;
+  tmpl.shapes.push_back(rig::Blendshape::from_dense("s", d));
+  std::atomic<bool> abandon = false;
+  const TemplateShapes made = template_shapes(tmpl, &abandon);
+  REQUIRE(made.size() == 1);
+  CHECK(made.shapes[0](2, 2) == Approx(tmpl.positions(2, 2) + 0.2));
+  CHECK(made.gradients[0].size() == static_cast<std::size_t>(tmpl.triangle_count()));
+  // A caller that will not read them (avatar_from_photos when the photo has no face) gets no
+  // half-made shapes.
+  abandon = true;
+  CHECK_THROWS_WITH(template_shapes(tmpl, &abandon), "template shapes: abandoned");
 }
 
 TEST_CASE("placement: still vertices stay, a part the template moves rigidly is rigid",
