@@ -3,8 +3,8 @@
 #include "facecast/rigbuild/photo_avatar.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <array>
+#include <atomic>
 #include <cctype>
 #include <chrono>
 #include <cmath>

@@ -865,7 +865,8 @@ void measure_detector_response(PhotoTemplate& tmpl, const PhotoShootFn& shoot,
       const auto& [front, side] = shots;
       measured[i] = {measure_landmark_bias(t, find(front, false), nullptr, options),
                      zero_landmark_vectors()};
-      if (side.width > 0) measured[i][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
+      if (side.width > 0)
+        measured[i][1] = measure_landmark_bias(t, find(side, true), nullptr, options);
     }));
   }
   for (auto& r : reading) r.get();

@@ -1,7 +1,7 @@
 // The rig builder's stages and geometry toolbox on small inputs (no shared data needed).
 #include <Eigen/Geometry>
-#include <catch2/catch.hpp>
 #include <atomic>
+#include <catch2/catch.hpp>
 #include <cmath>
 
 #include "facecast/core/error.hpp"
