@@ -15,7 +15,6 @@
 
 #include "edge_image.hpp"
 #include "facecast/core/error.hpp"
-#include "facecast/core/threads.hpp"
 #include "geometry.hpp"
 #include "parallel.hpp"
 #include "photo_detail.hpp"
