@@ -281,6 +281,7 @@ PhotoOptions load_photo_options() {
       .read("rbf_radius", o.rbf_radius)
       .read("rbf_after_synthesis", o.rbf_after_synthesis)
       .read("posterior_scale", o.posterior_scale)
+      .read("max_prior_precision", o.max_prior_precision)
       .read("texture_size", o.texture_size)
       .read("side_gamma", o.side_gamma)
       .read("mask_background", o.mask_background)
@@ -306,6 +307,8 @@ PhotoOptions load_photo_options() {
     c.fail("stereo_blur", "must be in [0.005, 0.2]");
   if (!(o.posterior_scale >= 1 && o.posterior_scale <= 10))
     c.fail("posterior_scale", "must be in [1, 10]");
+  if (!(o.max_prior_precision >= 1 && o.max_prior_precision <= 1e6))
+    c.fail("max_prior_precision", "must be in [1, 1e6]");
   if (o.iterations < 1 || o.iterations > 100) c.fail("iterations", "must be in 1..100");
   if (o.self_calibrate < 0 || o.self_calibrate > 3) c.fail("self_calibrate", "must be in 0..3");
   if (!(o.painted_distance >= 0)) c.fail("painted_distance", "must be at least 0");
@@ -857,8 +860,11 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
       // posterior deviations with a side photo (RMS over three photo styles), 1.33 from a front
       // photo alone: with a side photo the evidence is counted as much as that says it is worth
       // (posterior_scale; docs/algorithms.md#photo-avatar). Alone, counted so, the front
-      // photo's mixtures came out further off.
-      if (side) calibrate_posterior(tmpl, out.fit, options.posterior_scale);
+      // photo's mixtures came out further off. Then, with a photo or two, the prior's precision
+      // by the evidence, at most max_prior_precision: a head near the template, where the
+      // evidence is mostly the detector's and the off-span shape's pull, stays nearer it.
+      calibrate_posterior(tmpl, out.fit, side ? options.posterior_scale : 1.0,
+                          options.max_prior_precision);
     } catch (const Error& e) {
       // A render the detector cannot read (a head moved far along a mode): the fit stays as it was.
       calibration_note = std::string("self-calibration skipped: ") + e.what();
@@ -919,6 +925,7 @@ PhotoAvatar avatar_from_photos(const PhotoTemplate& given, const render::Image& 
                 {"coefficient_sd", std::vector<double>(out.fit.coefficient_sd.data(),
                                                        out.fit.coefficient_sd.data() +
                                                            out.fit.coefficient_sd.size())},
+                {"prior_precision", out.fit.prior_precision},
                 {"landmark_noise", out.fit.noise},
                 {"landmark_group_noise",
                  {{"jaw", out.fit.group_noise[0]},

@@ -3,6 +3,7 @@
 // silhouette) and to the edges along the face's outline, then the residuals moved by an RBF
 // deformation. See docs/algorithms.md#photo-avatar.
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -775,13 +776,63 @@ PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
   return chosen;
 }
 
-void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale) {
+namespace {
+
+// The identity prior N(0, I / alpha), 1 <= alpha <= max_alpha, under which the coefficients'
+// evidence is most probable (type-II maximum likelihood, one precision for all modes: MacKay's
+// alpha). The evidence is information D about coefficients c_e (D c_e = pull); in D's eigenbasis
+// (lambda_i, z = the projected c_e) it is N(z_i; 0, v + 1 / lambda_i) per direction, v = 1 /
+// alpha: its log -1/2 sum (ln(v + 1 / lambda_i) + z_i^2 / (v + 1 / lambda_i)) is searched on a
+// grid of v in [1 / max_alpha, 1] and refined by golden section.
+double evidence_precision(const Eigen::MatrixXd& information, const Eigen::VectorXd& pull,
+                          double max_alpha) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
+  const Eigen::VectorXd projected = eigen.eigenvectors().transpose() * pull;
+  std::vector<std::pair<double, double>> terms;  // 1 / lambda_i, z_i^2
+  for (Eigen::Index i = 0; i < projected.size(); ++i)
+    if (const double lambda = eigen.eigenvalues()(i); lambda > 1e-9)
+      terms.emplace_back(1 / lambda, std::pow(projected(i) / lambda, 2));
+  const auto log_evidence = [&](double v) {
+    double sum = 0;
+    for (const auto& [spread, z2] : terms) sum -= std::log(v + spread) + z2 / (v + spread);
+    return sum;
+  };
+  constexpr int kSteps = 200;
+  const double low = 1 / max_alpha, step = (1 - low) / kSteps;
+  int best = 0;
+  for (int k = 1; k <= kSteps; ++k)
+    if (log_evidence(low + k * step) > log_evidence(low + best * step)) best = k;
+  double lo = low + std::max(0, best - 1) * step, hi = low + std::min(kSteps, best + 1) * step;
+  const double golden = (std::sqrt(5.0) - 1) / 2;
+  for (int round = 0; round < 40; ++round) {
+    const double a = hi - golden * (hi - lo), b = lo + golden * (hi - lo);
+    if (log_evidence(a) >= log_evidence(b))
+      hi = b;
+    else
+      lo = a;
+  }
+  double v = (lo + hi) / 2;
+  for (const double end : {low, 1.0})
+    if (log_evidence(end) >= log_evidence(v)) v = end;
+  return 1 / v;
+}
+
+}  // namespace
+
+void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale,
+                         double max_precision) {
   const Eigen::Index modes = fit.coefficients.size();
-  if (scale == 1 || fit.coefficient_covariance.rows() != modes) return;
+  if ((scale == 1 && max_precision <= 1) || fit.coefficient_covariance.rows() != modes) return;
+  const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(modes, modes);
+  // The fit's posterior precision is D + I (D the evidence's information, I the prior's), its
+  // mean solves (D + I) c = D c_e. Counted 1 / scale^2 times, D becomes D / scale^2.
   const Eigen::MatrixXd precision = fit.coefficient_covariance.inverse();
-  const Eigen::MatrixXd wider =
-      precision + (scale * scale - 1) * Eigen::MatrixXd::Identity(modes, modes);
-  const Eigen::VectorXd c = wider.ldlt().solve(precision * fit.coefficients);
+  const Eigen::MatrixXd information = (precision - identity) / (scale * scale);
+  const Eigen::VectorXd pull = precision * fit.coefficients / (scale * scale);
+  const double alpha =
+      max_precision > 1 ? evidence_precision(information, pull, max_precision) : 1.0;
+  const Eigen::MatrixXd covariance = (information + alpha * identity).inverse();
+  const Eigen::VectorXd c = covariance * pull;
   for (std::size_t m = 0; m < tmpl.modes.size(); ++m) {
     const auto move = static_cast<float>(c(static_cast<Eigen::Index>(m)) -
                                          fit.coefficients(static_cast<Eigen::Index>(m))) *
@@ -790,8 +841,9 @@ void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale)
     fit.model_positions += move;
   }
   fit.coefficients = c;
-  fit.coefficient_covariance = scale * scale * wider.inverse();
+  fit.coefficient_covariance = covariance;
   fit.coefficient_sd = fit.coefficient_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  fit.prior_precision = alpha;
 }
 
 rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit) {

@@ -869,6 +869,47 @@ TEST_CASE("calibrated posterior: the evidence counted 1 / scale^2 times", "[phot
   CHECK(fit.positions(1, 2) == Approx(0.5));
 }
 
+TEST_CASE("the identity prior's precision by the evidence, within [1, max]", "[photo]") {
+  // One mode, evidence information d = 3 about c_e: the fit's posterior precision 4, its mean
+  // 3 c_e / 4. The evidence p(c_e | alpha) = N(0, 1 / alpha + 1 / d) is largest at
+  // alpha = d / (d c_e^2 - 1) when d c_e^2 > 1, else at alpha = infinity (the template).
+  PhotoTemplate tmpl;
+  tmpl.rig.positions = rig::Positions::Zero(2, 3);
+  tmpl.modes = {rig::Positions::Zero(2, 3)};
+  tmpl.modes[0](1, 2) = 1;
+  const auto fitted = [&](double evidence_mean, double max_precision) {
+    PhotoFit fit;
+    fit.coefficients = Eigen::VectorXd::Constant(1, 0.75 * evidence_mean);
+    fit.coefficient_covariance = Eigen::MatrixXd::Constant(1, 1, 0.25);
+    fit.model_positions = tmpl.rig.positions + fit.coefficients(0) * tmpl.modes[0];
+    fit.positions = fit.model_positions;
+    fit.positions(0, 0) = 0.5;  // an RBF move the modes do not carry: kept
+    calibrate_posterior(tmpl, fit, 1.0, max_precision);
+    return fit;
+  };
+  // c_e = 1: alpha 3 / 2, c = 3 / 4.5, sd = 1 / sqrt(4.5); both heads follow.
+  const PhotoFit near = fitted(1.0, 2.0);
+  CHECK(near.prior_precision == Approx(1.5).epsilon(1e-4));
+  CHECK(near.coefficients(0) == Approx(2.0 / 3).epsilon(1e-4));
+  CHECK(near.coefficient_sd(0) == Approx(1 / std::sqrt(4.5)).epsilon(1e-4));
+  CHECK(near.positions(1, 2) == Approx(2.0 / 3).epsilon(1e-4));
+  CHECK(near.model_positions(1, 2) == Approx(2.0 / 3).epsilon(1e-4));
+  CHECK(near.positions(0, 0) == Approx(0.5));
+  // c_e = 0.5, within the evidence's own noise: alpha at its bound, c = 1.5 / (3 + alpha).
+  const PhotoFit within = fitted(0.5, 2.0);
+  CHECK(within.prior_precision == Approx(2.0));
+  CHECK(within.coefficients(0) == Approx(0.3));
+  CHECK(within.coefficient_sd(0) == Approx(1 / std::sqrt(5.0)));
+  CHECK(fitted(0.5, 1e6).coefficients(0) == Approx(0.0).margin(1e-5));
+  // c_e = 2: alpha would be 3 / 11, below the modes' prior: the fit as it was.
+  const PhotoFit far = fitted(2.0, 2.0);
+  CHECK(far.prior_precision == 1.0);
+  CHECK(far.coefficients(0) == Approx(1.5));
+  CHECK(far.coefficient_sd(0) == Approx(0.5));
+  // max 1: the modes' prior, nothing changes.
+  CHECK(fitted(1.0, 1.0).coefficients(0) == 0.75);
+}
+
 TEST_CASE("photo fit as the command runs it: the detector's offsets count as noise, not identity",
           "[photo][ict][slow]") {
   // No detector response learned (the command has none): dlib's convention differs from the

@@ -137,6 +137,10 @@ struct PhotoOptions {
   /// on development heads of known shape (calibrate_posterior): the evidence on the coefficients
   /// counted 1 / posterior_scale^2 times (1: as the fit has it).
   double posterior_scale = 1.56;
+  /// After the last fit, the identity prior's precision (one for all modes) chosen by the
+  /// evidence between the modes' own (1) and this (calibrate_posterior): a head the photos put
+  /// nearer the template than its modes' spread is drawn nearer still (1: the modes' prior).
+  double max_prior_precision = 2.0;
   int texture_size = 1024;      // texture height; the width is twice (face and back of head)
   double side_gamma = 1.0;      // blend exponent on the normal's components (1: the seed's)
   bool mask_background = true;  // outside the face, no background or clothes in the texture
@@ -282,6 +286,8 @@ struct PhotoFit {
   /// by the evidence, chi^2 (orthographic) - chi^2 (perspective) - the penalty (> 0: perspective).
   std::string camera_model = "orthographic";
   double camera_evidence = 0;
+  /// The identity prior's precision the evidence chose (calibrate_posterior; 1: the modes' own).
+  double prior_precision = 1;
   /// The front photo's EXIF focal length was the perspective camera's prior.
   bool exif_focal = false;
   /// Per landmark, the calibration's move of its front vertex (model units).
@@ -293,9 +299,12 @@ rig::Positions posed_positions(const PhotoTemplate& tmpl, const PhotoFit& fit);
 
 /// The fit's posterior made `scale` times as wide in its evidence (counted 1 / scale^2 times): the
 /// coefficients c with posterior covariance C (prior N(0, I)) become (C^-1 + (scale^2 - 1) I)^-1
-/// C^-1 c, their covariance scale^2 times that inverse; both heads move along the modes by the
+/// C^-1 c, their covariance scale^2 times that inverse. With max_precision > 1 the prior is then
+/// N(0, I / alpha), alpha in [1, max_precision] the one under which the evidence is most probable
+/// (type-II maximum likelihood; the fit's prior_precision). Both heads move along the modes by the
 /// change. The cameras and the expressions stay as fitted.
-void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale);
+void calibrate_posterior(const PhotoTemplate& tmpl, PhotoFit& fit, double scale,
+                         double max_precision = 1.0);
 
 /// The side photo's profile points (nose ridge and tip, lip centres, chin) and the near side's
 /// eye corners, brow ends, nostril and mouth corner; of these the chin is a silhouette point.
