@@ -343,7 +343,7 @@ int main(int argc, char** argv) try {
         const Fit b = run_fit(tmpl, shoot, true, truth, opt);
         const std::string notes = a.note + (a.note.empty() || b.note.empty() ? "" : ", ") + b.note;
         std::printf(
-            "  %s %u: template %.3f cm; fitted/template front %.2f, front+side %.2f; turn "
+            "  %s %u: template %.3f cm; fitted/template front %.3f, front+side %.3f; turn "
             "%.1f; focal %.0f%s%s\n",
             kind, seed, before, a.ok ? a.error / before : -1.0, b.ok ? b.error / before : -1.0,
             b.turn, b.focal, notes.empty() ? "" : "; ", notes.c_str());
