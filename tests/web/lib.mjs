@@ -188,6 +188,9 @@ export async function launchBrowser({ args = [] } = {}) {
 export async function newPage(browser, { width = 1400, height = 860 } = {}) {
   const context = await browser.newContext({ viewport: { width, height }, deviceScaleFactor: 1 });
   const page = await context.newPage();
+  // A page's first load waits for the server beside other tests' work (rig.html took over 30 s,
+  // Playwright's default, with the slow photo tests on both cores).
+  page.setDefaultNavigationTimeout(120000);
   page.problems = [];
   page.allowed = [];
   page.allow = (re) => page.allowed.push(re);
