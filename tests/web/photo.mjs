@@ -38,7 +38,7 @@ await run('photo', async () => {
   const server = await startServer();
   const browser = await launchBrowser({ args: ['--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream', `--use-file-for-fake-video-capture=${camera}`] });
   const page = await newPage(browser, { width: 1400, height: 900 });
-  await page.goto(`${server.url}/photo.html`, { timeout: 120000 });
+  await page.goto(`${server.url}/photo.html`);
 
   // ---- The webcam: snap a photo, its landmarks are found and drawn.
   await page.click('#camera');

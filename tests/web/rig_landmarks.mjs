@@ -19,7 +19,7 @@ await run('rig_landmarks', async () => {
   const server = await startServer();
   const browser = await launchBrowser();
   const page = await newPage(browser, { width: 1400, height: 900 });
-  await page.goto(`${server.url}/rig.html`, { timeout: 120000 });
+  await page.goto(`${server.url}/rig.html`);
   await waitFor(page, () => window.__rig?.templateReady, null, { timeout: 90000, what: 'the default template' });
   await page.selectOption('#template', 'ict-facekit');
   await waitFor(page, () => window.__rig.templateReady && window.__rig.vertexCounts().template > 20000, null, {
