@@ -114,7 +114,8 @@ struct PhotoOptions {
   double exif_distance = 100;
   /// ... the landmarks' noise floor is this (not below landmark_noise): at arm's length the lens
   /// moves dlib's points more than the analysis by synthesis's renders reproduce (held at
-  /// landmark_noise, selfies' coefficients came back 1.7 posterior sd off).
+  /// landmark_noise, selfies' coefficients came back 1.7 posterior sd off). The side photo, taken
+  /// through the same lens, then keeps side_noise (estimate_side_noise is for far lenses).
   double near_landmark_noise = 0.03;
   /// The template's expression shapes the photos may show (ARKit names; an ICT FaceKit's
   /// name_L / name_R are found by nameLeft / nameRight): fitted with the identity when the
@@ -317,8 +318,9 @@ std::vector<int> side_points(const PhotoLandmarks& side);
 /// Bayesian information criterion's price of its parameter; landmarks of unknown photo size
 /// (PhotoLandmarks::width 0) keep the orthographic camera. A front photo whose EXIF gives its lens
 /// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior
-/// (PhotoFit::exif_focal), with the landmarks' noise floor at options.near_landmark_noise when
-/// the camera comes out nearer than options.exif_distance. `start` (optional): an earlier fit
+/// (PhotoFit::exif_focal), with the landmarks' noise floor at options.near_landmark_noise (and
+/// the side photo's noise at options.side_noise) when the camera comes out nearer than
+/// options.exif_distance. `start` (optional): an earlier fit
 /// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
