@@ -1108,7 +1108,8 @@ TEST_CASE("photo avatar as the command runs it: a selfie's EXIF focal length hol
   // A phone writes its lens's 35-mm equivalent focal length into the JPEG; read as the command
   // reads the photos (render::read_photo), it becomes the perspective camera's prior: the fitted
   // focal length stays within a few percent of the lens's, the side photo's turn within 5 degrees,
-  // and the selfie's head is painted for analysis by synthesis (the focal length no longer moves).
+  // the side photo weighs as the front (the same lens), and the selfie's head is painted for
+  // analysis by synthesis (the focal length no longer moves).
   PhotoOptions opt = load_photo_options();
   opt.shapes = false;
   const PhotoTemplate tmpl = load_photo_template(photo_template_path(opt, ""));

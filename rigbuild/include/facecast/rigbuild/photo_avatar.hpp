@@ -320,8 +320,8 @@ std::vector<int> side_points(const PhotoLandmarks& side);
 /// (PhotoLandmarks::focal) gets the perspective camera with that focal length as its prior
 /// (PhotoFit::exif_focal), with the landmarks' noise floor at options.near_landmark_noise (and
 /// the side photo's noise at options.side_noise) when the camera comes out nearer than
-/// options.exif_distance. `start` (optional): an earlier fit
-/// whose cameras (and side turn) the fit starts from instead of fitting each photo's alone.
+/// options.exif_distance. `start` (optional): an earlier fit whose cameras (and side turn) the
+/// fit starts from instead of fitting each photo's alone.
 PhotoFit fit_photo_shape(const PhotoTemplate& tmpl, const PhotoLandmarks& front,
                          const PhotoLandmarks* side, const PhotoOptions& options,
                          const render::Image* front_photo = nullptr,
